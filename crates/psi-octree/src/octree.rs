@@ -1,0 +1,365 @@
+//! The arena octree: cells with centre, half-edge, depth and children (u32 indices), input points
+//! bucketed per cell, and the level-by-level adaptive build driven by a caller's decision.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::{Aabb, OctreeError};
+
+/// Sentinel index meaning "no cell".
+pub const NO_CELL: u32 = u32::MAX;
+
+/// The deepest level a cell may have (integer keys stay exact up to 2^21 per axis).
+pub const DEPTH_LIMIT: u8 = 21;
+
+/// Parameters of the octree's geometry. Build with [`OctreeParams::mpu`] for Ohtake's values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OctreeParams {
+    /// Root cube edge as a multiple of the largest bounding-box extent (Ohtake's `Box` = 1.2).
+    pub box_scale: f64,
+    /// Support radius as a multiple of the cell's main diagonal: R = α·2√3·half (Ohtake: 0.75).
+    pub alpha: f64,
+    /// No cell is deeper than this (root depth 0); at most [`DEPTH_LIMIT`].
+    pub max_depth: u8,
+}
+
+impl OctreeParams {
+    /// Ohtake's MPU values: box 1.2, α = 0.75, maximum depth 12
+    /// (`../shared/reference/algorithms.md` §1.1 and §5).
+    pub fn mpu() -> Self {
+        Self {
+            box_scale: 1.2,
+            alpha: 0.75,
+            max_depth: 12,
+        }
+    }
+}
+
+/// One cube of the octree. Cells are stored in an arena and named by `u32` index; the 8 children
+/// of a cell are contiguous, in octant order (bit 0: +x, bit 1: +y, bit 2: +z).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    /// Cube centre, world units.
+    pub center: DVec3,
+    /// Half of the cube's edge, world units.
+    pub half: f64,
+    /// Depth (root = 0).
+    pub depth: u8,
+    /// Integer coordinates of the cube at its depth: the cube spans
+    /// `root_min + key * edge .. root_min + (key + 1) * edge` per axis.
+    pub key: [u32; 3],
+    /// Parent index, or [`NO_CELL`] for the root.
+    pub parent: u32,
+    /// Index of the first of the 8 children, or [`NO_CELL`] for a leaf.
+    pub first_child: u32,
+    /// The cell's points are `order[start..end]` (see [`Octree::points_in`]).
+    pub(crate) start: u32,
+    pub(crate) end: u32,
+}
+
+impl Cell {
+    /// Whether the cell has no children.
+    pub fn is_leaf(&self) -> bool {
+        self.first_child == NO_CELL
+    }
+
+    /// Edge length of the cube, world units.
+    pub fn edge(&self) -> f64 {
+        2.0 * self.half
+    }
+
+    /// Support radius R = α · (main diagonal) = α·2√3·half, world units (plain, not squared).
+    pub fn support_radius(&self, alpha: f64) -> f64 {
+        alpha * 2.0 * 3f64.sqrt() * self.half
+    }
+
+    /// Octant of `x` relative to the centre (bit 0: x ≥ cx, bit 1: y ≥ cy, bit 2: z ≥ cz).
+    /// This comparison is the single rule that assigns points to children and leaves.
+    #[inline]
+    pub fn octant(&self, x: DVec3) -> usize {
+        (x.x >= self.center.x) as usize
+            | (((x.y >= self.center.y) as usize) << 1)
+            | (((x.z >= self.center.z) as usize) << 2)
+    }
+
+    /// Whether `x` lies in the closed cube.
+    pub fn contains(&self, x: DVec3) -> bool {
+        (x - self.center).abs().max_element() <= self.half
+    }
+
+    /// The cube as a box.
+    pub fn aabb(&self) -> Aabb {
+        Aabb {
+            min: self.center - DVec3::splat(self.half),
+            max: self.center + DVec3::splat(self.half),
+        }
+    }
+}
+
+/// What the build's decision function sees of a cell: its geometry and the indices of the input
+/// points inside its cube.
+#[derive(Clone, Copy, Debug)]
+pub struct CellView<'a> {
+    /// The cell's index in the arena (stable once created).
+    pub index: u32,
+    /// The cell itself.
+    pub cell: &'a Cell,
+    /// Indices (into the build's `points`) of the points inside the cube.
+    pub points: &'a [u32],
+}
+
+/// An adaptive octree over a point set, with each input point bucketed in exactly one leaf.
+#[derive(Clone, Debug)]
+pub struct Octree {
+    pub(crate) cells: Vec<Cell>,
+    pub(crate) order: Vec<u32>,
+    pub(crate) point_leaf: Vec<u32>,
+    pub(crate) positions: Vec<DVec3>,
+    pub(crate) params: OctreeParams,
+    pub(crate) root_edge: f64,
+}
+
+/// The root cube for a bounding box: centred on the box, edge `box_scale` × the largest extent.
+/// Returns `(centre, half-edge)`; errors when the box is empty, flat to a point or not finite.
+pub fn root_cube(bounds: &Aabb, box_scale: f64) -> Result<(DVec3, f64), OctreeError> {
+    let largest = bounds.extent().max_element();
+    if !largest.is_finite() || !bounds.center().is_finite() {
+        return Err(OctreeError::NonFinite);
+    }
+    if largest <= 0.0 {
+        return Err(OctreeError::DegenerateBounds);
+    }
+    Ok((bounds.center(), 0.5 * box_scale * largest))
+}
+
+impl Octree {
+    /// Builds an octree over `points` (shape: N world positions), splitting every cell for which
+    /// `decide` returns `true` (and whose depth is below `params.max_depth`).
+    ///
+    /// Cells are processed level by level; the cells of one level are decided in parallel and the
+    /// result does not depend on the number of threads. `decide` also returns a payload `T` per
+    /// cell (for MPU: the local fit); the payloads come back in arena order, one per cell.
+    pub fn build_with<T, F>(
+        points: &[DVec3],
+        params: &OctreeParams,
+        decide: F,
+    ) -> Result<(Octree, Vec<T>), OctreeError>
+    where
+        T: Send,
+        F: Fn(CellView<'_>) -> (bool, T) + Sync,
+    {
+        let bounds = Aabb::from_points(points.iter().copied()).ok_or(OctreeError::Empty)?;
+        let (center, half) = root_cube(&bounds, params.box_scale)?;
+        Self::build_in_cube(points, center, half, params, decide)
+    }
+
+    /// Like [`Octree::build_with`], but in a given root cube (centre, half-edge), which must hold
+    /// every point. Local regeneration uses this to keep the root of an earlier build.
+    pub fn build_in_cube<T, F>(
+        points: &[DVec3],
+        center: DVec3,
+        half: f64,
+        params: &OctreeParams,
+        decide: F,
+    ) -> Result<(Octree, Vec<T>), OctreeError>
+    where
+        T: Send,
+        F: Fn(CellView<'_>) -> (bool, T) + Sync,
+    {
+        if params.max_depth > DEPTH_LIMIT {
+            return Err(OctreeError::TooDeep {
+                max_depth: params.max_depth,
+                limit: DEPTH_LIMIT,
+            });
+        }
+        if points.len() >= NO_CELL as usize {
+            return Err(OctreeError::TooManyPoints(points.len()));
+        }
+        if !(half > 0.0 && half.is_finite() && center.is_finite()) {
+            return Err(OctreeError::DegenerateBounds);
+        }
+        let root = Cell {
+            center,
+            half,
+            depth: 0,
+            key: [0; 3],
+            parent: NO_CELL,
+            first_child: NO_CELL,
+            start: 0,
+            end: points.len() as u32,
+        };
+        for p in points {
+            if !p.is_finite() {
+                return Err(OctreeError::NonFinite);
+            }
+            if !root.contains(*p) {
+                return Err(OctreeError::OutsideRoot);
+            }
+        }
+        let mut tree = Octree {
+            cells: vec![root],
+            order: (0..points.len() as u32).collect(),
+            point_leaf: Vec::new(),
+            positions: points.to_vec(),
+            params: *params,
+            root_edge: 2.0 * half,
+        };
+        let mut payloads: Vec<T> = Vec::new();
+        let mut level = 0..1usize;
+        let mut scratch: Vec<u32> = Vec::new();
+        while !level.is_empty() {
+            let decisions: Vec<(bool, T)> = {
+                let t = &tree;
+                (level.start..level.end)
+                    .into_par_iter()
+                    .map(|i| {
+                        let cell = &t.cells[i];
+                        decide(CellView {
+                            index: i as u32,
+                            cell,
+                            points: t.points_in(i as u32),
+                        })
+                    })
+                    .collect()
+            };
+            let next_start = tree.cells.len();
+            for (offset, (split, payload)) in decisions.into_iter().enumerate() {
+                let i = level.start + offset;
+                payloads.push(payload);
+                if split && tree.cells[i].depth < params.max_depth {
+                    tree.split(i, &mut scratch);
+                }
+            }
+            level = next_start..tree.cells.len();
+        }
+        tree.point_leaf = vec![NO_CELL; points.len()];
+        for (i, c) in tree.cells.iter().enumerate() {
+            if c.is_leaf() {
+                for &p in &tree.order[c.start as usize..c.end as usize] {
+                    tree.point_leaf[p as usize] = i as u32;
+                }
+            }
+        }
+        Ok((tree, payloads))
+    }
+
+    /// Builds with a plain split predicate (no payload).
+    pub fn build<F>(
+        points: &[DVec3],
+        params: &OctreeParams,
+        split: F,
+    ) -> Result<Octree, OctreeError>
+    where
+        F: Fn(CellView<'_>) -> bool + Sync,
+    {
+        Self::build_with(points, params, |v| (split(v), ())).map(|(t, _)| t)
+    }
+
+    /// Splits cell `i` into 8 children and partitions its points among them (counting sort by
+    /// octant, stable, so the order is deterministic).
+    fn split(&mut self, i: usize, scratch: &mut Vec<u32>) {
+        let parent = self.cells[i];
+        let range = parent.start as usize..parent.end as usize;
+        let mut counts = [0u32; 8];
+        for &p in &self.order[range.clone()] {
+            counts[parent.octant(self.positions[p as usize])] += 1;
+        }
+        let mut offsets = [0u32; 8];
+        let mut acc = parent.start;
+        for o in 0..8 {
+            offsets[o] = acc;
+            acc += counts[o];
+        }
+        scratch.clear();
+        scratch.extend_from_slice(&self.order[range.clone()]);
+        let mut cursor = offsets;
+        for &p in scratch.iter() {
+            let o = parent.octant(self.positions[p as usize]);
+            self.order[cursor[o] as usize] = p;
+            cursor[o] += 1;
+        }
+        let first = self.cells.len() as u32;
+        let h = 0.5 * parent.half;
+        for o in 0..8u32 {
+            let bit = |k: u32| ((o >> k) & 1) as f64 * 2.0 - 1.0;
+            let center = parent.center + h * DVec3::new(bit(0), bit(1), bit(2));
+            let key = [
+                parent.key[0] * 2 + (o & 1),
+                parent.key[1] * 2 + ((o >> 1) & 1),
+                parent.key[2] * 2 + ((o >> 2) & 1),
+            ];
+            self.cells.push(Cell {
+                center,
+                half: h,
+                depth: parent.depth + 1,
+                key,
+                parent: i as u32,
+                first_child: NO_CELL,
+                start: offsets[o as usize],
+                end: offsets[o as usize] + counts[o as usize],
+            });
+        }
+        self.cells[i].first_child = first;
+    }
+
+    /// All cells, in arena order (root first, then level by level).
+    pub fn cells(&self) -> &[Cell] {
+        &self.cells
+    }
+
+    /// One cell by index. Panics if `index` is out of range (indices come from this tree).
+    pub fn cell(&self, index: u32) -> &Cell {
+        &self.cells[index as usize]
+    }
+
+    /// Indices of the 8 children of `index`, or `None` for a leaf.
+    pub fn children(&self, index: u32) -> Option<std::ops::Range<u32>> {
+        let c = &self.cells[index as usize];
+        (!c.is_leaf()).then(|| c.first_child..c.first_child + 8)
+    }
+
+    /// Indices of the input points inside cell `index`'s cube (for a leaf: exactly its bucket).
+    pub fn points_in(&self, index: u32) -> &[u32] {
+        let c = &self.cells[index as usize];
+        &self.order[c.start as usize..c.end as usize]
+    }
+
+    /// The leaf holding input point `point` (an index into the build's `points`).
+    pub fn leaf_of_point(&self, point: u32) -> u32 {
+        self.point_leaf[point as usize]
+    }
+
+    /// The input positions the tree was built on (shape: N, world units).
+    pub fn positions(&self) -> &[DVec3] {
+        &self.positions
+    }
+
+    /// The parameters the tree was built with.
+    pub fn params(&self) -> &OctreeParams {
+        &self.params
+    }
+
+    /// The root cell (index 0).
+    pub fn root(&self) -> &Cell {
+        &self.cells[0]
+    }
+
+    /// Edge length of a cell at `depth`: root edge / 2^depth, world units.
+    pub fn edge_at_depth(&self, depth: u8) -> f64 {
+        self.root_edge / f64::from(1u32 << depth.min(31))
+    }
+
+    /// Indices of all leaves, in arena order.
+    pub fn leaves(&self) -> impl Iterator<Item = u32> + '_ {
+        self.cells
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.is_leaf())
+            .map(|(i, _)| i as u32)
+    }
+
+    /// The deepest depth of any cell.
+    pub fn max_depth_reached(&self) -> u8 {
+        self.cells.iter().map(|c| c.depth).max().unwrap_or(0)
+    }
+}

@@ -1,0 +1,72 @@
+//! A kd-tree over point positions (kiddo 6), the alternative to [`crate::Octree::points_within`].
+//!
+//! All kiddo calls of the workspace live in this file, so a change of kiddo's API touches only it.
+
+use std::num::NonZeroUsize;
+
+use glam::DVec3;
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+
+/// An immutable kd-tree over positions (shape: N, world units); items are indices into them.
+pub struct PointIndex {
+    tree: Option<ImmutableKdTree<f64, 3>>,
+}
+
+impl std::fmt::Debug for PointIndex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PointIndex")
+            .field("len", &self.len())
+            .finish()
+    }
+}
+
+impl PointIndex {
+    /// Builds the index. Non-finite positions are indexed as given; an empty slice gives an
+    /// empty index whose queries return nothing.
+    pub fn new(points: &[DVec3]) -> Self {
+        let coords: Vec<[f64; 3]> = points.iter().map(|p| p.to_array()).collect();
+        let tree = if coords.is_empty() {
+            None
+        } else {
+            ImmutableKdTree::new_from_slice(&coords).ok()
+        };
+        Self { tree }
+    }
+
+    /// Number of indexed points.
+    pub fn len(&self) -> usize {
+        self.tree.as_ref().map_or(0, |t| t.size() as usize)
+    }
+
+    /// Whether nothing is indexed.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Appends to `out` the indices of points with |p − x| ≤ `radius` (plain radius; kiddo is
+    /// given the squared radius), in no particular order.
+    pub fn within(&self, x: DVec3, radius: f64, out: &mut Vec<u32>) {
+        if let Some(t) = &self.tree {
+            let found = t
+                .query(&x.to_array())
+                .within::<SquaredEuclidean<f64>>(radius * radius)
+                .unsorted()
+                .execute();
+            out.extend(found.iter().map(|n| n.item));
+        }
+    }
+
+    /// The `k` nearest points to `x` as `(index, squared distance)`, nearest first.
+    pub fn nearest(&self, x: DVec3, k: usize) -> Vec<(u32, f64)> {
+        match (&self.tree, NonZeroUsize::new(k)) {
+            (Some(t), Some(k)) => t
+                .query(&x.to_array())
+                .nearest_n::<SquaredEuclidean<f64>>(k)
+                .execute()
+                .iter()
+                .map(|n| (n.item, n.distance))
+                .collect(),
+            _ => Vec::new(),
+        }
+    }
+}
