@@ -1,1 +1,51 @@
-//! placeholder
+//! # psi-mpu
+//!
+//! Multi-level partition of unity implicits (Ohtake, Belyaev, Alexa, Turk, Seidel 2003) on the
+//! psi octree: an adaptive, error-driven octree whose leaves each hold a local quadric fit
+//! (general 3D quadric, bivariate quadratic, or sharp edge/corner pieces), blended by quadratic
+//! B-spline weights into one implicit f with f > 0 outside, f < 0 inside, |∇f| ≈ 1 near the
+//! surface. Formulas, constants and their sources: `../shared/reference/algorithms.md` §1 and
+//! `docs/ARCHITECTURE.md`.
+//!
+//! * [`Mpu::build`] from oriented points and [`MpuParams::paper`];
+//! * [`Mpu::value`], [`Mpu::gradient`], [`Mpu::value_and_gradient`] (world units);
+//! * the octree, its leaves with depth, the surface-containing leaves and their points;
+//! * a [`BuildReport`] (cells, leaves per depth, fit kinds, fallbacks, seconds);
+//! * [`polygonize`]: the zero set as a triangle mesh near the data.
+//!
+//! ```
+//! use glam::DVec3;
+//! use psi_mpu::{Mpu, MpuParams};
+//! use psi_octree::AnalyticShape;
+//!
+//! let points = AnalyticShape::Sphere { radius: 1.0 }.sample(3000, 1);
+//! let mpu = Mpu::build(&points, &MpuParams::paper()).unwrap();
+//! let (f, grad) = mpu.value_and_gradient(DVec3::new(1.1, 0.0, 0.0));
+//! assert!((f - 0.1).abs() < 1e-3);          // ≈ signed distance
+//! assert!((grad.x - 1.0).abs() < 1e-2);     // ≈ outward normal
+//! assert!(mpu.value(DVec3::ZERO) < 0.0);    // inside
+//! ```
+
+mod bspline_weight;
+mod build;
+mod error;
+mod evaluate;
+mod fit_bivariate;
+mod fit_cell;
+mod fit_general_quadric;
+mod fit_sharp;
+mod least_squares;
+mod local_function;
+mod params;
+mod polygonize;
+mod quadric;
+mod report;
+
+pub use build::Mpu;
+pub use error::MpuError;
+pub use evaluate::BACKGROUND_WEIGHT;
+pub use local_function::{FitKind, LocalFunction};
+pub use params::MpuParams;
+pub use polygonize::{PolygonizeParams, TriangleSoup, polygonize};
+pub use quadric::Quadric;
+pub use report::{BuildReport, FitCounts};

@@ -1,0 +1,52 @@
+//! Errors of the MPU build. Numerically degenerate fits are not errors: they fall back and are
+//! counted in the [`crate::BuildReport`].
+
+use psi_octree::OctreeError;
+use thiserror::Error;
+
+/// Why an MPU could not be built.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum MpuError {
+    /// Fewer points than one local fit needs (more than N_min).
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use psi_mpu::{Mpu, MpuError, MpuParams};
+    /// use psi_octree::OrientedPoint;
+    /// let pts = vec![OrientedPoint { p: DVec3::ZERO, n: DVec3::Z }; 3];
+    /// assert!(matches!(Mpu::build(&pts, &MpuParams::paper()), Err(MpuError::TooFewPoints { .. })));
+    /// ```
+    #[error("{got} oriented points are too few for an MPU; at least {need} are needed")]
+    TooFewPoints {
+        /// Points given.
+        got: usize,
+        /// Points needed.
+        need: usize,
+    },
+    /// A position or normal is NaN or infinite, or a normal has zero length.
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use psi_mpu::{Mpu, MpuError, MpuParams};
+    /// use psi_octree::{AnalyticShape, OrientedPoint};
+    /// let mut pts = AnalyticShape::Sphere { radius: 1.0 }.sample(100, 1);
+    /// pts[7].n = DVec3::ZERO;
+    /// assert_eq!(Mpu::build(&pts, &MpuParams::paper()).unwrap_err(), MpuError::BadPoint { index: 7 });
+    /// ```
+    #[error("point {index} has a non-finite coordinate or a zero normal")]
+    BadPoint {
+        /// Index of the offending point.
+        index: usize,
+    },
+    /// The octree could not be built (all points coincide, or parameters out of range).
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use psi_mpu::{Mpu, MpuError, MpuParams};
+    /// use psi_octree::OrientedPoint;
+    /// let pts = vec![OrientedPoint { p: DVec3::ONE, n: DVec3::Z }; 20];
+    /// assert!(matches!(Mpu::build(&pts, &MpuParams::paper()), Err(MpuError::Octree(_))));
+    /// ```
+    #[error("octree: {0}")]
+    Octree(#[from] OctreeError),
+}

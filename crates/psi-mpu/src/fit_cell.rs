@@ -1,0 +1,265 @@
+//! One cell's local fit: gather the neighbourhood (growing R until more than N_min points),
+//! select the fit kind as Ohtake's `computeLA`, fit with fallbacks, and measure the error
+//! (the largest Taubin distance over the points within the nominal radius).
+
+use glam::DVec3;
+use psi_octree::PointIndex;
+
+use crate::bspline_weight::bspline;
+use crate::fit_bivariate::fit_bivariate;
+use crate::fit_general_quadric::{auxiliary_points, fit_general_quadric};
+use crate::fit_sharp::{fit_corner, fit_edge, weighted_frame};
+use crate::{FitKind, LocalFunction, MpuParams, Quadric};
+
+/// Everything a cell fit reads (positions and normals in the MPU's local frame).
+pub(crate) struct FitInput<'a> {
+    pub(crate) positions: &'a [DVec3],
+    pub(crate) normals: &'a [DVec3],
+    pub(crate) index: &'a PointIndex,
+    pub(crate) params: &'a MpuParams,
+}
+
+/// The result of fitting one cell.
+#[derive(Clone, Debug)]
+pub(crate) struct CellFit {
+    pub(crate) function: LocalFunction,
+    pub(crate) kind: FitKind,
+    /// The selected kind failed and a simpler one was used.
+    pub(crate) fallback: bool,
+    /// Largest Taubin distance over the points within the nominal radius (world units).
+    pub(crate) error: f64,
+}
+
+/// The enlarged fitting radius: R1 = R + m·λR for the smallest m ≥ 0 with more than N_min
+/// points in B(c, R1) (all points when there are fewer), computed from the (N_min+1)-th
+/// nearest distance instead of Ohtake's loop, with the same result.
+fn fit_radius(input: &FitInput<'_>, center: DVec3, r: f64) -> f64 {
+    let need = (input.params.n_min + 1).min(input.positions.len());
+    let nearest = input.index.nearest(center, need);
+    let Some(&(_, d2)) = nearest.last() else {
+        return r;
+    };
+    let d = d2.sqrt();
+    if d <= r {
+        return r;
+    }
+    let step = input.params.lambda * r;
+    let m = ((d - r) / step).ceil();
+    let mut r1 = r + m * step;
+    // Guard against rounding leaving the needed point just outside.
+    while r1 < d {
+        r1 += step;
+    }
+    r1
+}
+
+/// Fits the cell with centre `center` and half-edge `half` (local frame).
+pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64) -> CellFit {
+    let params = input.params;
+    let r = params.alpha * 2.0 * 3f64.sqrt() * half;
+    let r1 = fit_radius(input, center, r);
+    let mut idx = Vec::new();
+    input.index.within(center, r1, &mut idx);
+    idx.sort_unstable();
+    let pos: Vec<DVec3> = idx.iter().map(|&i| input.positions[i as usize]).collect();
+    let nrm: Vec<DVec3> = idx.iter().map(|&i| input.normals[i as usize]).collect();
+    let w: Vec<f64> = pos
+        .iter()
+        .map(|p| bspline(1.5 * (*p - center).length() / r1))
+        .collect();
+
+    let (function, kind, fallback) = select_and_fit(&pos, &nrm, &w, center, half, r1, params);
+    let r2 = r * r;
+    let error_of = |f: &LocalFunction| {
+        pos.iter()
+            .filter(|p| (**p - center).length_squared() < r2)
+            .map(|p| f.taubin_distance(*p))
+            .fold(0.0f64, f64::max)
+    };
+    let error = error_of(&function);
+
+    // psi's addition to Ohtake's selection: Ohtake tries sharp pieces only in cells with at
+    // most 2·N_min points, so a dense scan's creases are approximated by smooth fits rounded
+    // within ε0. When a smooth fit was chosen, the normals show a crease (extreme normals
+    // differ by more than the edge threshold) and the smooth fit is not already near-exact,
+    // the sharp fit is tried too and kept if it at least halves the error.
+    if params.sharp
+        && matches!(kind, FitKind::Bivariate | FitKind::GeneralQuadric)
+        && error > 1e-3 * r
+    {
+        if let Some(sharp) = sharp_candidate(&pos, &nrm, &w, r1, params) {
+            let sharp_error = error_of(&sharp.0);
+            if sharp_error < 0.5 * error {
+                return CellFit {
+                    function: sharp.0,
+                    kind: sharp.1,
+                    fallback: false,
+                    error: sharp_error,
+                };
+            }
+        }
+    }
+    CellFit {
+        function,
+        kind,
+        fallback,
+        error,
+    }
+}
+
+/// The sharp fit of a cell with many points, from approximately extreme normals found in
+/// linear time (the normal farthest from the mean, then the normal farthest from that one).
+fn sharp_candidate(
+    pos: &[DVec3],
+    nrm: &[DVec3],
+    w: &[f64],
+    r1: f64,
+    params: &MpuParams,
+) -> Option<(LocalFunction, FitKind)> {
+    let mean = nrm.iter().copied().sum::<DVec3>().normalize_or_zero();
+    let argmin = |d: DVec3| (0..nrm.len()).min_by(|&a, &b| nrm[a].dot(d).total_cmp(&nrm[b].dot(d)));
+    let i = argmin(mean)?;
+    let j = argmin(nrm[i])?;
+    if nrm[i].dot(nrm[j]) >= params.t_edge {
+        return None;
+    }
+    let m = nrm[i].cross(nrm[j]);
+    let (k, spread) = (0..nrm.len())
+        .map(|k| (k, m.dot(nrm[k]).abs()))
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    if spread < params.t_corner {
+        fit_edge(pos, nrm, w, nrm[i], nrm[j], r1).map(|f| (f, FitKind::Edge))
+    } else {
+        fit_corner(pos, nrm, w, [nrm[i], nrm[j], nrm[k]], r1).map(|f| (f, FitKind::Corner))
+    }
+}
+
+/// Ohtake's selection test, then the fit with its fallbacks (sharp → general quadric →
+/// bivariate → plane).
+fn select_and_fit(
+    pos: &[DVec3],
+    nrm: &[DVec3],
+    w: &[f64],
+    center: DVec3,
+    half: f64,
+    r1: f64,
+    params: &MpuParams,
+) -> (LocalFunction, FitKind, bool) {
+    let Some((o, nbar)) =
+        weighted_frame(pos, nrm, w).or_else(|| nearest_point_frame(pos, nrm, center))
+    else {
+        // No points at all (cannot happen with a non-empty input): a plane through the centre.
+        return (
+            LocalFunction::Smooth(Quadric::plane(center, DVec3::Z)),
+            FitKind::Plane,
+            true,
+        );
+    };
+    let plane = || LocalFunction::Smooth(Quadric::plane(o, nbar));
+    let bivariate = || fit_bivariate(pos, w, o, nbar, r1).map(LocalFunction::Smooth);
+    let general = || {
+        let aux = auxiliary_points(center, half, pos, nrm);
+        fit_general_quadric(pos, w, &aux, o, r1)
+            .filter(|q| gradient_is_healthy(q, pos))
+            .map(LocalFunction::Smooth)
+    };
+
+    let chosen = if !params.sharp || pos.len() > 2 * params.n_min {
+        if nrm.iter().any(|n| nbar.dot(*n) < 0.0) {
+            FitKind::GeneralQuadric
+        } else {
+            FitKind::Bivariate
+        }
+    } else {
+        sharp_kind(nrm, params)
+    };
+    let attempt = match chosen {
+        FitKind::GeneralQuadric => general(),
+        FitKind::Bivariate => bivariate(),
+        FitKind::Edge => {
+            let (i, j) = most_different(nrm);
+            fit_edge(pos, nrm, w, nrm[i], nrm[j], r1)
+        }
+        FitKind::Corner => {
+            let (i, j) = most_different(nrm);
+            let m = nrm[i].cross(nrm[j]);
+            let k = (0..nrm.len())
+                .max_by(|&a, &b| m.dot(nrm[a]).abs().total_cmp(&m.dot(nrm[b]).abs()))
+                .unwrap_or(0);
+            fit_corner(pos, nrm, w, [nrm[i], nrm[j], nrm[k]], r1)
+        }
+        FitKind::Plane => Some(plane()),
+    };
+    if let Some(f) = attempt.filter(LocalFunction::is_finite) {
+        return (f, chosen, false);
+    }
+    // Fallback chain: a failed sharp fit tries the general quadric; then bivariate; then plane.
+    if matches!(chosen, FitKind::Edge | FitKind::Corner) {
+        if let Some(f) = general() {
+            return (f, FitKind::GeneralQuadric, true);
+        }
+    }
+    if chosen != FitKind::Bivariate {
+        if let Some(f) = bivariate() {
+            return (f, FitKind::Bivariate, true);
+        }
+    }
+    (plane(), FitKind::Plane, true)
+}
+
+/// Frame of the point nearest the centre (used when the weighted normals cancel).
+fn nearest_point_frame(pos: &[DVec3], nrm: &[DVec3], center: DVec3) -> Option<(DVec3, DVec3)> {
+    let k = (0..pos.len()).min_by(|&a, &b| {
+        (pos[a] - center)
+            .length_squared()
+            .total_cmp(&(pos[b] - center).length_squared())
+    })?;
+    Some((pos[k], nrm[k]))
+}
+
+/// The pair of normals with the smallest dot product ("from Kobbelt SIG'01").
+fn most_different(nrm: &[DVec3]) -> (usize, usize) {
+    let mut best = (0, 0, f64::INFINITY);
+    for i in 0..nrm.len() {
+        for j in i + 1..nrm.len() {
+            let d = nrm[i].dot(nrm[j]);
+            if d < best.2 {
+                best = (i, j, d);
+            }
+        }
+    }
+    (best.0, best.1)
+}
+
+/// The sharp-branch selection (few points): edge, corner or bivariate.
+fn sharp_kind(nrm: &[DVec3], params: &MpuParams) -> FitKind {
+    if nrm.len() < 2 {
+        return FitKind::Bivariate;
+    }
+    let (i, j) = most_different(nrm);
+    if nrm[i].dot(nrm[j]) >= params.t_edge {
+        return FitKind::Bivariate;
+    }
+    // m is not normalised in Ohtake's code: |m| = sin θ_ij.
+    let m = nrm[i].cross(nrm[j]);
+    let spread = nrm.iter().map(|n| m.dot(*n).abs()).fold(0.0f64, f64::max);
+    if spread < params.t_corner {
+        FitKind::Edge
+    } else {
+        FitKind::Corner
+    }
+}
+
+/// A general quadric is rejected when its gradient nearly vanishes on the data (mean |∇Q| below
+/// 0.1, where a distance-like fit has ≈ 1): the fit collapsed towards Q ≡ 0.
+fn gradient_is_healthy(q: &Quadric, pos: &[DVec3]) -> bool {
+    if pos.is_empty() {
+        return false;
+    }
+    let mean: f64 = pos
+        .iter()
+        .map(|p| q.value_and_gradient(*p).1.length())
+        .sum::<f64>()
+        / pos.len() as f64;
+    mean > 0.1
+}

@@ -1,0 +1,48 @@
+//! Parameters of the MPU build, with Ohtake's published defaults.
+
+use serde::{Deserialize, Serialize};
+
+/// Every parameter of the MPU build. Construct with [`MpuParams::paper`] and override fields
+/// with struct-update syntax.
+///
+/// Sources (`../shared/reference/algorithms.md` §1 and §5): Ohtake's `vtkMPU.cxx` and
+/// `ImplicitOctTree.h` ("recommended values").
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MpuParams {
+    /// Error threshold ε0 relative to the input's bounding-box diagonal D (Ohtake: 0.005).
+    pub error_rel: f64,
+    /// Support radius R = α × cell diagonal (Ohtake: 0.75).
+    pub alpha: f64,
+    /// Radius growth step λ: R1 ← R1 + λR until more than `n_min` points are inside (0.1).
+    pub lambda: f64,
+    /// A fit needs more than this many points (Ohtake: 15).
+    pub n_min: usize,
+    /// Maximum octree depth (root = 0). Ohtake's 20 is effectively unbounded; 12 by default.
+    pub max_depth: u8,
+    /// Root cube edge as a multiple of the largest bounding-box extent (Ohtake's `Box` = 1.2).
+    pub box_scale: f64,
+    /// Whether sharp edge and corner functions are used.
+    pub sharp: bool,
+    /// Edge test: the cell holds an edge when min n_i·n_j < T_edge (0.9).
+    pub t_edge: f64,
+    /// Corner test: a corner when max |(n_i × n_j)·n_k| ≥ T_corner (0.7).
+    pub t_corner: f64,
+}
+
+impl MpuParams {
+    /// Ohtake et al.'s published values: ε0 = 0.005 D, α = 0.75, λ = 0.1, N_min = 15, maximum
+    /// depth 12, root box 1.2, sharp features on with T_edge = 0.9 and T_corner = 0.7.
+    pub fn paper() -> Self {
+        Self {
+            error_rel: 0.005,
+            alpha: 0.75,
+            lambda: 0.1,
+            n_min: 15,
+            max_depth: 12,
+            box_scale: 1.2,
+            sharp: true,
+            t_edge: 0.9,
+            t_corner: 0.7,
+        }
+    }
+}

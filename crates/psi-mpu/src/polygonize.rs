@@ -1,0 +1,246 @@
+//! Polygonization of the zero set: surface nets on a sparse grid restricted to a band around
+//! the input points (so no sheets appear far from the data), each vertex projected onto f = 0
+//! by damped Newton steps so the mesh lies on the MPU surface to rounding.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::Mpu;
+
+/// Parameters of [`polygonize`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PolygonizeParams {
+    /// Grid cells across the root cube's edge (at most 2^20).
+    pub resolution: u32,
+    /// Newton steps projecting each vertex onto f = 0 (0 keeps the averaged edge crossings).
+    pub newton_steps: u32,
+}
+
+impl PolygonizeParams {
+    /// 256 cells across the root cube, 4 Newton steps.
+    pub fn standard() -> Self {
+        Self {
+            resolution: 256,
+            newton_steps: 4,
+        }
+    }
+}
+
+/// A triangle mesh: vertices (world units, shape V) and counter-clockwise faces seen from
+/// outside (shape F × 3 indices into `vertices`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriangleSoup {
+    /// Vertex positions, world units.
+    pub vertices: Vec<DVec3>,
+    /// Triangles as vertex indices, outward by the right-hand rule.
+    pub faces: Vec<[u32; 3]>,
+}
+
+const BITS: u32 = 21;
+const MASK: u64 = (1 << BITS) - 1;
+
+#[inline]
+fn key(i: i64, j: i64, k: i64) -> u64 {
+    (i as u64) | ((j as u64) << BITS) | ((k as u64) << (2 * BITS))
+}
+
+#[inline]
+fn unkey(key: u64) -> [i64; 3] {
+    [
+        (key & MASK) as i64,
+        ((key >> BITS) & MASK) as i64,
+        ((key >> (2 * BITS)) & MASK) as i64,
+    ]
+}
+
+/// Extracts the zero set of `mpu` near its input points as a triangle mesh.
+///
+/// The band: grid cells within ⌈1.5 × (median nearest-neighbour spacing of the input) / h⌉ + 1
+/// cells of an input point, h the grid step. Output is deterministic.
+pub fn polygonize(mpu: &Mpu, params: &PolygonizeParams) -> TriangleSoup {
+    let res = i64::from(params.resolution.clamp(2, 1 << 20));
+    let root = *mpu.octree().root();
+    let h = 2.0 * root.half / res as f64;
+    let min = root.center - DVec3::splat(root.half);
+    let local: &[DVec3] = mpu.octree().positions();
+
+    // Band width in cells from the sample spacing.
+    let spacing = median_spacing(local);
+    let band = ((1.5 * spacing / h).ceil() as i64 + 1).clamp(1, 6);
+
+    let mut cells: Vec<u64> = local
+        .par_iter()
+        .flat_map_iter(|p| {
+            let c = ((*p - min) / h).floor();
+            let (ci, cj, ck) = (c.x as i64, c.y as i64, c.z as i64);
+            let mut out = Vec::new();
+            for di in -band..=band {
+                for dj in -band..=band {
+                    for dk in -band..=band {
+                        let (i, j, k) = (ci + di, cj + dj, ck + dk);
+                        if (0..res).contains(&i) && (0..res).contains(&j) && (0..res).contains(&k) {
+                            out.push(key(i, j, k));
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    cells.par_sort_unstable();
+    cells.dedup();
+
+    let mut corners: Vec<u64> = cells
+        .iter()
+        .flat_map(|&c| {
+            let [i, j, k] = unkey(c);
+            (0..8).map(move |o| key(i + (o & 1), j + ((o >> 1) & 1), k + ((o >> 2) & 1)))
+        })
+        .collect();
+    corners.par_sort_unstable();
+    corners.dedup();
+    let origin = mpu.frame_origin();
+    let corner_pos = |c: u64| {
+        let [i, j, k] = unkey(c);
+        min + h * DVec3::new(i as f64, j as f64, k as f64)
+    };
+    let values: Vec<f64> = corners
+        .par_iter()
+        .map(|&c| mpu.value(corner_pos(c) + origin))
+        .collect();
+    let value_of: HashMap<u64, f64> = corners
+        .iter()
+        .copied()
+        .zip(values.iter().copied())
+        .collect();
+
+    // One vertex per cell with a sign change: the mean edge crossing, projected onto f = 0.
+    const EDGES: [(usize, usize); 12] = [
+        (0, 1),
+        (2, 3),
+        (4, 5),
+        (6, 7),
+        (0, 2),
+        (1, 3),
+        (4, 6),
+        (5, 7),
+        (0, 4),
+        (1, 5),
+        (2, 6),
+        (3, 7),
+    ];
+    let verts: Vec<Option<DVec3>> = cells
+        .par_iter()
+        .map(|&c| {
+            let [i, j, k] = unkey(c);
+            let mut v = [0.0; 8];
+            let mut p = [DVec3::ZERO; 8];
+            for o in 0..8 {
+                let ck = key(
+                    i + (o & 1) as i64,
+                    j + ((o >> 1) & 1) as i64,
+                    k + ((o >> 2) & 1) as i64,
+                );
+                v[o] = value_of[&ck];
+                p[o] = corner_pos(ck);
+            }
+            let (mut sum, mut n) = (DVec3::ZERO, 0);
+            for (a, b) in EDGES {
+                if (v[a] < 0.0) != (v[b] < 0.0) {
+                    let t = v[a] / (v[a] - v[b]);
+                    sum += p[a] + t * (p[b] - p[a]);
+                    n += 1;
+                }
+            }
+            if n == 0 {
+                return None;
+            }
+            let mut x = sum / n as f64 + origin;
+            for _ in 0..params.newton_steps {
+                let (f, g) = mpu.value_and_gradient(x);
+                let g2 = g.length_squared();
+                if g2 < 1e-12 || f.abs() < 1e-15 {
+                    break;
+                }
+                let mut step = (f / g2) * g;
+                if step.length() > h {
+                    step *= h / step.length();
+                }
+                x -= step;
+            }
+            Some(x)
+        })
+        .collect();
+    let mut soup = TriangleSoup::default();
+    let mut vertex_of: HashMap<u64, u32> = HashMap::with_capacity(cells.len());
+    for (c, v) in cells.iter().zip(&verts) {
+        if let Some(x) = v {
+            vertex_of.insert(*c, soup.vertices.len() as u32);
+            soup.vertices.push(*x);
+        }
+    }
+    // One quad per sign-changing grid edge whose four surrounding cells all have a vertex.
+    for (&ck, &f0) in corners.iter().zip(&values) {
+        let [i, j, k] = unkey(ck);
+        for axis in 0..3 {
+            let mut e = [i, j, k];
+            e[axis] += 1;
+            let Some(&f1) = value_of.get(&key(e[0], e[1], e[2])) else {
+                continue;
+            };
+            if (f0 < 0.0) == (f1 < 0.0) {
+                continue;
+            }
+            // The two other axes in cyclic order, so (u, v, axis) is right-handed.
+            let (u, w) = ((axis + 1) % 3, (axis + 2) % 3);
+            let ring = [(-1, -1), (0, -1), (0, 0), (-1, 0)];
+            let mut quad = [0u32; 4];
+            let mut ok = true;
+            for (q, (du, dw)) in ring.iter().enumerate() {
+                let mut c = [i, j, k];
+                c[u] += du;
+                c[w] += dw;
+                if c.iter().any(|&x| x < 0) {
+                    ok = false;
+                    break;
+                }
+                match vertex_of.get(&key(c[0], c[1], c[2])) {
+                    Some(&vi) => quad[q] = vi,
+                    None => {
+                        ok = false;
+                        break;
+                    }
+                }
+            }
+            if !ok {
+                continue;
+            }
+            // f increasing along +axis means the outward normal is +axis: keep the ring order.
+            if f0 > f1 {
+                quad.reverse();
+            }
+            soup.faces.push([quad[0], quad[1], quad[2]]);
+            soup.faces.push([quad[0], quad[2], quad[3]]);
+        }
+    }
+    soup
+}
+
+/// Median nearest-neighbour distance over up to 2000 evenly strided points.
+fn median_spacing(points: &[DVec3]) -> f64 {
+    let index = psi_octree::PointIndex::new(points);
+    let stride = (points.len() / 2000).max(1);
+    let mut d: Vec<f64> = points
+        .iter()
+        .step_by(stride)
+        .filter_map(|p| index.nearest(*p, 2).get(1).map(|n| n.1.sqrt()))
+        .collect();
+    if d.is_empty() {
+        return 0.0;
+    }
+    let mid = d.len() / 2;
+    *d.select_nth_unstable_by(mid, f64::total_cmp).1
+}
