@@ -1,0 +1,282 @@
+//! Errors of reading (malformed, truncated or unusable input) and writing (I/O, bad arguments).
+
+use thiserror::Error;
+
+/// Why a byte slice could not be turned into oriented points or a triangle mesh.
+///
+/// Element indices (`index`, `face`) are 0-based record numbers in file order; `line` numbers
+/// are 1-based. The facade crate adds the file name.
+#[derive(Debug, Error, Clone, PartialEq, Eq)]
+pub enum ReadError {
+    /// The input has no bytes, or only whitespace.
+    ///
+    /// ```
+    /// use psi_io::{read_points, Format, ReadError, ReadOptions};
+    /// let err = read_points(b"  \n", Format::Xyz, &ReadOptions::paper()).unwrap_err();
+    /// assert_eq!(err, ReadError::Empty);
+    /// ```
+    #[error("the input is empty")]
+    Empty,
+
+    /// The PLY header is malformed or lacks what psi needs (a `vertex` element with scalar
+    /// `x y z`; a `face` element, when present, with an integer list `vertex_indices`).
+    ///
+    /// ```
+    /// use psi_io::{read_points, Format, ReadError, ReadOptions};
+    /// let err = read_points(b"ply\nformat ascii 1.0\nend_header\n", Format::Ply, &ReadOptions::paper())
+    ///     .unwrap_err();
+    /// assert!(matches!(err, ReadError::Header { .. }));
+    /// ```
+    #[error("invalid PLY header: {reason}")]
+    Header {
+        /// What is wrong.
+        reason: String,
+    },
+
+    /// A PLY record (one element: a vertex, a face, ...) could not be decoded.
+    ///
+    /// ```
+    /// use psi_io::{read_points, Format, ReadError, ReadOptions};
+    /// let ply = b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+    ///             property float z\nend_header\n0 zero 0\n";
+    /// let err = read_points(ply, Format::Ply, &ReadOptions::paper()).unwrap_err();
+    /// assert!(matches!(err, ReadError::Record { index: 0, .. }));
+    /// ```
+    #[error("{element} {index}: {reason}")]
+    Record {
+        /// The PLY element name, e.g. `vertex` or `face`.
+        element: String,
+        /// 0-based record index within the element.
+        index: usize,
+        /// What is wrong.
+        reason: String,
+    },
+
+    /// A line of a text format (OBJ, XYZ) could not be parsed.
+    ///
+    /// ```
+    /// use psi_io::{read_points, Format, ReadError, ReadOptions};
+    /// let err = read_points(b"0 0 0 0 0 1\n0 0 x 0 0 1\n", Format::Xyz, &ReadOptions::paper())
+    ///     .unwrap_err();
+    /// assert!(matches!(err, ReadError::Line { line: 2, .. }));
+    /// ```
+    #[error("line {line}: {reason}")]
+    Line {
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        reason: String,
+    },
+
+    /// The data ends before all records the PLY header announces were read.
+    ///
+    /// ```
+    /// use psi_io::{read_points, Format, ReadError, ReadOptions};
+    /// let ply = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+    ///             property float z\nend_header\n0 0 0\n";
+    /// let err = read_points(ply, Format::Ply, &ReadOptions::paper()).unwrap_err();
+    /// assert!(matches!(err, ReadError::Truncated { index: 1, count: 3, .. }));
+    /// ```
+    #[error(
+        "the data ends inside {element} {index}, but the header announces {count} {element} records"
+    )]
+    Truncated {
+        /// The PLY element being read.
+        element: String,
+        /// 0-based index of the first record that is missing or incomplete.
+        index: usize,
+        /// How many records the header announces.
+        count: usize,
+    },
+
+    /// A position or normal has a NaN or infinite component.
+    ///
+    /// ```
+    /// use psi_io::{read_points, Format, ReadError, ReadOptions};
+    /// let err = read_points(b"0 0 0 0 0 1\nnan 0 0 0 0 1\n", Format::Xyz, &ReadOptions::paper())
+    ///     .unwrap_err();
+    /// assert!(matches!(err, ReadError::NonFinite { index: 1, what: "position", .. }));
+    /// ```
+    #[error("{element} {index} has a NaN or infinite {what}{}", at_line(*line))]
+    NonFinite {
+        /// `vertex` (PLY, OBJ) or `point` (XYZ).
+        element: &'static str,
+        /// 0-based index of the vertex or point.
+        index: usize,
+        /// `position` or `normal`.
+        what: &'static str,
+        /// 1-based line number, for text formats.
+        line: Option<usize>,
+    },
+
+    /// A face refers to a vertex that does not exist.
+    ///
+    /// ```
+    /// use psi_io::{read_mesh, Format, ReadError};
+    /// let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n";
+    /// let err = read_mesh(obj, Format::Obj).unwrap_err();
+    /// assert_eq!(err, ReadError::IndexOutOfRange { face: 0, vertex: 4, vertices: 3 });
+    /// ```
+    #[error(
+        "face {face} refers to vertex {vertex}, but the file has {vertices} vertices \
+         (index as written in the file)"
+    )]
+    IndexOutOfRange {
+        /// 0-based index of the face record (polygon) in the file.
+        face: usize,
+        /// The index as written in the file (0-based for PLY, 1-based or negative for OBJ).
+        vertex: i64,
+        /// Number of vertices in the file (for a relative OBJ index: defined before the face).
+        vertices: usize,
+    },
+
+    /// Points without normals and without faces: nothing to orient them by.
+    ///
+    /// ```
+    /// use psi_io::{read_points, Format, ReadError, ReadOptions};
+    /// let err = read_points(b"0 0 0\n1 0 0\n", Format::Xyz, &ReadOptions::paper()).unwrap_err();
+    /// assert_eq!(err, ReadError::NoNormals);
+    /// ```
+    #[error(
+        "the file has points but no normals (nx ny nz) and no faces; \
+         give oriented points or a triangle mesh"
+    )]
+    NoNormals,
+
+    /// An OBJ file without faces whose `vn` count differs from its `v` count, so normals cannot
+    /// be paired with positions by index.
+    ///
+    /// ```
+    /// use psi_io::{read_points, Format, ReadError, ReadOptions};
+    /// let obj = b"v 0 0 0\nv 1 0 0\nvn 0 0 1\n";
+    /// let err = read_points(obj, Format::Obj, &ReadOptions::paper()).unwrap_err();
+    /// assert_eq!(err, ReadError::NormalCountMismatch { vertices: 2, normals: 1 });
+    /// ```
+    #[error(
+        "the file has {vertices} vertices (v) but {normals} normals (vn) and no faces; \
+         give one normal per vertex or a triangle mesh"
+    )]
+    NormalCountMismatch {
+        /// Number of `v` lines.
+        vertices: usize,
+        /// Number of `vn` lines.
+        normals: usize,
+    },
+
+    /// A triangle mesh was asked for ([`crate::read_mesh`]) but the file has no faces.
+    ///
+    /// ```
+    /// use psi_io::{read_mesh, Format, ReadError};
+    /// let err = read_mesh(b"0 0 0 0 0 1\n", Format::Xyz).unwrap_err();
+    /// assert_eq!(err, ReadError::NoFaces);
+    /// ```
+    #[error("the file has no faces; a triangle mesh is required")]
+    NoFaces,
+
+    /// Parsing succeeded but no usable oriented point remains (no vertices, only zero normals,
+    /// or only degenerate triangles).
+    ///
+    /// ```
+    /// use psi_io::{read_points, Format, ReadError, ReadOptions};
+    /// let err = read_points(b"0 0 0 0 0 0\n", Format::Xyz, &ReadOptions::paper()).unwrap_err();
+    /// assert!(matches!(err, ReadError::NoPoints { dropped_points: 1, .. }));
+    /// ```
+    #[error(
+        "no usable oriented points: {vertices} vertices, {faces} faces, \
+         {degenerate_faces} degenerate faces, {dropped_points} points with zero normal"
+    )]
+    NoPoints {
+        /// Vertex records in the file.
+        vertices: usize,
+        /// Triangles in the file.
+        faces: usize,
+        /// Degenerate triangles skipped.
+        degenerate_faces: usize,
+        /// Points skipped for a zero normal.
+        dropped_points: usize,
+    },
+}
+
+fn at_line(line: Option<usize>) -> String {
+    line.map(|l| format!(" (line {l})")).unwrap_or_default()
+}
+
+/// Why a PLY file could not be written.
+#[derive(Debug, Error)]
+pub enum WriteError {
+    /// The output rejected a write.
+    ///
+    /// ```
+    /// use std::io;
+    /// use glam::DVec3;
+    /// use psi_io::{write_points_ply, WriteError};
+    /// struct Full;
+    /// impl io::Write for Full {
+    ///     fn write(&mut self, _: &[u8]) -> io::Result<usize> {
+    ///         Err(io::Error::new(io::ErrorKind::StorageFull, "disk full"))
+    ///     }
+    ///     fn flush(&mut self) -> io::Result<()> { Ok(()) }
+    /// }
+    /// let err = write_points_ply(&mut Full, &[DVec3::ZERO], &[DVec3::Z], &[]).unwrap_err();
+    /// assert!(matches!(err, WriteError::Io(_)));
+    /// ```
+    #[error("could not write PLY: {0}")]
+    Io(#[from] std::io::Error),
+
+    /// A per-point array does not have one entry per position.
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use psi_io::{write_points_ply, WriteError};
+    /// let mut out = Vec::new();
+    /// let err = write_points_ply(&mut out, &[DVec3::ZERO; 2], &[DVec3::Z], &[]).unwrap_err();
+    /// assert!(matches!(err, WriteError::LengthMismatch { expected: 2, got: 1, .. }));
+    /// ```
+    #[error("{what} has {got} entries, but there are {expected} positions")]
+    LengthMismatch {
+        /// Which array (`normals` or the scalar channel's name).
+        what: String,
+        /// Number of positions.
+        expected: usize,
+        /// Length of the offending array.
+        got: usize,
+    },
+
+    /// A scalar channel name is not a valid, unique PLY property name.
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use psi_io::{write_points_ply, WriteError};
+    /// let mut out = Vec::new();
+    /// let err = write_points_ply(&mut out, &[DVec3::ZERO], &[DVec3::Z], &[("my depth", &[1.0])])
+    ///     .unwrap_err();
+    /// assert!(matches!(err, WriteError::InvalidName { .. }));
+    /// ```
+    #[error("invalid PLY property name {name:?}: {reason}")]
+    InvalidName {
+        /// The rejected name.
+        name: String,
+        /// Why it is rejected.
+        reason: &'static str,
+    },
+
+    /// A face refers to a vertex that does not exist, or to an index a PLY `int` cannot hold
+    /// (above `i32::MAX`).
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use psi_io::{write_mesh_ply, TriangleMesh, WriteError};
+    /// let mesh = TriangleMesh { vertices: vec![DVec3::ZERO; 3], faces: vec![[0, 1, 3]] };
+    /// let err = write_mesh_ply(&mut Vec::new(), &mesh).unwrap_err();
+    /// assert!(matches!(err, WriteError::IndexOutOfRange { face: 0, vertex: 3, vertices: 3 }));
+    /// ```
+    #[error("face {face} refers to vertex {vertex}, but the mesh has {vertices} vertices")]
+    IndexOutOfRange {
+        /// 0-based face index.
+        face: usize,
+        /// The offending vertex index.
+        vertex: u32,
+        /// Number of vertices in the mesh.
+        vertices: usize,
+    },
+}

@@ -1,0 +1,209 @@
+//! Turning parsed data into oriented points: face centroids or area-weighted vertex normals for
+//! meshes, per-vertex normals for point clouds.
+
+use glam::DVec3;
+use psi_octree::OrientedPoint;
+
+use crate::error::ReadError;
+use crate::model::{Parsed, PointCloudFile, TriangleMesh};
+use crate::options::{MeshSampling, ReadOptions};
+
+/// `v / |v|`, robust to lengths that under- or overflow when squared; `None` for a zero or
+/// non-finite `v`.
+pub(crate) fn unit(v: DVec3) -> Option<DVec3> {
+    if !v.is_finite() {
+        return None;
+    }
+    let len = v.length();
+    if len.is_finite() && len >= 1e-150 {
+        return Some(v / len);
+    }
+    let m = v.abs().max_element();
+    if m == 0.0 {
+        return None;
+    }
+    let w = v / m;
+    Some(w / w.length())
+}
+
+/// The unnormalised normal `(b - a) × (c - a)` of a triangle, or `None` when the triangle is
+/// degenerate: a repeated index, or a cross product that is zero or not finite.
+fn face_cross(vertices: &[DVec3], [i, j, k]: [u32; 3]) -> Option<DVec3> {
+    if i == j || j == k || i == k {
+        return None;
+    }
+    let (a, b, c) = (
+        vertices[i as usize],
+        vertices[j as usize],
+        vertices[k as usize],
+    );
+    let n = (b - a).cross(c - a);
+    (n.is_finite() && n != DVec3::ZERO).then_some(n)
+}
+
+fn centroid(a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    let m = (a + b + c) / 3.0;
+    if m.is_finite() {
+        m
+    } else {
+        a / 3.0 + b / 3.0 + c / 3.0
+    }
+}
+
+/// One point per non-degenerate triangle; returns the points and the degenerate count.
+fn face_centroids(mesh: &TriangleMesh) -> (Vec<OrientedPoint>, usize) {
+    let v = &mesh.vertices;
+    let mut points = Vec::with_capacity(mesh.faces.len());
+    let mut degenerate = 0;
+    for &f in &mesh.faces {
+        let point = face_cross(v, f).and_then(|n| {
+            let p = centroid(v[f[0] as usize], v[f[1] as usize], v[f[2] as usize]);
+            Some(OrientedPoint { p, n: unit(n)? })
+        });
+        match point {
+            Some(p) => points.push(p),
+            None => degenerate += 1,
+        }
+    }
+    (points, degenerate)
+}
+
+/// One point per referenced vertex with its area-weighted normal; returns the points, the
+/// degenerate-triangle count and the count of referenced vertices whose normal sums to zero.
+fn vertex_normals(mesh: &TriangleMesh) -> (Vec<OrientedPoint>, usize, usize) {
+    let v = &mesh.vertices;
+    let mut sums = vec![DVec3::ZERO; v.len()];
+    let mut referenced = vec![false; v.len()];
+    let mut degenerate = 0;
+    for &f in &mesh.faces {
+        for &i in &f {
+            referenced[i as usize] = true;
+        }
+        match face_cross(v, f) {
+            Some(n) => {
+                for &i in &f {
+                    sums[i as usize] += n;
+                }
+            }
+            None => degenerate += 1,
+        }
+    }
+    let mut points = Vec::with_capacity(v.len());
+    let mut dropped = 0;
+    for (i, &p) in v.iter().enumerate() {
+        if !referenced[i] {
+            continue;
+        }
+        match unit(sums[i]) {
+            Some(n) => points.push(OrientedPoint { p, n }),
+            None => dropped += 1,
+        }
+    }
+    (points, degenerate, dropped)
+}
+
+/// Oriented points from parsed data per `opts`; see [`crate::read_points`] for the rules.
+pub(crate) fn to_point_cloud(
+    parsed: Parsed,
+    opts: &ReadOptions,
+) -> Result<PointCloudFile, ReadError> {
+    let vertices = parsed.vertices.len();
+    let faces = parsed.faces.len();
+    let result = if faces > 0 {
+        let mesh = TriangleMesh {
+            vertices: parsed.vertices,
+            faces: parsed.faces,
+        };
+        let (points, degenerate_faces, dropped_points) = match opts.sampling {
+            MeshSampling::FaceCentroids => {
+                let (points, degenerate) = face_centroids(&mesh);
+                (points, degenerate, 0)
+            }
+            MeshSampling::VertexNormals => vertex_normals(&mesh),
+        };
+        PointCloudFile {
+            points,
+            vertices,
+            faces,
+            degenerate_faces,
+            dropped_points,
+            mesh: Some(mesh),
+        }
+    } else if vertices == 0 {
+        PointCloudFile {
+            points: Vec::new(),
+            vertices,
+            faces,
+            degenerate_faces: 0,
+            dropped_points: 0,
+            mesh: None,
+        }
+    } else {
+        let normals = parsed.normals.ok_or(ReadError::NoNormals)?;
+        let mut points = Vec::with_capacity(vertices);
+        let mut dropped_points = 0;
+        for (index, (&p, &n)) in parsed.vertices.iter().zip(&normals).enumerate() {
+            if !n.is_finite() {
+                return Err(ReadError::NonFinite {
+                    element: "vertex",
+                    index,
+                    what: "normal",
+                    line: None,
+                });
+            }
+            match unit(n) {
+                Some(n) => points.push(OrientedPoint { p, n }),
+                None => dropped_points += 1,
+            }
+        }
+        PointCloudFile {
+            points,
+            vertices,
+            faces,
+            degenerate_faces: 0,
+            dropped_points,
+            mesh: None,
+        }
+    };
+    if result.points.is_empty() {
+        return Err(ReadError::NoPoints {
+            vertices: result.vertices,
+            faces: result.faces,
+            degenerate_faces: result.degenerate_faces,
+            dropped_points: result.dropped_points,
+        });
+    }
+    Ok(result)
+}
+
+/// The triangle mesh of parsed data; [`ReadError::NoFaces`] when there are no faces.
+pub(crate) fn to_mesh(parsed: Parsed) -> Result<TriangleMesh, ReadError> {
+    if parsed.faces.is_empty() {
+        return Err(ReadError::NoFaces);
+    }
+    Ok(TriangleMesh {
+        vertices: parsed.vertices,
+        faces: parsed.faces,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unit_handles_tiny_and_huge_vectors() {
+        let n = unit(DVec3::new(3e-200, 4e-200, 0.0)).unwrap();
+        assert!((n - DVec3::new(0.6, 0.8, 0.0)).length() < 1e-15);
+        let n = unit(DVec3::new(3e200, 4e200, 0.0)).unwrap();
+        assert!((n - DVec3::new(0.6, 0.8, 0.0)).length() < 1e-15);
+        assert_eq!(unit(DVec3::ZERO), None);
+        assert_eq!(unit(DVec3::new(f64::NAN, 0.0, 1.0)), None);
+    }
+
+    #[test]
+    fn huge_coordinates_give_finite_centroids() {
+        let a = DVec3::splat(1.5e308);
+        assert!(centroid(a, a, a).is_finite());
+    }
+}

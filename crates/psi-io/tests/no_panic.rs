@@ -1,0 +1,231 @@
+//! Property tests (seeded, 256 cases each): random bytes, and random mutations and
+//! truncations of valid PLY (ASCII and binary) and OBJ files, never panic any reader; whatever
+//! is accepted satisfies the output invariants.
+
+mod common;
+
+use common::{
+    ALL_ENCODINGS, Enc, TETRA_OBJ, UCHAR_INT, XYZ_FLOAT, cloud_ply, config, ply, tetrahedron_ply,
+};
+use proptest::prelude::*;
+use psi_io::{
+    Format, MeshSampling, PointCloudFile, ReadOptions, TriangleMesh, read_mesh, read_points,
+};
+
+fn check_mesh(mesh: &TriangleMesh) {
+    assert!(mesh.vertices.iter().all(|v| v.is_finite()));
+    assert!(
+        mesh.faces
+            .iter()
+            .flatten()
+            .all(|&i| (i as usize) < mesh.vertices.len())
+    );
+}
+
+fn check_points(file: &PointCloudFile) {
+    assert!(!file.points.is_empty());
+    for p in &file.points {
+        assert!(p.p.is_finite());
+        assert!((p.n.length() - 1.0).abs() < 1e-12, "{:?}", p.n);
+    }
+    if let Some(mesh) = &file.mesh {
+        check_mesh(mesh);
+        assert_eq!(mesh.faces.len(), file.faces);
+        assert_eq!(mesh.vertices.len(), file.vertices);
+    }
+}
+
+/// Runs every reader in every mode on `bytes`; panics only if an invariant is broken (or a
+/// reader panics).
+fn read_everything(bytes: &[u8]) {
+    for format in [Format::Ply, Format::Obj, Format::Xyz, Format::sniff(bytes)] {
+        for sampling in [MeshSampling::FaceCentroids, MeshSampling::VertexNormals] {
+            if let Ok(file) = read_points(bytes, format, &ReadOptions { sampling }) {
+                check_points(&file);
+            }
+        }
+        if let Ok(mesh) = read_mesh(bytes, format) {
+            assert!(!mesh.faces.is_empty());
+            check_mesh(&mesh);
+        }
+    }
+}
+
+/// Valid files to mutate: meshes and clouds in the three PLY encodings, a PLY with skipped
+/// elements and wider types, and OBJ.
+fn seeds() -> Vec<Vec<u8>> {
+    let mut seeds = Vec::new();
+    for enc in ALL_ENCODINGS {
+        seeds.push(tetrahedron_ply(enc));
+        seeds.push(cloud_ply(enc));
+        let quad = vec![
+            vec![0.0, 0.0, 0.0],
+            vec![1.0, 0.0, 0.0],
+            vec![1.0, 1.0, 0.0],
+            vec![0.0, 1.0, 0.0],
+        ];
+        seeds.push(ply(
+            enc,
+            &[("double", "x"), ("short", "y"), ("uint", "z")],
+            &quad,
+            Some(("uint", "ushort", "vertex_index")),
+            &[vec![0, 1, 2, 3]],
+        ));
+        seeds.push(ply(
+            enc,
+            &XYZ_FLOAT,
+            &quad,
+            Some(UCHAR_INT),
+            &[vec![0, 1, 2], vec![0, 2, 3]],
+        ));
+    }
+    seeds.push(
+        b"ply\nformat ascii 1.0\nelement junk 1\nproperty list uchar float a\nelement vertex 3\n\
+          property float x\nproperty float y\nproperty float z\nelement face 1\n\
+          property list uchar int vertex_indices\nend_header\n2 0.5 1\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+            .to_vec(),
+    );
+    seeds.push(TETRA_OBJ.as_bytes().to_vec());
+    seeds.push(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 1\nvn 0 0 1\n".to_vec());
+    seeds.push(b"0 0 0 0 0 1\n1 0 0 0 1 0\n".to_vec());
+    seeds
+}
+
+#[derive(Clone, Debug)]
+enum Mutation {
+    Set(usize, u8),
+    Insert(usize, u8),
+    Delete(usize),
+    Truncate(usize),
+    /// Replace the byte at the position with a run of digits (blows up counts in headers).
+    Digits(usize, String),
+    /// Copy a span elsewhere (duplicated lines and records).
+    Duplicate(usize, usize, usize),
+}
+
+fn mutation() -> impl Strategy<Value = Mutation> {
+    let pos = any::<usize>();
+    prop_oneof![
+        (pos, any::<u8>()).prop_map(|(p, b)| Mutation::Set(p, b)),
+        (pos, any::<u8>()).prop_map(|(p, b)| Mutation::Insert(p, b)),
+        pos.prop_map(Mutation::Delete),
+        pos.prop_map(Mutation::Truncate),
+        (pos, "[0-9]{1,22}").prop_map(|(p, d)| Mutation::Digits(p, d)),
+        (pos, 0usize..64, pos).prop_map(|(a, n, b)| Mutation::Duplicate(a, n, b)),
+    ]
+}
+
+fn apply(bytes: &mut Vec<u8>, m: &Mutation) {
+    if bytes.is_empty() {
+        return;
+    }
+    let at = |p: usize, len: usize| p % len;
+    match *m {
+        Mutation::Set(p, b) => {
+            let i = at(p, bytes.len());
+            bytes[i] = b;
+        }
+        Mutation::Insert(p, b) => {
+            let i = at(p, bytes.len() + 1);
+            bytes.insert(i, b);
+        }
+        Mutation::Delete(p) => {
+            let i = at(p, bytes.len());
+            bytes.remove(i);
+        }
+        Mutation::Truncate(p) => {
+            let i = at(p, bytes.len());
+            bytes.truncate(i);
+        }
+        Mutation::Digits(p, ref digits) => {
+            // Prefer positions that already hold a digit, so counts and indices change.
+            let i = at(p, bytes.len());
+            let i = (i..bytes.len())
+                .find(|&k| bytes[k].is_ascii_digit())
+                .unwrap_or(i);
+            bytes.splice(i..=i, digits.bytes());
+        }
+        Mutation::Duplicate(a, n, b) => {
+            let start = at(a, bytes.len());
+            let end = (start + n).min(bytes.len());
+            let span = bytes[start..end].to_vec();
+            let to = at(b, bytes.len() + 1);
+            bytes.splice(to..to, span);
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(config())]
+
+    #[test]
+    fn random_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..600)) {
+        read_everything(&bytes);
+    }
+
+    #[test]
+    fn random_text_never_panics(text in "[ -~\n\t\r]{0,400}") {
+        read_everything(text.as_bytes());
+        let mut with_magic = b"ply\n".to_vec();
+        with_magic.extend_from_slice(text.as_bytes());
+        read_everything(&with_magic);
+    }
+
+    #[test]
+    fn random_payloads_after_valid_headers_never_panic(
+        seed in 0usize..1000,
+        payload in prop::collection::vec(any::<u8>(), 0..400),
+    ) {
+        let seeds = seeds();
+        let base = &seeds[seed % seeds.len()];
+        let cut = base
+            .windows(11)
+            .position(|w| w == b"end_header\n")
+            .map_or(0, |p| p + 11);
+        let mut bytes = base[..cut].to_vec();
+        bytes.extend_from_slice(&payload);
+        read_everything(&bytes);
+    }
+
+    #[test]
+    fn mutated_valid_files_never_panic(
+        seed in 0usize..1000,
+        mutations in prop::collection::vec(mutation(), 1..8),
+    ) {
+        let seeds = seeds();
+        let mut bytes = seeds[seed % seeds.len()].clone();
+        for m in &mutations {
+            apply(&mut bytes, m);
+        }
+        read_everything(&bytes);
+    }
+
+    #[test]
+    fn every_truncation_of_valid_files_is_handled(seed in 0usize..1000, keep in 0.0f64..1.0) {
+        let seeds = seeds();
+        let base = &seeds[seed % seeds.len()];
+        let len = (keep * base.len() as f64) as usize;
+        read_everything(&base[..len]);
+    }
+}
+
+#[test]
+fn seeds_are_valid() {
+    for (i, seed) in seeds().iter().enumerate() {
+        let file = read_points(seed, Format::sniff(seed), &ReadOptions::paper());
+        assert!(file.is_ok(), "seed {i}: {file:?}");
+    }
+}
+
+#[test]
+fn all_truncations_of_binary_meshes_are_errors() {
+    for enc in [Enc::Le, Enc::Be] {
+        let full = tetrahedron_ply(enc);
+        for len in 0..full.len() {
+            assert!(
+                read_points(&full[..len], Format::Ply, &ReadOptions::paper()).is_err(),
+                "{enc:?} {len}"
+            );
+        }
+    }
+}

@@ -1,0 +1,158 @@
+//! OBJ (all face reference forms, relative indices, polygons, normals by index) and XYZ.
+
+mod common;
+
+use common::{Enc, TETRA_OBJ, tetrahedron_ply};
+use glam::DVec3;
+use psi_io::{Format, ReadError, ReadOptions, read_mesh, read_points};
+
+fn read(bytes: &[u8], format: Format) -> Result<psi_io::PointCloudFile, ReadError> {
+    read_points(bytes, format, &ReadOptions::paper())
+}
+
+#[test]
+fn obj_reference_forms_give_the_same_mesh_as_ply() {
+    let obj = read(TETRA_OBJ.as_bytes(), Format::Obj).unwrap();
+    let ply = read(&tetrahedron_ply(Enc::Le), Format::Ply).unwrap();
+    assert_eq!(obj, ply);
+    assert_eq!(Format::sniff(TETRA_OBJ.as_bytes()), Format::Obj);
+}
+
+#[test]
+fn obj_negative_indices_are_relative() {
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 0 0 1\nf -4/1 -1/1 -2/1\nf 1 2 -1\n";
+    let mesh = read_mesh(obj.as_bytes(), Format::Obj).unwrap();
+    assert_eq!(mesh.faces, vec![[0, 1, 2], [0, 3, 2], [0, 1, 3]]);
+}
+
+#[test]
+fn obj_polygons_are_fans_and_extras_are_ignored() {
+    let obj = "mtllib x.mtl\r\ng quad\r\nusemtl red\r\ns off\r\n\
+               v 0 0 0 1.0\r\nv 1 0 0 0.5 0.5 0.5\r\nv 1 1 0\r\nv 0 1 0\r\n\
+               vt 0 0\r\nvp 0.1\r\nl 1 2\r\np 1\r\n  f 1 2 3 4 \r\n# end\r\n";
+    let file = read(obj.as_bytes(), Format::Obj).unwrap();
+    assert_eq!((file.vertices, file.faces, file.points.len()), (4, 2, 2));
+    assert_eq!(file.mesh.unwrap().faces, vec![[0, 1, 2], [0, 2, 3]]);
+    assert!(file.points.iter().all(|p| p.n == DVec3::Z));
+}
+
+#[test]
+fn obj_point_cloud_with_normals_by_index() {
+    let obj = "v 0 0 0\nv 1 0 0\nv 2 0 0\nvn 0 0 3\nvn 0 1 0\nvn 0 0 0\n";
+    let file = read(obj.as_bytes(), Format::Obj).unwrap();
+    assert_eq!((file.vertices, file.faces, file.dropped_points), (3, 0, 1));
+    assert_eq!(file.points[0].n, DVec3::Z);
+    assert_eq!(file.points[1].p, DVec3::X);
+    assert_eq!(file.points[1].n, DVec3::Y);
+    assert!(file.mesh.is_none());
+}
+
+#[test]
+fn obj_without_faces_or_normals_is_refused() {
+    let err = read(b"v 0 0 0\nv 1 0 0\n", Format::Obj).unwrap_err();
+    assert_eq!(err, ReadError::NoNormals);
+    assert!(
+        err.to_string()
+            .contains("no normals (nx ny nz) and no faces")
+    );
+    let err = read(b"v 0 0 0\nv 1 0 0\nvn 0 0 1\n", Format::Obj).unwrap_err();
+    assert_eq!(
+        err,
+        ReadError::NormalCountMismatch {
+            vertices: 2,
+            normals: 1
+        }
+    );
+}
+
+#[test]
+fn obj_errors_name_the_line_or_face() {
+    let cases: [(&str, &str); 9] = [
+        ("v 0 0\n", "line 1"),
+        ("v 0 0 0\nv 0 zero 0\n", "line 2"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", "line 4"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", "line 4"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 x 2\n", "line 4"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf /1 2 3\n", "line 4"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n", "face 1"),
+        ("v 0 0 0\nv 1 0 0\nf -3 1 2\n", "face 0"),
+        ("v 0 0 0\nv 1 0 inf\n", "vertex 1"),
+    ];
+    for (obj, expected) in cases {
+        let err = read(obj.as_bytes(), Format::Obj).unwrap_err();
+        assert!(err.to_string().contains(expected), "{obj:?}: {err}");
+    }
+}
+
+#[test]
+fn xyz_reads_oriented_points() {
+    let xyz =
+        "# a comment\n\n1 2 3 0 0 5\n  4\t5 6   -1 0 0  \r\n\n1e-3 -2.5E2 +7 0 3 4\n0 0 0 0 0 0\n";
+    let file = read(xyz.as_bytes(), Format::Xyz).unwrap();
+    assert_eq!(Format::sniff(xyz.as_bytes()), Format::Xyz);
+    assert_eq!((file.vertices, file.faces, file.dropped_points), (4, 0, 1));
+    assert_eq!(file.points[0].p, DVec3::new(1.0, 2.0, 3.0));
+    assert_eq!(file.points[0].n, DVec3::Z);
+    assert_eq!(file.points[1].n, -DVec3::X);
+    assert_eq!(file.points[2].p, DVec3::new(1e-3, -250.0, 7.0));
+    assert_eq!(file.points[2].n, DVec3::new(0.0, 0.6, 0.8));
+}
+
+#[test]
+fn xyz_errors() {
+    let no_normals = read(b"0 0 0\n1 1 1\n", Format::Xyz).unwrap_err();
+    assert_eq!(no_normals, ReadError::NoNormals);
+    assert_eq!(
+        no_normals.to_string(),
+        "the file has points but no normals (nx ny nz) and no faces; give oriented points or a triangle mesh"
+    );
+    let err = read(b"0 0 0 0 0 1\n0 0 0 0 1\n", Format::Xyz).unwrap_err();
+    assert!(matches!(err, ReadError::Line { line: 2, .. }), "{err}");
+    let err = read(b"0 0 0 0 0 1\n# c\n0 0 0 0 1 1 1\n", Format::Xyz).unwrap_err();
+    assert!(matches!(err, ReadError::Line { line: 3, .. }), "{err}");
+    let err = read(b"0 0 0 0 0 1\n0 0 0 0 0 1,\n", Format::Xyz).unwrap_err();
+    assert!(matches!(err, ReadError::Line { line: 2, .. }), "{err}");
+    let err = read(b"0 0 0 0 0 1\n0 0 0 0 0 NaN\n", Format::Xyz).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            ReadError::NonFinite {
+                element: "point",
+                index: 1,
+                what: "normal",
+                line: Some(2)
+            }
+        ),
+        "{err}"
+    );
+    let err = read(b"# only comments\n", Format::Xyz).unwrap_err();
+    assert!(
+        matches!(err, ReadError::NoPoints { vertices: 0, .. }),
+        "{err}"
+    );
+    assert_eq!(
+        read_mesh(b"0 0 0 0 0 1\n", Format::Xyz).unwrap_err(),
+        ReadError::NoFaces
+    );
+}
+
+#[test]
+fn extension_and_sniffing() {
+    for (ext, format) in [
+        ("ply", Some(Format::Ply)),
+        (".PLY", Some(Format::Ply)),
+        ("Obj", Some(Format::Obj)),
+        ("xyz", Some(Format::Xyz)),
+        ("PTS", Some(Format::Xyz)),
+        ("txt", Some(Format::Xyz)),
+        ("stl", None),
+        ("", None),
+    ] {
+        assert_eq!(Format::from_extension(ext), format, "{ext}");
+    }
+    assert_eq!(Format::sniff(b"ply\r\nformat ascii 1.0\r\n"), Format::Ply);
+    assert_eq!(Format::sniff(b"plyx\n"), Format::Xyz);
+    assert_eq!(Format::sniff(b"# x\nf 1 2 3\n"), Format::Obj);
+    assert_eq!(Format::sniff(b"vn 0 0 1\n"), Format::Xyz);
+    assert_eq!(Format::sniff(b""), Format::Xyz);
+}
