@@ -27,6 +27,7 @@ pub struct Mpu {
     pub(crate) bounds: Aabb,
     pub(crate) params: MpuParams,
     pub(crate) report: BuildReport,
+    pub(crate) index: std::sync::Arc<PointIndex>,
 }
 
 /// Validates the input and returns local-frame positions and unit normals.
@@ -81,7 +82,7 @@ impl Mpu {
         let (positions, normals, frame_origin, bounds) = prepare(points, params)?;
         let diagonal = bounds.diagonal();
         let eps0 = params.error_rel * diagonal;
-        let index = PointIndex::new(&positions);
+        let index = std::sync::Arc::new(PointIndex::new(&positions));
         let input = FitInput {
             positions: &positions,
             normals: &normals,
@@ -166,6 +167,7 @@ impl Mpu {
             bounds,
             params: *params,
             report,
+            index,
         })
     }
 
@@ -231,6 +233,14 @@ impl Mpu {
     /// The leaf containing world position `x`, `None` outside the root cube.
     pub fn leaf_containing(&self, x: DVec3) -> Option<u32> {
         self.octree.leaf_containing(x - self.frame_origin)
+    }
+
+    /// Distance from world position `x` to the nearest input point, world units (plain).
+    pub fn distance_to_data(&self, x: DVec3) -> f64 {
+        self.index
+            .nearest(x - self.frame_origin, 1)
+            .first()
+            .map_or(f64::INFINITY, |n| n.1.sqrt())
     }
 
     /// Edge length of a cell at `depth`, world units.

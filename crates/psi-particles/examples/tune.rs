@@ -1,0 +1,46 @@
+//! Parameter sweep of the relaxation on a sphere and a torus (development aid):
+//! prints the nearest-neighbour CV after relaxation for step sizes and σ adaptation.
+use psi_mpu::{Mpu, MpuParams};
+use psi_octree::AnalyticShape;
+use psi_particles::{DensityMode, ParticleParams, sample};
+
+fn main() {
+    for shape in [
+        AnalyticShape::Sphere { radius: 1.0 },
+        AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.35,
+        },
+    ] {
+        let mpu = Mpu::build(&shape.sample(30_000, 21), &MpuParams::paper()).unwrap();
+        for uniform in [true, false] {
+            for dt in [0.25, 0.3] {
+                for adapt in [false, true] {
+                    for mm in [0.5] {
+                        let p = ParticleParams {
+                            density: if uniform {
+                                DensityMode::Uniform
+                            } else {
+                                DensityMode::Adaptive
+                            },
+                            count: if uniform { Some(3000) } else { None },
+                            dt,
+                            adapt_sigma: adapt,
+                            max_move: mm,
+                            ..ParticleParams::paper()
+                        };
+                        let r = sample(&mpu, &p).report;
+                        println!(
+                            "{shape:?} uniform {uniform} dt {dt} adapt {adapt} mm {mm}: n {} cv {:.3} -> {:.3} min/mean {:.2} sim {:.3}s",
+                            r.count,
+                            r.before.spacing.cv,
+                            r.after.spacing.cv,
+                            r.after.spacing.min / r.after.spacing.mean,
+                            r.simulate_seconds
+                        );
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,100 @@
+//! Parameters of seeding and relaxation, with the published constants.
+
+use serde::{Deserialize, Serialize};
+
+/// How the target spacing is chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum DensityMode {
+    /// Depth-adaptive (paper eq. 1): denser where the octree is deeper.
+    Adaptive,
+    /// One constant spacing from the surface area and the count (a blue-noise sampler).
+    Uniform,
+}
+
+/// Which structure finds a particle's neighbours.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum NeighbourSearch {
+    /// The MPU octree as an adaptive grid, particles bucketed per leaf (the paper's way).
+    Octree,
+    /// A kiddo kd-tree rebuilt every iteration.
+    KdTree,
+}
+
+/// Every parameter of sampling. Construct with [`ParticleParams::paper`].
+///
+/// Sources (`../shared/reference/algorithms.md` §2 and §5): Witkin–Heckbert 1994 via Wickbert
+/// (α = 6, Ê = 0.8α, ρ = 15, β = 10, φ = 15, 3σ neighbourhood); [PJS] (k = 1, 20 iterations).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParticleParams {
+    /// Particles seeded per surface-containing leaf (paper: 1).
+    pub k: usize,
+    /// Exact particle count instead of k per leaf.
+    pub count: Option<usize>,
+    /// Relaxation iterations (paper: 20).
+    pub iterations: usize,
+    /// Adaptive or uniform density.
+    pub density: DensityMode,
+    /// Neighbour search structure.
+    pub neighbours: NeighbourSearch,
+    /// Repulsion amplitude α of E = α·exp(−r²/2σ²) (WH: 6).
+    pub energy_alpha: f64,
+    /// Target energy Ê as a fraction of α (WH: 0.8).
+    pub target_energy_ratio: f64,
+    /// Energy feedback rate ρ of the σ adaptation (WH: 15).
+    pub rho: f64,
+    /// Regulariser β of the σ adaptation (WH: 10).
+    pub beta: f64,
+    /// Whether σ adapts toward Ê (WH); it stays within `sigma_clamp` × σ̂.
+    pub adapt_sigma: bool,
+    /// Bounds of σ as multiples of the target σ̂: (low, high).
+    pub sigma_clamp: (f64, f64),
+    /// Surface feedback φ in the constrained velocity (WH: 15).
+    pub phi: f64,
+    /// Step gain: particle i moves dt/ΣE_ij × its constrained velocity (0.5 = a Newton step
+    /// on a hexagonal lattice).
+    pub dt: f64,
+    /// Time step of the σ adaptation (WH: 0.03).
+    pub sigma_dt: f64,
+    /// Largest move per iteration as a multiple of σ_i (0.5).
+    pub max_move: f64,
+    /// Neighbours are searched within this multiple of σ_i (3).
+    pub neighbour_radius: f64,
+    /// Newton polish tolerance on |f|/|∇f|, relative to D (1e-4).
+    pub newton_tolerance: f64,
+    /// Newton polish step limit per iteration.
+    pub newton_steps: usize,
+    /// A move is rejected when it ends farther than this multiple of σ̂_i from every input
+    /// point: particles stay where there is data (open scans, holes).
+    pub data_reach: f64,
+    /// Seed of every random choice.
+    pub seed: u64,
+}
+
+impl ParticleParams {
+    /// The paper's set-up: k = 1, 20 iterations, depth-adaptive density, octree neighbours,
+    /// Witkin–Heckbert constants.
+    pub fn paper() -> Self {
+        Self {
+            k: 1,
+            count: None,
+            iterations: 20,
+            density: DensityMode::Adaptive,
+            neighbours: NeighbourSearch::KdTree,
+            energy_alpha: 6.0,
+            target_energy_ratio: 0.8,
+            rho: 15.0,
+            beta: 10.0,
+            adapt_sigma: true,
+            sigma_clamp: (0.8, 1.25),
+            phi: 15.0,
+            dt: 0.3,
+            sigma_dt: 0.03,
+            max_move: 0.5,
+            neighbour_radius: 3.0,
+            newton_tolerance: 1e-4,
+            newton_steps: 4,
+            data_reach: 2.0,
+            seed: 2007,
+        }
+    }
+}

@@ -1,0 +1,109 @@
+//! Quality figures of a particle set: surface adherence |f|/|∇f| over D, nearest-neighbour
+//! spacing statistics overall and per depth level (algorithms.md §3).
+
+use std::collections::BTreeMap;
+
+use glam::DVec3;
+use psi_mpu::Mpu;
+use psi_octree::PointIndex;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::Particles;
+
+/// Nearest-neighbour statistics of one group of particles (distances in world units).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SpacingStats {
+    /// Particles in the group.
+    pub count: usize,
+    /// Mean nearest-neighbour distance.
+    pub mean: f64,
+    /// Smallest nearest-neighbour distance.
+    pub min: f64,
+    /// Coefficient of variation std/mean of the nearest-neighbour distance.
+    pub cv: f64,
+}
+
+/// Spacing statistics of one depth level.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LevelStats {
+    /// Octree depth.
+    pub depth: u8,
+    /// Statistics of the particles at that depth.
+    pub spacing: SpacingStats,
+}
+
+/// Quality of a particle set.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Quality {
+    /// Largest |f|/|∇f| over the particles, relative to D.
+    pub max_surface_distance: f64,
+    /// Mean |f|/|∇f|, relative to D.
+    pub mean_surface_distance: f64,
+    /// Nearest-neighbour statistics of all particles.
+    pub spacing: SpacingStats,
+    /// Per depth level.
+    pub levels: Vec<LevelStats>,
+}
+
+fn stats(d: &[f64]) -> SpacingStats {
+    if d.is_empty() {
+        return SpacingStats::default();
+    }
+    let n = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / n;
+    let var = d.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
+    let min = d.iter().copied().fold(f64::INFINITY, f64::min);
+    SpacingStats {
+        count: d.len(),
+        mean,
+        min,
+        cv: if mean > 0.0 { var.sqrt() / mean } else { 0.0 },
+    }
+}
+
+/// Distance from each point to its nearest other point (shape: N, world units; ∞ for N = 1).
+pub fn nearest_neighbour_distances(positions: &[DVec3]) -> Vec<f64> {
+    let index = PointIndex::new(positions);
+    positions
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| {
+            index
+                .nearest(*p, 2)
+                .into_iter()
+                .find(|(j, _)| *j as usize != i)
+                .map_or(f64::INFINITY, |(_, d2)| d2.sqrt())
+        })
+        .collect()
+}
+
+/// Measures `particles` on `mpu`.
+pub fn measure_quality(mpu: &Mpu, particles: &Particles) -> Quality {
+    let d = mpu.diagonal();
+    let adherence: Vec<f64> = particles
+        .positions
+        .par_iter()
+        .map(|x| {
+            let (f, g) = mpu.value_and_gradient(*x);
+            f.abs() / g.length().max(1e-300) / d
+        })
+        .collect();
+    let nn = nearest_neighbour_distances(&particles.positions);
+    let mut by_depth: BTreeMap<u8, Vec<f64>> = BTreeMap::new();
+    for (i, &dist) in nn.iter().enumerate() {
+        by_depth.entry(particles.depth[i]).or_default().push(dist);
+    }
+    Quality {
+        max_surface_distance: adherence.iter().copied().fold(0.0, f64::max),
+        mean_surface_distance: adherence.iter().sum::<f64>() / adherence.len().max(1) as f64,
+        spacing: stats(&nn),
+        levels: by_depth
+            .into_iter()
+            .map(|(depth, v)| LevelStats {
+                depth,
+                spacing: stats(&v),
+            })
+            .collect(),
+    }
+}

@@ -1,0 +1,129 @@
+//! Witkin–Heckbert relaxation (as Foster et al. use it, algorithms.md §2.1–2.2): Gaussian
+//! repulsion, velocity constrained to the surface with feedback φ, σ adapting toward Ê, each
+//! move clamped, then a Newton polish. Jacobi-style: every particle reads the previous
+//! iteration's state, so the result is identical for any thread count.
+
+use glam::DVec3;
+use psi_mpu::Mpu;
+use rayon::prelude::*;
+
+use crate::neighbours::NeighbourIndex;
+use crate::project::newton_project;
+use crate::{DensityField, ParticleParams, Particles};
+
+/// Which particles may move and where (local regeneration restricts both).
+#[derive(Clone, Copy, Default)]
+pub struct RelaxRegion<'a> {
+    /// Per particle: whether it moves (others act as fixed neighbours). `None`: all move.
+    pub movable: Option<&'a [bool]>,
+    /// A move is accepted only if this returns true for the new world position.
+    pub accept: Option<&'a (dyn Fn(DVec3) -> bool + Sync)>,
+}
+
+impl std::fmt::Debug for RelaxRegion<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RelaxRegion")
+            .field("movable", &self.movable.map(<[bool]>::len))
+            .finish()
+    }
+}
+
+/// Relaxes `particles` on `mpu` for `params.iterations` steps. Per-particle target radii come
+/// from `field` and the depth of the leaf each particle is in. The count never changes.
+pub fn relax(
+    mpu: &Mpu,
+    particles: &mut Particles,
+    field: &DensityField,
+    params: &ParticleParams,
+    region: RelaxRegion<'_>,
+) {
+    let n = particles.len();
+    let tol = params.newton_tolerance * mpu.diagonal();
+    let mut fg: Vec<(f64, DVec3)> = particles
+        .positions
+        .par_iter()
+        .map(|x| mpu.value_and_gradient(*x))
+        .collect();
+    let e_hat = params.target_energy_ratio * params.energy_alpha;
+    for _ in 0..params.iterations {
+        let index = NeighbourIndex::new(params.neighbours, mpu, &particles.positions);
+        let state = &*particles;
+        let fg_ref = &fg;
+        let updates: Vec<Option<(DVec3, f64, DVec3, u8, f64, f64)>> = (0..n)
+            .into_par_iter()
+            .map_init(Vec::new, |scratch, i| {
+                if region.movable.is_some_and(|m| !m[i]) {
+                    return None;
+                }
+                let x = state.positions[i];
+                let ni = state.normals[i];
+                let si = state.sigma[i];
+                let (mut d, mut energy, mut de_ds) = (DVec3::ZERO, 0.0, 0.0);
+                let inv2 = 1.0 / (2.0 * si * si);
+                index.for_each_within(x, params.neighbour_radius * si, scratch, |j| {
+                    let j = j as usize;
+                    if j == i || ni.dot(state.normals[j]) < 0.0 {
+                        return;
+                    }
+                    let r = x - state.positions[j];
+                    let d2 = r.length_squared();
+                    let sj = state.sigma[j];
+                    let eij = params.energy_alpha * (-d2 * inv2).exp();
+                    let reach_j = params.neighbour_radius * sj;
+                    let eji = if d2 <= reach_j * reach_j {
+                        params.energy_alpha * (-d2 / (2.0 * sj * sj)).exp()
+                    } else {
+                        0.0
+                    };
+                    d += r * (eij + (si * si) / (sj * sj) * eji);
+                    energy += eij;
+                    de_ds += d2 * eij / (si * si * si);
+                });
+                let (f, g) = fg_ref[i];
+                let g2 = g.length_squared();
+                let v = if g2 > 1e-24 {
+                    d - ((g.dot(d) + params.phi * f) / g2) * g
+                } else {
+                    d
+                };
+                // Per-particle step dt_i = dt / ΣE_ij: on a hexagonal lattice at spacing 2σ the
+                // repulsion's stiffness is 2·ΣE_ij, so dt = 0.5 makes this a Newton step
+                // (derivation in docs/ARCHITECTURE.md, "Relaxation").
+                let dt_i = params.dt / (energy + 1e-3 * params.energy_alpha);
+                let mut step = dt_i * v;
+                let len = step.length();
+                let cap = params.max_move * si;
+                if len > cap {
+                    step *= cap / len;
+                }
+                let (x1, f1, g1) = newton_project(mpu, x + step, tol, params.newton_steps, si);
+                let target = state.target[i];
+                let ok = g1.length_squared() > 0.0
+                    && mpu.distance_to_data(x1) <= params.data_reach * target
+                    && region.accept.is_none_or(|a| a(x1));
+                let (x1, f1, g1) = if ok { (x1, f1, g1) } else { (x, f, g) };
+                let depth = mpu
+                    .leaf_containing(x1)
+                    .map_or(state.depth[i], |l| mpu.octree().cell(l).depth);
+                let target = field.target_sigma(depth);
+                let mut sigma = si;
+                if params.adapt_sigma {
+                    let ds = -params.rho * (energy - e_hat) / (de_ds + params.beta);
+                    sigma = (si + params.sigma_dt * ds).abs();
+                }
+                sigma = sigma.clamp(params.sigma_clamp.0 * target, params.sigma_clamp.1 * target);
+                Some((x1, f1, g1, depth, sigma, target))
+            })
+            .collect();
+        for (i, u) in updates.into_iter().enumerate() {
+            if let Some((x, f, g, depth, sigma, target)) = u {
+                particles.positions[i] = x;
+                particles.normals[i] = g.normalize_or(particles.normals[i]);
+                particles.depth[i] = depth;
+                particles.sigma[i] = sigma;
+                particles.target[i] = target;
+                fg[i] = (f, g);
+            }
+        }
+    }
+}

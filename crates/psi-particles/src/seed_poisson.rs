@@ -1,0 +1,133 @@
+//! Seeding for exact counts and uniform mode: dart throwing over the input points (a seeded
+//! random order, each point accepted when no accepted point lies within c·(r_p + r_q)/2), the
+//! scale c found by bisection so that at least the requested count is accepted, then the most
+//! crowded extras removed. Radii r are the target σ̂ of the point's leaf (or one constant).
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+use psi_mpu::Mpu;
+use psi_octree::PointIndex;
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use rand_pcg::Pcg64Mcg;
+
+use crate::seed::Seed;
+
+/// Accepted input-point indices for scale `c` (radius of point i: c·radius[i]).
+fn throw(positions: &[DVec3], radius: &[f64], order: &[u32], c: f64, cell: f64) -> Vec<u32> {
+    let mut grid: HashMap<(i64, i64, i64), Vec<u32>> = HashMap::new();
+    let mut accepted = Vec::new();
+    let key = |p: DVec3| {
+        (
+            (p.x / cell).floor() as i64,
+            (p.y / cell).floor() as i64,
+            (p.z / cell).floor() as i64,
+        )
+    };
+    for &i in order {
+        let p = positions[i as usize];
+        let (kx, ky, kz) = key(p);
+        let mut free = true;
+        'search: for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    if let Some(list) = grid.get(&(kx + dx, ky + dy, kz + dz)) {
+                        for &j in list {
+                            let r = 0.5 * c * (radius[i as usize] + radius[j as usize]);
+                            if (positions[j as usize] - p).length_squared() < r * r {
+                                free = false;
+                                break 'search;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        if free {
+            grid.entry((kx, ky, kz)).or_default().push(i);
+            accepted.push(i);
+        }
+    }
+    accepted
+}
+
+/// Exactly `count` seeds from `mpu`'s input points with spacing proportional to
+/// `radius_of(depth)`; `None` when the input has fewer usable points than `count`.
+pub(crate) fn poisson_seeds(
+    mpu: &Mpu,
+    count: usize,
+    radius_of: &dyn Fn(u8) -> f64,
+    seed: u64,
+) -> Option<Vec<Seed>> {
+    let input = mpu.points();
+    if count == 0 || count > input.len() {
+        return None;
+    }
+    let tree = mpu.octree();
+    let depth: Vec<u8> = (0..input.len() as u32)
+        .map(|i| tree.cell(tree.leaf_of_point(i)).depth)
+        .collect();
+    let radius: Vec<f64> = depth.iter().map(|&d| radius_of(d)).collect();
+    let positions: Vec<DVec3> = tree.positions().to_vec();
+    let mut order: Vec<u32> = (0..input.len() as u32).collect();
+    order.shuffle(&mut Pcg64Mcg::seed_from_u64(seed));
+    let r_max = radius.iter().copied().fold(0.0, f64::max);
+    // Bisection on c: the accepted count decreases as c grows.
+    let (mut lo, mut hi) = (0.0f64, 8.0f64);
+    let mut best: Option<Vec<u32>> = None;
+    for _ in 0..18 {
+        let c = 0.5 * (lo + hi);
+        let acc = throw(&positions, &radius, &order, c, (c * r_max).max(1e-300));
+        if acc.len() >= count {
+            lo = c;
+            let better = best.as_ref().is_none_or(|b| acc.len() < b.len());
+            if better {
+                best = Some(acc);
+            }
+            if best.as_ref().is_some_and(|b| b.len() == count) {
+                break;
+            }
+        } else {
+            hi = c;
+        }
+    }
+    let mut chosen = best.or_else(|| Some((0..input.len() as u32).collect()))?;
+    // Remove the extras with the smallest nearest-neighbour distance relative to their radius.
+    if chosen.len() > count {
+        let pts: Vec<DVec3> = chosen.iter().map(|&i| positions[i as usize]).collect();
+        let index = PointIndex::new(&pts);
+        let mut crowd: Vec<(f64, usize)> = pts
+            .iter()
+            .enumerate()
+            .map(|(k, p)| {
+                let d = index
+                    .nearest(*p, 2)
+                    .get(1)
+                    .map_or(f64::INFINITY, |n| n.1.sqrt());
+                (d / radius[chosen[k] as usize], k)
+            })
+            .collect();
+        crowd.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut drop = vec![false; pts.len()];
+        for &(_, k) in crowd.iter().take(chosen.len() - count) {
+            drop[k] = true;
+        }
+        let mut k = 0;
+        chosen.retain(|_| {
+            k += 1;
+            !drop[k - 1]
+        });
+    }
+    chosen.sort_unstable();
+    Some(
+        chosen
+            .iter()
+            .map(|&i| Seed {
+                p: input[i as usize].p,
+                n: input[i as usize].n,
+                depth: depth[i as usize],
+            })
+            .collect(),
+    )
+}

@@ -1,0 +1,179 @@
+//! Sampling quality on generated shapes (the oracle: analytic distances and brute-force
+//! nearest-neighbour statistics).
+
+use glam::DVec3;
+use psi_mpu::{Mpu, MpuParams};
+use psi_octree::AnalyticShape;
+use psi_particles::{DensityMode, NeighbourSearch, ParticleParams, sample};
+
+fn mpu_of(shape: AnalyticShape, n: usize) -> Mpu {
+    Mpu::build(&shape.sample(n, 21), &MpuParams::paper()).unwrap()
+}
+
+fn shapes() -> Vec<(&'static str, AnalyticShape)> {
+    vec![
+        ("sphere", AnalyticShape::Sphere { radius: 1.0 }),
+        (
+            "torus",
+            AnalyticShape::Torus {
+                major: 1.0,
+                minor: 0.35,
+            },
+        ),
+    ]
+}
+
+#[test]
+fn uniform_mode_is_blue_noise_and_relaxation_helps() {
+    for (name, shape) in shapes() {
+        let mpu = mpu_of(shape, 30_000);
+        let params = ParticleParams {
+            density: DensityMode::Uniform,
+            count: Some(3000),
+            ..ParticleParams::paper()
+        };
+        let run = sample(&mpu, &params);
+        let r = &run.report;
+        eprintln!(
+            "{name} uniform: n {} CV {:.3} -> {:.3}, min/mean {:.3}, max |f|/|g| {:.1e} D",
+            r.count,
+            r.before.spacing.cv,
+            r.after.spacing.cv,
+            r.after.spacing.min / r.after.spacing.mean,
+            r.after.max_surface_distance
+        );
+        assert_eq!(r.count, 3000);
+        assert!(
+            r.after.spacing.cv <= 0.08,
+            "{name}: CV {}",
+            r.after.spacing.cv
+        );
+        assert!(r.after.spacing.cv < r.before.spacing.cv);
+        // On the true surface too.
+        let d = mpu.diagonal();
+        for p in &run.particles.positions {
+            assert!(shape.signed_distance(*p).abs() <= 1e-3 * d);
+        }
+        assert!(r.after.max_surface_distance <= 1e-4 + 1e-12);
+    }
+}
+
+#[test]
+fn adaptive_mode_is_denser_where_the_octree_is_deeper() {
+    // An ellipsoid: deeper cells at the tight ends.
+    let shape = AnalyticShape::Ellipsoid {
+        radii: DVec3::new(1.0, 0.35, 0.35),
+    };
+    let mpu = Mpu::build(
+        &shape.sample(40_000, 3),
+        &MpuParams {
+            error_rel: 0.0005,
+            ..MpuParams::paper()
+        },
+    )
+    .unwrap();
+    let run = sample(&mpu, &ParticleParams::paper());
+    let r = &run.report;
+    eprintln!(
+        "ellipsoid adaptive: n {}, depths {}..{}, levels {:?}",
+        r.count,
+        r.density.d_min,
+        r.density.d_max,
+        r.after
+            .levels
+            .iter()
+            .map(|l| (l.depth, l.spacing.count, l.spacing.mean, l.spacing.cv))
+            .collect::<Vec<_>>()
+    );
+    assert!(r.density.d_max > r.density.d_min, "needs several depths");
+    // Mean spacing decreases with depth (more particles per unit area deeper).
+    let levels: Vec<_> = r
+        .after
+        .levels
+        .iter()
+        .filter(|l| l.spacing.count >= 30)
+        .collect();
+    assert!(levels.len() >= 2);
+    for w in levels.windows(2) {
+        assert!(
+            w[1].spacing.mean < w[0].spacing.mean,
+            "depth {} not denser than {}",
+            w[1].depth,
+            w[0].depth
+        );
+    }
+    assert!(r.after.spacing.cv < r.before.spacing.cv);
+}
+
+#[test]
+fn exact_counts_are_exact() {
+    let mpu = mpu_of(
+        AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.35,
+        },
+        20_000,
+    );
+    let auto = sample(
+        &mpu,
+        &ParticleParams {
+            iterations: 0,
+            ..ParticleParams::paper()
+        },
+    )
+    .report
+    .count;
+    for count in [1, 17, auto / 3, auto, auto + 1, 2 * auto + 5] {
+        let run = sample(
+            &mpu,
+            &ParticleParams {
+                count: Some(count),
+                iterations: 2,
+                ..ParticleParams::paper()
+            },
+        );
+        assert_eq!(run.particles.len(), count);
+        assert!(
+            run.report.after.spacing.min > 0.0 || count == 1,
+            "coincident particles at count {count}"
+        );
+    }
+    // k = 2 seeds two per leaf where the leaf has the points.
+    let k2 = sample(
+        &mpu,
+        &ParticleParams {
+            k: 2,
+            iterations: 0,
+            ..ParticleParams::paper()
+        },
+    )
+    .report
+    .count;
+    assert_eq!(k2, 2 * auto);
+}
+
+#[test]
+fn identical_for_any_thread_count_and_both_neighbour_searches() {
+    let mpu = mpu_of(AnalyticShape::Sphere { radius: 1.0 }, 10_000);
+    let run = |threads: usize, search: NeighbourSearch| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            sample(
+                &mpu,
+                &ParticleParams {
+                    neighbours: search,
+                    ..ParticleParams::paper()
+                },
+            )
+            .particles
+        })
+    };
+    let a = run(1, NeighbourSearch::KdTree);
+    let b = run(2, NeighbourSearch::KdTree);
+    let c = run(2, NeighbourSearch::Octree);
+    assert_eq!(a, b, "thread count changed the result");
+    assert_eq!(a, c, "octree and kd-tree neighbour searches disagree");
+}
