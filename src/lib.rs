@@ -1,1 +1,36 @@
-//! psi
+//! # psi — point-set implicits
+//!
+//! The facade of the psi workspace: it re-exports the layer crates and wires them to files.
+//! It holds no algorithm. The layers, in dependency order:
+//!
+//! * [`octree`] (`psi-octree`): the adaptive octree, oriented points, tolerances, test shapes;
+//! * [`io`] (`psi-io`): PLY/OBJ/XYZ parsing and PLY writing, on bytes;
+//! * [`mpu`] (`psi-mpu`): the MPU implicit (Ohtake et al. 2003) and its polygonizer;
+//! * [`particles`] (`psi-particles`): octree-seeded, depth-adaptive particle sampling;
+//! * [`regen`] (`psi-regen`): local regeneration after shape edits.
+//!
+//! ```
+//! use psi::{Mpu, MpuParams, ParticleParams};
+//!
+//! // The built-in procedural model: no file needed.
+//! let points = psi::builtin_model();
+//! let mpu = Mpu::build(&points, &MpuParams::paper()).unwrap();
+//! let run = psi::sample(&mpu, &ParticleParams { iterations: 2, ..ParticleParams::paper() });
+//! assert_eq!(run.particles.len(), run.report.count);
+//! ```
+
+mod error;
+mod files;
+
+pub use psi_io as io;
+pub use psi_mpu as mpu;
+pub use psi_octree as octree;
+pub use psi_particles as particles;
+pub use psi_regen as regen;
+
+pub use error::PsiError;
+pub use files::{load_mesh, load_points, save_json, save_mesh, save_particles, write_atomically};
+pub use psi_io::{MeshSampling, PointCloudFile, ReadOptions, TriangleMesh};
+pub use psi_mpu::{BuildReport, Mpu, MpuError, MpuParams, PolygonizeParams, TriangleSoup, polygonize};
+pub use psi_octree::{Aabb, AnalyticShape, OrientedPoint, builtin_model};
+pub use psi_particles::{DensityMode, NeighbourSearch, ParticleParams, Particles, SampleReport, Sampling, sample};

@@ -81,7 +81,7 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64) -> CellFi
     // psi's addition to Ohtake's selection: Ohtake tries sharp pieces only in cells with at
     // most 2·N_min points, so a dense scan's creases are approximated by smooth fits rounded
     // within ε0. When a smooth fit was chosen, the normals show a crease (extreme normals
-    // differ by more than the edge threshold) and the smooth fit is not already near-exact,
+    // differ by more than 60°) and the smooth fit is not already near-exact,
     // the sharp fit is tried too and kept if it at least halves the error.
     if params.sharp
         && matches!(kind, FitKind::Bivariate | FitKind::GeneralQuadric)
@@ -107,6 +107,10 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64) -> CellFi
     }
 }
 
+/// The crease test of the rescue: extreme normals more than 60° apart. Ohtake's T_edge (25.8°)
+/// would also flag ordinary curvature in large cells, replacing subdivision by creases.
+const CREASE_DOT: f64 = 0.5;
+
 /// The sharp fit of a cell with many points, from approximately extreme normals found in
 /// linear time (the normal farthest from the mean, then the normal farthest from that one).
 fn sharp_candidate(
@@ -120,7 +124,7 @@ fn sharp_candidate(
     let argmin = |d: DVec3| (0..nrm.len()).min_by(|&a, &b| nrm[a].dot(d).total_cmp(&nrm[b].dot(d)));
     let i = argmin(mean)?;
     let j = argmin(nrm[i])?;
-    if nrm[i].dot(nrm[j]) >= params.t_edge {
+    if nrm[i].dot(nrm[j]) >= CREASE_DOT {
         return None;
     }
     let m = nrm[i].cross(nrm[j]);

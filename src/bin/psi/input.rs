@@ -1,0 +1,53 @@
+//! Loading the input (a file or the built-in model) with a description for reports.
+
+use anyhow::Context;
+use psi::{MeshSampling, OrientedPoint, PointCloudFile, ReadOptions};
+use serde_json::json;
+
+use crate::InputArgs;
+
+/// What was loaded.
+pub(crate) struct Loaded {
+    pub(crate) name: String,
+    pub(crate) file: PointCloudFile,
+}
+
+impl Loaded {
+    pub(crate) fn points(&self) -> &[OrientedPoint] {
+        &self.file.points
+    }
+
+    /// The report's `input` object.
+    pub(crate) fn json(&self) -> serde_json::Value {
+        let bbox = psi::Aabb::from_points(self.file.points.iter().map(|p| p.p));
+        json!({
+            "source": self.name,
+            "points": self.file.points.len(),
+            "vertices": self.file.vertices,
+            "faces": self.file.faces,
+            "degenerate_faces": self.file.degenerate_faces,
+            "dropped_points": self.file.dropped_points,
+            "bbox_min": bbox.map(|b| b.min.to_array()),
+            "bbox_max": bbox.map(|b| b.max.to_array()),
+            "bbox_diagonal": bbox.map_or(0.0, |b| b.diagonal()),
+        })
+    }
+}
+
+pub(crate) fn load(args: &InputArgs) -> anyhow::Result<Loaded> {
+    match &args.input {
+        None => {
+            let points = psi::builtin_model();
+            let n = points.len();
+            Ok(Loaded {
+                name: "builtin".into(),
+                file: PointCloudFile { points, vertices: n, faces: 0, degenerate_faces: 0, dropped_points: 0, mesh: None },
+            })
+        }
+        Some(path) => {
+            let sampling = if args.per_vertex { MeshSampling::VertexNormals } else { MeshSampling::FaceCentroids };
+            let file = psi::load_points(path, &ReadOptions { sampling }).context("reading the input")?;
+            Ok(Loaded { name: path.display().to_string(), file })
+        }
+    }
+}

@@ -1,0 +1,46 @@
+//! `psi mesh`.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use psi::{Mpu, PolygonizeParams};
+
+use crate::input::load;
+use crate::{Failure, InputArgs};
+
+#[derive(Args)]
+pub(crate) struct MeshArgs {
+    #[command(flatten)]
+    input: InputArgs,
+    #[command(flatten)]
+    mpu: crate::MpuArgs,
+    /// Output triangle mesh (binary PLY).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Grid cells across the root cube.
+    #[arg(long, default_value_t = 256)]
+    resolution: u32,
+}
+
+pub(crate) fn run(args: &MeshArgs) -> Result<(), Failure> {
+    let loaded = load(&args.input)?;
+    let mpu = Mpu::build(loaded.points(), &args.mpu.params()).context("building the MPU implicit")?;
+    let t = std::time::Instant::now();
+    let mesh = psi::polygonize(&mpu, &PolygonizeParams { resolution: args.resolution, ..PolygonizeParams::standard() });
+    let secs = t.elapsed().as_secs_f64();
+    psi::save_mesh(&args.output, &mesh)?;
+    let r = mpu.report();
+    println!(
+        "{}: {} points -> MPU {} leaves (depth {}) in {:.3} s -> {} triangles in {:.3} s -> {}",
+        loaded.name,
+        r.points,
+        r.leaves,
+        r.max_depth,
+        r.seconds,
+        mesh.faces.len(),
+        secs,
+        args.output.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,53 @@
+//! Errors of the facade's file operations: each names the file and wraps the layer's reason.
+
+use std::path::PathBuf;
+
+use thiserror::Error;
+
+/// A file-level failure.
+#[derive(Debug, Error)]
+pub enum PsiError {
+    /// The file could not be opened or read.
+    ///
+    /// ```
+    /// let err = psi::load_points(std::path::Path::new("no/such/file.ply"), &psi::ReadOptions::paper()).unwrap_err();
+    /// assert!(err.to_string().contains("no/such/file.ply"));
+    /// ```
+    #[error("{path}: {source}")]
+    Open {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's reason.
+        source: std::io::Error,
+    },
+    /// The file's contents are malformed.
+    ///
+    /// ```
+    /// let dir = std::env::temp_dir().join(format!("psi-doc-{}", std::process::id()));
+    /// std::fs::create_dir_all(&dir).unwrap();
+    /// let path = dir.join("empty.ply");
+    /// std::fs::write(&path, b"").unwrap();
+    /// let err = psi::load_points(&path, &psi::ReadOptions::paper()).unwrap_err();
+    /// assert!(matches!(err, psi::PsiError::Read { .. }));
+    /// ```
+    #[error("{path}: {source}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with it.
+        source: psi_io::ReadError,
+    },
+    /// Writing the output failed; the previous file at `path`, if any, is untouched.
+    ///
+    /// ```
+    /// let err = psi::write_atomically(std::path::Path::new("/no/such/dir/out.ply"), |_| Ok(())).unwrap_err();
+    /// assert!(matches!(err, psi::PsiError::Write { .. }));
+    /// ```
+    #[error("{path}: cannot write: {source}")]
+    Write {
+        /// The output file.
+        path: PathBuf,
+        /// The reason.
+        source: std::io::Error,
+    },
+}
