@@ -10,29 +10,43 @@ use psi_io::{Format, PointCloudFile, ReadOptions, TriangleMesh};
 use crate::PsiError;
 
 fn read_bytes(path: &Path) -> Result<Vec<u8>, PsiError> {
-    let open = |source| PsiError::Open { path: path.to_path_buf(), source };
+    let open = |source| PsiError::Open {
+        path: path.to_path_buf(),
+        source,
+    };
     if path.is_dir() {
-        return Err(open(std::io::Error::new(std::io::ErrorKind::InvalidInput, "is a directory, not a file")));
+        return Err(open(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "is a directory, not a file",
+        )));
     }
     fs::read(path).map_err(open)
 }
 
 fn format_of(path: &Path, bytes: &[u8]) -> Format {
-    path.extension().and_then(|e| e.to_str()).and_then(Format::from_extension).unwrap_or_else(|| Format::sniff(bytes))
+    path.extension()
+        .and_then(|e| e.to_str())
+        .and_then(Format::from_extension)
+        .unwrap_or_else(|| Format::sniff(bytes))
 }
 
 /// Reads oriented points from a PLY, OBJ or XYZ file (format from the extension, else sniffed).
 /// A mesh gives one point per triangle (or per vertex, per `opts`).
 pub fn load_points(path: &Path, opts: &ReadOptions) -> Result<PointCloudFile, PsiError> {
     let bytes = read_bytes(path)?;
-    psi_io::read_points(&bytes, format_of(path, &bytes), opts)
-        .map_err(|source| PsiError::Read { path: path.to_path_buf(), source })
+    psi_io::read_points(&bytes, format_of(path, &bytes), opts).map_err(|source| PsiError::Read {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// Reads a triangle mesh (a reference mesh, say) from a PLY or OBJ file.
 pub fn load_mesh(path: &Path) -> Result<TriangleMesh, PsiError> {
     let bytes = read_bytes(path)?;
-    psi_io::read_mesh(&bytes, format_of(path, &bytes)).map_err(|source| PsiError::Read { path: path.to_path_buf(), source })
+    psi_io::read_mesh(&bytes, format_of(path, &bytes)).map_err(|source| PsiError::Read {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// Writes `path` by calling `write` on a buffered temporary file in the same directory, then
@@ -41,13 +55,25 @@ pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), PsiError> {
-    let fail = |source| PsiError::Write { path: path.to_path_buf(), source };
+    let fail = |source| PsiError::Write {
+        path: path.to_path_buf(),
+        source,
+    };
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let name = path.file_name().ok_or_else(|| fail(std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name")))?;
-    let tmp = dir.join(format!(".{}.tmp{}", name.to_string_lossy(), std::process::id()));
+    let name = path.file_name().ok_or_else(|| {
+        fail(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a file name",
+        ))
+    })?;
+    let tmp = dir.join(format!(
+        ".{}.tmp{}",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
     let result = (|| {
         let file = fs::File::create(&tmp)?;
         let mut out = BufWriter::new(file);
@@ -76,14 +102,22 @@ pub fn save_particles(path: &Path, particles: &psi_particles::Particles) -> Resu
     let depth: Vec<f64> = particles.depth.iter().map(|&d| f64::from(d)).collect();
     write_atomically(path, |w| {
         let mut w = w;
-        psi_io::write_points_ply(&mut w, &particles.positions, &particles.normals, &[("depth", &depth), ("sigma", &particles.sigma)])
-            .map_err(to_io)
+        psi_io::write_points_ply(
+            &mut w,
+            &particles.positions,
+            &particles.normals,
+            &[("depth", &depth), ("sigma", &particles.sigma)],
+        )
+        .map_err(to_io)
     })
 }
 
 /// Writes a triangle mesh as binary little-endian PLY.
 pub fn save_mesh(path: &Path, mesh: &psi_mpu::TriangleSoup) -> Result<(), PsiError> {
-    let mesh = TriangleMesh { vertices: mesh.vertices.clone(), faces: mesh.faces.clone() };
+    let mesh = TriangleMesh {
+        vertices: mesh.vertices.clone(),
+        faces: mesh.faces.clone(),
+    };
     write_atomically(path, |w| {
         let mut w = w;
         psi_io::write_mesh_ply(&mut w, &mesh).map_err(to_io)

@@ -31,6 +31,10 @@ pub use psi_regen as regen;
 pub use error::PsiError;
 pub use files::{load_mesh, load_points, save_json, save_mesh, save_particles, write_atomically};
 pub use psi_io::{MeshSampling, PointCloudFile, ReadOptions, TriangleMesh};
-pub use psi_mpu::{BuildReport, Mpu, MpuError, MpuParams, PolygonizeParams, TriangleSoup, polygonize};
+pub use psi_mpu::{
+    BuildReport, Mpu, MpuError, MpuParams, PolygonizeParams, TriangleSoup, polygonize,
+};
 pub use psi_octree::{Aabb, AnalyticShape, OrientedPoint, builtin_model};
-pub use psi_particles::{DensityMode, NeighbourSearch, ParticleParams, Particles, SampleReport, Sampling, sample};
+pub use psi_particles::{
+    DensityMode, NeighbourSearch, ParticleParams, Particles, SampleReport, Sampling, sample,
+};

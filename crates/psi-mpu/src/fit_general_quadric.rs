@@ -139,18 +139,28 @@ mod tests {
     use psi_octree::{AnalyticShape, assert_near};
 
     #[test]
-    fn fits_a_sphere_as_a_distance_like_quadric() {
-        let pts = AnalyticShape::Sphere { radius: 1.0 }.sample(400, 5);
+    fn fits_a_sphere_patch_as_a_distance_like_quadric() {
+        // A cell of half-edge 0.1 on a unit sphere, points within its support radius.
+        let c = DVec3::new(0.0, 0.0, 1.0);
+        let pts: Vec<_> = AnalyticShape::Sphere { radius: 1.0 }
+            .sample(20_000, 5)
+            .into_iter()
+            .filter(|p| (p.p - c).length() < 0.26)
+            .collect();
         let pos: Vec<DVec3> = pts.iter().map(|p| p.p).collect();
         let nrm: Vec<DVec3> = pts.iter().map(|p| p.n).collect();
         let w = vec![1.0; pos.len()];
-        let aux = auxiliary_points(DVec3::ZERO, 1.2, &pos, &nrm);
-        assert!(!aux.is_empty());
-        let q = fit_general_quadric(&pos, &w, &aux, DVec3::ZERO, 1.5).unwrap();
+        let aux = auxiliary_points(c, 0.1, &pos, &nrm);
+        assert_eq!(aux.len(), 9);
+        let q = fit_general_quadric(&pos, &w, &aux, c, 0.26).unwrap();
         for p in &pos {
-            assert!(q.taubin_distance(*p) < 1e-8, "{}", q.taubin_distance(*p));
+            // The auxiliary targets are first-order distance estimates, so the fit trades a little
+            // accuracy for them (Ohtake's formulation): 1.3e-4 measured.
+            assert!(q.taubin_distance(*p) < 5e-4, "{}", q.taubin_distance(*p));
         }
-        assert!(q.value(DVec3::ZERO) < 0.0 && q.value(DVec3::splat(2.0)) > 0.0);
-        assert_near!(q.value_and_gradient(DVec3::X).1.length(), 1.0, 0.3);
+        assert!(
+            q.value(DVec3::new(0.0, 0.0, 0.9)) < 0.0 && q.value(DVec3::new(0.0, 0.0, 1.1)) > 0.0
+        );
+        assert_near!(q.value_and_gradient(c).1.length(), 1.0, 0.05);
     }
 }

@@ -41,13 +41,28 @@ pub(crate) fn load(args: &InputArgs) -> anyhow::Result<Loaded> {
             let n = points.len();
             Ok(Loaded {
                 name: "builtin".into(),
-                file: PointCloudFile { points, vertices: n, faces: 0, degenerate_faces: 0, dropped_points: 0, mesh: None },
+                file: PointCloudFile {
+                    points,
+                    vertices: n,
+                    faces: 0,
+                    degenerate_faces: 0,
+                    dropped_points: 0,
+                    mesh: None,
+                },
             })
         }
         Some(path) => {
-            let sampling = if args.per_vertex { MeshSampling::VertexNormals } else { MeshSampling::FaceCentroids };
-            let file = psi::load_points(path, &ReadOptions { sampling }).context("reading the input")?;
-            Ok(Loaded { name: path.display().to_string(), file })
+            let sampling = if args.per_vertex {
+                MeshSampling::VertexNormals
+            } else {
+                MeshSampling::FaceCentroids
+            };
+            let file =
+                psi::load_points(path, &ReadOptions { sampling }).context("reading the input")?;
+            Ok(Loaded {
+                name: path.display().to_string(),
+                file,
+            })
         }
     }
 }

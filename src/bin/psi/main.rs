@@ -76,7 +76,9 @@ enum Command {
     #[command(after_help = "Example:\n  psi mesh bunny.ply -o surface.ply --resolution 256")]
     Mesh(run_mesh::MeshArgs),
     /// Build the MPU implicit and scatter relaxed particles over it (the main job).
-    #[command(after_help = "Examples:\n  psi sample -o particles.ply\n  psi sample bunny.ply --count 10000 --uniform -o p.ply --json report.json")]
+    #[command(
+        after_help = "Examples:\n  psi sample -o particles.ply\n  psi sample bunny.ply --count 10000 --uniform -o p.ply --json report.json"
+    )]
     Sample(run_sample::SampleArgs),
 }
 
@@ -90,10 +92,14 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
     fn from(e: E) -> Self {
         let error = e.into();
         let bad_input = error.chain().any(|c| {
-            c.downcast_ref::<psi::PsiError>().is_some_and(|p| !matches!(p, psi::PsiError::Write { .. }))
+            c.downcast_ref::<psi::PsiError>()
+                .is_some_and(|p| !matches!(p, psi::PsiError::Write { .. }))
                 || c.downcast_ref::<psi::MpuError>().is_some()
         });
-        Failure { error, code: if bad_input { 2 } else { 1 } }
+        Failure {
+            error,
+            code: if bad_input { 2 } else { 1 },
+        }
     }
 }
 

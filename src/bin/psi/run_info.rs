@@ -14,7 +14,10 @@ pub(crate) fn run(args: &InputArgs, json: bool) -> Result<(), Failure> {
         println!("faces          {}", loaded.file.faces);
         println!("points         {} oriented", loaded.file.points.len());
         if loaded.file.degenerate_faces > 0 {
-            println!("skipped        {} degenerate faces", loaded.file.degenerate_faces);
+            println!(
+                "skipped        {} degenerate faces",
+                loaded.file.degenerate_faces
+            );
         }
         println!("bbox min       {}", j["bbox_min"]);
         println!("bbox max       {}", j["bbox_max"]);

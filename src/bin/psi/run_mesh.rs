@@ -25,9 +25,16 @@ pub(crate) struct MeshArgs {
 
 pub(crate) fn run(args: &MeshArgs) -> Result<(), Failure> {
     let loaded = load(&args.input)?;
-    let mpu = Mpu::build(loaded.points(), &args.mpu.params()).context("building the MPU implicit")?;
+    let mpu = Mpu::build(loaded.points(), &args.mpu.params())
+        .with_context(|| format!("{}: building the MPU implicit", loaded.name))?;
     let t = std::time::Instant::now();
-    let mesh = psi::polygonize(&mpu, &PolygonizeParams { resolution: args.resolution, ..PolygonizeParams::standard() });
+    let mesh = psi::polygonize(
+        &mpu,
+        &PolygonizeParams {
+            resolution: args.resolution,
+            ..PolygonizeParams::standard()
+        },
+    );
     let secs = t.elapsed().as_secs_f64();
     psi::save_mesh(&args.output, &mesh)?;
     let r = mpu.report();

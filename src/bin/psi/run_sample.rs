@@ -41,18 +41,29 @@ pub(crate) struct SampleArgs {
 
 pub(crate) fn run(args: &SampleArgs) -> Result<(), Failure> {
     if args.k == 0 {
-        return Err(Failure { error: anyhow::anyhow!("--k must be at least 1"), code: 2 });
+        return Err(Failure {
+            error: anyhow::anyhow!("--k must be at least 1"),
+            code: 2,
+        });
     }
     if args.count == Some(0) {
-        return Err(Failure { error: anyhow::anyhow!("--count must be at least 1"), code: 2 });
+        return Err(Failure {
+            error: anyhow::anyhow!("--count must be at least 1"),
+            code: 2,
+        });
     }
     let loaded = load(&args.input)?;
-    let mpu = Mpu::build(loaded.points(), &args.mpu.params()).context("building the MPU implicit")?;
+    let mpu = Mpu::build(loaded.points(), &args.mpu.params())
+        .with_context(|| format!("{}: building the MPU implicit", loaded.name))?;
     let params = ParticleParams {
         k: args.k,
         count: args.count,
         iterations: args.iterations,
-        density: if args.uniform { DensityMode::Uniform } else { DensityMode::Adaptive },
+        density: if args.uniform {
+            DensityMode::Uniform
+        } else {
+            DensityMode::Adaptive
+        },
         seed: args.seed,
         ..ParticleParams::paper()
     };
@@ -90,14 +101,25 @@ pub(crate) fn run(args: &SampleArgs) -> Result<(), Failure> {
     }
     println!(
         "{}: {} points, MPU {} leaves (depth {}) in {:.3} s; {} particles: seeding {:.3} s, {} iterations {:.3} s",
-        loaded.name, r.points, r.leaves, r.max_depth, r.seconds, s.count, s.init_seconds, s.iterations, s.simulate_seconds
+        loaded.name,
+        r.points,
+        r.leaves,
+        r.max_depth,
+        r.seconds,
+        s.count,
+        s.init_seconds,
+        s.iterations,
+        s.simulate_seconds
     );
     println!(
         "  nearest-neighbour CV {:.3} -> {:.3}; max |f|/|grad f| {:.1e} D{}",
         s.before.spacing.cv,
         s.after.spacing.cv,
         s.after.max_surface_distance,
-        args.output.as_ref().map(|o| format!("; wrote {}", o.display())).unwrap_or_default()
+        args.output
+            .as_ref()
+            .map(|o| format!("; wrote {}", o.display()))
+            .unwrap_or_default()
     );
     Ok(())
 }

@@ -1,0 +1,169 @@
+//! The `psi` binary end to end: real data, malformed input, exit codes, atomic outputs.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn psi(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_psi"))
+        .args(args)
+        .output()
+        .expect("run psi")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("psi-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn models() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/models");
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!("skipped: ../shared/models not found");
+        None
+    }
+}
+
+#[test]
+fn info_reports_the_bunny_dataset_count() {
+    let Some(models) = models() else { return };
+    let out = psi(&["info", models.join("bunny.ply").to_str().unwrap(), "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(j["points"], 69451);
+    assert_eq!(j["faces"], 69451);
+    assert_eq!(j["vertices"], 35947);
+    let d = j["bbox_diagonal"].as_f64().unwrap();
+    assert!((d - 0.24997).abs() < 1e-4, "{d}");
+}
+
+#[test]
+fn info_on_the_builtin_model() {
+    let out = psi(&["info", "--json"]);
+    assert!(out.status.success());
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(j["points"], psi::octree::BUILTIN_MODEL_POINTS);
+}
+
+#[test]
+fn malformed_inputs_fail_with_exit_code_2_and_name_the_file() {
+    let dir = scratch("bad");
+    let cases: Vec<(&str, Vec<u8>)> = vec![
+        ("empty.ply", vec![]),
+        ("header_only.ply", b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n".to_vec()),
+        ("garbage.xyz", b"1 2 three 4 5 6\n".to_vec()),
+        ("no_normals.xyz", b"0 0 0\n1 0 0\n0 1 0\n".to_vec()),
+        ("nan.xyz", b"nan 0 0 0 0 1\n".to_vec()),
+        ("random.ply", (0..4000u32).map(|i| (i.wrapping_mul(2654435761) >> 13) as u8).collect()),
+        ("few.xyz", b"0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n".to_vec()),
+        ("same.xyz", "0 0 0 0 0 1\n".repeat(50).into_bytes()),
+    ];
+    let existing = dir.join("keep.ply");
+    std::fs::write(&existing, b"precious").unwrap();
+    for (name, bytes) in cases {
+        let path = dir.join(name);
+        std::fs::write(&path, &bytes).unwrap();
+        let out = psi(&[
+            "sample",
+            path.to_str().unwrap(),
+            "-o",
+            existing.to_str().unwrap(),
+            "--iterations",
+            "1",
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{name}: {err}");
+        assert!(
+            err.contains(name),
+            "{name}: error does not name the file: {err}"
+        );
+        assert_eq!(err.trim().lines().count(), 1, "{name}: not one line: {err}");
+        assert_eq!(
+            std::fs::read(&existing).unwrap(),
+            b"precious",
+            "{name} clobbered the output"
+        );
+    }
+    for missing in [dir.join("missing.ply"), dir.clone()] {
+        let out = psi(&["info", missing.to_str().unwrap()]);
+        assert_eq!(out.status.code(), Some(2));
+    }
+    // Usage errors are exit code 2 too.
+    assert_eq!(
+        psi(&["sample", "--iterations", "many"]).status.code(),
+        Some(2)
+    );
+    assert_eq!(psi(&["sample", "--count", "0"]).status.code(), Some(2));
+}
+
+#[test]
+fn sample_writes_a_readable_particle_file_and_report() {
+    let dir = scratch("ok");
+    // A small sphere as XYZ.
+    let pts = psi::AnalyticShape::Sphere { radius: 2.0 }.sample(3000, 4);
+    let text: String = pts
+        .iter()
+        .map(|p| {
+            format!(
+                "{} {} {} {} {} {}\n",
+                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
+            )
+        })
+        .collect();
+    let input = dir.join("sphere.xyz");
+    std::fs::write(&input, text).unwrap();
+    let out_ply = dir.join("p.ply");
+    let report = dir.join("r.json");
+    let out = psi(&[
+        "sample",
+        input.to_str().unwrap(),
+        "-o",
+        out_ply.to_str().unwrap(),
+        "--json",
+        report.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    for key in [
+        "input.points",
+        "input.bbox_diagonal",
+        "mpu.build_seconds",
+        "mpu.leaves",
+        "mpu.max_depth",
+        "particles.count",
+        "particles.init_seconds",
+        "particles.simulate_seconds",
+        "particles.iterations",
+    ] {
+        let (a, b) = key.split_once('.').unwrap();
+        assert!(!j[a][b].is_null(), "report lacks {key}");
+    }
+    let n = j["particles"]["count"].as_u64().unwrap() as usize;
+    let back = psi::load_points(&out_ply, &psi::ReadOptions::paper()).unwrap();
+    assert_eq!(back.points.len(), n);
+    for p in &back.points {
+        assert!((p.p.length() - 2.0).abs() < 1e-3 * 4.0 * 3f64.sqrt());
+    }
+    let mesh = dir.join("m.ply");
+    let out = psi(&[
+        "mesh",
+        input.to_str().unwrap(),
+        "-o",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "64",
+    ]);
+    assert!(out.status.success());
+    let m = psi::load_mesh(&mesh).unwrap();
+    assert!(m.faces.len() > 500);
+}
