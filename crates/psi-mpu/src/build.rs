@@ -5,7 +5,10 @@
 use std::time::Instant;
 
 use glam::DVec3;
-use psi_octree::{Aabb, Octree, OctreeParams, OrientedPoint, PointIndex};
+use std::collections::HashMap;
+
+use psi_octree::{Aabb, Octree, OctreeParams, OrientedPoint, PointIndex, root_cube};
+use serde::{Deserialize, Serialize};
 
 use crate::fit_cell::{CellFit, FitInput, fit_cell};
 use crate::{BuildReport, FitKind, LocalFunction, MpuError, MpuParams};
@@ -22,7 +25,9 @@ pub struct Mpu {
     pub(crate) fits: Vec<LocalFunction>,
     pub(crate) fit_kinds: Vec<FitKind>,
     pub(crate) cell_fit: Vec<u32>,
-    pub(crate) frame_origin: DVec3,
+    pub(crate) fit_fallback: Vec<bool>,
+    pub(crate) fit_radius: Vec<f64>,
+    pub(crate) frame: MpuFrame,
     pub(crate) points: Vec<OrientedPoint>,
     pub(crate) bounds: Aabb,
     pub(crate) params: MpuParams,
@@ -30,11 +35,72 @@ pub struct Mpu {
     pub(crate) index: std::sync::Arc<PointIndex>,
 }
 
+/// The fixed frame of an MPU: where the local coordinates are centred, the root cube, and the
+/// length scale. Local regeneration keeps the frame of the first build so that cells keep their
+/// identity (depth and integer key) across edits.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MpuFrame {
+    /// World position of the local frame's origin.
+    pub origin: DVec3,
+    /// Root cube centre, local frame.
+    pub root_center: DVec3,
+    /// Root cube half-edge, world units.
+    pub root_half: f64,
+    /// The length scale D (input bounding-box diagonal at the first build), world units.
+    pub diagonal: f64,
+}
+
+impl MpuFrame {
+    /// The frame Ohtake's set-up gives `points`: origin at the bounding box's centre, root cube
+    /// `box_scale` × the largest extent.
+    pub fn for_points(points: &[OrientedPoint], params: &MpuParams) -> Result<Self, MpuError> {
+        let need = params.n_min + 1;
+        let bounds = Aabb::from_points(points.iter().map(|p| p.p))
+            .ok_or(MpuError::TooFewPoints { got: 0, need })?;
+        if !bounds.min.is_finite() || !bounds.max.is_finite() {
+            let index = points.iter().position(|p| !p.p.is_finite()).unwrap_or(0);
+            return Err(MpuError::BadPoint { index });
+        }
+        let origin = bounds.center();
+        let local = Aabb {
+            min: bounds.min - origin,
+            max: bounds.max - origin,
+        };
+        let (root_center, root_half) = root_cube(&local, params.box_scale)?;
+        Ok(Self {
+            origin,
+            root_center,
+            root_half,
+            diagonal: bounds.diagonal(),
+        })
+    }
+}
+
+/// A cell's stored decision in a built MPU, reusable by a later build when no edit reached it.
+#[derive(Clone, Debug)]
+pub(crate) struct CellRecord {
+    pub(crate) split: bool,
+    pub(crate) fit: Option<(LocalFunction, FitKind, bool)>,
+    /// The radius the fit used (R1 ≥ R): only points within it influence the cell.
+    pub(crate) fit_radius: f64,
+}
+
+/// What a local rebuild may take from an earlier MPU: the records of its cells that no edit
+/// reached (`marked[cell]` false), looked up by depth and integer key.
+#[derive(Clone, Copy, Debug)]
+pub struct Reuse<'a> {
+    /// The earlier MPU (same frame and parameters).
+    pub old: &'a Mpu,
+    /// Per cell of `old`: whether an edit reached it (its fit must be recomputed).
+    pub marked: &'a [bool],
+}
+
 /// Validates the input and returns local-frame positions and unit normals.
-pub(crate) fn prepare(
+fn prepare(
     points: &[OrientedPoint],
     params: &MpuParams,
-) -> Result<(Vec<DVec3>, Vec<DVec3>, DVec3, Aabb), MpuError> {
+    frame: &MpuFrame,
+) -> Result<(Vec<DVec3>, Vec<DVec3>), MpuError> {
     let need = params.n_min + 1;
     if points.len() < need {
         return Err(MpuError::TooFewPoints {
@@ -45,16 +111,13 @@ pub(crate) fn prepare(
     let mut normals = Vec::with_capacity(points.len());
     for (index, p) in points.iter().enumerate() {
         let len = p.n.length();
-        if !p.p.is_finite() || !(len.is_finite() && len > 0.0) {
+        if !p.p.is_finite() || !len.is_finite() || len <= 0.0 {
             return Err(MpuError::BadPoint { index });
         }
         normals.push(p.n / len);
     }
-    let bounds = Aabb::from_points(points.iter().map(|p| p.p))
-        .ok_or(MpuError::TooFewPoints { got: 0, need })?;
-    let origin = bounds.center();
-    let positions = points.iter().map(|p| p.p - origin).collect();
-    Ok((positions, normals, origin, bounds))
+    let positions = points.iter().map(|p| p.p - frame.origin).collect();
+    Ok((positions, normals))
 }
 
 impl Mpu {
@@ -64,24 +127,25 @@ impl Mpu {
     /// Errors: fewer than N_min + 1 points, a non-finite coordinate or zero normal, or all
     /// points coinciding. Degenerate local fits fall back (counted in [`Mpu::report`]).
     pub fn build(points: &[OrientedPoint], params: &MpuParams) -> Result<Mpu, MpuError> {
-        Self::build_reusing(points, params, &|_, _, _| None)
+        let frame = MpuFrame::for_points(points, params)?;
+        Self::build_in_frame(points, params, &frame, None)
     }
 
-    /// Builds like [`Mpu::build`], but takes a cell's fit from `reuse(depth, key, cell half)`
-    /// when it returns one (local regeneration passes the fits of cells no edit can reach).
-    #[doc(hidden)]
-    pub fn build_reusing(
+    /// Builds in a given frame, taking the records of unmarked cells from `reuse` when given.
+    /// The result equals a build in the same frame without reuse (to rounding in the order of
+    /// summation), because a cell's fit depends only on the points within its fit radius and
+    /// a cell is unmarked only when no changed point lies there.
+    ///
+    /// Errors as [`Mpu::build`], plus [`MpuError::Octree`] when a point leaves the root cube.
+    pub fn build_in_frame(
         points: &[OrientedPoint],
         params: &MpuParams,
-        reuse: &(
-             dyn Fn(u8, [u32; 3], f64) -> Option<(bool, Option<(LocalFunction, FitKind, bool)>)>
-                 + Sync
-         ),
+        frame: &MpuFrame,
+        reuse: Option<Reuse<'_>>,
     ) -> Result<Mpu, MpuError> {
         let start = Instant::now();
-        let (positions, normals, frame_origin, bounds) = prepare(points, params)?;
-        let diagonal = bounds.diagonal();
-        let eps0 = params.error_rel * diagonal;
+        let (positions, normals) = prepare(points, params, frame)?;
+        let eps0 = params.error_rel * frame.diagonal;
         let index = std::sync::Arc::new(PointIndex::new(&positions));
         let input = FitInput {
             positions: &positions,
@@ -94,46 +158,80 @@ impl Mpu {
             alpha: params.alpha,
             max_depth: params.max_depth,
         };
-        let (octree, payloads) = Octree::build_with(&positions, &oparams, |v| {
-            if let Some(hit) = reuse(v.cell.depth, v.cell.key, v.cell.half) {
-                return hit;
-            }
-            let CellFit {
-                function,
-                kind,
-                fallback,
-                error,
-            } = fit_cell(&input, v.cell.center, v.cell.half);
-            let split = error > eps0 && v.cell.depth < params.max_depth;
-            (split, (!split).then_some((function, kind, fallback)))
-        })?;
+        let old_cells: HashMap<(u8, [u32; 3]), u32> = reuse
+            .map(|r| {
+                r.old
+                    .octree
+                    .cells()
+                    .iter()
+                    .enumerate()
+                    .map(|(i, c)| ((c.depth, c.key), i as u32))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let (octree, records) = Octree::build_in_cube(
+            &positions,
+            frame.root_center,
+            frame.root_half,
+            &oparams,
+            |v| {
+                if let Some(r) = reuse
+                    && let Some(&old) = old_cells.get(&(v.cell.depth, v.cell.key))
+                    && !r.marked[old as usize]
+                {
+                    let rec = r.old.record(old);
+                    return (rec.split, rec);
+                }
+                let CellFit {
+                    function,
+                    kind,
+                    fallback,
+                    error,
+                    fit_radius,
+                } = fit_cell(&input, v.cell.center, v.cell.half);
+                let split = error > eps0 && v.cell.depth < params.max_depth;
+                (
+                    split,
+                    CellRecord {
+                        split,
+                        fit: (!split).then_some((function, kind, fallback)),
+                        fit_radius,
+                    },
+                )
+            },
+        )?;
         let mut fits = Vec::new();
         let mut fit_kinds = Vec::new();
+        let mut fit_fallback = Vec::new();
         let mut cell_fit = vec![NO_FIT; octree.cells().len()];
+        let mut fit_radius = Vec::with_capacity(octree.cells().len());
+        let bounds = Aabb::from_points(points.iter().map(|p| p.p)).expect("non-empty");
         let mut report = BuildReport {
             points: points.len(),
             cells: octree.cells().len(),
             eps0,
-            bbox_diagonal: diagonal,
+            bbox_diagonal: frame.diagonal,
             ..Default::default()
         };
         let depth_slots = usize::from(octree.max_depth_reached()) + 1;
         report.leaves_per_depth = vec![0; depth_slots];
         report.surface_leaves_per_depth = vec![0; depth_slots];
-        for (i, payload) in payloads.into_iter().enumerate() {
+        for (i, rec) in records.into_iter().enumerate() {
+            fit_radius.push(rec.fit_radius);
             let cell = octree.cell(i as u32);
             if !cell.is_leaf() {
                 continue;
             }
-            // A leaf always carries a payload: the closure returns one whenever it does not split
-            // (and the builder only refuses a split at the maximum depth, where none is asked).
-            let (function, kind, fallback) = payload.unwrap_or_else(|| {
+            // A leaf always has a fit: the decision returns one whenever it does not split, and
+            // the builder refuses a split only at the maximum depth, where none is asked for.
+            let (function, kind, fallback) = rec.fit.unwrap_or_else(|| {
                 let f = fit_cell(&input, cell.center, cell.half);
                 (f.function, f.kind, f.fallback)
             });
             cell_fit[i] = fits.len() as u32;
             fits.push(function);
             fit_kinds.push(kind);
+            fit_fallback.push(fallback);
             report.leaves += 1;
             report.leaves_per_depth[usize::from(cell.depth)] += 1;
             if !octree.points_in(i as u32).is_empty() {
@@ -161,14 +259,44 @@ impl Mpu {
             octree,
             fits,
             fit_kinds,
+            fit_fallback,
             cell_fit,
-            frame_origin,
+            fit_radius,
+            frame: *frame,
             points,
             bounds,
             params: *params,
             report,
             index,
         })
+    }
+
+    /// The stored record of cell `i` (for reuse).
+    fn record(&self, i: u32) -> CellRecord {
+        let f = self.cell_fit[i as usize];
+        let fit = (f != NO_FIT).then(|| {
+            (
+                self.fits[f as usize].clone(),
+                self.fit_kinds[f as usize],
+                self.fit_fallback[f as usize],
+            )
+        });
+        CellRecord {
+            split: fit.is_none(),
+            fit,
+            fit_radius: self.fit_radius[i as usize],
+        }
+    }
+
+    /// The radius (world units) within which input points influenced cell `cell`'s fit (R1 ≥
+    /// the support radius R); an edit farther than this from the centre cannot change the cell.
+    pub fn fit_radius(&self, cell: u32) -> f64 {
+        self.fit_radius[cell as usize]
+    }
+
+    /// The frame (origin, root cube, D) the MPU was built in.
+    pub fn frame(&self) -> &MpuFrame {
+        &self.frame
     }
 
     /// The build's diagnostics.
@@ -188,7 +316,7 @@ impl Mpu {
 
     /// World position of the local frame's origin (the input bounding box's centre).
     pub fn frame_origin(&self) -> DVec3 {
-        self.frame_origin
+        self.frame.origin
     }
 
     /// The input points, world units, unit normals (shape: N).
@@ -201,9 +329,10 @@ impl Mpu {
         &self.bounds
     }
 
-    /// The input's bounding-box diagonal D, world units.
+    /// The length scale D, world units: the input's bounding-box diagonal at the frame's first
+    /// build (kept through local edits).
     pub fn diagonal(&self) -> f64 {
-        self.bounds.diagonal()
+        self.frame.diagonal
     }
 
     /// Indices of all leaves (each holds a local fit), arena order.
@@ -232,13 +361,13 @@ impl Mpu {
 
     /// The leaf containing world position `x`, `None` outside the root cube.
     pub fn leaf_containing(&self, x: DVec3) -> Option<u32> {
-        self.octree.leaf_containing(x - self.frame_origin)
+        self.octree.leaf_containing(x - self.frame.origin)
     }
 
     /// Distance from world position `x` to the nearest input point, world units (plain).
     pub fn distance_to_data(&self, x: DVec3) -> f64 {
         self.index
-            .nearest(x - self.frame_origin, 1)
+            .nearest(x - self.frame.origin, 1)
             .first()
             .map_or(f64::INFINITY, |n| n.1.sqrt())
     }

@@ -62,7 +62,7 @@ impl Mpu {
     /// surface). Visits only the cells whose support ball contains x.
     #[inline]
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
-        let y = x - self.frame_origin;
+        let y = x - self.frame.origin;
         let mut s = Sums::default();
         self.octree
             .for_each_support_cell(y, |cell, d2| self.accumulate(y, cell, d2, &mut s));
@@ -72,7 +72,7 @@ impl Mpu {
     /// f(x), world units (≈ signed distance near the surface; > 0 outside).
     #[inline]
     pub fn value(&self, x: DVec3) -> f64 {
-        let y = x - self.frame_origin;
+        let y = x - self.frame.origin;
         let alpha = self.params.alpha;
         let (mut w_sum, mut wq) = (0.0, 0.0);
         self.octree.for_each_support_cell(y, |cell, d2| {
@@ -99,7 +99,7 @@ impl Mpu {
     /// The brute-force twin of [`Mpu::value_and_gradient`]: sums over every leaf, no pruning.
     /// For tests and benchmarks only.
     pub fn value_and_gradient_brute_force(&self, x: DVec3) -> (f64, DVec3) {
-        let y = x - self.frame_origin;
+        let y = x - self.frame.origin;
         let mut s = Sums::default();
         for (i, c) in self.octree.cells().iter().enumerate() {
             if c.is_leaf() {
@@ -112,7 +112,7 @@ impl Mpu {
     /// Smooth blended octree depth Σ w_i·depth_i / Σ w_i at world `x` (Ohtake's `level(x)`);
     /// `None` where no leaf support reaches.
     pub fn blended_depth(&self, x: DVec3) -> Option<f64> {
-        let y = x - self.frame_origin;
+        let y = x - self.frame.origin;
         let alpha = self.params.alpha;
         let (mut w_sum, mut wd) = (0.0, 0.0);
         self.octree.for_each_support_cell(y, |cell, d2| {

@@ -28,6 +28,8 @@ pub(crate) struct CellFit {
     pub(crate) fallback: bool,
     /// Largest Taubin distance over the points within the nominal radius (world units).
     pub(crate) error: f64,
+    /// The enlarged radius R1 the fit used (world units).
+    pub(crate) fit_radius: f64,
 }
 
 /// The enlarged fitting radius: R1 = R + m·λR for the smallest m ≥ 0 with more than N_min
@@ -86,8 +88,9 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64) -> CellFi
     if params.sharp
         && matches!(kind, FitKind::Bivariate | FitKind::GeneralQuadric)
         && error > 1e-3 * r
+        && let Some(sharp) = sharp_candidate(&pos, &nrm, &w, r1, params)
     {
-        if let Some(sharp) = sharp_candidate(&pos, &nrm, &w, r1, params) {
+        {
             let sharp_error = error_of(&sharp.0);
             if sharp_error < 0.5 * error {
                 return CellFit {
@@ -95,6 +98,7 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64) -> CellFi
                     kind: sharp.1,
                     fallback: false,
                     error: sharp_error,
+                    fit_radius: r1,
                 };
             }
         }
@@ -104,6 +108,7 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64) -> CellFi
         kind,
         fallback,
         error,
+        fit_radius: r1,
     }
 }
 
@@ -198,15 +203,15 @@ fn select_and_fit(
         return (f, chosen, false);
     }
     // Fallback chain: a failed sharp fit tries the general quadric; then bivariate; then plane.
-    if matches!(chosen, FitKind::Edge | FitKind::Corner) {
-        if let Some(f) = general() {
-            return (f, FitKind::GeneralQuadric, true);
-        }
+    if matches!(chosen, FitKind::Edge | FitKind::Corner)
+        && let Some(f) = general()
+    {
+        return (f, FitKind::GeneralQuadric, true);
     }
-    if chosen != FitKind::Bivariate {
-        if let Some(f) = bivariate() {
-            return (f, FitKind::Bivariate, true);
-        }
+    if chosen != FitKind::Bivariate
+        && let Some(f) = bivariate()
+    {
+        return (f, FitKind::Bivariate, true);
     }
     (plane(), FitKind::Plane, true)
 }

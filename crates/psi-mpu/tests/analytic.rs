@@ -211,7 +211,12 @@ fn cube_edges_stay_sharp() {
         worst = worst.max(case.shape.signed_distance(*v).abs() / d);
         // Vertices within 2 % of D of two faces at once lie along an edge.
         let q = (v.abs() - DVec3::splat(0.5)).abs();
-        if (q.x < 0.02 && q.y < 0.02) || (q.y < 0.02 && q.z < 0.02) || (q.x < 0.02 && q.z < 0.02) {
+        if [q.x < 0.02, q.y < 0.02, q.z < 0.02]
+            .iter()
+            .filter(|b| **b)
+            .count()
+            >= 2
+        {
             near_edges += 1;
         }
     }

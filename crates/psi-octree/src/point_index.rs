@@ -35,7 +35,7 @@ impl PointIndex {
 
     /// Number of indexed points.
     pub fn len(&self) -> usize {
-        self.tree.as_ref().map_or(0, |t| t.size() as usize)
+        self.tree.as_ref().map_or(0, |t| t.size())
     }
 
     /// Whether nothing is indexed.

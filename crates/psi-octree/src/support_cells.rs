@@ -19,7 +19,7 @@ impl Octree {
         let root = &self.cells[0];
         let d2 = (x - root.center).length_squared();
         let r = k * root.half;
-        if !(d2 <= r * r) {
+        if d2.partial_cmp(&(r * r)).is_none_or(|o| o.is_gt()) {
             return;
         }
         // Explicit stack: at most 8 pending siblings per level.

@@ -16,7 +16,8 @@ fn main() {
         for uniform in [true, false] {
             for dt in [0.25, 0.3] {
                 for adapt in [false, true] {
-                    for mm in [0.5] {
+                    {
+                        let mm = 0.5;
                         let p = ParticleParams {
                             density: if uniform {
                                 DensityMode::Uniform

@@ -42,4 +42,4 @@ pub use quality::{
     LevelStats, Quality, SpacingStats, measure_quality, nearest_neighbour_distances,
 };
 pub use relax::{RelaxRegion, relax};
-pub use sample::{SampleReport, Sampling, initialize, sample, surface_area};
+pub use sample::{SampleReport, Sampling, initialize, sample, seed_leaves, surface_area};

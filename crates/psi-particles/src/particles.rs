@@ -28,6 +28,29 @@ impl Particles {
         self.positions.is_empty()
     }
 
+    /// Appends all of `other`'s particles.
+    pub fn extend(&mut self, other: &Particles) {
+        self.positions.extend_from_slice(&other.positions);
+        self.normals.extend_from_slice(&other.normals);
+        self.depth.extend_from_slice(&other.depth);
+        self.sigma.extend_from_slice(&other.sigma);
+        self.target.extend_from_slice(&other.target);
+    }
+
+    /// Keeps the particles for which `keep[i]` is true, in order.
+    pub fn retain_mask(&mut self, keep: &[bool]) {
+        let mut k = keep.iter();
+        self.positions.retain(|_| *k.next().unwrap_or(&false));
+        let mut k = keep.iter();
+        self.normals.retain(|_| *k.next().unwrap_or(&false));
+        let mut k = keep.iter();
+        self.depth.retain(|_| *k.next().unwrap_or(&false));
+        let mut k = keep.iter();
+        self.sigma.retain(|_| *k.next().unwrap_or(&false));
+        let mut k = keep.iter();
+        self.target.retain(|_| *k.next().unwrap_or(&false));
+    }
+
     /// Appends one particle.
     pub fn push(&mut self, p: DVec3, n: DVec3, depth: u8, sigma: f64) {
         self.positions.push(p);

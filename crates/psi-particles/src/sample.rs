@@ -114,6 +114,22 @@ pub fn initialize(mpu: &Mpu, params: &ParticleParams) -> (Particles, DensityFiel
     (particles, field, leaves.len())
 }
 
+/// Seeds `params.k` particles in each of `leaves` (surface-containing leaves of `mpu`) with
+/// targets from an existing density field (local regeneration reseeds marked leaves this way).
+pub fn seed_leaves(
+    mpu: &Mpu,
+    leaves: &[u32],
+    field: &DensityField,
+    params: &ParticleParams,
+) -> Particles {
+    let quota = vec![params.k.max(1); leaves.len()];
+    let mut particles = Particles::default();
+    for s in seed(mpu, leaves, &quota, params) {
+        particles.push(s.p, s.n, s.depth, field.target_sigma(s.depth));
+    }
+    particles
+}
+
 /// Seeds, relaxes and measures (the paper's pipeline).
 pub fn sample(mpu: &Mpu, params: &ParticleParams) -> Sampling {
     let t0 = Instant::now();

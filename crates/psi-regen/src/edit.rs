@@ -1,0 +1,157 @@
+//! Shape edits of the control points, each a value, and how they change the point set.
+
+use glam::{DMat3, DVec3};
+use psi_octree::OrientedPoint;
+use serde::{Deserialize, Serialize};
+
+use crate::RegenError;
+
+/// One edit of the control points (world units).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Edit {
+    /// Moves the points within `radius` of `center` by `displacement` × (1 − t²)², t = r/radius;
+    /// normals follow the inverse transpose of the deformation's Jacobian.
+    Brush {
+        /// Brush centre.
+        center: DVec3,
+        /// Brush radius (> 0).
+        radius: f64,
+        /// Displacement at the centre.
+        displacement: DVec3,
+    },
+    /// Removes the points within `radius` of `center`.
+    Remove {
+        /// Ball centre.
+        center: DVec3,
+        /// Ball radius.
+        radius: f64,
+    },
+    /// Replaces the points within `radius` of `center` by `points` (an over-sketched stroke).
+    Replace {
+        /// Ball centre.
+        center: DVec3,
+        /// Ball radius.
+        radius: f64,
+        /// The new oriented points.
+        points: Vec<OrientedPoint>,
+    },
+    /// Inserts points.
+    Insert {
+        /// The new oriented points.
+        points: Vec<OrientedPoint>,
+    },
+}
+
+/// The brush weight (1 − t²)² and its gradient at offset `y` = p − centre.
+fn falloff(y: DVec3, radius: f64) -> (f64, DVec3) {
+    let s = y.length_squared() / (radius * radius);
+    if s >= 1.0 {
+        return (0.0, DVec3::ZERO);
+    }
+    let a = 1.0 - s;
+    (a * a, (-4.0 * a / (radius * radius)) * y)
+}
+
+impl Edit {
+    /// Applies the edit to `points`, returning the new points and every changed position (old
+    /// and new positions of moved points, removed and added points).
+    pub fn apply(
+        &self,
+        points: &[OrientedPoint],
+    ) -> Result<(Vec<OrientedPoint>, Vec<DVec3>), RegenError> {
+        let mut changed = Vec::new();
+        let finite = |v: DVec3| v.is_finite();
+        match self {
+            Edit::Brush {
+                center,
+                radius,
+                displacement,
+            } => {
+                if !(*radius > 0.0
+                    && radius.is_finite()
+                    && finite(*center)
+                    && finite(*displacement))
+                {
+                    return Err(RegenError::BadEdit(
+                        "a brush needs a finite centre, displacement and a positive radius".into(),
+                    ));
+                }
+                let mut out = Vec::with_capacity(points.len());
+                for p in points {
+                    let (w, gw) = falloff(p.p - *center, *radius);
+                    if w == 0.0 {
+                        out.push(*p);
+                        continue;
+                    }
+                    // J = I + d ⊗ ∇w; normals transform by J^{-T}.
+                    let j = DMat3::IDENTITY
+                        + DMat3::from_cols(
+                            *displacement * gw.x,
+                            *displacement * gw.y,
+                            *displacement * gw.z,
+                        );
+                    if j.determinant() <= 1e-6 {
+                        return Err(RegenError::BadEdit(format!(
+                            "the brush folds the surface (displacement {} too large for radius {radius})",
+                            displacement.length()
+                        )));
+                    }
+                    let n = j.inverse().transpose() * p.n;
+                    let q = OrientedPoint {
+                        p: p.p + w * *displacement,
+                        n: n.normalize(),
+                    };
+                    changed.push(p.p);
+                    changed.push(q.p);
+                    out.push(q);
+                }
+                Ok((out, changed))
+            }
+            Edit::Remove { center, radius } => {
+                let r2 = radius * radius;
+                let mut out = Vec::with_capacity(points.len());
+                for p in points {
+                    if (p.p - *center).length_squared() <= r2 {
+                        changed.push(p.p);
+                    } else {
+                        out.push(*p);
+                    }
+                }
+                Ok((out, changed))
+            }
+            Edit::Replace {
+                center,
+                radius,
+                points: new,
+            } => {
+                let (mut out, mut changed) = Edit::Remove {
+                    center: *center,
+                    radius: *radius,
+                }
+                .apply(points)?;
+                let (_, added) = Edit::Insert {
+                    points: new.clone(),
+                }
+                .apply(&[])?;
+                out.extend_from_slice(new);
+                changed.extend(added);
+                Ok((out, changed))
+            }
+            Edit::Insert { points: new } => {
+                for (i, p) in new.iter().enumerate() {
+                    if OrientedPoint::new_normalized(p.p, p.n).is_none() {
+                        return Err(RegenError::BadEdit(format!(
+                            "inserted point {i} is not finite or has a zero normal"
+                        )));
+                    }
+                }
+                let mut out = points.to_vec();
+                out.extend(
+                    new.iter()
+                        .map(|p| OrientedPoint::new_normalized(p.p, p.n).expect("checked")),
+                );
+                Ok((out, new.iter().map(|p| p.p).collect()))
+            }
+        }
+    }
+}

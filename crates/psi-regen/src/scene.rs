@@ -1,0 +1,226 @@
+//! A scene: control points, their MPU and their particles, updated locally by edits (paper §6).
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use glam::DVec3;
+use psi_mpu::{Mpu, MpuParams, Reuse};
+use psi_octree::OrientedPoint;
+use psi_particles::{
+    DensityField, ParticleParams, Particles, RelaxRegion, SampleReport, initialize,
+    measure_quality, relax, seed_leaves,
+};
+use serde::{Deserialize, Serialize};
+
+use crate::{Edit, RegenError, mark_cells};
+
+/// What one edit cost and touched.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RegenReport {
+    /// Cells of the previous octree whose fit radius holds a changed point.
+    pub marked_cells: usize,
+    /// Cells of the new octree that were fitted again (marked or newly created).
+    pub refit_cells: usize,
+    /// Particles removed (they were in marked leaves).
+    pub particles_removed: usize,
+    /// Particles seeded and relaxed in the marked region.
+    pub particles_regenerated: usize,
+    /// Control points after the edit.
+    pub points: usize,
+    /// Whether the edit left the root cube and forced a full rebuild in a new frame.
+    pub full_rebuild: bool,
+    /// Seconds marking and rebuilding the MPU.
+    pub mpu_seconds: f64,
+    /// Seconds regenerating particles.
+    pub particle_seconds: f64,
+    /// Total seconds.
+    pub seconds: f64,
+}
+
+/// Control points, MPU and particles kept consistent under edits.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    points: Vec<OrientedPoint>,
+    mpu: Mpu,
+    particles: Particles,
+    field: DensityField,
+    mpu_params: MpuParams,
+    particle_params: ParticleParams,
+}
+
+impl Scene {
+    /// Builds the MPU of `points` and samples it (the full pipeline). Returns the scene and the
+    /// sampling report.
+    pub fn new(
+        points: Vec<OrientedPoint>,
+        mpu_params: &MpuParams,
+        particle_params: &ParticleParams,
+    ) -> Result<(Scene, SampleReport), RegenError> {
+        let mpu = Mpu::build(&points, mpu_params)?;
+        let run = psi_particles::sample(&mpu, particle_params);
+        let field = run.report.density;
+        let points = mpu.points().to_vec();
+        let scene = Scene {
+            points,
+            mpu,
+            particles: run.particles,
+            field,
+            mpu_params: *mpu_params,
+            particle_params: *particle_params,
+        };
+        Ok((scene, run.report))
+    }
+
+    /// The control points (world units, unit normals).
+    pub fn points(&self) -> &[OrientedPoint] {
+        &self.points
+    }
+
+    /// The current MPU.
+    pub fn mpu(&self) -> &Mpu {
+        &self.mpu
+    }
+
+    /// The current particles.
+    pub fn particles(&self) -> &Particles {
+        &self.particles
+    }
+
+    /// The density field fixed at the first sampling.
+    pub fn density(&self) -> &DensityField {
+        &self.field
+    }
+
+    /// An MPU built from scratch on the current points in the scene's frame (the oracle local
+    /// regeneration must equal).
+    pub fn rebuild_from_scratch(&self) -> Result<Mpu, RegenError> {
+        Ok(Mpu::build_in_frame(
+            &self.points,
+            &self.mpu_params,
+            self.mpu.frame(),
+            None,
+        )?)
+    }
+
+    /// Applies `edit`: marks the cells whose fit radius holds a changed point, refits only those
+    /// (and any new cells below them), deletes the particles in marked leaves, seeds the new
+    /// marked leaves and relaxes only the new particles, the others fixed, rejecting moves that
+    /// leave the marked leaves. On error the scene is unchanged.
+    pub fn apply(&mut self, edit: &Edit) -> Result<RegenReport, RegenError> {
+        let t0 = Instant::now();
+        let (points, changed) = edit.apply(&self.points)?;
+        let root = *self.mpu.octree().root();
+        let origin = self.mpu.frame_origin();
+        let inside = points.iter().all(|p| root.contains(p.p - origin));
+        if !inside {
+            // The edit left the root cube: start again in a new frame.
+            let (scene, _) = Scene::new(points, &self.mpu_params, &self.particle_params)?;
+            let report = RegenReport {
+                marked_cells: self.mpu.octree().cells().len(),
+                refit_cells: scene.mpu.octree().cells().len(),
+                particles_removed: self.particles.len(),
+                particles_regenerated: scene.particles.len(),
+                points: scene.points.len(),
+                full_rebuild: true,
+                seconds: t0.elapsed().as_secs_f64(),
+                ..Default::default()
+            };
+            *self = scene;
+            return Ok(report);
+        }
+        let marked_old = mark_cells(&self.mpu, &changed);
+        let mpu = Mpu::build_in_frame(
+            &points,
+            &self.mpu_params,
+            self.mpu.frame(),
+            Some(Reuse {
+                old: &self.mpu,
+                marked: &marked_old,
+            }),
+        )?;
+        // New cells that were fitted again: not present before, or marked.
+        let old_keys: HashMap<(u8, [u32; 3]), u32> = self
+            .mpu
+            .octree()
+            .cells()
+            .iter()
+            .enumerate()
+            .map(|(i, c)| ((c.depth, c.key), i as u32))
+            .collect();
+        let refit: Vec<bool> = mpu
+            .octree()
+            .cells()
+            .iter()
+            .map(|c| {
+                old_keys
+                    .get(&(c.depth, c.key))
+                    .is_none_or(|&o| marked_old[o as usize])
+            })
+            .collect();
+        let mpu_seconds = t0.elapsed().as_secs_f64();
+
+        let t1 = Instant::now();
+        // Keep the particles whose old leaf is unmarked and whose new leaf was not refitted.
+        let keep: Vec<bool> = self
+            .particles
+            .positions
+            .iter()
+            .map(|&x| {
+                let old = self
+                    .mpu
+                    .leaf_containing(x)
+                    .is_some_and(|l| !marked_old[l as usize]);
+                let new = mpu.leaf_containing(x).is_some_and(|l| !refit[l as usize]);
+                old && new
+            })
+            .collect();
+        let mut particles = self.particles.clone();
+        particles.retain_mask(&keep);
+        let kept = particles.len();
+        let leaves: Vec<u32> = mpu
+            .surface_leaves()
+            .filter(|&l| refit[l as usize])
+            .collect();
+        let fresh = seed_leaves(&mpu, &leaves, &self.field, &self.particle_params);
+        particles.extend(&fresh);
+        let movable: Vec<bool> = (0..particles.len()).map(|i| i >= kept).collect();
+        let accept = |x: DVec3| mpu.leaf_containing(x).is_some_and(|l| refit[l as usize]);
+        relax(
+            &mpu,
+            &mut particles,
+            &self.field,
+            &self.particle_params,
+            RelaxRegion {
+                movable: Some(&movable),
+                accept: Some(&accept),
+            },
+        );
+        let particle_seconds = t1.elapsed().as_secs_f64();
+
+        let report = RegenReport {
+            marked_cells: marked_old.iter().filter(|m| **m).count(),
+            refit_cells: refit.iter().filter(|m| **m).count(),
+            particles_removed: self.particles.len() - kept,
+            particles_regenerated: fresh.len(),
+            points: points.len(),
+            full_rebuild: false,
+            mpu_seconds,
+            particle_seconds,
+            seconds: t0.elapsed().as_secs_f64(),
+        };
+        self.points = mpu.points().to_vec();
+        self.mpu = mpu;
+        self.particles = particles;
+        Ok(report)
+    }
+
+    /// Quality figures of the current particles.
+    pub fn quality(&self) -> psi_particles::Quality {
+        measure_quality(&self.mpu, &self.particles)
+    }
+
+    /// Re-samples from scratch (a full run on the current points, for comparison).
+    pub fn resample_from_scratch(&self) -> Particles {
+        initialize(&self.mpu, &self.particle_params).0
+    }
+}

@@ -1,0 +1,213 @@
+//! Local regeneration against its oracles: an MPU built from scratch on the edited points, the
+//! particles before the edit, and brute-force marking.
+
+use std::collections::BTreeSet;
+
+use glam::DVec3;
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngSeed};
+use psi_mpu::{Mpu, MpuParams};
+use psi_octree::{AnalyticShape, OrientedPoint};
+use psi_particles::ParticleParams;
+use psi_regen::{Edit, Scene, mark_cells, mark_cells_brute_force};
+
+fn leaves(mpu: &Mpu) -> BTreeSet<(u8, [u32; 3])> {
+    mpu.leaves()
+        .map(|l| {
+            let c = mpu.octree().cell(l);
+            (c.depth, c.key)
+        })
+        .collect()
+}
+
+fn assert_same_mpu(local: &Mpu, scratch: &Mpu) {
+    assert_eq!(leaves(local), leaves(scratch), "leaf sets differ");
+    let b = scratch.bounds();
+    let d = scratch.diagonal();
+    for i in 0..200 {
+        let t = DVec3::new(
+            (i as f64 * 0.37).fract(),
+            (i as f64 * 0.61).fract(),
+            (i as f64 * 0.83).fract(),
+        );
+        let x = b.min - 0.1 * b.extent() + 1.2 * b.extent() * t;
+        let (f1, g1) = local.value_and_gradient(x);
+        let (f2, g2) = scratch.value_and_gradient(x);
+        psi_octree::assert_near!(f1, f2, 1e-12 * d.max(f2.abs()));
+        psi_octree::assert_near!((g1 - g2).length(), 0.0, 1e-12 * g2.length().max(1.0));
+    }
+}
+
+fn shape(kind: u8) -> Vec<OrientedPoint> {
+    match kind % 2 {
+        0 => AnalyticShape::Sphere { radius: 1.0 }.sample(5000, 3),
+        _ => AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.4,
+        }
+        .sample(6000, 4),
+    }
+}
+
+fn edits() -> impl Strategy<Value = Edit> {
+    let center = (0usize..5000, 0.0f64..0.3);
+    prop_oneof![
+        (
+            center.clone(),
+            0.1f64..0.5,
+            (-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0)
+        )
+            .prop_map(|((i, _), r, (x, y, z))| {
+                Edit::Brush {
+                    center: DVec3::new(i as f64, 0.0, 0.0),
+                    radius: r,
+                    displacement: 0.25 * r * DVec3::new(x, y, z),
+                }
+            }),
+        (center.clone(), 0.05f64..0.3).prop_map(|((i, _), r)| Edit::Remove {
+            center: DVec3::new(i as f64, 0.0, 0.0),
+            radius: r
+        }),
+    ]
+}
+
+/// Puts the edit's centre (an index in the strategy) on a point of the shape.
+fn place(edit: Edit, points: &[OrientedPoint]) -> Edit {
+    let at = |c: DVec3| points[c.x as usize % points.len()].p;
+    match edit {
+        Edit::Brush {
+            center,
+            radius,
+            displacement,
+        } => Edit::Brush {
+            center: at(center),
+            radius,
+            displacement,
+        },
+        Edit::Remove { center, radius } => Edit::Remove {
+            center: at(center),
+            radius,
+        },
+        e => e,
+    }
+}
+
+fn config() -> Config {
+    Config {
+        cases: 24,
+        rng_seed: RngSeed::Fixed(0x5e6e),
+        failure_persistence: None,
+        ..Config::default()
+    }
+}
+
+proptest! {
+    #![proptest_config(config())]
+
+    #[test]
+    fn local_regeneration_equals_a_rebuild_and_leaves_the_rest_alone(kind in 0u8..2, edit in edits()) {
+        let points = shape(kind);
+        let params = ParticleParams { iterations: 5, ..ParticleParams::paper() };
+        let (mut scene, _) = Scene::new(points.clone(), &MpuParams::paper(), &params).unwrap();
+        let edit = place(edit, &points);
+        let before = scene.particles().clone();
+        let old_mpu = scene.mpu().clone();
+        let report = scene.apply(&edit).unwrap();
+        prop_assert!(!report.full_rebuild);
+        // The MPU equals one built from scratch on the edited points (same frame).
+        assert_same_mpu(scene.mpu(), &scene.rebuild_from_scratch().unwrap());
+        // Marking equals brute force.
+        let (_, changed) = edit.apply(old_mpu.points()).unwrap();
+        prop_assert_eq!(mark_cells(&old_mpu, &changed), mark_cells_brute_force(&old_mpu, &changed));
+        // Particles away from the edit are bitwise unchanged: the first kept ones, in order.
+        let kept = before.len() - report.particles_removed;
+        let after = scene.particles();
+        prop_assert_eq!(after.len(), kept + report.particles_regenerated);
+        let (center, radius) = match &edit {
+            Edit::Brush { center, radius, .. } | Edit::Remove { center, radius } => (*center, *radius),
+            _ => unreachable!(),
+        };
+        let far: Vec<DVec3> = before.positions.iter().copied().filter(|p| (*p - center).length() > 4.0 * radius.max(0.25)).collect();
+        let far_after: Vec<DVec3> = after.positions[..kept].iter().copied().filter(|p| (*p - center).length() > 4.0 * radius.max(0.25)).collect();
+        prop_assert_eq!(far, far_after);
+        // New particles meet the full run's adherence figure.
+        let d = scene.mpu().diagonal();
+        for x in &after.positions[kept..] {
+            let (f, g) = scene.mpu().value_and_gradient(*x);
+            prop_assert!(f.abs() / g.length() <= 1e-4 * d * (1.0 + 1e-9), "new particle off the surface");
+        }
+    }
+}
+
+#[test]
+fn an_edit_of_the_whole_shape_equals_a_full_rebuild() {
+    let points = shape(0);
+    let (mut scene, _) = Scene::new(
+        points,
+        &MpuParams::paper(),
+        &ParticleParams {
+            iterations: 5,
+            ..ParticleParams::paper()
+        },
+    )
+    .unwrap();
+    let report = scene
+        .apply(&Edit::Brush {
+            center: DVec3::ZERO,
+            radius: 3.0,
+            displacement: DVec3::new(0.05, 0.0, 0.0),
+        })
+        .unwrap();
+    assert_eq!(report.refit_cells, scene.mpu().octree().cells().len());
+    assert_same_mpu(scene.mpu(), &scene.rebuild_from_scratch().unwrap());
+}
+
+#[test]
+fn brush_normals_follow_the_inverse_transpose() {
+    // A plane z = 0 under a brush: the new normal must be orthogonal to the deformed surface,
+    // checked by finite differences of the deformation.
+    let c = DVec3::new(0.1, 0.0, 0.0);
+    let (r, d) = (1.0, DVec3::new(0.0, 0.0, 0.3));
+    let edit = Edit::Brush {
+        center: c,
+        radius: r,
+        displacement: d,
+    };
+    let p = DVec3::new(0.4, 0.3, 0.0);
+    let (out, _) = edit.apply(&[OrientedPoint { p, n: DVec3::Z }]).unwrap();
+    let deform = |q: DVec3| {
+        edit.apply(&[OrientedPoint { p: q, n: DVec3::Z }])
+            .unwrap()
+            .0[0]
+            .p
+    };
+    let h = 1e-6;
+    let tx = (deform(p + DVec3::X * h) - deform(p - DVec3::X * h)) / (2.0 * h);
+    let ty = (deform(p + DVec3::Y * h) - deform(p - DVec3::Y * h)) / (2.0 * h);
+    psi_octree::assert_near!(out[0].n.dot(tx), 0.0, 1e-8);
+    psi_octree::assert_near!(out[0].n.dot(ty), 0.0, 1e-8);
+    assert!(out[0].n.z > 0.0);
+}
+
+#[test]
+fn a_failed_edit_leaves_the_scene_unchanged() {
+    let (mut scene, _) = Scene::new(
+        shape(0),
+        &MpuParams::paper(),
+        &ParticleParams {
+            iterations: 2,
+            ..ParticleParams::paper()
+        },
+    )
+    .unwrap();
+    let before = scene.particles().clone();
+    assert!(
+        scene
+            .apply(&Edit::Remove {
+                center: DVec3::ZERO,
+                radius: 10.0
+            })
+            .is_err()
+    );
+    assert_eq!(scene.particles(), &before);
+}
