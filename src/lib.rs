@@ -30,6 +30,7 @@ pub use psi_regen as regen;
 
 pub use error::PsiError;
 pub use files::{load_mesh, load_points, save_json, save_mesh, save_particles, write_atomically};
+pub use glam::DVec3;
 pub use psi_io::{MeshSampling, PointCloudFile, ReadOptions, TriangleMesh};
 pub use psi_mpu::{
     BuildReport, Mpu, MpuError, MpuParams, PolygonizeParams, TriangleSoup, polygonize,

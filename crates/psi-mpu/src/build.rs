@@ -55,6 +55,12 @@ impl MpuFrame {
     /// `box_scale` × the largest extent.
     pub fn for_points(points: &[OrientedPoint], params: &MpuParams) -> Result<Self, MpuError> {
         let need = params.n_min + 1;
+        if points.len() < need {
+            return Err(MpuError::TooFewPoints {
+                got: points.len(),
+                need,
+            });
+        }
         let bounds = Aabb::from_points(points.iter().map(|p| p.p))
             .ok_or(MpuError::TooFewPoints { got: 0, need })?;
         if !bounds.min.is_finite() || !bounds.max.is_finite() {
@@ -188,7 +194,7 @@ impl Mpu {
                     fallback,
                     error,
                     fit_radius,
-                } = fit_cell(&input, v.cell.center, v.cell.half);
+                } = fit_cell(&input, v.cell.center, v.cell.half, eps0);
                 let split = error > eps0 && v.cell.depth < params.max_depth;
                 (
                     split,
@@ -225,7 +231,7 @@ impl Mpu {
             // A leaf always has a fit: the decision returns one whenever it does not split, and
             // the builder refuses a split only at the maximum depth, where none is asked for.
             let (function, kind, fallback) = rec.fit.unwrap_or_else(|| {
-                let f = fit_cell(&input, cell.center, cell.half);
+                let f = fit_cell(&input, cell.center, cell.half, eps0);
                 (f.function, f.kind, f.fallback)
             });
             cell_fit[i] = fits.len() as u32;

@@ -55,13 +55,43 @@ fn fit_radius(input: &FitInput<'_>, center: DVec3, r: f64) -> f64 {
     r1
 }
 
-/// Fits the cell with centre `center` and half-edge `half` (local frame).
-pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64) -> CellFit {
+/// A fit uses at most about this many points: larger neighbourhoods (coarse cells, whose fits
+/// are almost always discarded by the split) are thinned by a hash of each point's coordinates,
+/// so the choice depends on the point set only — a rebuild after an edit thins an unchanged
+/// neighbourhood identically.
+pub(crate) const MAX_FIT_POINTS: usize = 4096;
+
+/// A hash of a position's bits (for identity-based thinning).
+fn position_hash(p: DVec3) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    for v in [p.x, p.y, p.z] {
+        h ^= v.to_bits();
+        h = h.wrapping_mul(0x0100_0000_01b3).rotate_left(29);
+    }
+    h ^ (h >> 31)
+}
+
+/// Fits the cell with centre `center` and half-edge `half` (local frame). The error is the
+/// largest Taubin distance within the nominal radius, except that its computation stops once
+/// it exceeds `eps0` (the split decision needs no more; a leaf's error is the exact maximum).
+pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64) -> CellFit {
     let params = input.params;
     let r = params.alpha * 2.0 * 3f64.sqrt() * half;
     let r1 = fit_radius(input, center, r);
-    let mut idx = Vec::new();
-    input.index.within(center, r1, &mut idx);
+    let mut ball = Vec::new();
+    input.index.within(center, r1, &mut ball);
+    let thin = ball.len().div_ceil(MAX_FIT_POINTS).max(1) as u64;
+    let mut idx: Vec<u32> = if thin > 1 {
+        ball.iter()
+            .copied()
+            .filter(|&i| position_hash(input.positions[i as usize]) % thin == 0)
+            .collect()
+    } else {
+        ball.clone()
+    };
+    if idx.len() < 3 {
+        idx.clone_from(&ball);
+    }
     idx.sort_unstable();
     let pos: Vec<DVec3> = idx.iter().map(|&i| input.positions[i as usize]).collect();
     let nrm: Vec<DVec3> = idx.iter().map(|&i| input.normals[i as usize]).collect();
@@ -73,34 +103,42 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64) -> CellFi
     let (function, kind, fallback) = select_and_fit(&pos, &nrm, &w, center, half, r1, params);
     let r2 = r * r;
     let error_of = |f: &LocalFunction| {
-        pos.iter()
-            .filter(|p| (**p - center).length_squared() < r2)
-            .map(|p| f.taubin_distance(*p))
-            .fold(0.0f64, f64::max)
+        let mut e = 0.0f64;
+        for &i in &ball {
+            let p = input.positions[i as usize];
+            if (p - center).length_squared() < r2 {
+                e = e.max(f.taubin_distance(p));
+                if e > eps0 {
+                    break;
+                }
+            }
+        }
+        e
     };
     let error = error_of(&function);
 
     // psi's addition to Ohtake's selection: Ohtake tries sharp pieces only in cells with at
     // most 2·N_min points, so a dense scan's creases are approximated by smooth fits rounded
     // within ε0. When a smooth fit was chosen, the normals show a crease (extreme normals
-    // differ by more than 60°) and the smooth fit is not already near-exact,
-    // the sharp fit is tried too and kept if it at least halves the error.
+    // differ by more than 60°) and the smooth fit is not already near-exact, the sharp fit is
+    // tried too and kept if it at least halves the error. Where the smooth error exceeds ε0 it
+    // is only known to be ≥ ε0 (the computation stopped there), so the sharp fit must then reach
+    // ε0/2.
     if params.sharp
         && matches!(kind, FitKind::Bivariate | FitKind::GeneralQuadric)
         && error > 1e-3 * r
         && let Some(sharp) = sharp_candidate(&pos, &nrm, &w, r1, params)
     {
-        {
-            let sharp_error = error_of(&sharp.0);
-            if sharp_error < 0.5 * error {
-                return CellFit {
-                    function: sharp.0,
-                    kind: sharp.1,
-                    fallback: false,
-                    error: sharp_error,
-                    fit_radius: r1,
-                };
-            }
+        let sharp_error = error_of(&sharp.0);
+        let better = sharp_error < 0.5 * error.min(eps0);
+        if better {
+            return CellFit {
+                function: sharp.0,
+                kind: sharp.1,
+                fallback: false,
+                error: sharp_error,
+                fit_radius: r1,
+            };
         }
     }
     CellFit {

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 use psi_mpu::{Mpu, MpuParams, Reuse};
-use psi_octree::OrientedPoint;
+use psi_octree::{OrientedPoint, PointIndex};
 use psi_particles::{
     DensityField, ParticleParams, Particles, RelaxRegion, SampleReport, initialize,
     measure_quality, relax, seed_leaves,
@@ -183,11 +183,39 @@ impl Scene {
             .collect();
         let fresh = seed_leaves(&mpu, &leaves, &self.field, &self.particle_params);
         particles.extend(&fresh);
-        let movable: Vec<bool> = (0..particles.len()).map(|i| i >= kept).collect();
+        // Relax the new particles among the fixed ones that can reach them: those within the
+        // neighbour radius of the largest σ plus the largest total travel of a new particle.
+        let reach = {
+            let s_max = particles.sigma.iter().copied().fold(0.0, f64::max);
+            let p = &self.particle_params;
+            s_max * (p.neighbour_radius + p.max_move * p.sigma_clamp.1 * p.iterations as f64)
+        };
+        let seeds_index = PointIndex::new(&fresh.positions);
+        let mut subset: Vec<usize> = (0..kept)
+            .filter(|&i| {
+                seeds_index
+                    .nearest(particles.positions[i], 1)
+                    .first()
+                    .is_some_and(|n| n.1 <= reach * reach)
+            })
+            .collect();
+        let fixed_in_subset = subset.len();
+        subset.extend(kept..particles.len());
+        let mut local = Particles::default();
+        for &i in &subset {
+            local.push(
+                particles.positions[i],
+                particles.normals[i],
+                particles.depth[i],
+                particles.sigma[i],
+            );
+            *local.target.last_mut().expect("pushed") = particles.target[i];
+        }
+        let movable: Vec<bool> = (0..local.len()).map(|i| i >= fixed_in_subset).collect();
         let accept = |x: DVec3| mpu.leaf_containing(x).is_some_and(|l| refit[l as usize]);
         relax(
             &mpu,
-            &mut particles,
+            &mut local,
             &self.field,
             &self.particle_params,
             RelaxRegion {
@@ -195,6 +223,13 @@ impl Scene {
                 accept: Some(&accept),
             },
         );
+        for (k, &i) in subset.iter().enumerate().skip(fixed_in_subset) {
+            particles.positions[i] = local.positions[k];
+            particles.normals[i] = local.normals[k];
+            particles.depth[i] = local.depth[k];
+            particles.sigma[i] = local.sigma[k];
+            particles.target[i] = local.target[k];
+        }
         let particle_seconds = t1.elapsed().as_secs_f64();
 
         let report = RegenReport {

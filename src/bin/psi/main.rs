@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use clap::{Args, Parser, Subcommand};
 
 mod input;
+mod run_edit;
 mod run_info;
 mod run_mesh;
 mod run_sample;
@@ -80,6 +81,11 @@ enum Command {
         after_help = "Examples:\n  psi sample -o particles.ply\n  psi sample bunny.ply --count 10000 --uniform -o p.ply --json report.json"
     )]
     Sample(run_sample::SampleArgs),
+    /// Build and sample, apply shape edits locally, write the particles before and after.
+    #[command(
+        after_help = "Example:\n  psi edit bunny.ply --brush -0.02,0.1,0.05,0.02,0,0.005,0 --before before.ply -o after.ply --json edit.json"
+    )]
+    Edit(run_edit::EditArgs),
 }
 
 /// An error with the exit code it maps to.
@@ -109,6 +115,7 @@ fn main() -> ExitCode {
         Command::Info { input, json } => run_info::run(&input, json),
         Command::Mesh(args) => run_mesh::run(&args),
         Command::Sample(args) => run_sample::run(&args),
+        Command::Edit(args) => run_edit::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
