@@ -1,1 +1,97 @@
-fn main() {}
+//! psi's development tasks, run as `cargo xtask <task>` (the cargo-xtask pattern: a plain
+//! binary in the workspace, aliased in `.cargo/config.toml`).
+//!
+//! * `reproduce-tables [--models DIR] [--only a,b] [--iterations 20] [--json FILE]`: the paper's
+//!   Tables 1 and 2 on the shared models, timed with the release `psi` binary, each particle set
+//!   checked against its reference mesh (parry3d-f64 point projection).
+//! * `check-reference [--models DIR] [--only a,b]`: cross-checks the Rust distances with Python
+//!   libigl (`point_mesh_squared_distance`) in a virtual environment the task creates.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+
+mod check_reference;
+mod host;
+mod paper;
+mod reference;
+mod tables;
+
+/// Command-line flags shared by the tasks.
+pub(crate) struct Flags {
+    pub(crate) models: Option<PathBuf>,
+    pub(crate) only: Option<Vec<String>>,
+    pub(crate) iterations: usize,
+    pub(crate) json: Option<PathBuf>,
+}
+
+fn parse(args: &[String]) -> Result<Flags> {
+    let mut flags = Flags {
+        models: None,
+        only: None,
+        iterations: 20,
+        json: None,
+    };
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let mut value = || it.next().with_context(|| format!("{a} needs a value"));
+        match a.as_str() {
+            "--models" => flags.models = Some(PathBuf::from(value()?)),
+            "--only" => flags.only = Some(value()?.split(',').map(str::to_owned).collect()),
+            "--iterations" => {
+                flags.iterations = value()?
+                    .parse()
+                    .context("--iterations takes a whole number")?
+            }
+            "--json" => flags.json = Some(PathBuf::from(value()?)),
+            other => bail!("unknown flag {other}"),
+        }
+    }
+    Ok(flags)
+}
+
+/// The workspace root (the parent of this crate).
+pub(crate) fn project_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("xtask lives in the workspace")
+        .to_path_buf()
+}
+
+/// The models folder: `--models`, else `$PSI_MODELS`, else `../shared/models`.
+pub(crate) fn models_dir(flags: &Flags) -> Result<PathBuf> {
+    let candidates = [
+        flags.models.clone(),
+        std::env::var_os("PSI_MODELS").map(PathBuf::from),
+        Some(project_root().join("../shared/models")),
+    ];
+    for c in candidates.into_iter().flatten() {
+        if c.is_dir() {
+            return Ok(c);
+        }
+    }
+    bail!(
+        "no models folder: pass --models DIR, set PSI_MODELS, or put the shared models at ../shared/models"
+    )
+}
+
+fn main() -> std::process::ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("reproduce-tables") => parse(&args[1..]).and_then(|f| tables::run(&f)),
+        Some("check-reference") => parse(&args[1..]).and_then(|f| check_reference::run(&f)),
+        _ => {
+            eprintln!(
+                "usage: cargo xtask reproduce-tables|check-reference [--models DIR] [--only a,b] [--iterations N] [--json FILE]"
+            );
+            return std::process::ExitCode::from(2);
+        }
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

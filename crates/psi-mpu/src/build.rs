@@ -33,6 +33,8 @@ pub struct Mpu {
     pub(crate) params: MpuParams,
     pub(crate) report: BuildReport,
     pub(crate) index: std::sync::Arc<PointIndex>,
+    /// Lazily computed [`Mpu::input_spacing`] per input point (f64 bits; 0 = not yet).
+    pub(crate) spacing_cache: std::sync::Arc<Vec<std::sync::atomic::AtomicU64>>,
 }
 
 /// The fixed frame of an MPU: where the local coordinates are centred, the root cube, and the
@@ -274,6 +276,11 @@ impl Mpu {
             params: *params,
             report,
             index,
+            spacing_cache: std::sync::Arc::new(
+                (0..normals.len())
+                    .map(|_| std::sync::atomic::AtomicU64::new(0))
+                    .collect(),
+            ),
         })
     }
 
@@ -368,6 +375,54 @@ impl Mpu {
     /// The leaf containing world position `x`, `None` outside the root cube.
     pub fn leaf_containing(&self, x: DVec3) -> Option<u32> {
         self.octree.leaf_containing(x - self.frame.origin)
+    }
+
+    /// Whether world position `x` lies inside the data's footprint: within `reach` local input
+    /// spacings of the nearest input point, and not beyond the edge of the data (a hole or a
+    /// scan's border).
+    ///
+    /// With q the input point nearest to x: the local spacing is s = d₈·√(π/8), d₈ the distance
+    /// from q to its 8th neighbour (for a uniform
+    /// 2D density ρ, the k-th neighbour lies at ≈ √(k/(πρ)) and the spacing is 1/√ρ), and x is
+    /// past an edge when the centroid of its own 8 nearest points is offset from x, within the tangent plane of
+    /// the nearest point, by more than s: inside the data the offset is a fraction of s, on a
+    /// straight edge about 0.95 s (the centroid of a half disc of radius √(2k/π)·s), and it grows
+    /// with the distance past the edge.
+    pub fn near_data(&self, x: DVec3, reach: f64) -> bool {
+        let y = x - self.frame.origin;
+        let near = self.index.nearest(y, 8);
+        let Some(&(q, d2)) = near.first() else {
+            return false;
+        };
+        // The spacing where the data is: around q, not around x (which may be off the data).
+        let positions = self.octree.positions();
+        let spacing = self.input_spacing(q);
+        if d2.sqrt() > reach * spacing {
+            return false;
+        }
+        let centroid = near
+            .iter()
+            .map(|&(i, _)| positions[i as usize])
+            .sum::<DVec3>()
+            / near.len() as f64;
+        let n = self.points[q as usize].n;
+        let offset = centroid - y;
+        (offset - n * offset.dot(n)).length() <= spacing
+    }
+
+    /// The input spacing at input point `q`: d₈·√(π/8), d₈ the distance to its 8th nearest
+    /// neighbour (world units). Cached: it is a pure function of the input.
+    pub fn input_spacing(&self, q: u32) -> f64 {
+        use std::sync::atomic::Ordering;
+        let slot = &self.spacing_cache[q as usize];
+        let bits = slot.load(Ordering::Relaxed);
+        if bits != 0 {
+            return f64::from_bits(bits);
+        }
+        let around = self.index.nearest(self.octree.positions()[q as usize], 9);
+        let s = around.last().map_or(0.0, |n| n.1.sqrt()) * (std::f64::consts::PI / 8.0).sqrt();
+        slot.store(s.to_bits(), Ordering::Relaxed);
+        s
     }
 
     /// Distance from world position `x` to the nearest input point, world units (plain).

@@ -63,8 +63,8 @@ pub struct ParticleParams {
     pub newton_tolerance: f64,
     /// Newton polish step limit per iteration.
     pub newton_steps: usize,
-    /// A move is rejected when it ends farther than this multiple of σ̂_i from every input
-    /// point: particles stay where there is data (open scans, holes).
+    /// A move is rejected when it ends farther from every input point than this multiple of the
+    /// local input spacing: particles stay where there is data (open scans, holes).
     pub data_reach: f64,
     /// Seed of every random choice.
     pub seed: u64,
@@ -93,7 +93,7 @@ impl ParticleParams {
             neighbour_radius: 3.0,
             newton_tolerance: 1e-4,
             newton_steps: 4,
-            data_reach: 2.0,
+            data_reach: 1.5,
             seed: 2007,
         }
     }

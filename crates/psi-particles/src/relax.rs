@@ -97,9 +97,8 @@ pub fn relax(
                     step *= cap / len;
                 }
                 let (x1, f1, g1) = newton_project(mpu, x + step, tol, params.newton_steps, si);
-                let target = state.target[i];
                 let ok = g1.length_squared() > 0.0
-                    && mpu.distance_to_data(x1) <= params.data_reach * target
+                    && mpu.near_data(x1, params.data_reach)
                     && region.accept.is_none_or(|a| a(x1));
                 let (x1, f1, g1) = if ok { (x1, f1, g1) } else { (x, f, g) };
                 let depth = mpu

@@ -1,0 +1,189 @@
+//! `cargo xtask reproduce-tables`: the paper's Tables 1 and 2 side by side with ours, on the
+//! shared models, timed with the release binary, checked against the reference meshes.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{Context, Result, bail};
+use serde_json::{Value, json};
+
+use crate::paper::{LEVET, TABLE1, TABLE2};
+use crate::reference::{Reference, coverage, distance_stats};
+use crate::{Flags, host, models_dir, project_root};
+
+/// Builds the release `psi` binary and returns its path.
+pub(crate) fn build_release() -> Result<PathBuf> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let status = Command::new(cargo)
+        .args(["build", "--release", "--bin", "psi"])
+        .current_dir(project_root())
+        .status()
+        .context("running cargo build --release")?;
+    if !status.success() {
+        bail!("cargo build --release --bin psi failed");
+    }
+    Ok(project_root().join("target/release/psi"))
+}
+
+/// Runs `psi sample` on one model; returns the report and the particle file.
+pub(crate) fn sample(
+    psi: &Path,
+    model: &Path,
+    iterations: usize,
+    out_dir: &Path,
+    tag: &str,
+) -> Result<(Value, PathBuf)> {
+    let ply = out_dir.join(format!("{tag}.ply"));
+    let report = out_dir.join(format!("{tag}.json"));
+    let out = Command::new(psi)
+        .arg("sample")
+        .arg(model)
+        .args(["--iterations", &iterations.to_string(), "-o"])
+        .arg(&ply)
+        .arg("--json")
+        .arg(&report)
+        .output()
+        .with_context(|| format!("running psi on {}", model.display()))?;
+    if !out.status.success() {
+        bail!(
+            "psi sample {} failed: {}",
+            model.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let value: Value =
+        serde_json::from_slice(&std::fs::read(&report)?).context("reading psi's report")?;
+    Ok((value, ply))
+}
+
+/// Distance and coverage checks of a particle file against its reference mesh.
+pub(crate) fn check(model: &Path, particles: &Path, report: &Value) -> Result<Value> {
+    let mesh = psi::load_mesh(model)?;
+    let reference = Reference::new(mesh)?;
+    let points: Vec<_> = psi::load_points(particles, &psi::ReadOptions::paper())?
+        .points
+        .iter()
+        .map(|p| p.p)
+        .collect();
+    let diag = report["input"]["bbox_diagonal"]
+        .as_f64()
+        .context("report without bbox_diagonal")?;
+    let d = reference.distances(&points);
+    let spacing = report["particles"]["after"]["spacing"]["mean"]
+        .as_f64()
+        .unwrap_or(0.0);
+    Ok(json!({
+        "distance": distance_stats(&d, diag),
+        "coverage_1.5_spacing": coverage(&reference, &points, 1.5 * spacing),
+    }))
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or(f64::NAN)
+}
+
+pub(crate) fn run(flags: &Flags) -> Result<()> {
+    let dir = models_dir(flags)?;
+    let psi = build_release()?;
+    let out_dir = project_root().join("target/xtask");
+    std::fs::create_dir_all(&out_dir)?;
+    let wanted = |m: &str| flags.only.as_ref().is_none_or(|o| o.iter().any(|x| x == m));
+    let mut rows = Vec::new();
+    let mut md = String::new();
+    md.push_str(&format!(
+        "## Table 1: {} iterations, one particle per surface-containing octree leaf\n\n",
+        flags.iterations
+    ));
+    md.push_str("| model | dataset points | particles (paper) | seeding s (paper) | simulation s (paper) | speed-up | MPU build s | leaves | depth | dist. mean / p99 / max (D) | within 2e-3 D | CV per level | coverage |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for row in TABLE1.iter().filter(|r| wanted(r.model)) {
+        let path = dir.join(row.file);
+        if !path.is_file() {
+            eprintln!("skipping {}: {} not found", row.model, path.display());
+            continue;
+        }
+        eprintln!("{} ...", row.model);
+        let (report, ply) = sample(&psi, &path, flags.iterations, &out_dir, row.model)?;
+        let quality = check(&path, &ply, &report)?;
+        let p = &report["particles"];
+        let levels: Vec<String> = p["after"]["levels"]
+            .as_array()
+            .map(|ls| {
+                ls.iter()
+                    .map(|l| format!("{}:{:.3}", l["depth"], f(&l["spacing"]["cv"])))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let (init, sim) = (f(&p["init_seconds"]), f(&p["simulate_seconds"]));
+        let name = match row.stand_in {
+            Some(s) => format!("{} (stand-in: {s})", row.model),
+            None => row.model.to_owned(),
+        };
+        let dist = &quality["distance"];
+        md.push_str(&format!(
+            "| {name} | {} | {} ({}) | {:.3} ({}) | {:.3} ({}) | {:.0}× / {:.0}× | {:.3} | {} | {} | {:.1e} / {:.1e} / {:.1e} | {:.2} % | {} | {:.2} % |\n",
+            report["input"]["points"], p["count"], row.particles, init, row.init_seconds, sim, row.simulate_seconds,
+            row.init_seconds / init, row.simulate_seconds / sim, f(&report["mpu"]["build_seconds"]), report["mpu"]["leaves"],
+            report["mpu"]["max_depth"], f(&dist["mean"]), f(&dist["p99"]), f(&dist["max"]), 100.0 * f(&dist["within_2e-3"]),
+            levels.join(" "), 100.0 * f(&quality["coverage_1.5_spacing"])
+        ));
+        rows.push(json!({
+            "model": row.model,
+            "file": row.file,
+            "stand_in": row.stand_in,
+            "sha256": host::sha256(&path)?,
+            "dataset_points": report["input"]["points"],
+            "particles": p["count"],
+            "init_seconds": init,
+            "simulate_seconds": sim,
+            "mpu_build_seconds": report["mpu"]["build_seconds"],
+            "leaves": report["mpu"]["leaves"],
+            "max_depth": report["mpu"]["max_depth"],
+            "quality": quality,
+            "levels": p["after"]["levels"],
+            "paper": { "dataset_points": row.dataset_points, "particles": row.particles, "init_seconds": row.init_seconds, "simulate_seconds": row.simulate_seconds },
+            "report": report,
+        }));
+    }
+    // Table 2: 10 iterations on the bunny and the David stand-in.
+    let mut table2 = Vec::new();
+    md.push_str("\n## Table 2: 10 iterations, beside the paper and Levet et al. as the paper quotes them\n\n| method | model | particles | seeding s | simulation s |\n|---|---|---|---|---|\n");
+    for (model, particles, init, sim) in TABLE2.iter().filter(|r| wanted(r.0)) {
+        let file = TABLE1
+            .iter()
+            .find(|r| r.model == *model)
+            .map(|r| r.file)
+            .unwrap_or_default();
+        let path = dir.join(file);
+        if !path.is_file() {
+            continue;
+        }
+        let (report, _) = sample(&psi, &path, 10, &out_dir, &format!("{model}-10"))?;
+        let p = &report["particles"];
+        md.push_str(&format!("| psi | {model} | {} | {:.3} | {:.3} |\n| paper (MPU) | {model} | {particles} | {init} | {sim} |\n", p["count"], f(&p["init_seconds"]), f(&p["simulate_seconds"])));
+        table2.push(json!({ "model": model, "particles": p["count"], "init_seconds": p["init_seconds"], "simulate_seconds": p["simulate_seconds"], "paper": { "particles": particles, "init_seconds": init, "simulate_seconds": sim } }));
+    }
+    for (model, implicit, particles, init, sim) in LEVET {
+        let init = init.map_or("(total)".into(), |i| i.to_string());
+        md.push_str(&format!(
+            "| Levet et al. ({implicit}) | {model} | {particles} | {init} | {sim} |\n"
+        ));
+    }
+    println!("{md}");
+    let json = json!({
+        "host": host::host(),
+        "revision": host::revision(&project_root()),
+        "models_dir": dir,
+        "iterations": flags.iterations,
+        "params": { "mpu": psi::MpuParams::paper(), "particles": psi::ParticleParams::paper() },
+        "rows": rows,
+        "table2": table2,
+        "markdown": md,
+    });
+    let path = flags
+        .json
+        .clone()
+        .unwrap_or_else(|| out_dir.join("reproduce-tables.json"));
+    psi::save_json(&path, &json)?;
+    eprintln!("wrote {}", path.display());
+    Ok(())
+}
