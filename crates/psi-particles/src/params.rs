@@ -85,7 +85,7 @@ impl ParticleParams {
             rho: 15.0,
             beta: 10.0,
             adapt_sigma: true,
-            sigma_clamp: (0.8, 1.25),
+            sigma_clamp: (0.5, 2.0),
             phi: 15.0,
             dt: 0.3,
             sigma_dt: 0.03,
