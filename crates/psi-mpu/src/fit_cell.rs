@@ -84,7 +84,7 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64
     let mut idx: Vec<u32> = if thin > 1 {
         ball.iter()
             .copied()
-            .filter(|&i| position_hash(input.positions[i as usize]) % thin == 0)
+            .filter(|&i| position_hash(input.positions[i as usize]).is_multiple_of(thin))
             .collect()
     } else {
         ball.clone()

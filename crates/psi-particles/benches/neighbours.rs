@@ -1,1 +1,46 @@
-fn main() {}
+//! Neighbour search over particle positions: the MPU octree as an adaptive grid versus a kiddo
+//! kd-tree, each built and queried once per relaxation iteration.
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use psi_mpu::{Mpu, MpuParams};
+use psi_octree::PointIndex;
+use psi_particles::{OctreeBuckets, ParticleParams, initialize};
+
+fn neighbours(c: &mut Criterion) {
+    let points = psi_octree::builtin_model();
+    let mpu = Mpu::build(&points, &MpuParams::paper()).unwrap();
+    let (particles, _, _) = initialize(&mpu, &ParticleParams::paper());
+    let origin = mpu.frame_origin();
+    let local: Vec<_> = particles.positions.iter().map(|p| *p - origin).collect();
+    let radii: Vec<f64> = particles.sigma.iter().map(|s| 3.0 * s).collect();
+    let mut group = c.benchmark_group("neighbours_one_iteration");
+    group.bench_function("octree", |b| {
+        b.iter(|| {
+            let buckets = OctreeBuckets::new(mpu.octree(), &local);
+            let mut n = 0usize;
+            for (x, r) in local.iter().zip(&radii) {
+                buckets.for_each_within(*x, *r, |_| n += 1);
+            }
+            black_box(n)
+        })
+    });
+    group.bench_function("kiddo", |b| {
+        b.iter(|| {
+            let index = PointIndex::new(&local);
+            let mut out = Vec::new();
+            let mut n = 0usize;
+            for (x, r) in local.iter().zip(&radii) {
+                out.clear();
+                index.within(*x, *r, &mut out);
+                n += out.len();
+            }
+            black_box(n)
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, neighbours);
+criterion_main!(benches);

@@ -11,6 +11,9 @@ use crate::neighbours::NeighbourIndex;
 use crate::project::newton_project;
 use crate::{DensityField, ParticleParams, Particles};
 
+/// A particle's new state: position, f, ∇f, depth, σ, σ̂.
+type Update = (DVec3, f64, DVec3, u8, f64, f64);
+
 /// Which particles may move and where (local regeneration restricts both).
 #[derive(Clone, Copy, Default)]
 pub struct RelaxRegion<'a> {
@@ -49,7 +52,7 @@ pub fn relax(
         let index = NeighbourIndex::new(params.neighbours, mpu, &particles.positions);
         let state = &*particles;
         let fg_ref = &fg;
-        let updates: Vec<Option<(DVec3, f64, DVec3, u8, f64, f64)>> = (0..n)
+        let updates: Vec<Option<Update>> = (0..n)
             .into_par_iter()
             .map_init(Vec::new, |scratch, i| {
                 if region.movable.is_some_and(|m| !m[i]) {
