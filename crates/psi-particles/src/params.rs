@@ -53,6 +53,9 @@ pub struct ParticleParams {
     /// Step gain: particle i moves dt/ΣE_ij × its constrained velocity (0.5 = a Newton step
     /// on a hexagonal lattice).
     pub dt: f64,
+    /// Heavy-ball momentum: the fraction of a particle's previous displacement added to its
+    /// step (0 = WH's first-order dynamics).
+    pub momentum: f64,
     /// Time step of the σ adaptation (WH: 0.03).
     pub sigma_dt: f64,
     /// Largest move per iteration as a multiple of σ_i (0.5).
@@ -90,6 +93,7 @@ impl ParticleParams {
             phi: 15.0,
             dt: 0.3,
             sigma_dt: 0.03,
+            momentum: 0.7,
             max_move: 0.5,
             neighbour_radius: 3.0,
             newton_tolerance: 1e-4,

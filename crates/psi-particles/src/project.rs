@@ -1,4 +1,6 @@
-//! Newton projection onto the zero set: x ← x − f∇f/|∇f|².
+//! Newton projection onto the zero set, x ← x − f∇f/|∇f|², with backtracking: a step that does
+//! not decrease |f| is halved (up to 6 times), so the iteration also converges at the kinks that
+//! sharp MPU pieces (max/min of quadrics) put in f.
 
 use glam::DVec3;
 use psi_mpu::Mpu;
@@ -24,8 +26,77 @@ pub(crate) fn newton_project(
         if len > max_step {
             step *= max_step / len;
         }
-        x -= step;
-        (f, g) = mpu.value_and_gradient(x);
+        let mut accepted = false;
+        for _ in 0..7 {
+            let y = x - step;
+            let (fy, gy) = mpu.value_and_gradient(y);
+            if fy.abs() < f.abs() {
+                (x, f, g) = (y, fy, gy);
+                accepted = true;
+                break;
+            }
+            step *= 0.5;
+        }
+        if !accepted {
+            break;
+        }
     }
     (x, f, g)
+}
+
+/// Newton projection, then, where it stalls (kinks, nearly flat f), a bracket and bisection: f
+/// is continuous, so along a direction where its sign changes within 4 × `max_step` the root is
+/// halved down to rounding. Directions tried: against the gradient (by the sign of f), then the
+/// six axis directions (at a ridge of max(Q1, Q2) the selected piece's gradient may point along
+/// the ridge); the nearest sign change wins. Returns the position, f and ∇f there.
+pub(crate) fn project_robust(
+    mpu: &Mpu,
+    x: DVec3,
+    tolerance: f64,
+    max_step: f64,
+) -> (DVec3, f64, DVec3) {
+    let (x, f, g) = newton_project(mpu, x, tolerance, 12, max_step);
+    let gl = g.length();
+    if f.abs() <= tolerance * gl || f == 0.0 {
+        return (x, f, g);
+    }
+    let mut directions = Vec::with_capacity(7);
+    if gl > 0.0 {
+        directions.push(-f.signum() * g / gl);
+    }
+    for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
+        directions.push(axis);
+        directions.push(-axis);
+    }
+    let start = if gl > 0.0 {
+        (f.abs() / gl).min(max_step)
+    } else {
+        max_step / 64.0
+    };
+    let mut best: Option<(f64, DVec3)> = None;
+    for dir in directions {
+        let mut t = start;
+        while t <= 4.0 * max_step && best.is_none_or(|b| t < b.0) {
+            if mpu.value(x + t * dir).signum() != f.signum() {
+                best = Some((t, dir));
+                break;
+            }
+            t *= 2.0;
+        }
+    }
+    let Some((mut hi, dir)) = best else {
+        return (x, f, g);
+    };
+    let mut lo = 0.0;
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if mpu.value(x + mid * dir).signum() == f.signum() {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let y = x + hi * dir;
+    let (fy, gy) = mpu.value_and_gradient(y);
+    (y, fy, gy)
 }

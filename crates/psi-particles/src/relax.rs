@@ -8,7 +8,7 @@ use psi_mpu::Mpu;
 use rayon::prelude::*;
 
 use crate::neighbours::NeighbourIndex;
-use crate::project::newton_project;
+use crate::project::{newton_project, project_robust};
 use crate::{DensityField, ParticleParams, Particles};
 
 /// A particle's new state: position, f, ∇f, depth, σ, σ̂.
@@ -48,10 +48,12 @@ pub fn relax(
         .map(|x| mpu.value_and_gradient(*x))
         .collect();
     let e_hat = params.target_energy_ratio * params.energy_alpha;
+    let mut velocity = vec![DVec3::ZERO; n];
     for _ in 0..params.iterations {
         let index = NeighbourIndex::new(params.neighbours, mpu, &particles.positions);
         let state = &*particles;
         let fg_ref = &fg;
+        let vel = &velocity;
         let updates: Vec<Option<Update>> = (0..n)
             .into_par_iter()
             .map_init(Vec::new, |scratch, i| {
@@ -93,7 +95,9 @@ pub fn relax(
                 // repulsion's stiffness is 2·ΣE_ij, so dt = 0.5 makes this a Newton step
                 // (derivation in docs/ARCHITECTURE.md, "Relaxation").
                 let dt_i = params.dt / (energy + 1e-3 * params.energy_alpha);
-                let mut step = dt_i * v;
+                // Heavy-ball momentum: the previous displacement, projected onto the tangent plane.
+                let prev = vel[i] - ni * vel[i].dot(ni);
+                let mut step = dt_i * v + params.momentum * prev;
                 let len = step.length();
                 let cap = params.max_move * si;
                 if len > cap {
@@ -119,12 +123,38 @@ pub fn relax(
             .collect();
         for (i, u) in updates.into_iter().enumerate() {
             if let Some((x, f, g, depth, sigma, target)) = u {
+                velocity[i] = x - particles.positions[i];
                 particles.positions[i] = x;
                 particles.normals[i] = g.normalize_or(particles.normals[i]);
                 particles.depth[i] = depth;
                 particles.sigma[i] = sigma;
                 particles.target[i] = target;
                 fg[i] = (f, g);
+            }
+        }
+    }
+    // Final polish: a particle whose moves were all rejected still sits where it was seeded, on
+    // an input point, which can be up to ε0 off the zero set.
+    let polished: Vec<Option<(DVec3, DVec3)>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            if region.movable.is_some_and(|m| !m[i]) {
+                return None;
+            }
+            let (f, g) = fg[i];
+            if f.abs() <= tol * g.length() {
+                return None;
+            }
+            let (x, _, g) = project_robust(mpu, particles.positions[i], tol, particles.sigma[i]);
+            Some((x, g))
+        })
+        .collect();
+    for (i, p) in polished.into_iter().enumerate() {
+        if let Some((x, g)) = p {
+            particles.positions[i] = x;
+            particles.normals[i] = g.normalize_or(particles.normals[i]);
+            if let Some(l) = mpu.leaf_containing(x) {
+                particles.depth[i] = mpu.octree().cell(l).depth;
             }
         }
     }
