@@ -35,6 +35,23 @@ pub(crate) fn weight_and_gradient(x: DVec3, c: DVec3, r: f64, d2: f64) -> (f64, 
     }
 }
 
+/// As [`weight_and_gradient`], from the squared support radius `r2` (no square root on the
+/// common inner branch).
+#[inline]
+pub(crate) fn weight_and_gradient_r2(x: DVec3, c: DVec3, r2: f64, d2: f64) -> (f64, DVec3) {
+    let inv_r2 = 1.0 / r2;
+    let t2 = 2.25 * d2 * inv_r2;
+    if t2 < 0.25 {
+        (0.75 - t2, (-4.5 * inv_r2) * (x - c))
+    } else if t2 < 2.25 {
+        let t = t2.sqrt();
+        let s = 1.5 - t;
+        (0.5 * s * s, (-2.25 * s / t * inv_r2) * (x - c))
+    } else {
+        (0.0, DVec3::ZERO)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

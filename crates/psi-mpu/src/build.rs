@@ -27,6 +27,7 @@ pub struct Mpu {
     pub(crate) cell_fit: Vec<u32>,
     pub(crate) fit_fallback: Vec<bool>,
     pub(crate) fit_radius: Vec<f64>,
+    pub(crate) nodes: Vec<crate::evaluate::EvalNode>,
     pub(crate) frame: MpuFrame,
     pub(crate) points: Vec<OrientedPoint>,
     pub(crate) bounds: Aabb,
@@ -35,6 +36,8 @@ pub struct Mpu {
     pub(crate) index: std::sync::Arc<PointIndex>,
     /// Lazily computed [`Mpu::input_spacing`] per input point (f64 bits; 0 = not yet).
     pub(crate) spacing_cache: std::sync::Arc<Vec<std::sync::atomic::AtomicU64>>,
+    /// Lazily computed [`Mpu::input_is_interior`] per input point (0 = not yet, 1 = yes, 2 = no).
+    pub(crate) interior_cache: std::sync::Arc<Vec<std::sync::atomic::AtomicU8>>,
 }
 
 /// The fixed frame of an MPU: where the local coordinates are centred, the root cube, and the
@@ -263,7 +266,9 @@ impl Mpu {
             .zip(&normals)
             .map(|(p, n)| OrientedPoint { p: p.p, n: *n })
             .collect();
+        let nodes = crate::evaluate::eval_nodes(&octree, &cell_fit, params.alpha);
         Ok(Mpu {
+            nodes,
             octree,
             fits,
             fit_kinds,
@@ -276,6 +281,11 @@ impl Mpu {
             params: *params,
             report,
             index,
+            interior_cache: std::sync::Arc::new(
+                (0..normals.len())
+                    .map(|_| std::sync::atomic::AtomicU8::new(0))
+                    .collect(),
+            ),
             spacing_cache: std::sync::Arc::new(
                 (0..normals.len())
                     .map(|_| std::sync::atomic::AtomicU64::new(0))
@@ -389,25 +399,66 @@ impl Mpu {
     /// straight edge about 0.95 s (the centroid of a half disc of radius √(2k/π)·s), and it grows
     /// with the distance past the edge.
     pub fn near_data(&self, x: DVec3, reach: f64) -> bool {
+        self.near_data_from(x, reach, None).0
+    }
+
+    /// [`Mpu::near_data`] with a hint: `anchor`, an input point that was near x before (a
+    /// particle's previous nearest point). When x is within half a spacing of an interior anchor
+    /// the answer is yes without a search. Returns the answer and the new anchor.
+    pub fn near_data_from(&self, x: DVec3, reach: f64, anchor: Option<u32>) -> (bool, Option<u32>) {
         let y = x - self.frame.origin;
-        let near = self.index.nearest(y, 8);
-        let Some(&(q, d2)) = near.first() else {
-            return false;
-        };
-        // The spacing where the data is: around q, not around x (which may be off the data).
-        let positions = self.octree.positions();
-        let spacing = self.input_spacing(q);
-        if d2.sqrt() > reach * spacing {
-            return false;
+        if let Some(a) = anchor
+            && (self.octree.positions()[a as usize] - y).length() <= 0.5 * self.input_spacing(a)
+            && self.input_is_interior(a)
+        {
+            return (true, Some(a));
         }
+        let Some((q, d2)) = self.index.nearest_one(y) else {
+            return (false, None);
+        };
+        let spacing = self.input_spacing(q);
+        let d = d2.sqrt();
+        if d > reach * spacing {
+            return (false, Some(q));
+        }
+        // Fast path: q lies well inside the data and x is within half a spacing of it.
+        if d <= 0.5 * spacing && self.input_is_interior(q) {
+            return (true, Some(q));
+        }
+        (self.centroid_offset(y, q) <= spacing, Some(q))
+    }
+
+    /// Tangential offset (in the tangent plane of input point `q`) from local `y` to the centroid
+    /// of the 8 input points nearest to `y`, world units.
+    fn centroid_offset(&self, y: DVec3, q: u32) -> f64 {
+        let near = self.index.nearest(y, 8);
+        let positions = self.octree.positions();
         let centroid = near
             .iter()
             .map(|&(i, _)| positions[i as usize])
             .sum::<DVec3>()
-            / near.len() as f64;
+            / near.len().max(1) as f64;
         let n = self.points[q as usize].n;
         let offset = centroid - y;
-        (offset - n * offset.dot(n)).length() <= spacing
+        (offset - n * offset.dot(n)).length()
+    }
+
+    /// Whether input point `q` lies well inside the data: its own 8 nearest points have their
+    /// centroid within half a spacing of it (an edge point's is about 0.95 spacing away).
+    /// Cached: a pure function of the input.
+    pub fn input_is_interior(&self, q: u32) -> bool {
+        use std::sync::atomic::Ordering;
+        let slot = &self.interior_cache[q as usize];
+        match slot.load(Ordering::Relaxed) {
+            1 => true,
+            2 => false,
+            _ => {
+                let y = self.octree.positions()[q as usize];
+                let inside = self.centroid_offset(y, q) <= 0.5 * self.input_spacing(q);
+                slot.store(if inside { 1 } else { 2 }, Ordering::Relaxed);
+                inside
+            }
+        }
     }
 
     /// The input spacing at input point `q`: d₈·√(π/8), d₈ the distance to its 8th nearest

@@ -10,7 +10,7 @@
 use glam::DVec3;
 
 use crate::Mpu;
-use crate::bspline_weight::weight_and_gradient;
+use crate::bspline_weight::{weight_and_gradient, weight_and_gradient_r2};
 use crate::build::NO_FIT;
 
 /// Weight of the positive background term (a partition of unity sums to O(1) near data).
@@ -25,7 +25,89 @@ struct Sums {
     g_wq: DVec3,
 }
 
+/// A cell as the evaluation traverses it: 40 bytes, siblings contiguous, so one sibling group
+/// is five cache lines (the octree's `Cell` carries more and costs twice that).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct EvalNode {
+    pub(crate) center: DVec3,
+    /// Squared support radius R².
+    pub(crate) r2: f64,
+    pub(crate) first_child: u32,
+    pub(crate) fit: u32,
+}
+
+/// The evaluation nodes of an octree and its leaf-fit table (arena order).
+pub(crate) fn eval_nodes(
+    octree: &psi_octree::Octree,
+    cell_fit: &[u32],
+    alpha: f64,
+) -> Vec<EvalNode> {
+    octree
+        .cells()
+        .iter()
+        .zip(cell_fit)
+        .map(|(c, &fit)| {
+            let r = c.support_radius(alpha);
+            EvalNode {
+                center: c.center,
+                r2: r * r,
+                first_child: c.first_child,
+                fit,
+            }
+        })
+        .collect()
+}
+
 impl Mpu {
+    /// Calls `visit(node, d2)` for every cell whose support ball contains local `y` (pruned at
+    /// the parent, exact for α ≥ 0.5; the same set as `Octree::for_each_support_cell`).
+    #[inline]
+    fn for_each_support_node(&self, y: DVec3, mut visit: impl FnMut(&EvalNode, f64)) {
+        let nodes = &self.nodes;
+        let root = &nodes[0];
+        let d2 = (y - root.center).length_squared();
+        if d2.partial_cmp(&root.r2).is_none_or(|o| o.is_gt()) {
+            return;
+        }
+        visit(root, d2);
+        let mut stack = [0u32; 8 * (psi_octree::DEPTH_LIMIT as usize + 1)];
+        let mut top = 0usize;
+        if root.first_child != psi_octree::NO_CELL {
+            stack[0] = root.first_child;
+            top = 1;
+        }
+        while top > 0 {
+            top -= 1;
+            let first = stack[top] as usize;
+            for node in &nodes[first..first + 8] {
+                let d2 = (y - node.center).length_squared();
+                if d2 <= node.r2 {
+                    visit(node, d2);
+                    if node.first_child != psi_octree::NO_CELL {
+                        stack[top] = node.first_child;
+                        top += 1;
+                    }
+                }
+            }
+        }
+    }
+
+    #[inline]
+    fn accumulate_node(&self, y: DVec3, node: &EvalNode, d2: f64, s: &mut Sums) {
+        if node.fit == NO_FIT {
+            return;
+        }
+        let (w, gw) = weight_and_gradient_r2(y, node.center, node.r2, d2);
+        if w <= 0.0 {
+            return;
+        }
+        let (q, gq) = self.fits[node.fit as usize].value_and_gradient(y);
+        s.w += w;
+        s.wq += w * q;
+        s.gw += gw;
+        s.g_wq += gw * q + w * gq;
+    }
+
     #[inline]
     fn accumulate(&self, y: DVec3, cell: u32, d2: f64, s: &mut Sums) {
         let f = self.cell_fit[cell as usize];
@@ -64,8 +146,7 @@ impl Mpu {
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
         let y = x - self.frame.origin;
         let mut s = Sums::default();
-        self.octree
-            .for_each_support_cell(y, |cell, d2| self.accumulate(y, cell, d2, &mut s));
+        self.for_each_support_node(y, |node, d2| self.accumulate_node(y, node, d2, &mut s));
         self.finish(y, s)
     }
 
@@ -73,18 +154,15 @@ impl Mpu {
     #[inline]
     pub fn value(&self, x: DVec3) -> f64 {
         let y = x - self.frame.origin;
-        let alpha = self.params.alpha;
         let (mut w_sum, mut wq) = (0.0, 0.0);
-        self.octree.for_each_support_cell(y, |cell, d2| {
-            let f = self.cell_fit[cell as usize];
-            if f == NO_FIT {
+        self.for_each_support_node(y, |node, d2| {
+            if node.fit == NO_FIT {
                 return;
             }
-            let c = self.octree.cell(cell);
-            let (w, _) = weight_and_gradient(y, c.center, c.support_radius(alpha), d2);
+            let (w, _) = weight_and_gradient_r2(y, node.center, node.r2, d2);
             if w > 0.0 {
                 w_sum += w;
-                wq += w * self.fits[f as usize].value(y);
+                wq += w * self.fits[node.fit as usize].value(y);
             }
         });
         let background = y.length() + self.octree.root().half;

@@ -56,6 +56,16 @@ impl PointIndex {
         }
     }
 
+    /// The nearest point to `x` as `(index, squared distance)`; `None` for an empty index.
+    pub fn nearest_one(&self, x: DVec3) -> Option<(u32, f64)> {
+        let t = self.tree.as_ref()?;
+        let n = t
+            .query(&x.to_array())
+            .nearest_one::<SquaredEuclidean<f64>>()
+            .execute();
+        Some((n.item, n.distance))
+    }
+
     /// The `k` nearest points to `x` as `(index, squared distance)`, nearest first.
     pub fn nearest(&self, x: DVec3, k: usize) -> Vec<(u32, f64)> {
         match (&self.tree, NonZeroUsize::new(k)) {

@@ -11,8 +11,8 @@ use crate::neighbours::NeighbourIndex;
 use crate::project::{newton_project, project_robust};
 use crate::{DensityField, ParticleParams, Particles};
 
-/// A particle's new state: position, f, ∇f, depth, σ, σ̂.
-type Update = (DVec3, f64, DVec3, u8, f64, f64);
+/// A particle's new state: position, f, ∇f, depth, σ, σ̂, nearest input point.
+type Update = (DVec3, f64, DVec3, u8, f64, f64, Option<u32>);
 
 /// Which particles may move and where (local regeneration restricts both).
 #[derive(Clone, Copy, Default)]
@@ -49,11 +49,13 @@ pub fn relax(
         .collect();
     let e_hat = params.target_energy_ratio * params.energy_alpha;
     let mut velocity = vec![DVec3::ZERO; n];
+    let mut anchor: Vec<Option<u32>> = vec![None; n];
     for _ in 0..params.iterations {
         let index = NeighbourIndex::new(params.neighbours, mpu, &particles.positions);
         let state = &*particles;
         let fg_ref = &fg;
         let vel = &velocity;
+        let anchors = &anchor;
         let updates: Vec<Option<Update>> = (0..n)
             .into_par_iter()
             .map_init(Vec::new, |scratch, i| {
@@ -104,9 +106,9 @@ pub fn relax(
                     step *= cap / len;
                 }
                 let (x1, f1, g1) = newton_project(mpu, x + step, tol, params.newton_steps, si);
-                let ok = g1.length_squared() > 0.0
-                    && mpu.near_data(x1, params.data_reach)
-                    && region.accept.is_none_or(|a| a(x1));
+                let (on_data, new_anchor) = mpu.near_data_from(x1, params.data_reach, anchors[i]);
+                let ok =
+                    g1.length_squared() > 0.0 && on_data && region.accept.is_none_or(|a| a(x1));
                 let (x1, f1, g1) = if ok { (x1, f1, g1) } else { (x, f, g) };
                 let depth = mpu
                     .leaf_containing(x1)
@@ -118,11 +120,20 @@ pub fn relax(
                     sigma = (si + params.sigma_dt * ds).abs();
                 }
                 sigma = sigma.clamp(params.sigma_clamp.0 * target, params.sigma_clamp.1 * target);
-                Some((x1, f1, g1, depth, sigma, target))
+                Some((
+                    x1,
+                    f1,
+                    g1,
+                    depth,
+                    sigma,
+                    target,
+                    if ok { new_anchor } else { anchors[i] },
+                ))
             })
             .collect();
         for (i, u) in updates.into_iter().enumerate() {
-            if let Some((x, f, g, depth, sigma, target)) = u {
+            if let Some((x, f, g, depth, sigma, target, a)) = u {
+                anchor[i] = a;
                 velocity[i] = x - particles.positions[i];
                 particles.positions[i] = x;
                 particles.normals[i] = g.normalize_or(particles.normals[i]);
