@@ -183,20 +183,18 @@ impl Scene {
             .collect();
         let fresh = seed_leaves(&mpu, &leaves, &self.field, &self.particle_params);
         particles.extend(&fresh);
-        // Relax the new particles among the fixed ones that can reach them: those within the
-        // neighbour radius of the largest σ plus the largest total travel of a new particle.
-        let reach = {
-            let s_max = particles.sigma.iter().copied().fold(0.0, f64::max);
-            let p = &self.particle_params;
-            s_max * (p.neighbour_radius + p.max_move * p.sigma_clamp.1 * p.iterations as f64)
-        };
+        // Relax the new particles among the fixed ones that can reach them. A new particle moves
+        // at most max_move·σ per iteration with σ ≤ sigma_clamp.1·σ̂, so it travels at most
+        // `travel`; a fixed particle j interacts with it when within neighbour_radius·max(σ_j, σ_i).
+        // Farther fixed particles cannot change the result, so leaving them out is exact.
+        let p = &self.particle_params;
+        let sigma_new = fresh.target.iter().copied().fold(0.0, f64::max) * p.sigma_clamp.1;
+        let travel = p.iterations as f64 * p.max_move * sigma_new;
         let seeds_index = PointIndex::new(&fresh.positions);
         let mut subset: Vec<usize> = (0..kept)
             .filter(|&i| {
-                seeds_index
-                    .nearest(particles.positions[i], 1)
-                    .first()
-                    .is_some_and(|n| n.1 <= reach * reach)
+                let reach = travel + p.neighbour_radius * particles.sigma[i].max(sigma_new);
+                seeds_index.nearest_one(particles.positions[i]).is_some_and(|n| n.1 <= reach * reach)
             })
             .collect();
         let fixed_in_subset = subset.len();
