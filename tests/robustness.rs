@@ -22,11 +22,28 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 fn xyz(points: &[psi::OrientedPoint]) -> String {
-    points.iter().map(|p| format!("{:e} {:e} {:e} {:e} {:e} {:e}\n", p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z)).collect()
+    points
+        .iter()
+        .map(|p| {
+            format!(
+                "{:e} {:e} {:e} {:e} {:e} {:e}\n",
+                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
+            )
+        })
+        .collect()
 }
 
-fn binary_ply(big_endian: bool, count_claim: usize, vertices: &[[f32; 3]], faces: &[[i32; 3]]) -> Vec<u8> {
-    let fmt = if big_endian { "binary_big_endian" } else { "binary_little_endian" };
+fn binary_ply(
+    big_endian: bool,
+    count_claim: usize,
+    vertices: &[[f32; 3]],
+    faces: &[[i32; 3]],
+) -> Vec<u8> {
+    let fmt = if big_endian {
+        "binary_big_endian"
+    } else {
+        "binary_little_endian"
+    };
     let mut out = format!(
         "ply\nformat {fmt} 1.0\nelement vertex {count_claim}\nproperty float x\nproperty float y\nproperty float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
         faces.len()
@@ -34,13 +51,21 @@ fn binary_ply(big_endian: bool, count_claim: usize, vertices: &[[f32; 3]], faces
     .into_bytes();
     for v in vertices {
         for c in v {
-            out.extend(if big_endian { c.to_be_bytes() } else { c.to_le_bytes() });
+            out.extend(if big_endian {
+                c.to_be_bytes()
+            } else {
+                c.to_le_bytes()
+            });
         }
     }
     for f in faces {
         out.push(3);
         for i in f {
-            out.extend(if big_endian { i.to_be_bytes() } else { i.to_le_bytes() });
+            out.extend(if big_endian {
+                i.to_be_bytes()
+            } else {
+                i.to_le_bytes()
+            });
         }
     }
     out
@@ -48,7 +73,15 @@ fn binary_ply(big_endian: bool, count_claim: usize, vertices: &[[f32; 3]], faces
 
 /// A tetrahedron as (vertices, faces), outward.
 fn tetra() -> (Vec<[f32; 3]>, Vec<[i32; 3]>) {
-    (vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    (
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ],
+        vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+    )
 }
 
 #[test]
@@ -58,16 +91,27 @@ fn hostile_inputs_fail_cleanly_in_every_command() {
     let mut truncated = binary_ply(false, 4, &v, &f);
     truncated.truncate(truncated.len() - 7);
     let line: Vec<psi::OrientedPoint> = (0..100)
-        .map(|i| psi::OrientedPoint { p: psi::DVec3::new(i as f64, 0.0, 0.0), n: psi::DVec3::Z })
+        .map(|i| psi::OrientedPoint {
+            p: psi::DVec3::new(i as f64, 0.0, 0.0),
+            n: psi::DVec3::Z,
+        })
         .collect();
     let cases: Vec<(&str, Vec<u8>)> = vec![
         ("empty.ply", vec![]),
-        ("header_only.ply", binary_ply(false, 4, &[], &[])[..150].to_vec()),
+        (
+            "header_only.ply",
+            binary_ply(false, 4, &[], &[])[..150].to_vec(),
+        ),
         ("truncated.ply", truncated),
         ("lying_count.ply", binary_ply(false, 40, &v, &f)),
         ("bad_index.ply", binary_ply(true, 4, &v, &[[0, 1, 9]])),
         ("garbage.obj", b"v 1 2\nf 1 2 x\n".to_vec()),
-        ("random.bin", (0..3000u32).map(|i| (i.wrapping_mul(2246822519) >> 11) as u8).collect()),
+        (
+            "random.bin",
+            (0..3000u32)
+                .map(|i| (i.wrapping_mul(2246822519) >> 11) as u8)
+                .collect(),
+        ),
         ("inf.xyz", b"0 0 inf 0 0 1\n".to_vec()),
         ("zero_normals.xyz", "0 0 0 0 0 0\n".repeat(40).into_bytes()),
         ("identical.xyz", "1 1 1 0 0 1\n".repeat(40).into_bytes()),
@@ -84,11 +128,23 @@ fn hostile_inputs_fail_cleanly_in_every_command() {
             vec!["info", p],
             vec!["mesh", p, "-o", k, "--resolution", "32"],
             vec!["sample", p, "-o", k, "--iterations", "2"],
-            vec!["edit", p, "--remove", "0,0,0,0.1", "-o", k, "--iterations", "2"],
+            vec![
+                "edit",
+                p,
+                "--remove",
+                "0,0,0,0.1",
+                "-o",
+                k,
+                "--iterations",
+                "2",
+            ],
         ] {
             let t = Instant::now();
             let out = psi(&args, &[]);
-            assert!(t.elapsed() < Duration::from_secs(60), "{args:?} took too long");
+            assert!(
+                t.elapsed() < Duration::from_secs(60),
+                "{args:?} took too long"
+            );
             let err = String::from_utf8_lossy(&out.stderr);
             assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
             if out.status.success() {
@@ -96,9 +152,16 @@ fn hostile_inputs_fail_cleanly_in_every_command() {
                 continue;
             }
             assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
-            assert!(err.contains(name), "{args:?}: error does not name the file: {err}");
+            assert!(
+                err.contains(name),
+                "{args:?}: error does not name the file: {err}"
+            );
             assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
-            assert_eq!(std::fs::read(&keep).unwrap(), b"precious", "{args:?} clobbered the output");
+            assert_eq!(
+                std::fs::read(&keep).unwrap(),
+                b"precious",
+                "{args:?} clobbered the output"
+            );
         }
     }
 }
@@ -121,10 +184,26 @@ fn big_endian_and_ascii_meshes_give_the_same_points() {
 fn outputs_are_identical_for_one_and_two_threads_and_across_runs() {
     let dir = scratch("threads");
     let input = dir.join("torus.xyz");
-    std::fs::write(&input, xyz(&psi::AnalyticShape::Torus { major: 1.0, minor: 0.35 }.sample(15_000, 9))).unwrap();
+    std::fs::write(
+        &input,
+        xyz(&psi::AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.35,
+        }
+        .sample(15_000, 9)),
+    )
+    .unwrap();
     let run = |threads: &str, name: &str| {
         let out = dir.join(name);
-        let o = psi(&["sample", input.to_str().unwrap(), "-o", out.to_str().unwrap()], &[("RAYON_NUM_THREADS", threads)]);
+        let o = psi(
+            &[
+                "sample",
+                input.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ],
+            &[("RAYON_NUM_THREADS", threads)],
+        );
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         std::fs::read(out).unwrap()
     };
@@ -140,15 +219,34 @@ fn coordinates_offset_by_a_million_are_as_good_as_at_the_origin() {
     let shape = psi::AnalyticShape::Sphere { radius: 1.0 };
     let points = shape.sample(8000, 5);
     let offset = psi::DVec3::splat(1e6);
-    let moved: Vec<_> = points.iter().map(|p| psi::OrientedPoint { p: p.p + offset, n: p.n }).collect();
-    let params = psi::ParticleParams { iterations: 5, ..psi::ParticleParams::paper() };
-    let a = psi::sample(&psi::Mpu::build(&points, &psi::MpuParams::paper()).unwrap(), &params);
-    let b = psi::sample(&psi::Mpu::build(&moved, &psi::MpuParams::paper()).unwrap(), &params);
+    let moved: Vec<_> = points
+        .iter()
+        .map(|p| psi::OrientedPoint {
+            p: p.p + offset,
+            n: p.n,
+        })
+        .collect();
+    let params = psi::ParticleParams {
+        iterations: 5,
+        ..psi::ParticleParams::paper()
+    };
+    let a = psi::sample(
+        &psi::Mpu::build(&points, &psi::MpuParams::paper()).unwrap(),
+        &params,
+    );
+    let b = psi::sample(
+        &psi::Mpu::build(&moved, &psi::MpuParams::paper()).unwrap(),
+        &params,
+    );
     assert_eq!(a.particles.len(), b.particles.len());
     let d = 2.0 * 3f64.sqrt();
     for (p, q) in a.particles.positions.iter().zip(&b.particles.positions) {
         // The same particles, to the precision of coordinates near 1e6 (ulp ≈ 1.2e-10).
-        assert!((*q - offset - *p).length() <= 1e-6 * d, "{p} vs {}", *q - offset);
+        assert!(
+            (*q - offset - *p).length() <= 1e-6 * d,
+            "{p} vs {}",
+            *q - offset
+        );
         assert!((shape.signed_distance(*q - offset)).abs() <= 1e-3 * d);
     }
 }
@@ -156,13 +254,68 @@ fn coordinates_offset_by_a_million_are_as_good_as_at_the_origin() {
 #[test]
 fn open_surfaces_get_particles_only_where_there_is_data() {
     // A hemisphere (z ≥ 0) of a unit sphere: no particle may fly off to the missing half.
-    let points: Vec<_> = psi::AnalyticShape::Sphere { radius: 1.0 }.sample(20_000, 3).into_iter().filter(|p| p.p.z >= 0.0).collect();
+    let points: Vec<_> = psi::AnalyticShape::Sphere { radius: 1.0 }
+        .sample(20_000, 3)
+        .into_iter()
+        .filter(|p| p.p.z >= 0.0)
+        .collect();
     let mpu = psi::Mpu::build(&points, &psi::MpuParams::paper()).unwrap();
     let run = psi::sample(&mpu, &psi::ParticleParams::paper());
     assert!(run.particles.len() > 50);
     let spacing = run.report.after.spacing.mean;
     for p in &run.particles.positions {
         assert!(p.z >= -spacing, "particle at {p} below the data");
-        assert!((p.length() - 1.0).abs() < 2e-3 * 2.0 * 3f64.sqrt(), "particle at {p} off the sphere");
+        assert!(
+            (p.length() - 1.0).abs() < 2e-3 * 2.0 * 3f64.sqrt(),
+            "particle at {p} off the sphere"
+        );
+    }
+}
+
+#[test]
+fn flipped_normals_are_reported_and_repaired_on_request() {
+    let dir = scratch("flipped");
+    let shape = psi::AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.35,
+    };
+    let mut points = shape.sample(12_000, 6);
+    for p in points.iter_mut().skip(5).step_by(10) {
+        p.n = -p.n;
+    }
+    let input = dir.join("flipped.xyz");
+    std::fs::write(&input, xyz(&points)).unwrap();
+    let out = psi(&["info", input.to_str().unwrap(), "--json"], &[]);
+    assert!(out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("--orient-normals"),
+        "no warning"
+    );
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(j["normals"]["opposed_fraction"].as_f64().unwrap() > 0.1);
+    let particles = dir.join("p.ply");
+    let out = psi(
+        &[
+            "sample",
+            input.to_str().unwrap(),
+            "--orient-normals",
+            "-o",
+            particles.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let back = psi::load_points(&particles, &psi::ReadOptions::paper()).unwrap();
+    let d = 2.0 * 3f64.sqrt() * 1.35;
+    for p in &back.points {
+        assert!(
+            shape.signed_distance(p.p).abs() < 1e-3 * d,
+            "particle off the torus at {}",
+            p.p
+        );
     }
 }

@@ -10,6 +10,10 @@ use crate::InputArgs;
 pub(crate) struct Loaded {
     pub(crate) name: String,
     pub(crate) file: PointCloudFile,
+    /// Same-sheet neighbour pairs with opposed normals (before any reorientation).
+    pub(crate) normals: psi::octree::NormalConsistency,
+    /// Normals flipped by `--orient-normals`.
+    pub(crate) flipped: usize,
 }
 
 impl Loaded {
@@ -30,18 +34,23 @@ impl Loaded {
             "bbox_min": bbox.map(|b| b.min.to_array()),
             "bbox_max": bbox.map(|b| b.max.to_array()),
             "bbox_diagonal": bbox.map_or(0.0, |b| b.diagonal()),
+            "normals": {
+                "pairs_checked": self.normals.pairs,
+                "opposed_fraction": self.normals.opposed_fraction(),
+                "flipped_by_orient_normals": self.flipped,
+            },
         })
     }
 }
 
 pub(crate) fn load(args: &InputArgs) -> anyhow::Result<Loaded> {
-    match &args.input {
+    let (name, mut file) = match &args.input {
         None => {
             let points = psi::builtin_model();
             let n = points.len();
-            Ok(Loaded {
-                name: "builtin".into(),
-                file: PointCloudFile {
+            (
+                "builtin".to_owned(),
+                PointCloudFile {
                     points,
                     vertices: n,
                     faces: 0,
@@ -49,7 +58,7 @@ pub(crate) fn load(args: &InputArgs) -> anyhow::Result<Loaded> {
                     dropped_points: 0,
                     mesh: None,
                 },
-            })
+            )
         }
         Some(path) => {
             let sampling = if args.per_vertex {
@@ -59,10 +68,23 @@ pub(crate) fn load(args: &InputArgs) -> anyhow::Result<Loaded> {
             };
             let file =
                 psi::load_points(path, &ReadOptions { sampling }).context("reading the input")?;
-            Ok(Loaded {
-                name: path.display().to_string(),
-                file,
-            })
+            (path.display().to_string(), file)
         }
+    };
+    let normals = psi::octree::check_normal_consistency(&file.points, 20_000);
+    let mut flipped = 0;
+    if args.orient_normals {
+        flipped = psi::octree::orient_normals(&mut file.points);
+    } else if normals.opposed_fraction() > 0.01 {
+        eprintln!(
+            "psi: warning: {name}: {:.1} % of neighbouring normals point to opposite sides; try --orient-normals",
+            100.0 * normals.opposed_fraction()
+        );
     }
+    Ok(Loaded {
+        name,
+        file,
+        normals,
+        flipped,
+    })
 }

@@ -35,6 +35,9 @@ pub(crate) struct InputArgs {
     /// From a mesh, one point per vertex with area-weighted normals (default: per triangle).
     #[arg(long)]
     pub(crate) per_vertex: bool,
+    /// Make inconsistent normals consistent by propagation over a neighbour graph.
+    #[arg(long)]
+    pub(crate) orient_normals: bool,
 }
 
 /// MPU parameters a user may change (defaults: Ohtake et al.'s, `MpuParams::paper()`).

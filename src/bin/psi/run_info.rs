@@ -22,6 +22,13 @@ pub(crate) fn run(args: &InputArgs, json: bool) -> Result<(), Failure> {
         println!("bbox min       {}", j["bbox_min"]);
         println!("bbox max       {}", j["bbox_max"]);
         println!("bbox diagonal  {}", j["bbox_diagonal"]);
+        println!(
+            "normals        {:.2} % of neighbouring pairs opposed",
+            100.0 * loaded.normals.opposed_fraction()
+        );
+        if loaded.flipped > 0 {
+            println!("reoriented     {} normals flipped", loaded.flipped);
+        }
     }
     Ok(())
 }
