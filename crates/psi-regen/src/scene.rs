@@ -194,7 +194,9 @@ impl Scene {
         let mut subset: Vec<usize> = (0..kept)
             .filter(|&i| {
                 let reach = travel + p.neighbour_radius * particles.sigma[i].max(sigma_new);
-                seeds_index.nearest_one(particles.positions[i]).is_some_and(|n| n.1 <= reach * reach)
+                seeds_index
+                    .nearest_one(particles.positions[i])
+                    .is_some_and(|n| n.1 <= reach * reach)
             })
             .collect();
         let fixed_in_subset = subset.len();
