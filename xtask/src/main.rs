@@ -6,6 +6,8 @@
 //!   checked against its reference mesh (parry3d-f64 point projection).
 //! * `check-reference [--models DIR] [--only a,b]`: cross-checks the Rust distances with Python
 //!   libigl (`point_mesh_squared_distance`) in a virtual environment the task creates.
+//! * `memory [--points N]`: the built-in model with N points (5 000 000 by default) through
+//!   `psi sample`, reporting time and peak memory.
 
 use std::path::{Path, PathBuf};
 
@@ -13,6 +15,7 @@ use anyhow::{Context, Result, bail};
 
 mod check_reference;
 mod host;
+mod memory;
 mod paper;
 mod reference;
 mod tables;
@@ -80,6 +83,16 @@ fn main() -> std::process::ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("reproduce-tables") => parse(&args[1..]).and_then(|f| tables::run(&f)),
         Some("check-reference") => parse(&args[1..]).and_then(|f| check_reference::run(&f)),
+        Some("memory") => {
+            let points = match args.get(1).map(String::as_str) {
+                Some("--points") => args
+                    .get(2)
+                    .and_then(|n| n.parse().ok())
+                    .unwrap_or(5_000_000),
+                _ => 5_000_000,
+            };
+            memory::run(points)
+        }
         _ => {
             eprintln!(
                 "usage: cargo xtask reproduce-tables|check-reference [--models DIR] [--only a,b] [--iterations N] [--json FILE]"

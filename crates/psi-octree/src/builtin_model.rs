@@ -46,11 +46,15 @@ fn tangents(u: f64, t: f64) -> (DVec3, DVec3) {
 /// on the parameter domain, seeded, so every call returns the same points), outward normals.
 /// World units: the body spans about 2.9 × 2.9 × 0.9.
 pub fn builtin_model() -> Vec<OrientedPoint> {
-    sample_builtin(BUILTIN_MODEL_POINTS, 0x5051_2007)
+    sample_builtin(BUILTIN_MODEL_POINTS, BUILTIN_MODEL_SEED)
 }
 
-/// `n` points of the built-in surface from seed `seed`.
-pub(crate) fn sample_builtin(n: usize, seed: u64) -> Vec<OrientedPoint> {
+/// Seed of [`builtin_model`].
+pub const BUILTIN_MODEL_SEED: u64 = 0x5051_2007;
+
+/// `n` points of the built-in surface from seed `seed` (the default model is
+/// `sample_builtin(BUILTIN_MODEL_POINTS, 0x5051_2007)`); large `n` makes stress inputs.
+pub fn sample_builtin(n: usize, seed: u64) -> Vec<OrientedPoint> {
     // Largest area element over a parameter grid, with a margin.
     let mut jmax: f64 = 0.0;
     for i in 0..256 {

@@ -38,7 +38,7 @@ mod support_cells;
 pub mod tolerance;
 
 pub use analytic_shapes::AnalyticShape;
-pub use builtin_model::{BUILTIN_MODEL_POINTS, builtin_model};
+pub use builtin_model::{BUILTIN_MODEL_POINTS, BUILTIN_MODEL_SEED, builtin_model, sample_builtin};
 pub use error::OctreeError;
 pub use geometry::{Aabb, OrientedPoint};
 pub use octree::{Cell, CellView, DEPTH_LIMIT, NO_CELL, Octree, OctreeParams, root_cube};

@@ -6,6 +6,14 @@ use serde_json::json;
 
 use crate::InputArgs;
 
+/// Peak resident memory of this process so far (Linux `VmHWM`), bytes; `None` elsewhere.
+pub(crate) fn peak_memory_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
 /// What was loaded.
 pub(crate) struct Loaded {
     pub(crate) name: String,
@@ -46,8 +54,10 @@ impl Loaded {
 pub(crate) fn load(args: &InputArgs) -> anyhow::Result<Loaded> {
     let (name, mut file) = match &args.input {
         None => {
-            let points = psi::builtin_model();
-            let n = points.len();
+            let n = args
+                .builtin_points
+                .unwrap_or(psi::octree::BUILTIN_MODEL_POINTS);
+            let points = psi::octree::sample_builtin(n, psi::octree::BUILTIN_MODEL_SEED);
             (
                 "builtin".to_owned(),
                 PointCloudFile {

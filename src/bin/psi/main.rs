@@ -35,6 +35,9 @@ pub(crate) struct InputArgs {
     /// From a mesh, one point per vertex with area-weighted normals (default: per triangle).
     #[arg(long)]
     pub(crate) per_vertex: bool,
+    /// The built-in model with this many points instead of the default (stress tests).
+    #[arg(long, hide = true, conflicts_with = "input")]
+    pub(crate) builtin_points: Option<usize>,
     /// Make inconsistent normals consistent by propagation over a neighbour graph.
     #[arg(long)]
     pub(crate) orient_normals: bool,

@@ -95,6 +95,7 @@ pub(crate) fn run(args: &SampleArgs) -> Result<(), Failure> {
             "after": s.after,
             "params": params,
         },
+        "peak_memory_bytes": crate::input::peak_memory_bytes(),
     });
     if let Some(path) = &args.json {
         psi::save_json(path, &report)?;
