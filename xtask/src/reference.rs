@@ -78,6 +78,37 @@ pub(crate) fn distance_stats(d: &[f64], diag: f64) -> serde_json::Value {
     })
 }
 
+/// Total area of the reference mesh, world units².
+pub(crate) fn area(reference: &Reference) -> f64 {
+    let v = &reference.mesh.vertices;
+    reference
+        .mesh
+        .faces
+        .iter()
+        .map(|f| {
+            0.5 * (v[f[1] as usize] - v[f[0] as usize])
+                .cross(v[f[2] as usize] - v[f[0] as usize])
+                .length()
+        })
+        .sum()
+}
+
+/// The largest distance from an area-uniform sample of the reference surface to its nearest
+/// particle (the worst gap), world units.
+pub(crate) fn worst_gap(reference: &Reference, particles: &[DVec3]) -> f64 {
+    let samples = reference.surface_samples(100_000, 23);
+    let index = PointIndex::new(particles);
+    samples
+        .par_iter()
+        .map(|s| {
+            index
+                .nearest(*s, 1)
+                .first()
+                .map_or(f64::INFINITY, |n| n.1.sqrt())
+        })
+        .reduce(|| 0.0, f64::max)
+}
+
 /// Share of the reference surface (by area-uniform samples) within `radius` of a particle.
 pub(crate) fn coverage(reference: &Reference, particles: &[DVec3], radius: f64) -> f64 {
     let samples = reference.surface_samples(100_000, 17);
