@@ -428,6 +428,15 @@ impl Mpu {
         (self.centroid_offset(y, q) <= spacing, Some(q))
     }
 
+    /// Distance from world `x` to the nearest input point, in units of the local input spacing
+    /// there ([`Mpu::input_spacing`]); ∞ for an empty input.
+    pub fn distance_in_spacings(&self, x: DVec3) -> f64 {
+        let Some((q, d2)) = self.index.nearest_one(x - self.frame.origin) else {
+            return f64::INFINITY;
+        };
+        d2.sqrt() / self.input_spacing(q).max(f64::MIN_POSITIVE)
+    }
+
     /// Tangential offset (in the tangent plane of input point `q`) from local `y` to the centroid
     /// of the 8 input points nearest to `y`, world units.
     fn centroid_offset(&self, y: DVec3, q: u32) -> f64 {

@@ -1,6 +1,7 @@
 //! Polygonization of the zero set: surface nets on a sparse grid restricted to a band around
-//! the input points (so no sheets appear far from the data), each vertex projected onto f = 0
-//! by damped Newton steps so the mesh lies on the MPU surface to rounding.
+//! the input points, each vertex projected onto f = 0 by damped Newton steps so the mesh lies on
+//! the MPU surface to rounding, and vertices (hence their triangles) farther than a few input
+//! spacings from the data dropped, so no sheets appear away from the data.
 
 use std::collections::HashMap;
 
@@ -17,14 +18,20 @@ pub struct PolygonizeParams {
     pub resolution: u32,
     /// Newton steps projecting each vertex onto f = 0 (0 keeps the averaged edge crossings).
     pub newton_steps: u32,
+    /// Triangles with a vertex farther than this many local input spacings from every input
+    /// point are dropped: the MPU's zero set away from data (bridges between close parts, caps
+    /// over holes) is not part of the sampled surface. `f64::INFINITY` keeps everything.
+    pub max_data_distance: f64,
 }
 
 impl PolygonizeParams {
-    /// 256 cells across the root cube, 4 Newton steps.
+    /// 256 cells across the root cube, 4 Newton steps, surface kept within 2 input spacings of
+    /// the data.
     pub fn standard() -> Self {
         Self {
             resolution: 256,
             newton_steps: 4,
+            max_data_distance: 2.0,
         }
     }
 }
@@ -171,7 +178,7 @@ pub fn polygonize(mpu: &Mpu, params: &PolygonizeParams) -> TriangleSoup {
                 }
                 x -= step;
             }
-            Some(x)
+            (mpu.distance_in_spacings(x) <= params.max_data_distance).then_some(x)
         })
         .collect();
     let mut soup = TriangleSoup::default();

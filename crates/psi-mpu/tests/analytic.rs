@@ -202,6 +202,7 @@ fn cube_edges_stay_sharp() {
         &PolygonizeParams {
             resolution: 128,
             newton_steps: 6,
+            ..PolygonizeParams::standard()
         },
     );
     assert!(mesh.faces.len() > 1000);

@@ -49,6 +49,7 @@ pub fn surface_area(mpu: &Mpu) -> f64 {
         &PolygonizeParams {
             resolution: 128,
             newton_steps: 2,
+            max_data_distance: f64::INFINITY,
         },
     );
     mesh.faces
