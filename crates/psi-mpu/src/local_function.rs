@@ -32,7 +32,7 @@ pub enum LocalFunction {
         /// Convex edge (max) or concave (min).
         convex: bool,
     },
-    /// Corner: op_outer(op_pair(Q[order0], Q[order1]), Q[order2]).
+    /// Corner: `op_outer(op_pair(Q[order[0]], Q[order[1]]), Q[order[2]])`.
     Corner {
         /// The three pieces.
         pieces: [Quadric; 3],

@@ -1,7 +1,7 @@
 //! The one tolerance policy of the workspace: named tolerances and the `assert_near!` macro.
 //!
-//! Every crate's tests compare floating-point values through [`assert_near!`] (absolute
-//! tolerance) or [`assert_rel_near!`] (relative to a scale, usually the bounding-box diagonal
+//! Every crate's tests compare floating-point values through [`assert_near!`](crate::assert_near) (absolute
+//! tolerance) or [`assert_rel_near!`](crate::assert_rel_near) (relative to a scale, usually the bounding-box diagonal
 //! `D`), never with a bare `==` unless bitwise identity is the property under test.
 
 /// Tolerance for quantities that should agree to rounding (accelerated vs brute-force sums).

@@ -8,7 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 
-/// [PJS] eq. 1's weight function, quirks fixed. Input t in [0, 1]; output in [0, 1].
+/// Paper eq. 1's weight function, quirks fixed. Input t in [0, 1]; output in [0, 1].
 pub fn paper_weight(t: f64) -> f64 {
     let u = 1.05 * t;
     if u >= 1.0 {

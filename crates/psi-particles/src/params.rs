@@ -23,7 +23,7 @@ pub enum NeighbourSearch {
 /// Every parameter of sampling. Construct with [`ParticleParams::paper`].
 ///
 /// Sources (`../shared/reference/algorithms.md` §2 and §5): Witkin–Heckbert 1994 via Wickbert
-/// (α = 6, Ê = 0.8α, ρ = 15, β = 10, φ = 15, 3σ neighbourhood); [PJS] (k = 1, 20 iterations).
+/// (α = 6, Ê = 0.8α, ρ = 15, β = 10, φ = 15, 3σ neighbourhood); Proença et al. (k = 1, 20 iterations).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ParticleParams {
     /// Particles seeded per surface-containing leaf (paper: 1).
