@@ -87,6 +87,17 @@ impl MpuFrame {
     }
 }
 
+/// Progress of an MPU build, reported after each octree level.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BuildProgress {
+    /// The level just decided.
+    pub depth: u8,
+    /// The deepest level allowed.
+    pub max_depth: u8,
+    /// Cells created so far.
+    pub cells: usize,
+}
+
 /// A cell's stored decision in a built MPU, reusable by a later build when no edit reached it.
 #[derive(Clone, Debug)]
 pub(crate) struct CellRecord {
@@ -154,6 +165,17 @@ impl Mpu {
         frame: &MpuFrame,
         reuse: Option<Reuse<'_>>,
     ) -> Result<Mpu, MpuError> {
+        Self::build_observed(points, params, frame, reuse, &|_| {})
+    }
+
+    /// [`Mpu::build_in_frame`], calling `observe` after each octree level (progress reporting).
+    pub fn build_observed(
+        points: &[OrientedPoint],
+        params: &MpuParams,
+        frame: &MpuFrame,
+        reuse: Option<Reuse<'_>>,
+        observe: &(dyn Fn(BuildProgress) + Sync),
+    ) -> Result<Mpu, MpuError> {
         let start = Instant::now();
         let (positions, normals) = prepare(points, params, frame)?;
         let eps0 = params.error_rel * frame.diagonal;
@@ -180,7 +202,14 @@ impl Mpu {
                     .collect()
             })
             .unwrap_or_default();
-        let (octree, records) = Octree::build_in_cube(
+        let on_level = |depth: u8, cells: usize| {
+            observe(BuildProgress {
+                depth,
+                max_depth: params.max_depth,
+                cells,
+            })
+        };
+        let (octree, records) = Octree::build_in_cube_observed(
             &positions,
             frame.root_center,
             frame.root_half,
@@ -210,6 +239,7 @@ impl Mpu {
                     },
                 )
             },
+            &on_level,
         )?;
         let mut fits = Vec::new();
         let mut fit_kinds = Vec::new();

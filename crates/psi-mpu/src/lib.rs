@@ -41,7 +41,7 @@ mod polygonize;
 mod quadric;
 mod report;
 
-pub use build::{Mpu, MpuFrame, Reuse};
+pub use build::{BuildProgress, Mpu, MpuFrame, Reuse};
 pub use error::MpuError;
 pub use evaluate::BACKGROUND_WEIGHT;
 pub use local_function::{FitKind, LocalFunction};

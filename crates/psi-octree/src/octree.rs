@@ -166,6 +166,23 @@ impl Octree {
         T: Send,
         F: Fn(CellView<'_>) -> (bool, T) + Sync,
     {
+        Self::build_in_cube_observed(points, center, half, params, decide, &|_, _| {})
+    }
+
+    /// [`Octree::build_in_cube`], calling `on_level(depth, cells so far)` after each level is
+    /// decided (progress reporting).
+    pub fn build_in_cube_observed<T, F>(
+        points: &[DVec3],
+        center: DVec3,
+        half: f64,
+        params: &OctreeParams,
+        decide: F,
+        on_level: &(dyn Fn(u8, usize) + Sync),
+    ) -> Result<(Octree, Vec<T>), OctreeError>
+    where
+        T: Send,
+        F: Fn(CellView<'_>) -> (bool, T) + Sync,
+    {
         if params.max_depth > DEPTH_LIMIT {
             return Err(OctreeError::TooDeep {
                 max_depth: params.max_depth,
@@ -230,6 +247,7 @@ impl Octree {
                     tree.split(i, &mut scratch);
                 }
             }
+            on_level(tree.cells[level.start].depth, tree.cells.len());
             level = next_start..tree.cells.len();
         }
         tree.point_leaf = vec![NO_CELL; points.len()];

@@ -41,5 +41,7 @@ pub use particles::Particles;
 pub use quality::{
     LevelStats, Quality, SpacingStats, measure_quality, nearest_neighbour_distances,
 };
-pub use relax::{RelaxRegion, relax};
-pub use sample::{SampleReport, Sampling, initialize, sample, seed_leaves, surface_area};
+pub use relax::{RelaxRegion, relax, relax_observed};
+pub use sample::{
+    SampleReport, Sampling, initialize, sample, sample_observed, seed_leaves, surface_area,
+};

@@ -40,6 +40,18 @@ pub fn relax(
     params: &ParticleParams,
     region: RelaxRegion<'_>,
 ) {
+    relax_observed(mpu, particles, field, params, region, &|_| {});
+}
+
+/// [`relax`], calling `on_iteration(iterations done)` after each iteration (progress reporting).
+pub fn relax_observed(
+    mpu: &Mpu,
+    particles: &mut Particles,
+    field: &DensityField,
+    params: &ParticleParams,
+    region: RelaxRegion<'_>,
+    on_iteration: &(dyn Fn(usize) + Sync),
+) {
     let n = particles.len();
     let tol = params.newton_tolerance * mpu.diagonal();
     let mut fg: Vec<(f64, DVec3)> = particles
@@ -50,7 +62,10 @@ pub fn relax(
     let e_hat = params.target_energy_ratio * params.energy_alpha;
     let mut velocity = vec![DVec3::ZERO; n];
     let mut anchor: Vec<Option<u32>> = vec![None; n];
-    for _ in 0..params.iterations {
+    for iteration in 0..params.iterations {
+        if iteration > 0 {
+            on_iteration(iteration);
+        }
         let index = NeighbourIndex::new(params.neighbours, mpu, &particles.positions);
         let state = &*particles;
         let fg_ref = &fg;
@@ -144,6 +159,7 @@ pub fn relax(
             }
         }
     }
+    on_iteration(params.iterations);
     // Final polish: a particle whose moves were all rejected still sits where it was seeded, on
     // an input point, which can be up to ε0 off the zero set.
     let polished: Vec<Option<(DVec3, DVec3)>> = (0..n)

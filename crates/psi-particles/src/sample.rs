@@ -133,6 +133,15 @@ pub fn seed_leaves(
 
 /// Seeds, relaxes and measures (the paper's pipeline).
 pub fn sample(mpu: &Mpu, params: &ParticleParams) -> Sampling {
+    sample_observed(mpu, params, &|_| {})
+}
+
+/// [`sample`], calling `on_iteration(iterations done)` during relaxation (progress reporting).
+pub fn sample_observed(
+    mpu: &Mpu,
+    params: &ParticleParams,
+    on_iteration: &(dyn Fn(usize) + Sync),
+) -> Sampling {
     let t0 = Instant::now();
     let (mut particles, density, seeded_leaves) = initialize(mpu, params);
     let init_seconds = t0.elapsed().as_secs_f64();
