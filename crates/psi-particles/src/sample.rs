@@ -9,7 +9,7 @@ use crate::seed::{quotas, seed};
 use crate::seed_poisson::poisson_seeds;
 use crate::{
     DensityField, DensityMode, ParticleParams, Particles, Quality, RelaxRegion, measure_quality,
-    relax,
+    relax_observed,
 };
 
 /// What a sampling run did.
@@ -147,12 +147,13 @@ pub fn sample_observed(
     let init_seconds = t0.elapsed().as_secs_f64();
     let before = measure_quality(mpu, &particles);
     let t1 = Instant::now();
-    relax(
+    relax_observed(
         mpu,
         &mut particles,
         &density,
         params,
         RelaxRegion::default(),
+        on_iteration,
     );
     let simulate_seconds = t1.elapsed().as_secs_f64();
     let after = measure_quality(mpu, &particles);
