@@ -146,7 +146,7 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
         }));
     }
     // The MPU surface itself: polygonized, against the reference mesh in both directions.
-    md.push_str("\n## MPU surface against the reference mesh (polygonized at resolution 256)\n\n| model | closed? | surface→reference mean / max (D) | reference→surface mean / p99 / max (D) |\n|---|---|---|---|\n");
+    md.push_str("\n## MPU surface against the reference mesh (polygonized at resolution 256)\n\nFits solved in world units (`MpuParams::paper()`, as Ohtake's code) and in units of each cell's radius (`--scale-invariant`).\n\n| model | closed? | fits | surface→reference mean / max (D) | reference→surface mean / p99 / max (D) |\n|---|---|---|---|---|\n");
     let mut surfaces = Vec::new();
     for row in TABLE1
         .iter()
@@ -156,47 +156,50 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
         if !path.is_file() {
             continue;
         }
-        let mesh_path = out_dir.join(format!("{}-surface.ply", row.model));
-        let out = Command::new(&psi)
-            .arg("mesh")
-            .arg(&path)
-            .arg("-o")
-            .arg(&mesh_path)
-            .output()?;
-        if !out.status.success() {
-            bail!(
-                "psi mesh {} failed: {}",
-                path.display(),
-                String::from_utf8_lossy(&out.stderr)
-            );
-        }
-        let ours = Reference::new(psi::load_mesh(&mesh_path)?)?;
         let reference = Reference::new(psi::load_mesh(&path)?)?;
         let diag = psi::Aabb::from_points(reference.mesh.vertices.iter().copied())
             .map_or(1.0, |b| b.diagonal());
-        let to_reference = distance_stats(&reference.distances(&ours.mesh.vertices), diag);
         let used: std::collections::BTreeSet<u32> =
             reference.mesh.faces.iter().flatten().copied().collect();
         let ref_points: Vec<_> = used
             .iter()
             .map(|&i| reference.mesh.vertices[i as usize])
             .collect();
-        let from_reference = distance_stats(&ours.distances(&ref_points), diag);
-        md.push_str(&format!(
-            "| {} | {} | {:.1e} / {:.1e} | {:.1e} / {:.1e} / {:.1e} |\n",
-            row.model,
-            if row.model == "bunny" {
-                "no (5 holes)"
-            } else {
-                "yes"
-            },
-            f(&to_reference["mean"]),
-            f(&to_reference["max"]),
-            f(&from_reference["mean"]),
-            f(&from_reference["p99"]),
-            f(&from_reference["max"]),
-        ));
-        surfaces.push(json!({ "model": row.model, "surface_to_reference": to_reference, "reference_to_surface": from_reference }));
+        for (mode, extra) in [
+            ("paper", None),
+            ("scale-invariant", Some("--scale-invariant")),
+        ] {
+            let mesh_path = out_dir.join(format!("{}-{mode}-surface.ply", row.model));
+            let mut cmd = Command::new(&psi);
+            cmd.arg("mesh").arg(&path).arg("-o").arg(&mesh_path);
+            cmd.args(extra);
+            let out = cmd.output()?;
+            if !out.status.success() {
+                bail!(
+                    "psi mesh {} failed: {}",
+                    path.display(),
+                    String::from_utf8_lossy(&out.stderr)
+                );
+            }
+            let ours = Reference::new(psi::load_mesh(&mesh_path)?)?;
+            let to_reference = distance_stats(&reference.distances(&ours.mesh.vertices), diag);
+            let from_reference = distance_stats(&ours.distances(&ref_points), diag);
+            md.push_str(&format!(
+                "| {} | {} | {mode} | {:.1e} / {:.1e} | {:.1e} / {:.1e} / {:.1e} |\n",
+                row.model,
+                if row.model == "bunny" {
+                    "no (5 holes)"
+                } else {
+                    "yes"
+                },
+                f(&to_reference["mean"]),
+                f(&to_reference["max"]),
+                f(&from_reference["mean"]),
+                f(&from_reference["p99"]),
+                f(&from_reference["max"]),
+            ));
+            surfaces.push(json!({ "model": row.model, "fits": mode, "surface_to_reference": to_reference, "reference_to_surface": from_reference }));
+        }
     }
     // Uniform (blue-noise) mode on the bunny, beside the best mesh samplers measured.
     let mut uniform = Vec::new();

@@ -100,7 +100,10 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64
         .map(|p| bspline(1.5 * (*p - center).length() / r1))
         .collect();
 
-    let (function, kind, fallback) = select_and_fit(&pos, &nrm, &w, center, half, r1, params);
+    // The length unit of the least-squares solves, in which the relative cut-offs apply.
+    let solve_unit = params.fit_unit.unwrap_or(r1);
+    let (function, kind, fallback) =
+        select_and_fit(&pos, &nrm, &w, center, half, solve_unit, params);
     let r2 = r * r;
     let error_of = |f: &LocalFunction| {
         let mut e = 0.0f64;
@@ -127,7 +130,7 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64
     if params.sharp
         && matches!(kind, FitKind::Bivariate | FitKind::GeneralQuadric)
         && error > 1e-3 * r
-        && let Some(sharp) = sharp_candidate(&pos, &nrm, &w, r1, params)
+        && let Some(sharp) = sharp_candidate(&pos, &nrm, &w, solve_unit, params)
     {
         let sharp_error = error_of(&sharp.0);
         let better = sharp_error < 0.5 * error.min(eps0);
@@ -160,7 +163,7 @@ fn sharp_candidate(
     pos: &[DVec3],
     nrm: &[DVec3],
     w: &[f64],
-    r1: f64,
+    solve_unit: f64,
     params: &MpuParams,
 ) -> Option<(LocalFunction, FitKind)> {
     let mean = nrm.iter().copied().sum::<DVec3>().normalize_or_zero();
@@ -175,9 +178,9 @@ fn sharp_candidate(
         .map(|k| (k, m.dot(nrm[k]).abs()))
         .max_by(|a, b| a.1.total_cmp(&b.1))?;
     if spread < params.t_corner {
-        fit_edge(pos, nrm, w, nrm[i], nrm[j], r1).map(|f| (f, FitKind::Edge))
+        fit_edge(pos, nrm, w, nrm[i], nrm[j], solve_unit).map(|f| (f, FitKind::Edge))
     } else {
-        fit_corner(pos, nrm, w, [nrm[i], nrm[j], nrm[k]], r1).map(|f| (f, FitKind::Corner))
+        fit_corner(pos, nrm, w, [nrm[i], nrm[j], nrm[k]], solve_unit).map(|f| (f, FitKind::Corner))
     }
 }
 
@@ -189,7 +192,7 @@ fn select_and_fit(
     w: &[f64],
     center: DVec3,
     half: f64,
-    r1: f64,
+    solve_unit: f64,
     params: &MpuParams,
 ) -> (LocalFunction, FitKind, bool) {
     let Some((o, nbar)) =
@@ -203,10 +206,10 @@ fn select_and_fit(
         );
     };
     let plane = || LocalFunction::Smooth(Quadric::plane(o, nbar));
-    let bivariate = || fit_bivariate(pos, w, o, nbar, r1).map(LocalFunction::Smooth);
+    let bivariate = || fit_bivariate(pos, w, o, nbar, solve_unit).map(LocalFunction::Smooth);
     let general = || {
         let aux = auxiliary_points(center, half, pos, nrm);
-        fit_general_quadric(pos, w, &aux, o, r1)
+        fit_general_quadric(pos, w, &aux, o, solve_unit)
             .filter(|q| gradient_is_healthy(q, pos))
             .map(LocalFunction::Smooth)
     };
@@ -225,7 +228,7 @@ fn select_and_fit(
         FitKind::Bivariate => bivariate(),
         FitKind::Edge => {
             let (i, j) = most_different(nrm);
-            fit_edge(pos, nrm, w, nrm[i], nrm[j], r1)
+            fit_edge(pos, nrm, w, nrm[i], nrm[j], solve_unit)
         }
         FitKind::Corner => {
             let (i, j) = most_different(nrm);
@@ -233,7 +236,7 @@ fn select_and_fit(
             let k = (0..nrm.len())
                 .max_by(|&a, &b| m.dot(nrm[a]).abs().total_cmp(&m.dot(nrm[b]).abs()))
                 .unwrap_or(0);
-            fit_corner(pos, nrm, w, [nrm[i], nrm[j], nrm[k]], r1)
+            fit_corner(pos, nrm, w, [nrm[i], nrm[j], nrm[k]], solve_unit)
         }
         FitKind::Plane => Some(plane()),
     };

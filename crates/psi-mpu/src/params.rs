@@ -27,11 +27,20 @@ pub struct MpuParams {
     pub t_edge: f64,
     /// Corner test: a corner when max |(n_i × n_j)·n_k| ≥ T_corner (0.7).
     pub t_corner: f64,
+    /// The length unit (world units) of the local least-squares solves, in which the relative
+    /// singular-value cut-offs (1e-5 bivariate, 1e-7 general, 1e-3 sharp) apply. `Some(1.0)` is
+    /// Ohtake's code, which solves in raw world coordinates: in small cells the quadratic terms
+    /// then fall below the cut-off and the fits become nearly planar, so the octree subdivides
+    /// further — this reproduces the paper's cell (and particle) counts, but makes the MPU depend
+    /// on the input's units. `None` solves in units of each cell's fit radius: unit-independent
+    /// full quadratic fits and fewer cells.
+    pub fit_unit: Option<f64>,
 }
 
 impl MpuParams {
-    /// Ohtake et al.'s published values: ε0 = 0.005 D, α = 0.75, λ = 0.1, N_min = 15, maximum
-    /// depth 12, root box 1.2, sharp features on with T_edge = 0.9 and T_corner = 0.7.
+    /// Ohtake et al.'s published values and code: ε0 = 0.005 D, α = 0.75, λ = 0.1, N_min = 15,
+    /// maximum depth 12, root box 1.2, sharp features on with T_edge = 0.9 and T_corner = 0.7,
+    /// fits solved in world units (`fit_unit = Some(1.0)`).
     pub fn paper() -> Self {
         Self {
             error_rel: 0.005,
@@ -43,6 +52,16 @@ impl MpuParams {
             sharp: true,
             t_edge: 0.9,
             t_corner: 0.7,
+            fit_unit: Some(1.0),
+        }
+    }
+
+    /// [`MpuParams::paper`] with unit-independent fits (`fit_unit = None`): the same surface
+    /// whatever the input's units, full quadratic fits, fewer cells.
+    pub fn scale_invariant() -> Self {
+        Self {
+            fit_unit: None,
+            ..Self::paper()
         }
     }
 }

@@ -55,6 +55,10 @@ pub(crate) struct MpuArgs {
     /// Disable sharp edge and corner fits.
     #[arg(long)]
     pub(crate) smooth: bool,
+    /// Solve the local fits in units of each cell's radius: the same surface whatever the
+    /// input's units (default: world units, as Ohtake's code and the paper).
+    #[arg(long)]
+    pub(crate) scale_invariant: bool,
 }
 
 impl MpuArgs {
@@ -63,6 +67,11 @@ impl MpuArgs {
             error_rel: self.mpu_error,
             max_depth: self.max_depth,
             sharp: !self.smooth,
+            fit_unit: if self.scale_invariant {
+                None
+            } else {
+                psi::MpuParams::paper().fit_unit
+            },
             ..psi::MpuParams::paper()
         }
     }
