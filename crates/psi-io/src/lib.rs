@@ -10,6 +10,8 @@
 //!   one point per triangle at its centroid with the face normal (the paper's counts, the
 //!   default), or per vertex with area-weighted normals ([`MeshSampling`]); from a point cloud
 //!   the points with their (normalised) normals. [`read_mesh`] gives the [`TriangleMesh`].
+//! * [`read_point_scalars`] gives named scalar columns of a PLY `vertex` element (a particle
+//!   file's `depth` and `sigma`, say), aligned record by record, nothing dropped.
 //! * [`write_points_ply`] writes points, normals and named scalar channels (f64);
 //!   [`write_mesh_ply`] writes a mesh (f32 positions, int indices).
 //! * Every malformed input is a [`ReadError`] naming the element and index (or line) and the
@@ -49,6 +51,7 @@ mod model;
 mod options;
 mod read_obj;
 mod read_ply;
+mod read_scalars;
 mod read_xyz;
 mod text;
 mod write_ply;
@@ -57,6 +60,7 @@ pub use error::{ReadError, WriteError};
 pub use format::Format;
 pub use model::{PointCloudFile, TriangleMesh};
 pub use options::{MeshSampling, ReadOptions};
+pub use read_scalars::read_point_scalars;
 pub use write_ply::{write_mesh_ply, write_points_ply};
 
 use model::Parsed;

@@ -31,25 +31,8 @@ fn is_index_list(name: &str) -> bool {
 /// the `face` element's index lists, triangulated as fans. Other elements and properties are
 /// skipped.
 pub(crate) fn read_ply(bytes: &[u8]) -> Result<Parsed, ReadError> {
-    if is_blank(bytes) {
-        return Err(ReadError::Empty);
-    }
-    let mut reader = Reader::new(bytes);
-    let header = Parser::<Skip>::new()
-        .read_header(&mut reader)
-        .map_err(|e| ReadError::Header {
-            reason: one_line(&e.to_string()),
-        })?;
-    let data = reader.into_inner();
-    let header_bytes = &bytes[..bytes.len() - data.len()];
-    check_unique_names(header_bytes)?;
+    let (header, mut records) = open(bytes)?;
     let layout = Layout::of(&header)?;
-
-    let mut records = Records {
-        data,
-        encoding: header.encoding,
-        line: header_bytes.iter().filter(|&&b| b == b'\n').count() + 1,
-    };
     let mut parsed = Parsed::default();
     let mut pending = 1 + usize::from(layout.faces);
     for (name, def) in &header.elements {
@@ -67,6 +50,28 @@ pub(crate) fn read_ply(bytes: &[u8]) -> Result<Parsed, ReadError> {
         }
     }
     Ok(parsed)
+}
+
+/// Parses and checks the header (no repeated names); returns it with the payload cursor.
+pub(crate) fn open(bytes: &[u8]) -> Result<(Header, Records<'_>), ReadError> {
+    if is_blank(bytes) {
+        return Err(ReadError::Empty);
+    }
+    let mut reader = Reader::new(bytes);
+    let header = Parser::<Skip>::new()
+        .read_header(&mut reader)
+        .map_err(|e| ReadError::Header {
+            reason: one_line(&e.to_string()),
+        })?;
+    let data = reader.into_inner();
+    let header_bytes = &bytes[..bytes.len() - data.len()];
+    check_unique_names(header_bytes)?;
+    let records = Records {
+        data,
+        encoding: header.encoding,
+        line: header_bytes.iter().filter(|&&b| b == b'\n').count() + 1,
+    };
+    Ok((header, records))
 }
 
 /// What the header promises, after validation.
@@ -187,7 +192,7 @@ fn check_unique_names(header: &[u8]) -> Result<(), ReadError> {
 }
 
 /// The payload cursor: reads one record at a time in the header's encoding.
-struct Records<'a> {
+pub(crate) struct Records<'a> {
     data: &'a [u8],
     encoding: Encoding,
     /// 1-based line number of the next record (meaningful for ASCII only).
@@ -195,7 +200,7 @@ struct Records<'a> {
 }
 
 impl Records<'_> {
-    fn read<E: PropertyAccess>(
+    pub(crate) fn read<E: PropertyAccess>(
         &mut self,
         parser: &Parser<E>,
         def: &ElementDef,
@@ -259,12 +264,12 @@ impl Records<'_> {
     }
 
     /// The line of the record just read, for ASCII files.
-    fn last_line(&self) -> Option<usize> {
+    pub(crate) fn last_line(&self) -> Option<usize> {
         (self.encoding == Encoding::Ascii).then(|| self.line - 1)
     }
 
     /// A capacity for `count` records that the remaining bytes could actually hold.
-    fn capacity(&self, count: usize, def: &ElementDef) -> usize {
+    pub(crate) fn capacity(&self, count: usize, def: &ElementDef) -> usize {
         let min_bytes = match self.encoding {
             // At least one digit and one separator per property.
             Encoding::Ascii => 2 * def.properties.len(),
@@ -362,7 +367,7 @@ fn read_faces(
     Ok(faces)
 }
 
-fn skip_element(records: &mut Records<'_>, def: &ElementDef) -> Result<(), ReadError> {
+pub(crate) fn skip_element(records: &mut Records<'_>, def: &ElementDef) -> Result<(), ReadError> {
     if def.properties.is_empty() && records.encoding != Encoding::Ascii {
         // A binary record without properties occupies no bytes.
         return Ok(());

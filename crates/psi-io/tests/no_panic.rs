@@ -1,6 +1,7 @@
 //! Property tests (seeded, 256 cases each): random bytes, and random mutations and
-//! truncations of valid PLY (ASCII and binary) and OBJ files, never panic any reader; whatever
-//! is accepted satisfies the output invariants.
+//! truncations of valid PLY (ASCII and binary) and OBJ files, never panic any reader
+//! (`read_points`, `read_mesh`, `read_point_scalars`); whatever is accepted satisfies the
+//! output invariants.
 
 mod common;
 
@@ -9,7 +10,8 @@ use common::{
 };
 use proptest::prelude::*;
 use psi_io::{
-    Format, MeshSampling, PointCloudFile, ReadOptions, TriangleMesh, read_mesh, read_points,
+    Format, MeshSampling, PointCloudFile, ReadOptions, TriangleMesh, read_mesh, read_point_scalars,
+    read_points,
 };
 
 fn check_mesh(mesh: &TriangleMesh) {
@@ -48,6 +50,13 @@ fn read_everything(bytes: &[u8]) {
             assert!(!mesh.faces.is_empty());
             check_mesh(&mesh);
         }
+    }
+    if let Ok(columns) = read_point_scalars(bytes, &["x", "nz", "depth", "x"]) {
+        assert_eq!(columns.len(), 4);
+        assert_eq!(columns[0], columns[3]);
+        let lengths: Vec<usize> = columns.iter().flatten().map(Vec::len).collect();
+        assert!(lengths.windows(2).all(|w| w[0] == w[1]), "{lengths:?}");
+        assert!(columns.iter().flatten().flatten().all(|v| v.is_finite()));
     }
 }
 
