@@ -5,7 +5,8 @@ use std::fs;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use psi_io::{Format, PointCloudFile, ReadOptions, TriangleMesh};
+use glam::DVec3;
+use psi_io::{Format, PointCloudFile, ReadError, ReadOptions, TriangleMesh};
 
 use crate::PsiError;
 
@@ -37,6 +38,81 @@ pub fn load_points(path: &Path, opts: &ReadOptions) -> Result<PointCloudFile, Ps
     psi_io::read_points(&bytes, format_of(path, &bytes), opts).map_err(|source| PsiError::Read {
         path: path.to_path_buf(),
         source,
+    })
+}
+
+/// The columns of a particle file (what [`save_particles`] writes), aligned index by index.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ParticleColumns {
+    /// Positions (shape: N), world units.
+    pub positions: Vec<DVec3>,
+    /// Normals (shape: N) as stored (unit for psi's particles).
+    pub normals: Vec<DVec3>,
+    /// Octree depth of each particle's leaf (shape: N), when the file has a `depth` property.
+    pub depth: Option<Vec<f64>>,
+    /// Repulsion radius σ (shape: N, world units), when the file has a `sigma` property.
+    pub sigma: Option<Vec<f64>>,
+}
+
+/// Reads particles: from a PLY its `vertex` columns `x y z nx ny nz` and, when present,
+/// `depth` and `sigma`, every record kept (see [`psi_io::read_point_scalars`]); from any other
+/// file the oriented points of [`load_points`] (no `depth` or `sigma`).
+///
+/// ```
+/// let dir = std::env::temp_dir().join(format!("psi-doc-particles-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// let path = dir.join("p.xyz");
+/// std::fs::write(&path, "0 0 0 0 0 1\n1 0 0 0 0 1\n").unwrap();
+/// let p = psi::load_particles(&path).unwrap();
+/// assert_eq!((p.positions.len(), p.depth), (2, None));
+/// ```
+///
+/// # Errors
+///
+/// [`PsiError::Open`] when the file cannot be read; [`PsiError::Read`] when it is malformed,
+/// a PLY lacks `x y z` (a header error) or `nx ny nz` ([`ReadError::NoNormals`]), or a value
+/// is NaN or infinite.
+pub fn load_particles(path: &Path) -> Result<ParticleColumns, PsiError> {
+    let bytes = read_bytes(path)?;
+    let read_error = |source| PsiError::Read {
+        path: path.to_path_buf(),
+        source,
+    };
+    if format_of(path, &bytes) != Format::Ply {
+        let file = psi_io::read_points(&bytes, format_of(path, &bytes), &ReadOptions::paper())
+            .map_err(read_error)?;
+        return Ok(ParticleColumns {
+            positions: file.points.iter().map(|p| p.p).collect(),
+            normals: file.points.iter().map(|p| p.n).collect(),
+            depth: None,
+            sigma: None,
+        });
+    }
+    let names = ["x", "y", "z", "nx", "ny", "nz", "depth", "sigma"];
+    let mut columns = psi_io::read_point_scalars(&bytes, &names).map_err(read_error)?;
+    let sigma = columns.pop().flatten();
+    let depth = columns.pop().flatten();
+    let vectors = |c: &[Option<Vec<f64>>]| match c {
+        [Some(x), Some(y), Some(z)] => Some(
+            x.iter()
+                .zip(y)
+                .zip(z)
+                .map(|((&x, &y), &z)| DVec3::new(x, y, z))
+                .collect::<Vec<_>>(),
+        ),
+        _ => None,
+    };
+    let positions = vectors(&columns[..3]).ok_or_else(|| {
+        read_error(ReadError::Header {
+            reason: "the `vertex` element needs scalar properties `x y z`".to_owned(),
+        })
+    })?;
+    let normals = vectors(&columns[3..]).ok_or_else(|| read_error(ReadError::NoNormals))?;
+    Ok(ParticleColumns {
+        positions,
+        normals,
+        depth,
+        sigma,
     })
 }
 

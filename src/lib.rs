@@ -7,7 +7,8 @@
 //! * [`io`] (`psi-io`): PLY/OBJ/XYZ parsing and PLY writing, on bytes;
 //! * [`mpu`] (`psi-mpu`): the MPU implicit (Ohtake et al. 2003) and its polygonizer;
 //! * [`particles`] (`psi-particles`): octree-seeded, depth-adaptive particle sampling;
-//! * [`regen`] (`psi-regen`): local regeneration after shape edits.
+//! * [`regen`] (`psi-regen`): local regeneration after shape edits;
+//! * [`render`] (`psi-render`, beside the chain): pictures of particles and meshes (PNG).
 //!
 //! ```
 //! use psi::{Mpu, MpuParams, ParticleParams};
@@ -21,6 +22,7 @@
 
 mod error;
 mod files;
+pub mod render;
 
 pub use psi_io as io;
 pub use psi_mpu as mpu;
@@ -29,7 +31,10 @@ pub use psi_particles as particles;
 pub use psi_regen as regen;
 
 pub use error::PsiError;
-pub use files::{load_mesh, load_points, save_json, save_mesh, save_particles, write_atomically};
+pub use files::{
+    ParticleColumns, load_mesh, load_particles, load_points, save_json, save_mesh, save_particles,
+    write_atomically,
+};
 pub use glam::DVec3;
 pub use psi_io::{MeshSampling, PointCloudFile, ReadOptions, TriangleMesh};
 pub use psi_mpu::{
@@ -39,3 +44,4 @@ pub use psi_octree::{Aabb, AnalyticShape, OrientedPoint, builtin_model};
 pub use psi_particles::{
     DensityMode, NeighbourSearch, ParticleParams, Particles, SampleReport, Sampling, sample,
 };
+pub use render::{render_particles_png, save_png};

@@ -12,6 +12,7 @@ mod input;
 mod run_edit;
 mod run_info;
 mod run_mesh;
+mod run_render;
 mod run_sample;
 
 /// Point-set implicits: an MPU surface from oriented points, and adaptive particles on it.
@@ -101,6 +102,11 @@ enum Command {
         after_help = "Example:\n  psi edit bunny.ply --brush -0.02,0.1,0.05,0.02,0,0.005,0 --before before.ply -o after.ply --json edit.json"
     )]
     Edit(run_edit::EditArgs),
+    /// Draw particles (coloured by octree depth, σ or normal) or a mesh into a PNG picture.
+    #[command(
+        after_help = "Examples:\n  psi render particles.ply -o view.png --view side --color depth\n  psi render surface.ply -o surface.png --size 800"
+    )]
+    Render(run_render::RenderArgs),
 }
 
 /// An error with the exit code it maps to.
@@ -131,6 +137,7 @@ fn main() -> ExitCode {
         Command::Mesh(args) => run_mesh::run(&args),
         Command::Sample(args) => run_sample::run(&args),
         Command::Edit(args) => run_edit::run(&args),
+        Command::Render(args) => run_render::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
