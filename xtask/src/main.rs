@@ -8,12 +8,15 @@
 //!   libigl (`point_mesh_squared_distance`) in a virtual environment the task creates.
 //! * `memory [--points N]`: the built-in model with N points (5 000 000 by default) through
 //!   `psi sample`, reporting time and peak memory.
+//! * `figures [--models DIR]`: regenerates the README's pictures in `docs/images/` (built-in
+//!   model and bunny coloured by octree depth, a brush edit, uniform beside adaptive).
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
 mod check_reference;
+mod figures;
 mod host;
 mod memory;
 mod paper;
@@ -83,6 +86,7 @@ fn main() -> std::process::ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("reproduce-tables") => parse(&args[1..]).and_then(|f| tables::run(&f)),
         Some("check-reference") => parse(&args[1..]).and_then(|f| check_reference::run(&f)),
+        Some("figures") => parse(&args[1..]).and_then(|f| figures::run(&f)),
         Some("memory") => {
             let points = match args.get(1).map(String::as_str) {
                 Some("--points") => args
@@ -95,7 +99,7 @@ fn main() -> std::process::ExitCode {
         }
         _ => {
             eprintln!(
-                "usage: cargo xtask reproduce-tables|check-reference [--models DIR] [--only a,b] [--iterations N] [--json FILE]"
+                "usage: cargo xtask reproduce-tables|check-reference|figures [--models DIR] [--only a,b] [--iterations N] [--json FILE]"
             );
             return std::process::ExitCode::from(2);
         }
