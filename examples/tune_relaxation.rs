@@ -31,6 +31,33 @@ fn main() -> anyhow::Result<()> {
                 })
                 .collect();
             worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+            if std::env::var_os("PROBE").is_some() {
+                let mut idx: Vec<usize> = (0..run.particles.len()).collect();
+                idx.sort_by(|&a, &b| {
+                    let r = |i: usize| {
+                        let (f, g) = mpu.value_and_gradient(run.particles.positions[i]);
+                        f.abs() / g.length()
+                    };
+                    r(b).total_cmp(&r(a))
+                });
+                let x = run.particles.positions[idx[0]];
+                let (f, g) = mpu.value_and_gradient(x);
+                let dir = -f.signum() * g.normalize();
+                println!(
+                    "probe: f {f:e} |g| {:.3} sigma {:e}",
+                    g.length(),
+                    run.particles.sigma[idx[0]]
+                );
+                for k in 0..12 {
+                    let t = 1e-6 * d * 2f64.powi(k);
+                    let (fp, gp) = mpu.value_and_gradient(x + t * dir);
+                    println!(
+                        "  t {t:.2e}: f {fp:+.3e} |g| {:.3} g·dir {:+.3}",
+                        gp.length(),
+                        gp.normalize().dot(dir)
+                    );
+                }
+            }
             let bad = worst.iter().filter(|w| w.0 > 1e-4).count();
             println!(
                 "{bad} particles above 1e-4 D; worst (|f|/|g|, |f|, |g|, depth): {:?}",

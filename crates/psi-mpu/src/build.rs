@@ -458,6 +458,12 @@ impl Mpu {
         (self.centroid_offset(y, q) <= spacing, Some(q))
     }
 
+    /// The input point nearest to world `x` (world units, unit normal); `None` for an empty input.
+    pub fn nearest_input(&self, x: DVec3) -> Option<OrientedPoint> {
+        let (q, _) = self.index.nearest_one(x - self.frame.origin)?;
+        Some(self.points[q as usize])
+    }
+
     /// Distance from world `x` to the nearest input point, in units of the local input spacing
     /// there ([`Mpu::input_spacing`]); ∞ for an empty input.
     pub fn distance_in_spacings(&self, x: DVec3) -> f64 {

@@ -44,6 +44,32 @@ pub(crate) fn newton_project(
     (x, f, g)
 }
 
+/// [`project_robust`], and where it finds no root near x (a fold of f just short of zero, as
+/// MPU blending can make in thin parts), the same from the nearest input point, which lies
+/// within ε0 of the surface, searching four times as far. The result with the smaller |f|/|∇f|
+/// wins.
+pub(crate) fn project_to_surface(
+    mpu: &Mpu,
+    x: DVec3,
+    tolerance: f64,
+    max_step: f64,
+) -> (DVec3, f64, DVec3) {
+    let first = project_robust(mpu, x, tolerance, max_step);
+    let ratio = |r: &(DVec3, f64, DVec3)| r.1.abs() / r.2.length().max(f64::MIN_POSITIVE);
+    if ratio(&first) <= tolerance {
+        return first;
+    }
+    let Some(q) = mpu.nearest_input(x) else {
+        return first;
+    };
+    let second = project_robust(mpu, q.p, tolerance, 4.0 * max_step);
+    if ratio(&second) < ratio(&first) {
+        second
+    } else {
+        first
+    }
+}
+
 /// Newton projection, then, where it stalls (kinks, nearly flat f), a bracket and bisection: f
 /// is continuous, so along a direction where its sign changes within 4 × `max_step` the root is
 /// halved down to rounding. Directions tried: against the gradient (by the sign of f), then the

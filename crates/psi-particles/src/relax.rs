@@ -8,7 +8,7 @@ use psi_mpu::Mpu;
 use rayon::prelude::*;
 
 use crate::neighbours::NeighbourIndex;
-use crate::project::{newton_project, project_robust};
+use crate::project::{newton_project, project_to_surface};
 use crate::{DensityField, ParticleParams, Particles};
 
 /// A particle's new state: position, f, ∇f, depth, σ, σ̂, nearest input point.
@@ -172,7 +172,8 @@ pub fn relax_observed(
             if f.abs() <= tol * g.length() {
                 return None;
             }
-            let (x, _, g) = project_robust(mpu, particles.positions[i], tol, particles.sigma[i]);
+            let (x, _, g) =
+                project_to_surface(mpu, particles.positions[i], tol, particles.sigma[i]);
             Some((x, g))
         })
         .collect();

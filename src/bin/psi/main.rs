@@ -14,6 +14,7 @@ mod run_info;
 mod run_mesh;
 mod run_render;
 mod run_sample;
+mod ui;
 
 /// Point-set implicits: an MPU surface from oriented points, and adaptive particles on it.
 #[derive(Parser)]
@@ -24,6 +25,12 @@ Examples:
   psi sample bunny.ply --uniform --count 10000 -o bunny_uniform.ply
   psi mesh bunny.ply -o surface.ply --resolution 256")]
 struct Cli {
+    /// Print nothing but errors (no progress bars, no summary).
+    #[arg(long, short, global = true)]
+    quiet: bool,
+    /// Print timings of each stage on stderr.
+    #[arg(long, short, global = true)]
+    verbose: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -132,11 +139,15 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    let ui = ui::Ui {
+        quiet: cli.quiet,
+        verbose: cli.verbose,
+    };
     let result = match cli.command {
         Command::Info { input, json } => run_info::run(&input, json),
-        Command::Mesh(args) => run_mesh::run(&args),
-        Command::Sample(args) => run_sample::run(&args),
-        Command::Edit(args) => run_edit::run(&args),
+        Command::Mesh(args) => run_mesh::run(&args, ui),
+        Command::Sample(args) => run_sample::run(&args, ui),
+        Command::Edit(args) => run_edit::run(&args, ui),
         Command::Render(args) => run_render::run(&args),
     };
     match result {

@@ -76,7 +76,7 @@ fn edits(args: &EditArgs) -> Result<Vec<Edit>, Failure> {
     Ok(out)
 }
 
-pub(crate) fn run(args: &EditArgs) -> Result<(), Failure> {
+pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     let edits = edits(args)?;
     let loaded = load(&args.input)?;
     let params = ParticleParams {
@@ -120,7 +120,9 @@ pub(crate) fn run(args: &EditArgs) -> Result<(), Failure> {
     if let Some(path) = &args.json {
         psi::save_json(path, &report)?;
     }
-    println!(
+    ui.timing("local regeneration", local_seconds);
+    ui.timing("full rebuild and sampling", full_seconds);
+    ui.summary(&format!(
         "{}: {} edit(s) regenerated {} particles in {:.4} s (full rebuild and sampling: {:.3} s); wrote {}",
         loaded.name,
         edits.len(),
@@ -128,6 +130,6 @@ pub(crate) fn run(args: &EditArgs) -> Result<(), Failure> {
         local_seconds,
         full_seconds,
         args.output.display()
-    );
+    ));
     Ok(())
 }

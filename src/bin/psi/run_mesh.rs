@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
-use psi::{Mpu, PolygonizeParams};
+use psi::PolygonizeParams;
 
 use crate::input::load;
 use crate::{Failure, InputArgs};
@@ -23,9 +23,9 @@ pub(crate) struct MeshArgs {
     resolution: u32,
 }
 
-pub(crate) fn run(args: &MeshArgs) -> Result<(), Failure> {
+pub(crate) fn run(args: &MeshArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     let loaded = load(&args.input)?;
-    let mpu = Mpu::build(loaded.points(), &args.mpu.params())
+    let mpu = crate::ui::build_mpu(ui, loaded.points(), &args.mpu.params())
         .with_context(|| format!("{}: building the MPU implicit", loaded.name))?;
     let t = std::time::Instant::now();
     let mesh = psi::polygonize(
@@ -38,7 +38,8 @@ pub(crate) fn run(args: &MeshArgs) -> Result<(), Failure> {
     let secs = t.elapsed().as_secs_f64();
     psi::save_mesh(&args.output, &mesh)?;
     let r = mpu.report();
-    println!(
+    ui.timing("polygonization", secs);
+    ui.summary(&format!(
         "{}: {} points -> MPU {} leaves (depth {}) in {:.3} s -> {} triangles in {:.3} s -> {}",
         loaded.name,
         r.points,
@@ -48,6 +49,6 @@ pub(crate) fn run(args: &MeshArgs) -> Result<(), Failure> {
         mesh.faces.len(),
         secs,
         args.output.display()
-    );
+    ));
     Ok(())
 }

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
-use psi::{DensityMode, Mpu, ParticleParams};
+use psi::{DensityMode, ParticleParams};
 use serde_json::json;
 
 use crate::input::load;
@@ -37,9 +37,12 @@ pub(crate) struct SampleArgs {
     /// Write the run's report as JSON.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Also write a picture of the particles coloured by octree depth (PNG).
+    #[arg(long)]
+    png: Option<PathBuf>,
 }
 
-pub(crate) fn run(args: &SampleArgs) -> Result<(), Failure> {
+pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     if args.k == 0 {
         return Err(Failure {
             error: anyhow::anyhow!("--k must be at least 1"),
@@ -53,7 +56,7 @@ pub(crate) fn run(args: &SampleArgs) -> Result<(), Failure> {
         });
     }
     let loaded = load(&args.input)?;
-    let mpu = Mpu::build(loaded.points(), &args.mpu.params())
+    let mpu = crate::ui::build_mpu(ui, loaded.points(), &args.mpu.params())
         .with_context(|| format!("{}: building the MPU implicit", loaded.name))?;
     let params = ParticleParams {
         k: args.k,
@@ -67,9 +70,12 @@ pub(crate) fn run(args: &SampleArgs) -> Result<(), Failure> {
         seed: args.seed,
         ..ParticleParams::paper()
     };
-    let run = psi::sample(&mpu, &params);
+    let run = crate::ui::sample(ui, &mpu, &params);
     if let Some(out) = &args.output {
         psi::save_particles(out, &run.particles)?;
+    }
+    if let Some(png) = &args.png {
+        psi::render_particles_png(png, &run.particles, &psi::render::RenderParams::particles())?;
     }
     let r = mpu.report();
     let s = &run.report;
@@ -100,7 +106,7 @@ pub(crate) fn run(args: &SampleArgs) -> Result<(), Failure> {
     if let Some(path) = &args.json {
         psi::save_json(path, &report)?;
     }
-    println!(
+    ui.summary(&format!(
         "{}: {} points, MPU {} leaves (depth {}) in {:.3} s; {} particles: seeding {:.3} s, {} iterations {:.3} s",
         loaded.name,
         r.points,
@@ -111,8 +117,8 @@ pub(crate) fn run(args: &SampleArgs) -> Result<(), Failure> {
         s.init_seconds,
         s.iterations,
         s.simulate_seconds
-    );
-    println!(
+    ));
+    ui.summary(&format!(
         "  nearest-neighbour CV {:.3} -> {:.3}; max |f|/|grad f| {:.1e} D{}",
         s.before.spacing.cv,
         s.after.spacing.cv,
@@ -121,6 +127,6 @@ pub(crate) fn run(args: &SampleArgs) -> Result<(), Failure> {
             .as_ref()
             .map(|o| format!("; wrote {}", o.display()))
             .unwrap_or_default()
-    );
+    ));
     Ok(())
 }

@@ -1,0 +1,84 @@
+//! Progress and verbosity: progress bars on stderr for the MPU build and the relaxation when
+//! stderr is a terminal (silent otherwise), `--quiet` to silence the summary, `-v` for timings.
+
+use std::io::IsTerminal;
+use std::time::Duration;
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// How much the command reports.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Ui {
+    pub(crate) quiet: bool,
+    pub(crate) verbose: bool,
+}
+
+impl Ui {
+    fn bars(&self) -> bool {
+        !self.quiet && std::io::stderr().is_terminal()
+    }
+
+    /// A bar over `total` steps labelled `what`, or a hidden one.
+    pub(crate) fn bar(&self, what: &str, total: u64) -> ProgressBar {
+        if !self.bars() {
+            return ProgressBar::hidden();
+        }
+        let bar = ProgressBar::new(total);
+        let style =
+            ProgressStyle::with_template("{prefix:>12} [{bar:30}] {pos}/{len} {msg} ({elapsed})")
+                .map(|s| s.progress_chars("=> "))
+                .unwrap_or_else(|_| ProgressStyle::default_bar());
+        bar.set_style(style);
+        bar.set_prefix(what.to_owned());
+        bar.enable_steady_tick(Duration::from_millis(200));
+        bar
+    }
+
+    /// Prints the run's summary line unless `--quiet`.
+    pub(crate) fn summary(&self, line: &str) {
+        if !self.quiet {
+            println!("{line}");
+        }
+    }
+
+    /// Prints a timing line on stderr with `-v`.
+    pub(crate) fn timing(&self, what: &str, seconds: f64) {
+        if self.verbose {
+            eprintln!("psi: {what}: {seconds:.4} s");
+        }
+    }
+}
+
+/// Builds an MPU with a progress bar over the octree levels.
+pub(crate) fn build_mpu(
+    ui: Ui,
+    points: &[psi::OrientedPoint],
+    params: &psi::MpuParams,
+) -> Result<psi::Mpu, psi::MpuError> {
+    let bar = ui.bar("MPU levels", u64::from(params.max_depth) + 1);
+    let frame = psi::mpu::MpuFrame::for_points(points, params)?;
+    let mpu = psi::Mpu::build_observed(
+        points,
+        params,
+        &frame,
+        None,
+        &|p: psi::mpu::BuildProgress| {
+            bar.set_position(u64::from(p.depth) + 1);
+            bar.set_message(format!("{} cells", p.cells));
+        },
+    );
+    bar.finish_and_clear();
+    let mpu = mpu?;
+    ui.timing("MPU build", mpu.report().seconds);
+    Ok(mpu)
+}
+
+/// Samples with a progress bar over the relaxation iterations.
+pub(crate) fn sample(ui: Ui, mpu: &psi::Mpu, params: &psi::ParticleParams) -> psi::Sampling {
+    let bar = ui.bar("relaxation", params.iterations as u64);
+    let run = psi::particles::sample_observed(mpu, params, &|i| bar.set_position(i as u64));
+    bar.finish_and_clear();
+    ui.timing("seeding", run.report.init_seconds);
+    ui.timing("relaxation", run.report.simulate_seconds);
+    run
+}
