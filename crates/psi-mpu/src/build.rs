@@ -180,7 +180,9 @@ impl Mpu {
         let (positions, normals) = prepare(points, params, frame)?;
         let eps0 = params.error_rel * frame.diagonal;
         let index = std::sync::Arc::new(PointIndex::new(&positions));
+        let coarse = crate::fit_cell::CoarseIndex::new(&positions);
         let input = FitInput {
+            coarse: &coarse,
             positions: &positions,
             normals: &normals,
             index: &index,

@@ -16,7 +16,39 @@ pub(crate) struct FitInput<'a> {
     pub(crate) positions: &'a [DVec3],
     pub(crate) normals: &'a [DVec3],
     pub(crate) index: &'a PointIndex,
+    /// The points whose [`position_hash`] is a multiple of [`COARSE`], and their indices.
+    pub(crate) coarse: &'a CoarseIndex,
     pub(crate) params: &'a MpuParams,
+}
+
+/// One point in [`COARSE`] (by position hash) in a kd-tree: large neighbourhoods are thinned to
+/// a subset of these without visiting the whole ball.
+pub(crate) const COARSE: u64 = 16;
+
+/// The coarse point subset and its kd-tree.
+pub(crate) struct CoarseIndex {
+    index: PointIndex,
+    ids: Vec<u32>,
+}
+
+impl CoarseIndex {
+    pub(crate) fn new(positions: &[DVec3]) -> Self {
+        let ids: Vec<u32> = (0..positions.len() as u32)
+            .filter(|&i| position_hash(positions[i as usize]).is_multiple_of(COARSE))
+            .collect();
+        let pts: Vec<DVec3> = ids.iter().map(|&i| positions[i as usize]).collect();
+        Self {
+            index: PointIndex::new(&pts),
+            ids,
+        }
+    }
+
+    /// Indices (into the full set) of the coarse points within `r` of `c`.
+    fn within(&self, c: DVec3, r: f64) -> Vec<u32> {
+        let mut out = Vec::new();
+        self.index.within(c, r, &mut out);
+        out.iter().map(|&k| self.ids[k as usize]).collect()
+    }
 }
 
 /// The result of fitting one cell.
@@ -78,19 +110,41 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64
     let params = input.params;
     let r = params.alpha * 2.0 * 3f64.sqrt() * half;
     let r1 = fit_radius(input, center, r);
-    let mut ball = Vec::new();
-    input.index.within(center, r1, &mut ball);
-    let thin = ball.len().div_ceil(MAX_FIT_POINTS).max(1) as u64;
-    let mut idx: Vec<u32> = if thin > 1 {
-        ball.iter()
+    // Thinning (a function of the ball's point set only, so a rebuild after an edit thins an
+    // unchanged neighbourhood identically): a ball with more than 256 coarse points (about 4096
+    // points) keeps the points whose hash is a multiple of 16·⌈c/4096⌉ (at most 4096 of them),
+    // found among the coarse points without visiting the ball; smaller balls are used whole.
+    let coarse = input.coarse.within(center, r1);
+    let mut full: Option<Vec<u32>> = None;
+    let mut idx: Vec<u32> = if coarse.len() > 256 {
+        let thin = COARSE * (coarse.len() as u64).div_ceil(MAX_FIT_POINTS as u64);
+        coarse
+            .iter()
             .copied()
             .filter(|&i| position_hash(input.positions[i as usize]).is_multiple_of(thin))
             .collect()
     } else {
-        ball.clone()
+        let mut ball = Vec::new();
+        input.index.within(center, r1, &mut ball);
+        let thin = ball.len().div_ceil(MAX_FIT_POINTS).max(1) as u64;
+        let kept = if thin > 1 {
+            ball.iter()
+                .copied()
+                .filter(|&i| position_hash(input.positions[i as usize]).is_multiple_of(thin))
+                .collect()
+        } else {
+            ball.clone()
+        };
+        full = Some(ball);
+        kept
     };
     if idx.len() < 3 {
-        idx.clone_from(&ball);
+        let ball = full.get_or_insert_with(|| {
+            let mut b = Vec::new();
+            input.index.within(center, r1, &mut b);
+            b
+        });
+        idx.clone_from(ball);
     }
     idx.sort_unstable();
     let pos: Vec<DVec3> = idx.iter().map(|&i| input.positions[i as usize]).collect();
@@ -105,17 +159,35 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64
     let (function, kind, fallback) =
         select_and_fit(&pos, &nrm, &w, center, half, solve_unit, params);
     let r2 = r * r;
+    // The error is a maximum: the coarse points are scanned first (they are part of the ball),
+    // and the whole ball only while the maximum stays under ε0.
+    let full_ball = std::cell::OnceCell::new();
+    if let Some(b) = full {
+        let _ = full_ball.set(b);
+    }
     let error_of = |f: &LocalFunction| {
         let mut e = 0.0f64;
-        for &i in &ball {
-            let p = input.positions[i as usize];
-            if (p - center).length_squared() < r2 {
-                e = e.max(f.taubin_distance(p));
-                if e > eps0 {
-                    break;
+        let mut scan = |set: &[u32]| {
+            for &i in set {
+                let p = input.positions[i as usize];
+                if (p - center).length_squared() < r2 {
+                    e = e.max(f.taubin_distance(p));
+                    if e > eps0 {
+                        return true;
+                    }
                 }
             }
+            false
+        };
+        if scan(&coarse) {
+            return e;
         }
+        let ball = full_ball.get_or_init(|| {
+            let mut b = Vec::new();
+            input.index.within(center, r1, &mut b);
+            b
+        });
+        scan(ball);
         e
     };
     let error = error_of(&function);
