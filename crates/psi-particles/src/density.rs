@@ -53,11 +53,25 @@ impl DensityField {
 
     /// Target radius σ̂ for a particle in a leaf at depth `d`, world units (half the spacing).
     pub fn target_sigma(&self, d: u8) -> f64 {
+        self.target_sigma_at(f64::from(d))
+    }
+
+    /// Target radius σ̂ at a fractional depth (Ohtake's blended level(x)), world units: the same
+    /// rule with t = (d − d_min)/(d_max − d_min) clamped to [0, 1], so σ̂ varies continuously
+    /// across the boundaries between depth levels instead of jumping.
+    pub fn target_sigma_at(&self, d: f64) -> f64 {
         if let Some(s) = self.uniform {
             return s;
         }
+        let delta = if self.d_max <= self.d_min {
+            1.0
+        } else {
+            paper_weight(
+                ((d - f64::from(self.d_min)) / f64::from(self.d_max - self.d_min)).clamp(0.0, 1.0),
+            )
+        };
         let (fine, coarse) = (self.edge(self.d_max), self.edge(self.d_min));
-        self.scale * 0.5 * (fine + self.delta(d) * (coarse - fine))
+        self.scale * 0.5 * (fine + delta * (coarse - fine))
     }
 }
 
