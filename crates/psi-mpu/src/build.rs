@@ -28,6 +28,8 @@ pub struct Mpu {
     pub(crate) fit_fallback: Vec<bool>,
     pub(crate) fit_radius: Vec<f64>,
     pub(crate) nodes: Vec<crate::evaluate::EvalNode>,
+    /// Per cell (used for leaves): the leaves whose support meets it, built on first use.
+    pub(crate) leaf_candidates: std::sync::Arc<Vec<std::sync::OnceLock<Box<[u32]>>>>,
     pub(crate) frame: MpuFrame,
     pub(crate) points: Vec<OrientedPoint>,
     pub(crate) bounds: Aabb,
@@ -299,7 +301,13 @@ impl Mpu {
             .map(|(p, n)| OrientedPoint { p: p.p, n: *n })
             .collect();
         let nodes = crate::evaluate::eval_nodes(&octree, &cell_fit, params.alpha);
+        let leaf_candidates = std::sync::Arc::new(
+            (0..nodes.len())
+                .map(|_| std::sync::OnceLock::new())
+                .collect(),
+        );
         Ok(Mpu {
+            leaf_candidates,
             nodes,
             octree,
             fits,

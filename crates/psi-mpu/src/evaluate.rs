@@ -59,6 +59,58 @@ pub(crate) fn eval_nodes(
 }
 
 impl Mpu {
+    /// The leaves whose support ball meets the cube of leaf `leaf` (a superset of the leaves that
+    /// can cover any point of that cube), in arena order; computed on first use and cached.
+    fn candidates(&self, leaf: u32) -> &[u32] {
+        self.leaf_candidates[leaf as usize].get_or_init(|| {
+            let cell = self.octree.cell(leaf);
+            let reach = 3f64.sqrt() * cell.half;
+            let nodes = &self.nodes;
+            let meets = |n: &EvalNode| {
+                let r = n.r2.sqrt() + reach;
+                (cell.center - n.center).length_squared() <= r * r
+            };
+            let mut out = Vec::new();
+            let mut stack = vec![0u32];
+            while let Some(i) = stack.pop() {
+                let n = &nodes[i as usize];
+                if !meets(n) {
+                    continue;
+                }
+                if n.fit != NO_FIT {
+                    out.push(i);
+                }
+                if n.first_child != psi_octree::NO_CELL {
+                    stack.extend(n.first_child..n.first_child + 8);
+                }
+            }
+            out.sort_unstable();
+            out.into_boxed_slice()
+        })
+    }
+
+    /// Calls `visit(node, d2)` for every leaf whose support ball contains local `y`: from the
+    /// candidate list of the leaf containing `y`, or by traversal outside the root cube.
+    #[inline]
+    fn for_each_support_leaf(&self, y: DVec3, mut visit: impl FnMut(&EvalNode, f64)) {
+        match self.octree.leaf_containing(y) {
+            Some(leaf) => {
+                for &i in self.candidates(leaf) {
+                    let node = &self.nodes[i as usize];
+                    let d2 = (y - node.center).length_squared();
+                    if d2 <= node.r2 {
+                        visit(node, d2);
+                    }
+                }
+            }
+            None => self.for_each_support_node(y, |node, d2| {
+                if node.fit != NO_FIT {
+                    visit(node, d2)
+                }
+            }),
+        }
+    }
+
     /// Calls `visit(node, d2)` for every cell whose support ball contains local `y` (pruned at
     /// the parent, exact for α ≥ 0.5; the same set as `Octree::for_each_support_cell`).
     #[inline]
@@ -146,7 +198,7 @@ impl Mpu {
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
         let y = x - self.frame.origin;
         let mut s = Sums::default();
-        self.for_each_support_node(y, |node, d2| self.accumulate_node(y, node, d2, &mut s));
+        self.for_each_support_leaf(y, |node, d2| self.accumulate_node(y, node, d2, &mut s));
         self.finish(y, s)
     }
 
@@ -155,10 +207,7 @@ impl Mpu {
     pub fn value(&self, x: DVec3) -> f64 {
         let y = x - self.frame.origin;
         let (mut w_sum, mut wq) = (0.0, 0.0);
-        self.for_each_support_node(y, |node, d2| {
-            if node.fit == NO_FIT {
-                return;
-            }
+        self.for_each_support_leaf(y, |node, d2| {
             let (w, _) = weight_and_gradient_r2(y, node.center, node.r2, d2);
             if w > 0.0 {
                 w_sum += w;
