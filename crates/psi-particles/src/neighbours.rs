@@ -8,8 +8,35 @@ use psi_octree::PointIndex;
 use crate::NeighbourSearch;
 use crate::octree_buckets::OctreeBuckets;
 
+/// The particles that do not move during a relaxation (local regeneration's fixed neighbours),
+/// indexed once.
+pub(crate) struct FixedSet {
+    index: PointIndex,
+    ids: Vec<u32>,
+}
+
+impl FixedSet {
+    /// Indexes the particles with `movable[i] == false`.
+    pub(crate) fn new(positions: &[DVec3], movable: &[bool]) -> Self {
+        let ids: Vec<u32> = (0..positions.len() as u32)
+            .filter(|&i| !movable[i as usize])
+            .collect();
+        let pts: Vec<DVec3> = ids.iter().map(|&i| positions[i as usize]).collect();
+        Self {
+            index: PointIndex::new(&pts),
+            ids,
+        }
+    }
+}
+
 /// A neighbour index over particle positions (world units).
 pub(crate) enum NeighbourIndex<'a> {
+    /// Fixed particles indexed once, the moving ones per iteration.
+    Split {
+        fixed: &'a FixedSet,
+        moving: PointIndex,
+        moving_ids: Vec<u32>,
+    },
     Kd {
         index: PointIndex,
         positions: Vec<DVec3>,
@@ -38,6 +65,20 @@ impl<'a> NeighbourIndex<'a> {
         }
     }
 
+    /// The index of a relaxation where only `movable` particles move: the fixed set indexed once
+    /// (`fixed`), the moving particles now.
+    pub(crate) fn split(fixed: &'a FixedSet, positions: &[DVec3], movable: &[bool]) -> Self {
+        let moving_ids: Vec<u32> = (0..positions.len() as u32)
+            .filter(|&i| movable[i as usize])
+            .collect();
+        let pts: Vec<DVec3> = moving_ids.iter().map(|&i| positions[i as usize]).collect();
+        Self::Split {
+            fixed,
+            moving: PointIndex::new(&pts),
+            moving_ids,
+        }
+    }
+
     /// Calls `visit(j)` for every particle within `radius` of world position `x` (itself too).
     pub(crate) fn for_each_within(
         &self,
@@ -47,6 +88,24 @@ impl<'a> NeighbourIndex<'a> {
         mut visit: impl FnMut(u32),
     ) {
         match self {
+            Self::Split {
+                fixed,
+                moving,
+                moving_ids,
+            } => {
+                scratch.clear();
+                fixed.index.within(x, radius, scratch);
+                for j in scratch.iter_mut() {
+                    *j = fixed.ids[*j as usize];
+                }
+                let n = scratch.len();
+                moving.within(x, radius, scratch);
+                for j in &mut scratch[n..] {
+                    *j = moving_ids[*j as usize];
+                }
+                scratch.sort_unstable();
+                scratch.iter().for_each(|&j| visit(j));
+            }
             Self::Kd { index, positions } => {
                 scratch.clear();
                 index.within(x, radius, scratch);

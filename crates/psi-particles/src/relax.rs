@@ -7,7 +7,7 @@ use glam::DVec3;
 use psi_mpu::Mpu;
 use rayon::prelude::*;
 
-use crate::neighbours::NeighbourIndex;
+use crate::neighbours::{FixedSet, NeighbourIndex};
 use crate::project::{newton_project, project_to_surface};
 use crate::{DensityField, ParticleParams, Particles};
 
@@ -54,11 +54,20 @@ pub fn relax_observed(
 ) {
     let n = particles.len();
     let tol = params.newton_tolerance * mpu.diagonal();
-    let mut fg: Vec<(f64, DVec3)> = particles
-        .positions
-        .par_iter()
-        .map(|x| mpu.value_and_gradient(*x))
+    // f and ∇f of the moving particles (the fixed ones are never updated).
+    let mut fg: Vec<(f64, DVec3)> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            if region.movable.is_some_and(|m| !m[i]) {
+                (0.0, DVec3::ZERO)
+            } else {
+                mpu.value_and_gradient(particles.positions[i])
+            }
+        })
         .collect();
+    let fixed = region
+        .movable
+        .map(|m| FixedSet::new(&particles.positions, m));
     let e_hat = params.target_energy_ratio * params.energy_alpha;
     let mut velocity = vec![DVec3::ZERO; n];
     let mut anchor: Vec<Option<u32>> = vec![None; n];
@@ -66,7 +75,10 @@ pub fn relax_observed(
         if iteration > 0 {
             on_iteration(iteration);
         }
-        let index = NeighbourIndex::new(params.neighbours, mpu, &particles.positions);
+        let index = match (&fixed, region.movable) {
+            (Some(f), Some(m)) => NeighbourIndex::split(f, &particles.positions, m),
+            _ => NeighbourIndex::new(params.neighbours, mpu, &particles.positions),
+        };
         let state = &*particles;
         let fg_ref = &fg;
         let vel = &velocity;

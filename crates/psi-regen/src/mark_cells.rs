@@ -14,16 +14,22 @@ pub fn mark_cells(mpu: &Mpu, changed: &[DVec3]) -> Vec<bool> {
     let origin = mpu.frame_origin();
     let local: Vec<DVec3> = changed.iter().map(|p| *p - origin).collect();
     let index = PointIndex::new(&local);
+    // Cells farther from the changed points' bounding box than their fit radius cannot be
+    // marked: a box-distance test rejects most cells without a kd query.
+    let bounds = psi_octree::Aabb::from_points(local.iter().copied()).expect("non-empty");
     mpu.octree()
         .cells()
         .par_iter()
         .enumerate()
         .map(|(i, c)| {
             let r = mpu.fit_radius(i as u32) * (1.0 + 1e-9);
-            index
-                .nearest(c.center, 1)
-                .first()
-                .is_some_and(|&(_, d2)| d2 <= r * r)
+            let outside = (bounds.min - c.center)
+                .max(c.center - bounds.max)
+                .max(DVec3::ZERO);
+            outside.length_squared() <= r * r
+                && index
+                    .nearest_one(c.center)
+                    .is_some_and(|(_, d2)| d2 <= r * r)
         })
         .collect()
 }

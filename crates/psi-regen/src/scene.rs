@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 use psi_mpu::{Mpu, MpuParams, Reuse};
-use psi_octree::{OrientedPoint, PointIndex};
+use psi_octree::OrientedPoint;
 use psi_particles::{
     DensityField, ParticleParams, Particles, RelaxRegion, SampleReport, initialize,
     measure_quality, relax, seed_leaves,
@@ -183,39 +183,13 @@ impl Scene {
             .collect();
         let fresh = seed_leaves(&mpu, &leaves, &self.field, &self.particle_params);
         particles.extend(&fresh);
-        // Relax the new particles among the fixed ones that can reach them. A new particle moves
-        // at most max_move·σ per iteration with σ ≤ sigma_clamp.1·σ̂, so it travels at most
-        // `travel`; a fixed particle j interacts with it when within neighbour_radius·max(σ_j, σ_i).
-        // Farther fixed particles cannot change the result, so leaving them out is exact.
-        let p = &self.particle_params;
-        let sigma_new = fresh.target.iter().copied().fold(0.0, f64::max) * p.sigma_clamp.1;
-        let travel = p.iterations as f64 * p.max_move * sigma_new;
-        let seeds_index = PointIndex::new(&fresh.positions);
-        let mut subset: Vec<usize> = (0..kept)
-            .filter(|&i| {
-                let reach = travel + p.neighbour_radius * particles.sigma[i].max(sigma_new);
-                seeds_index
-                    .nearest_one(particles.positions[i])
-                    .is_some_and(|n| n.1 <= reach * reach)
-            })
-            .collect();
-        let fixed_in_subset = subset.len();
-        subset.extend(kept..particles.len());
-        let mut local = Particles::default();
-        for &i in &subset {
-            local.push(
-                particles.positions[i],
-                particles.normals[i],
-                particles.depth[i],
-                particles.sigma[i],
-            );
-            *local.target.last_mut().expect("pushed") = particles.target[i];
-        }
-        let movable: Vec<bool> = (0..local.len()).map(|i| i >= fixed_in_subset).collect();
+        // Relax only the new particles; the kept ones are fixed neighbours (relax indexes them
+        // once and skips their updates).
+        let movable: Vec<bool> = (0..particles.len()).map(|i| i >= kept).collect();
         let accept = |x: DVec3| mpu.leaf_containing(x).is_some_and(|l| refit[l as usize]);
         relax(
             &mpu,
-            &mut local,
+            &mut particles,
             &self.field,
             &self.particle_params,
             RelaxRegion {
@@ -223,13 +197,6 @@ impl Scene {
                 accept: Some(&accept),
             },
         );
-        for (k, &i) in subset.iter().enumerate().skip(fixed_in_subset) {
-            particles.positions[i] = local.positions[k];
-            particles.normals[i] = local.normals[k];
-            particles.depth[i] = local.depth[k];
-            particles.sigma[i] = local.sigma[k];
-            particles.target[i] = local.target[k];
-        }
         let particle_seconds = t1.elapsed().as_secs_f64();
 
         let report = RegenReport {
