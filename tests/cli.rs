@@ -1,20 +1,9 @@
 //! The `psi` binary end to end: real data, malformed input, exit codes, atomic outputs.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn psi(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_psi"))
-        .args(args)
-        .output()
-        .expect("run psi")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("psi-cli-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+mod common;
+use common::{psi, scratch};
 
 fn models() -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/models");

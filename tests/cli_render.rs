@@ -1,23 +1,12 @@
 //! `psi render` end to end: particle files (with and without depth and σ), meshes, and bad
 //! input (exit code 2, one line naming the file, the existing output untouched).
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::Output;
+
+mod common;
+use common::{psi, scratch};
 
 use psi::DVec3;
-
-fn psi(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_psi"))
-        .args(args)
-        .output()
-        .expect("run psi")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("psi-cli-render-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// Width and height from a PNG's IHDR chunk.
 fn png_size(bytes: &[u8]) -> (u32, u32) {

@@ -2,24 +2,10 @@
 //! a result, never a panic or a hang, and never a clobbered output. Plus determinism across
 //! thread counts and precision far from the origin.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
-fn psi(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_psi"));
-    cmd.args(args);
-    for (k, v) in env {
-        cmd.env(k, v);
-    }
-    cmd.output().expect("run psi")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("psi-robust-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+mod common;
+use common::{psi, psi_env, scratch};
 
 fn xyz(points: &[psi::OrientedPoint]) -> String {
     points
@@ -140,7 +126,7 @@ fn hostile_inputs_fail_cleanly_in_every_command() {
             ],
         ] {
             let t = Instant::now();
-            let out = psi(&args, &[]);
+            let out = psi(&args);
             assert!(
                 t.elapsed() < Duration::from_secs(60),
                 "{args:?} took too long"
@@ -195,7 +181,7 @@ fn outputs_are_identical_for_one_and_two_threads_and_across_runs() {
     .unwrap();
     let run = |threads: &str, name: &str| {
         let out = dir.join(name);
-        let o = psi(
+        let o = psi_env(
             &[
                 "sample",
                 input.to_str().unwrap(),
@@ -285,7 +271,7 @@ fn flipped_normals_are_reported_and_repaired_on_request() {
     }
     let input = dir.join("flipped.xyz");
     std::fs::write(&input, xyz(&points)).unwrap();
-    let out = psi(&["info", input.to_str().unwrap(), "--json"], &[]);
+    let out = psi(&["info", input.to_str().unwrap(), "--json"]);
     assert!(out.status.success());
     assert!(
         String::from_utf8_lossy(&out.stderr).contains("--orient-normals"),
@@ -294,16 +280,13 @@ fn flipped_normals_are_reported_and_repaired_on_request() {
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(j["normals"]["opposed_fraction"].as_f64().unwrap() > 0.1);
     let particles = dir.join("p.ply");
-    let out = psi(
-        &[
-            "sample",
-            input.to_str().unwrap(),
-            "--orient-normals",
-            "-o",
-            particles.to_str().unwrap(),
-        ],
-        &[],
-    );
+    let out = psi(&[
+        "sample",
+        input.to_str().unwrap(),
+        "--orient-normals",
+        "-o",
+        particles.to_str().unwrap(),
+    ]);
     assert!(
         out.status.success(),
         "{}",

@@ -22,17 +22,7 @@ pub(crate) fn bspline(t: f64) -> f64 {
 /// `d2 = |x − c|²` (world units²). Returns (w, ∇w).
 #[inline]
 pub(crate) fn weight_and_gradient(x: DVec3, c: DVec3, r: f64, d2: f64) -> (f64, DVec3) {
-    let inv_r2 = 1.0 / (r * r);
-    let t2 = 2.25 * d2 * inv_r2; // t² with t = 1.5 d / r
-    if t2 < 0.25 {
-        (0.75 - t2, (-4.5 * inv_r2) * (x - c))
-    } else if t2 < 2.25 {
-        let t = t2.sqrt();
-        let s = 1.5 - t;
-        (0.5 * s * s, (-2.25 * s / t * inv_r2) * (x - c))
-    } else {
-        (0.0, DVec3::ZERO)
-    }
+    weight_and_gradient_r2(x, c, r * r, d2)
 }
 
 /// As [`weight_and_gradient`], from the squared support radius `r2` (no square root on the

@@ -86,14 +86,7 @@ impl LocalFunction {
     /// Taubin distance |Q| / |∇Q| at `x`, world units.
     pub fn taubin_distance(&self, x: DVec3) -> f64 {
         let (q, g) = self.value_and_gradient(x);
-        let gl = g.length();
-        if gl > 0.0 {
-            q.abs() / gl
-        } else if q == 0.0 {
-            0.0
-        } else {
-            f64::INFINITY
-        }
+        crate::quadric::taubin(q, g)
     }
 
     /// Whether all coefficients are finite.

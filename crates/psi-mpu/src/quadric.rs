@@ -46,18 +46,25 @@ impl Quadric {
     #[inline]
     pub fn taubin_distance(&self, x: DVec3) -> f64 {
         let (q, g) = self.value_and_gradient(x);
-        let gl = g.length();
-        if gl > 0.0 {
-            q.abs() / gl
-        } else if q == 0.0 {
-            0.0
-        } else {
-            f64::INFINITY
-        }
+        taubin(q, g)
     }
 
     /// Whether every coefficient is finite.
     pub fn is_finite(&self) -> bool {
         self.a.is_finite() && self.b.is_finite() && self.c.is_finite() && self.origin.is_finite()
+    }
+}
+
+/// |q| / |g| with the conventions 0/0 = 0 and q/0 = ∞ (Taubin's first-order distance from a
+/// value and a gradient).
+#[inline]
+pub(crate) fn taubin(q: f64, g: DVec3) -> f64 {
+    let gl = g.length();
+    if gl > 0.0 {
+        q.abs() / gl
+    } else if q == 0.0 {
+        0.0
+    } else {
+        f64::INFINITY
     }
 }
