@@ -28,6 +28,7 @@
 
 mod bspline_weight;
 mod build;
+mod data_coverage;
 mod error;
 mod evaluate;
 mod fit_bivariate;
@@ -42,6 +43,7 @@ mod quadric;
 mod report;
 
 pub use build::{BuildProgress, Mpu, MpuFrame, Reuse};
+pub use data_coverage::data_coverage;
 pub use error::MpuError;
 pub use evaluate::BACKGROUND_WEIGHT;
 pub use local_function::{FitKind, LocalFunction};

@@ -112,6 +112,8 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         "peak_memory_bytes": crate::input::peak_memory_bytes(),
     });
     if let Some(path) = &args.json {
+        let mut report = report;
+        report["mpu"]["data_coverage"] = json!(psi::mpu::data_coverage(&mpu));
         psi::save_json(path, &report)?;
     }
     ui.summary(&format!(
