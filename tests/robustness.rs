@@ -302,3 +302,74 @@ fn flipped_normals_are_reported_and_repaired_on_request() {
         );
     }
 }
+
+#[test]
+fn a_flat_patch_is_sampled_on_the_patch() {
+    // An open square of a plane: oriented points on z = 0, normals +z.
+    let n = 120;
+    let mut points = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let (x, y) = (
+                2.0 * i as f64 / (n - 1) as f64 - 1.0,
+                2.0 * j as f64 / (n - 1) as f64 - 1.0,
+            );
+            points.push(psi::OrientedPoint {
+                p: psi::DVec3::new(x, y, 0.0),
+                n: psi::DVec3::Z,
+            });
+        }
+    }
+    let mpu = psi::Mpu::build(&points, &psi::MpuParams::paper()).unwrap();
+    // A plane is fitted exactly, so the octree stays shallow and the automatic count is small;
+    // an exact count spreads particles over the patch.
+    for params in [
+        psi::ParticleParams::paper(),
+        psi::ParticleParams {
+            count: Some(200),
+            ..psi::ParticleParams::paper()
+        },
+    ] {
+        let run = psi::sample(&mpu, &params);
+        assert!(!run.particles.is_empty());
+        for p in &run.particles.positions {
+            assert!(p.z.abs() < 1e-3, "off the plane: {p}");
+            assert!(p.x.abs() <= 1.02 && p.y.abs() <= 1.02, "off the patch: {p}");
+        }
+        if params.count.is_some() {
+            assert_eq!(run.particles.len(), 200);
+            assert!(
+                run.report.after.spacing.min > 0.02,
+                "particles bunched: {}",
+                run.report.after.spacing.min
+            );
+        }
+    }
+}
+
+#[test]
+fn a_bunny_with_a_quarter_removed_gets_no_particles_in_the_gap() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/models/bunny.ply");
+    if !path.is_file() {
+        eprintln!("skipped: ../shared/models not found");
+        return;
+    }
+    let all = psi::load_points(&path, &psi::ReadOptions::paper())
+        .unwrap()
+        .points;
+    let b = psi::Aabb::from_points(all.iter().map(|p| p.p)).unwrap();
+    let c = b.center();
+    let removed = |p: &psi::DVec3| p.x > c.x && p.y > c.y;
+    let kept: Vec<_> = all.iter().copied().filter(|p| !removed(&p.p)).collect();
+    let mpu = psi::Mpu::build(&kept, &psi::MpuParams::paper()).unwrap();
+    let run = psi::sample(&mpu, &psi::ParticleParams::paper());
+    let spacing = run.report.after.spacing.mean;
+    let inside_gap = run
+        .particles
+        .positions
+        .iter()
+        .filter(|p| p.x > c.x + spacing && p.y > c.y + spacing)
+        .count();
+    assert_eq!(inside_gap, 0, "particles in the removed quarter");
+    assert!(run.report.after.max_surface_distance <= 1e-4 + 1e-12);
+}
