@@ -89,6 +89,7 @@ fn points_with_random_values_round_trip() {
     let mut bytes = Vec::new();
     write_points_ply(&mut bytes, &positions, &normals, &[]).unwrap();
     let file = read_points(&bytes, Format::Ply, &ReadOptions::paper()).unwrap();
+    assert_eq!(file.points.len(), positions.len());
     for ((q, p), n) in file.points.iter().zip(&positions).zip(&normals) {
         assert_eq!(q.p, *p);
         assert_near!((q.n - n.normalize()).length(), 0.0, EXACT);

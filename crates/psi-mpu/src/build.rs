@@ -61,6 +61,7 @@ impl MpuFrame {
     /// The frame Ohtake's set-up gives `points`: origin at the bounding box's centre, root cube
     /// `box_scale` × the largest extent.
     pub fn for_points(points: &[OrientedPoint], params: &MpuParams) -> Result<Self, MpuError> {
+        params.validate()?;
         let need = params.n_min + 1;
         if points.len() < need {
             return Err(MpuError::TooFewPoints {
@@ -125,6 +126,7 @@ fn prepare(
     params: &MpuParams,
     frame: &MpuFrame,
 ) -> Result<(Vec<DVec3>, Vec<DVec3>), MpuError> {
+    params.validate()?;
     let need = params.n_min + 1;
     if points.len() < need {
         return Err(MpuError::TooFewPoints {

@@ -38,7 +38,10 @@ pub fn data_coverage(mpu: &Mpu) -> f64 {
             let near = mpu.distance_to_data(origin + c.center) <= 1.5 * 3f64.sqrt() * c.half;
             (if near { w } else { 0.0 }, w)
         })
-        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+        .collect::<Vec<(f64, f64)>>()
+        // Summed in leaf order, so the figure does not depend on the thread count.
+        .iter()
+        .fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
     if total > 0.0 { covered / total } else { 0.0 }
 }
 

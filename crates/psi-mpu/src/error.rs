@@ -38,6 +38,17 @@ pub enum MpuError {
         /// Index of the offending point.
         index: usize,
     },
+    /// A parameter is out of range.
+    ///
+    /// ```
+    /// use psi_mpu::{Mpu, MpuError, MpuParams};
+    /// use psi_octree::AnalyticShape;
+    /// let pts = AnalyticShape::Sphere { radius: 1.0 }.sample(100, 1);
+    /// let params = MpuParams { error_rel: -1.0, ..MpuParams::paper() };
+    /// assert!(matches!(Mpu::build(&pts, &params), Err(MpuError::BadParameter(_))));
+    /// ```
+    #[error("bad MPU parameter: {0}")]
+    BadParameter(String),
     /// The octree could not be built (all points coincide, or parameters out of range).
     ///
     /// ```

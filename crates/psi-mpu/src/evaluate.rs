@@ -250,7 +250,6 @@ impl Mpu {
                 wd += w * f64::from(c.depth);
             }
         });
-        let _ = NO_FIT;
         (w_sum > 0.0).then(|| wd / w_sum)
     }
 }

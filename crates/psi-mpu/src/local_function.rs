@@ -20,7 +20,8 @@ pub enum FitKind {
     Plane,
 }
 
-/// A leaf's local function Q.
+/// A leaf's local function Q. Its coordinates are the MPU's local frame: world position minus
+/// [`crate::Mpu::frame_origin`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum LocalFunction {
     /// One quadric (general, bivariate or plane).

@@ -56,6 +56,36 @@ impl MpuParams {
         }
     }
 
+    /// Checks that every parameter is usable: ε0, λ and the box scale finite and positive,
+    /// α ≥ 0.5 (nested supports, so pruned evaluation is exact), the maximum depth at most
+    /// [`psi_octree::DEPTH_LIMIT`], thresholds finite, a fit unit (if any) finite and positive.
+    pub fn validate(&self) -> Result<(), crate::MpuError> {
+        let bad = |what: &str| Err(crate::MpuError::BadParameter(what.to_owned()));
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if !positive(self.error_rel) {
+            return bad("the error threshold must be finite and positive");
+        }
+        if !positive(self.lambda) {
+            return bad("the radius growth λ must be finite and positive");
+        }
+        if !(self.alpha.is_finite() && self.alpha >= 0.5) {
+            return bad("the support factor α must be at least 0.5");
+        }
+        if !(self.box_scale.is_finite() && self.box_scale >= 1.0) {
+            return bad("the root box scale must be at least 1");
+        }
+        if self.max_depth > psi_octree::DEPTH_LIMIT {
+            return bad("the maximum depth exceeds the octree's limit");
+        }
+        if !(self.t_edge.is_finite() && self.t_corner.is_finite()) {
+            return bad("the sharp-feature thresholds must be finite");
+        }
+        if self.fit_unit.is_some_and(|u| !positive(u)) {
+            return bad("the fit unit must be finite and positive");
+        }
+        Ok(())
+    }
+
     /// [`MpuParams::paper`] with unit-independent fits (`fit_unit = None`): the same surface
     /// whatever the input's units, full quadratic fits, fewer cells.
     pub fn scale_invariant() -> Self {

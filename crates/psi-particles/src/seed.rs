@@ -36,7 +36,7 @@ pub(crate) fn quotas(mpu: &Mpu, leaves: &[u32], params: &ParticleParams) -> Vec<
     let total: f64 = weights.iter().sum();
     let exact: Vec<f64> = weights.iter().map(|w| count as f64 * w / total).collect();
     let mut q: Vec<usize> = exact.iter().map(|e| e.floor() as usize).collect();
-    let mut rest = count - q.iter().sum::<usize>();
+    let mut rest = count.saturating_sub(q.iter().sum::<usize>());
     // Largest fractional parts first; ties broken by a leaf hash so the extras spread evenly.
     let mut order: Vec<usize> = (0..leaves.len()).collect();
     order.sort_by(|&a, &b| {
@@ -83,7 +83,7 @@ fn seed_leaf(mpu: &Mpu, leaf: u32, quota: usize, seed: u64, tol: f64) -> Vec<See
     let cell = *tree.cell(leaf);
     let origin = mpu.frame_origin();
     let pts = tree.points_in(leaf);
-    let mut out: Vec<Seed> = Vec::with_capacity(quota);
+    let mut out: Vec<Seed> = Vec::with_capacity(quota.min(1 << 16));
     if quota == 0 || pts.is_empty() {
         return out;
     }
@@ -139,7 +139,7 @@ fn seed_leaf(mpu: &Mpu, leaf: u32, quota: usize, seed: u64, tol: f64) -> Vec<See
     // Then random positions in the cell, projected onto the surface (seeded per leaf).
     let mut rng = Pcg64Mcg::seed_from_u64(seed ^ spread_hash(leaf as usize));
     let mut attempts = 0;
-    while out.len() < quota && attempts < 64 * quota {
+    while out.len() < quota && attempts < quota.saturating_mul(64) {
         attempts += 1;
         let u = DVec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - DVec3::ONE;
         let x0 = origin + cell.center + cell.half * u;

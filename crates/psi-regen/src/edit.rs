@@ -108,6 +108,11 @@ impl Edit {
                 Ok((out, changed))
             }
             Edit::Remove { center, radius } => {
+                if !(radius.is_finite() && *radius >= 0.0 && center.is_finite()) {
+                    return Err(RegenError::BadEdit(
+                        "a removal needs a finite centre and a non-negative radius".into(),
+                    ));
+                }
                 let r2 = radius * radius;
                 let mut out = Vec::with_capacity(points.len());
                 for p in points {

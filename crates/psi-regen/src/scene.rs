@@ -7,8 +7,8 @@ use glam::DVec3;
 use psi_mpu::{Mpu, MpuParams, Reuse};
 use psi_octree::OrientedPoint;
 use psi_particles::{
-    DensityField, ParticleParams, Particles, RelaxRegion, SampleReport, initialize,
-    measure_quality, relax, seed_leaves,
+    DensityField, ParticleParams, Particles, RelaxRegion, SampleReport, measure_quality, relax,
+    seed_leaves,
 };
 use serde::{Deserialize, Serialize};
 
@@ -219,10 +219,5 @@ impl Scene {
     /// Quality figures of the current particles.
     pub fn quality(&self) -> psi_particles::Quality {
         measure_quality(&self.mpu, &self.particles)
-    }
-
-    /// Re-samples from scratch (a full run on the current points, for comparison).
-    pub fn resample_from_scratch(&self) -> Particles {
-        initialize(&self.mpu, &self.particle_params).0
     }
 }

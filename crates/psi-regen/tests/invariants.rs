@@ -50,21 +50,21 @@ fn shape(kind: u8) -> Vec<OrientedPoint> {
 }
 
 fn edits() -> impl Strategy<Value = Edit> {
-    let center = (0usize..5000, 0.0f64..0.3);
+    let center = 0usize..5000;
     prop_oneof![
         (
             center.clone(),
             0.1f64..0.5,
             (-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0)
         )
-            .prop_map(|((i, _), r, (x, y, z))| {
+            .prop_map(|(i, r, (x, y, z))| {
                 Edit::Brush {
                     center: DVec3::new(i as f64, 0.0, 0.0),
                     radius: r,
                     displacement: 0.25 * r * DVec3::new(x, y, z),
                 }
             }),
-        (center.clone(), 0.05f64..0.3).prop_map(|((i, _), r)| Edit::Remove {
+        (center.clone(), 0.05f64..0.3).prop_map(|(i, r)| Edit::Remove {
             center: DVec3::new(i as f64, 0.0, 0.0),
             radius: r
         }),
@@ -119,17 +119,43 @@ proptest! {
         // Marking equals brute force.
         let (_, changed) = edit.apply(old_mpu.points()).unwrap();
         prop_assert_eq!(mark_cells(&old_mpu, &changed), mark_cells_brute_force(&old_mpu, &changed));
-        // Particles away from the edit are bitwise unchanged: the first kept ones, in order.
-        let kept = before.len() - report.particles_removed;
+        // Which particles must survive, worked out here from brute-force marking: those whose
+        // old leaf is unmarked and whose new leaf is a reused (unmarked, pre-existing) cell.
+        let marked = mark_cells_brute_force(&old_mpu, &changed);
+        let old_keys: std::collections::HashMap<(u8, [u32; 3]), usize> =
+            old_mpu.octree().cells().iter().enumerate().map(|(i, c)| ((c.depth, c.key), i)).collect();
+        let new_mpu = scene.mpu();
+        let survives = |x: DVec3| {
+            let old_ok = old_mpu.leaf_containing(x).is_some_and(|l| !marked[l as usize]);
+            let new_ok = new_mpu.leaf_containing(x).is_some_and(|l| {
+                let c = new_mpu.octree().cell(l);
+                old_keys.get(&(c.depth, c.key)).is_some_and(|&o| !marked[o])
+            });
+            old_ok && new_ok
+        };
+        let keep: Vec<bool> = before.positions.iter().map(|&x| survives(x)).collect();
+        let kept = keep.iter().filter(|k| **k).count();
         let after = scene.particles();
+        prop_assert_eq!(kept, before.len() - report.particles_removed);
         prop_assert_eq!(after.len(), kept + report.particles_regenerated);
+        // The survivors come first, in order, bitwise unchanged in every field.
+        let mut expected = before.clone();
+        expected.retain_mask(&keep);
+        prop_assert_eq!(&after.positions[..kept], &expected.positions[..]);
+        prop_assert_eq!(&after.normals[..kept], &expected.normals[..]);
+        prop_assert_eq!(&after.depth[..kept], &expected.depth[..]);
+        prop_assert_eq!(&after.sigma[..kept], &expected.sigma[..]);
+        prop_assert_eq!(&after.target[..kept], &expected.target[..]);
+        // Particles farther than 4 brush radii (and 0.25) from the edit all survive.
         let (center, radius) = match &edit {
             Edit::Brush { center, radius, .. } | Edit::Remove { center, radius } => (*center, *radius),
             _ => unreachable!(),
         };
-        let far: Vec<DVec3> = before.positions.iter().copied().filter(|p| (*p - center).length() > 4.0 * radius.max(0.25)).collect();
-        let far_after: Vec<DVec3> = after.positions[..kept].iter().copied().filter(|p| (*p - center).length() > 4.0 * radius.max(0.25)).collect();
-        prop_assert_eq!(far, far_after);
+        for (i, x) in before.positions.iter().enumerate() {
+            if (*x - center).length() > 4.0 * radius.max(0.25) {
+                prop_assert!(keep[i], "a far particle was regenerated");
+            }
+        }
         // New particles meet the full run's adherence figure.
         let d = scene.mpu().diagonal();
         for x in &after.positions[kept..] {

@@ -1,4 +1,4 @@
-//! The `psi` command-line tool: `psi info`, `psi mesh`, `psi sample`.
+//! The `psi` command-line tool: `psi info`, `psi mesh`, `psi sample`, `psi edit`, `psi render`.
 //!
 //! Exit codes: 0 success, 1 failure at run time, 2 bad input or usage. Errors print as one line
 //! naming the file and the reason, with the cause chain.
@@ -55,10 +55,10 @@ pub(crate) struct InputArgs {
 #[derive(Args, Clone, Debug)]
 pub(crate) struct MpuArgs {
     /// MPU error threshold ε0 relative to the bounding-box diagonal.
-    #[arg(long, default_value_t = psi::MpuParams::paper().error_rel)]
+    #[arg(long, default_value_t = psi::MpuParams::paper().error_rel, value_parser = positive_fraction)]
     pub(crate) mpu_error: f64,
     /// Maximum octree depth.
-    #[arg(long, default_value_t = psi::MpuParams::paper().max_depth)]
+    #[arg(long, default_value_t = psi::MpuParams::paper().max_depth, value_parser = clap::value_parser!(u8).range(0..=16))]
     pub(crate) max_depth: u8,
     /// Disable sharp edge and corner fits.
     #[arg(long)]
@@ -67,6 +67,35 @@ pub(crate) struct MpuArgs {
     /// input's units (default: world units, as Ohtake's code and the paper).
     #[arg(long)]
     pub(crate) scale_invariant: bool,
+}
+
+/// A whole number in `lo..=hi`.
+pub(crate) fn bounded(text: &str, lo: usize, hi: usize) -> Result<usize, String> {
+    let v: usize = text
+        .parse()
+        .map_err(|_| format!("{text} is not a whole number"))?;
+    if (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{text} is not in {lo}..={hi}"))
+    }
+}
+
+/// A relaxation iteration count (0..=100 000).
+pub(crate) fn iterations(text: &str) -> Result<usize, String> {
+    bounded(text, 0, 100_000)
+}
+
+/// A relative error threshold: finite, in (0, 1].
+fn positive_fraction(text: &str) -> Result<f64, String> {
+    let v: f64 = text
+        .parse()
+        .map_err(|_| format!("{text} is not a number"))?;
+    if v.is_finite() && v > 0.0 && v <= 1.0 {
+        Ok(v)
+    } else {
+        Err(format!("{text} is not in (0, 1]"))
+    }
 }
 
 impl MpuArgs {
@@ -106,7 +135,7 @@ enum Command {
     Sample(run_sample::SampleArgs),
     /// Build and sample, apply shape edits locally, write the particles before and after.
     #[command(
-        after_help = "Example:\n  psi edit bunny.ply --brush -0.02,0.1,0.05,0.02,0,0.005,0 --before before.ply -o after.ply --json edit.json"
+        after_help = "Example:\n  psi edit bunny.ply --brush=-0.02,0.1,0.05,0.02,0,0.005,0 --before before.ply -o after.ply --json edit.json"
     )]
     Edit(run_edit::EditArgs),
     /// Draw particles (coloured by octree depth, σ or normal) or a mesh into a PNG picture.

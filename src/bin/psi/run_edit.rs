@@ -31,7 +31,7 @@ pub(crate) struct EditArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// Relaxation iterations.
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = 20, value_parser = crate::iterations)]
     iterations: usize,
     /// Write the report as JSON.
     #[arg(long)]

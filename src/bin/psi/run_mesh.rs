@@ -19,7 +19,7 @@ pub(crate) struct MeshArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// Grid cells across the root cube.
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(2..=2048))]
     resolution: u32,
 }
 

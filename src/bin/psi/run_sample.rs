@@ -20,13 +20,13 @@ pub(crate) struct SampleArgs {
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Relaxation iterations.
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = 20, value_parser = crate::iterations)]
     iterations: usize,
     /// Particles seeded per surface-containing octree leaf.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = |t: &str| crate::bounded(t, 1, 64))]
     k: usize,
     /// Exactly this many particles (instead of k per leaf).
-    #[arg(long)]
+    #[arg(long, value_parser = |t: &str| crate::bounded(t, 1, 50_000_000))]
     count: Option<usize>,
     /// One constant spacing from the area and the count (blue noise) instead of depth-adaptive.
     #[arg(long)]
