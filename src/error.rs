@@ -37,6 +37,21 @@ pub enum PsiError {
         /// What is wrong with it.
         source: psi_io::ReadError,
     },
+    /// A picture could not be made from these arguments (its size, or mismatched columns).
+    ///
+    /// ```
+    /// let particles = psi::Particles::default();
+    /// let params = psi::render::RenderParams { size: 0, ..psi::render::RenderParams::particles() };
+    /// let err = psi::render_particles_png(std::path::Path::new("x.png"), &particles, &params).unwrap_err();
+    /// assert!(matches!(err, psi::PsiError::Render { .. }));
+    /// ```
+    #[error("{path}: cannot render: {source}")]
+    Render {
+        /// The output file.
+        path: PathBuf,
+        /// The reason.
+        source: psi_render::RenderError,
+    },
     /// Writing the output failed; the previous file at `path`, if any, is untouched.
     ///
     /// ```

@@ -61,16 +61,16 @@ pub fn particles_image(
 ///
 /// # Errors
 ///
-/// [`PsiError::Write`] when the file cannot be written or `params.size` is invalid (0 or
-/// above 16384).
+/// [`PsiError::Render`] when `params.size` is invalid (0 or above 16384); [`PsiError::Write`]
+/// when the file cannot be written.
 pub fn render_particles_png(
     path: &Path,
     particles: &psi_particles::Particles,
     params: &RenderParams,
 ) -> Result<(), PsiError> {
-    let image = particles_image(particles, params).map_err(|e| PsiError::Write {
+    let image = particles_image(particles, params).map_err(|source| PsiError::Render {
         path: path.to_path_buf(),
-        source: std::io::Error::new(std::io::ErrorKind::InvalidInput, e),
+        source,
     })?;
     save_png(path, &image)
 }

@@ -1,9 +1,9 @@
 //! Why a picture could not be made (invalid arguments; rendering itself cannot fail).
 
-use std::fmt;
+use thiserror::Error;
 
 /// An invalid argument to a render function.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Error)]
 pub enum RenderError {
     /// The image would be empty or too large for a pixmap.
     ///
@@ -13,6 +13,7 @@ pub enum RenderError {
     /// let err = render_splats(&[], &[], &[], &[], &params).unwrap_err();
     /// assert!(matches!(err, RenderError::InvalidSize { .. }));
     /// ```
+    #[error("cannot make a {width} x {height} pixel image")]
     InvalidSize {
         /// Width asked for, pixels.
         width: u32,
@@ -28,6 +29,7 @@ pub enum RenderError {
     ///     .unwrap_err();
     /// assert_eq!(err, RenderError::LengthMismatch { what: "colors", expected: 1, got: 0 });
     /// ```
+    #[error("{what} has {got} entries, but there are {expected} positions")]
     LengthMismatch {
         /// Which array: `normals`, `colors` or `radius`.
         what: &'static str,
@@ -44,6 +46,7 @@ pub enum RenderError {
     /// let err = render_mesh(&[DVec3::ZERO; 3], &[[0, 1, 3]], &RenderParams::standard()).unwrap_err();
     /// assert_eq!(err, RenderError::IndexOutOfRange { face: 0, vertex: 3, vertices: 3 });
     /// ```
+    #[error("triangle {face} refers to vertex {vertex}, but there are {vertices} vertices")]
     IndexOutOfRange {
         /// 0-based triangle index.
         face: usize,
@@ -53,34 +56,6 @@ pub enum RenderError {
         vertices: usize,
     },
     /// [`crate::side_by_side`] was given no panels.
+    #[error("no panels to put side by side")]
     NoPanels,
 }
-
-impl fmt::Display for RenderError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            RenderError::InvalidSize { width, height } => {
-                write!(f, "cannot make a {width} x {height} pixel image")
-            }
-            RenderError::LengthMismatch {
-                what,
-                expected,
-                got,
-            } => write!(
-                f,
-                "{what} has {got} entries, but there are {expected} positions"
-            ),
-            RenderError::IndexOutOfRange {
-                face,
-                vertex,
-                vertices,
-            } => write!(
-                f,
-                "triangle {face} refers to vertex {vertex}, but there are {vertices} vertices"
-            ),
-            RenderError::NoPanels => write!(f, "no panels to put side by side"),
-        }
-    }
-}
-
-impl std::error::Error for RenderError {}
