@@ -7,6 +7,11 @@ use std::num::NonZeroUsize;
 use glam::DVec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
+/// Point counts from which the tree is built in parallel (kiddo's default is 262 144). The
+/// resulting tree does not depend on the thread count (checked bitwise on 70k- and 480k-point
+/// models with 1 and 2 threads).
+const PARALLEL_FROM: usize = 32_768;
+
 /// An immutable kd-tree over positions (shape: N, world units); items are indices into them.
 pub struct PointIndex {
     tree: Option<ImmutableKdTree<f64, 3>>,
@@ -28,7 +33,10 @@ impl PointIndex {
         let tree = if coords.is_empty() {
             None
         } else {
-            ImmutableKdTree::new_from_slice(&coords).ok()
+            ImmutableKdTree::builder()
+                .with_parallel_construction_threshold(PARALLEL_FROM)
+                .build_from_slice(&coords)
+                .ok()
         };
         Self { tree }
     }
