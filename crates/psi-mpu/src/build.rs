@@ -27,6 +27,8 @@ pub struct Mpu {
     pub(crate) cell_fit: Vec<u32>,
     pub(crate) fit_fallback: Vec<bool>,
     pub(crate) fit_radius: Vec<f64>,
+    /// Per cell: fitted by this build (false where a local rebuild reused the earlier record).
+    pub(crate) fitted: Vec<bool>,
     pub(crate) nodes: Vec<crate::evaluate::EvalNode>,
     /// Per cell (used for leaves): the leaves whose support meets it, built on first use.
     pub(crate) leaf_candidates: std::sync::Arc<Vec<std::sync::OnceLock<Box<[u32]>>>>,
@@ -108,6 +110,8 @@ pub(crate) struct CellRecord {
     pub(crate) fit: Option<(LocalFunction, FitKind, bool)>,
     /// The radius the fit used (R1 ≥ R): only points within it influence the cell.
     pub(crate) fit_radius: f64,
+    /// Whether the record was computed by this build (false: taken from the earlier MPU).
+    pub(crate) fitted: bool,
 }
 
 /// What a local rebuild may take from an earlier MPU: the records of its cells that no edit
@@ -226,7 +230,13 @@ impl Mpu {
                     && !r.marked[old as usize]
                 {
                     let rec = r.old.record(old);
-                    return (rec.split, rec);
+                    return (
+                        rec.split,
+                        CellRecord {
+                            fitted: false,
+                            ..rec
+                        },
+                    );
                 }
                 let CellFit {
                     function,
@@ -242,6 +252,7 @@ impl Mpu {
                         split,
                         fit: (!split).then_some((function, kind, fallback)),
                         fit_radius,
+                        fitted: true,
                     },
                 )
             },
@@ -252,6 +263,7 @@ impl Mpu {
         let mut fit_fallback = Vec::new();
         let mut cell_fit = vec![NO_FIT; octree.cells().len()];
         let mut fit_radius = Vec::with_capacity(octree.cells().len());
+        let mut fitted = Vec::with_capacity(octree.cells().len());
         let bounds = Aabb::from_points(points.iter().map(|p| p.p)).expect("non-empty");
         let mut report = BuildReport {
             points: points.len(),
@@ -265,6 +277,7 @@ impl Mpu {
         report.surface_leaves_per_depth = vec![0; depth_slots];
         for (i, rec) in records.into_iter().enumerate() {
             fit_radius.push(rec.fit_radius);
+            fitted.push(rec.fitted);
             let cell = octree.cell(i as u32);
             if !cell.is_leaf() {
                 continue;
@@ -317,6 +330,7 @@ impl Mpu {
             fit_fallback,
             cell_fit,
             fit_radius,
+            fitted,
             frame: *frame,
             points,
             bounds,
@@ -350,6 +364,7 @@ impl Mpu {
             split: fit.is_none(),
             fit,
             fit_radius: self.fit_radius[i as usize],
+            fitted: self.fitted[i as usize],
         }
     }
 
@@ -357,6 +372,12 @@ impl Mpu {
     /// the support radius R); an edit farther than this from the centre cannot change the cell.
     pub fn fit_radius(&self, cell: u32) -> f64 {
         self.fit_radius[cell as usize]
+    }
+
+    /// Whether cell `cell` was fitted by the build that made this MPU (false where a local
+    /// rebuild reused the earlier record: [`Mpu::build_in_frame`] with [`Reuse`]).
+    pub fn was_refit(&self, cell: u32) -> bool {
+        self.fitted[cell as usize]
     }
 
     /// The frame (origin, root cube, D) the MPU was built in.

@@ -1,6 +1,5 @@
 //! A scene: control points, their MPU and their particles, updated locally by edits (paper §6).
 
-use std::collections::HashMap;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -139,23 +138,8 @@ impl Scene {
             }),
         )?;
         // New cells that were fitted again: not present before, or marked.
-        let old_keys: HashMap<(u8, [u32; 3]), u32> = self
-            .mpu
-            .octree()
-            .cells()
-            .iter()
-            .enumerate()
-            .map(|(i, c)| ((c.depth, c.key), i as u32))
-            .collect();
-        let refit: Vec<bool> = mpu
-            .octree()
-            .cells()
-            .iter()
-            .map(|c| {
-                old_keys
-                    .get(&(c.depth, c.key))
-                    .is_none_or(|&o| marked_old[o as usize])
-            })
+        let refit: Vec<bool> = (0..mpu.octree().cells().len() as u32)
+            .map(|c| mpu.was_refit(c))
             .collect();
         let mpu_seconds = t0.elapsed().as_secs_f64();
 
