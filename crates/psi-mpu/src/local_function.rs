@@ -29,14 +29,14 @@ pub enum LocalFunction {
     /// Edge: max(Q0, Q1) when convex, min when concave.
     Edge {
         /// The two pieces.
-        pieces: Box<[Quadric; 2]>,
+        pieces: std::sync::Arc<[Quadric; 2]>,
         /// Convex edge (max) or concave (min).
         convex: bool,
     },
     /// Corner: `op_outer(op_pair(Q[order[0]], Q[order[1]]), Q[order[2]])`.
     Corner {
         /// The three pieces.
-        pieces: Box<[Quadric; 3]>,
+        pieces: std::sync::Arc<[Quadric; 3]>,
         /// Evaluation order: the first two are combined first.
         order: [u8; 3],
         /// Whether the first pair is combined by max (else min).
