@@ -25,13 +25,13 @@ pub struct PolygonizeParams {
 }
 
 impl PolygonizeParams {
-    /// 256 cells across the root cube, 4 Newton steps, surface kept within 2 input spacings of
+    /// 256 cells across the root cube, 4 Newton steps, surface kept within 1.5 input spacings of
     /// the data.
     pub fn standard() -> Self {
         Self {
             resolution: 256,
             newton_steps: 4,
-            max_data_distance: 2.0,
+            max_data_distance: 1.5,
         }
     }
 }
