@@ -184,6 +184,9 @@ impl Mpu {
         reuse: Option<Reuse<'_>>,
         observe: &(dyn Fn(BuildProgress) + Sync),
     ) -> Result<Mpu, MpuError> {
+        let _span =
+            tracing::info_span!("mpu_build", points = points.len(), local = reuse.is_some())
+                .entered();
         let start = Instant::now();
         let (positions, normals) = prepare(points, params, frame)?;
         let eps0 = params.error_rel * frame.diagonal;

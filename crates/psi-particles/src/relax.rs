@@ -52,6 +52,12 @@ pub fn relax_observed(
     region: RelaxRegion<'_>,
     on_iteration: &(dyn Fn(usize) + Sync),
 ) {
+    let _span = tracing::info_span!(
+        "relaxation",
+        particles = particles.len(),
+        iterations = params.iterations
+    )
+    .entered();
     let n = particles.len();
     let tol = params.newton_tolerance * mpu.diagonal();
     // f and ∇f of the moving particles (the fixed ones are never updated).

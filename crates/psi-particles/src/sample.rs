@@ -143,7 +143,9 @@ pub fn sample_observed(
     on_iteration: &(dyn Fn(usize) + Sync),
 ) -> Sampling {
     let t0 = Instant::now();
+    let seeding = tracing::info_span!("seeding").entered();
     let (mut particles, density, seeded_leaves) = initialize(mpu, params);
+    drop(seeding);
     let init_seconds = t0.elapsed().as_secs_f64();
     let before = measure_quality(mpu, &particles);
     let t1 = Instant::now();

@@ -106,6 +106,7 @@ impl Scene {
     /// marked leaves and relaxes only the new particles, the others fixed, rejecting moves that
     /// leave the marked leaves. On error the scene is unchanged.
     pub fn apply(&mut self, edit: &Edit) -> Result<RegenReport, RegenError> {
+        let _span = tracing::info_span!("local_regeneration").entered();
         let t0 = Instant::now();
         let (points, changed) = edit.apply(&self.points)?;
         let root = *self.mpu.octree().root();

@@ -168,6 +168,15 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if cli.verbose {
+        // Stage timings: each library span (MPU build, seeding, relaxation, local
+        // regeneration) is printed with its duration when it closes.
+        tracing_subscriber::fmt()
+            .with_writer(std::io::stderr)
+            .with_span_events(tracing_subscriber::fmt::format::FmtSpan::CLOSE)
+            .with_target(false)
+            .init();
+    }
     let ui = ui::Ui {
         quiet: cli.quiet,
         verbose: cli.verbose,

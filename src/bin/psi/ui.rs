@@ -1,5 +1,7 @@
 //! Progress and verbosity: progress bars on stderr for the MPU build and the relaxation when
-//! stderr is a terminal (silent otherwise), `--quiet` to silence the summary, `-v` for timings.
+//! stderr is a terminal (silent otherwise), `--quiet` to silence the summary, `-v` for timings
+//! (the library's tracing spans — MPU build, seeding, relaxation, local regeneration — printed
+//! with their durations by the subscriber `main` installs, plus the stages that have no span).
 
 use std::io::IsTerminal;
 use std::time::Duration;
@@ -68,9 +70,7 @@ pub(crate) fn build_mpu(
         },
     );
     bar.finish_and_clear();
-    let mpu = mpu?;
-    ui.timing("MPU build", mpu.report().seconds);
-    Ok(mpu)
+    mpu
 }
 
 /// Samples with a progress bar over the relaxation iterations.
@@ -78,7 +78,5 @@ pub(crate) fn sample(ui: Ui, mpu: &psi::Mpu, params: &psi::ParticleParams) -> ps
     let bar = ui.bar("relaxation", params.iterations as u64);
     let run = psi::particles::sample_observed(mpu, params, &|i| bar.set_position(i as u64));
     bar.finish_and_clear();
-    ui.timing("seeding", run.report.init_seconds);
-    ui.timing("relaxation", run.report.simulate_seconds);
     run
 }
