@@ -63,14 +63,7 @@ impl MpuFrame {
     /// The frame Ohtake's set-up gives `points`: origin at the bounding box's centre, root cube
     /// `box_scale` × the largest extent.
     pub fn for_points(points: &[OrientedPoint], params: &MpuParams) -> Result<Self, MpuError> {
-        params.validate()?;
-        let need = params.n_min + 1;
-        if points.len() < need {
-            return Err(MpuError::TooFewPoints {
-                got: points.len(),
-                need,
-            });
-        }
+        let need = check_input_size(points, params)?;
         let bounds = Aabb::from_points(points.iter().map(|p| p.p))
             .ok_or(MpuError::TooFewPoints { got: 0, need })?;
         if !bounds.min.is_finite() || !bounds.max.is_finite() {
@@ -124,12 +117,8 @@ pub struct Reuse<'a> {
     pub marked: &'a [bool],
 }
 
-/// Validates the input and returns local-frame positions and unit normals.
-fn prepare(
-    points: &[OrientedPoint],
-    params: &MpuParams,
-    frame: &MpuFrame,
-) -> Result<(Vec<DVec3>, Vec<DVec3>), MpuError> {
+/// Checks the parameters and that there are more than N_min points; returns N_min + 1.
+fn check_input_size(points: &[OrientedPoint], params: &MpuParams) -> Result<usize, MpuError> {
     params.validate()?;
     let need = params.n_min + 1;
     if points.len() < need {
@@ -138,6 +127,16 @@ fn prepare(
             need,
         });
     }
+    Ok(need)
+}
+
+/// Validates the input and returns local-frame positions and unit normals.
+fn prepare(
+    points: &[OrientedPoint],
+    params: &MpuParams,
+    frame: &MpuFrame,
+) -> Result<(Vec<DVec3>, Vec<DVec3>), MpuError> {
+    check_input_size(points, params)?;
     let mut normals = Vec::with_capacity(points.len());
     for (index, p) in points.iter().enumerate() {
         let len = p.n.length();
@@ -455,22 +454,14 @@ impl Mpu {
 
     /// Whether world position `x` lies inside the data's footprint: within `reach` local input
     /// spacings of the nearest input point, and not beyond the edge of the data (a hole or a
-    /// scan's border).
+    /// scan's border). The spacing at the nearest point q is [`Mpu::input_spacing`]; x is past an
+    /// edge when the centroid of its own 8 nearest points is offset from x, in the tangent plane
+    /// of q, by more than a spacing (inside the data the offset is a fraction of a spacing, on a
+    /// straight edge about 0.95, the centroid of a half disc of radius √(2k/π) spacings).
     ///
-    /// With q the input point nearest to x: the local spacing is s = d₈·√(π/8), d₈ the distance
-    /// from q to its 8th neighbour (for a uniform
-    /// 2D density ρ, the k-th neighbour lies at ≈ √(k/(πρ)) and the spacing is 1/√ρ), and x is
-    /// past an edge when the centroid of its own 8 nearest points is offset from x, within the tangent plane of
-    /// the nearest point, by more than s: inside the data the offset is a fraction of s, on a
-    /// straight edge about 0.95 s (the centroid of a half disc of radius √(2k/π)·s), and it grows
-    /// with the distance past the edge.
-    pub fn near_data(&self, x: DVec3, reach: f64) -> bool {
-        self.near_data_from(x, reach, None).0
-    }
-
-    /// [`Mpu::near_data`] with a hint: `anchor`, an input point that was near x before (a
-    /// particle's previous nearest point). When x is within half a spacing of an interior anchor
-    /// the answer is yes without a search. Returns the answer and the new anchor.
+    /// `anchor` is an input point that was near x before (a particle's previous nearest point);
+    /// when x is within half a spacing of an interior anchor the answer is yes without a search.
+    /// Returns the answer and the new anchor.
     pub fn near_data_from(&self, x: DVec3, reach: f64, anchor: Option<u32>) -> (bool, Option<u32>) {
         let y = x - self.frame.origin;
         if let Some(a) = anchor

@@ -235,21 +235,4 @@ impl Mpu {
         }
         self.finish(y, s)
     }
-
-    /// Smooth blended octree depth Σ w_i·depth_i / Σ w_i at world `x` (Ohtake's `level(x)`);
-    /// `None` where no leaf support reaches.
-    pub fn blended_depth(&self, x: DVec3) -> Option<f64> {
-        let y = x - self.frame.origin;
-        let alpha = self.params.alpha;
-        let (mut w_sum, mut wd) = (0.0, 0.0);
-        self.octree.for_each_support_cell(y, |cell, d2| {
-            let c = self.octree.cell(cell);
-            if c.is_leaf() {
-                let (w, _) = weight_and_gradient(y, c.center, c.support_radius(alpha), d2);
-                w_sum += w;
-                wd += w * f64::from(c.depth);
-            }
-        });
-        (w_sum > 0.0).then(|| wd / w_sum)
-    }
 }
