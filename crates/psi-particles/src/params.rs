@@ -67,7 +67,8 @@ pub struct ParticleParams {
     /// Newton polish step limit per iteration.
     pub newton_steps: usize,
     /// A move is rejected when it ends farther from every input point than this multiple of the
-    /// local input spacing: particles stay where there is data (open scans, holes).
+    /// local input spacing: particles stay where there is data (open scans, holes). 1 (see
+    /// docs/ARCHITECTURE.md, "Relaxation", for why not more).
     pub data_reach: f64,
     /// Seed of every random choice.
     pub seed: u64,
@@ -98,7 +99,7 @@ impl ParticleParams {
             neighbour_radius: 3.0,
             newton_tolerance: 1e-4,
             newton_steps: 4,
-            data_reach: 1.5,
+            data_reach: 1.0,
             seed: 2007,
         }
     }
