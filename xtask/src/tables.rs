@@ -8,7 +8,7 @@ use anyhow::{Context, Result, bail};
 use serde_json::{Value, json};
 
 use crate::paper::{LEVET, TABLE1, TABLE2};
-use crate::reference::{Reference, area, coverage, distance_stats, worst_gap};
+use crate::reference::{Reference, area, coverage, distance_stats, metro_stats, worst_gap};
 use crate::{Flags, host, models_dir, project_root};
 
 /// Builds the release `psi` binary and returns its path.
@@ -146,7 +146,7 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
         }));
     }
     // The MPU surface itself: polygonized, against the reference mesh in both directions.
-    md.push_str("\n## MPU surface against the reference mesh (polygonized at resolution 256)\n\nFits solved in world units (`MpuParams::paper()`, as Ohtake's code) and in units of each cell's radius (`--scale-invariant`).\n\n| model | closed? | fits | surface→reference mean / max (D) | reference→surface mean / p99 / max (D) |\n|---|---|---|---|---|\n");
+    md.push_str("\n## MPU surface against the reference mesh (polygonized at resolution 256)\n\n`paper`: `MpuParams::paper()` — the octree of world-unit solves as Ohtake's code, each leaf keeping the better of its world-unit and scale-invariant fits; `scale-invariant`: every fit solved in units of its cell's radius (`--scale-invariant`). Distances as Metro measures them: means and p99 over 200 000 area-uniform samples of the measured surface, maxima over those samples and all its (referenced) vertices.\n\n| model | closed? | fits | surface→reference mean / max (D) | reference→surface mean / p99 / max (D) |\n|---|---|---|---|---|\n");
     let mut surfaces = Vec::new();
     for row in TABLE1
         .iter()
@@ -182,8 +182,8 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
                 );
             }
             let ours = Reference::new(psi::load_mesh(&mesh_path)?)?;
-            let to_reference = distance_stats(&reference.distances(&ours.mesh.vertices), diag);
-            let from_reference = distance_stats(&ours.distances(&ref_points), diag);
+            let to_reference = metro_stats(&ours, &reference, &ours.mesh.vertices, diag);
+            let from_reference = metro_stats(&reference, &ours, &ref_points, diag);
             md.push_str(&format!(
                 "| {} | {} | {mode} | {:.1e} / {:.1e} | {:.1e} / {:.1e} / {:.1e} |\n",
                 row.model,

@@ -233,7 +233,32 @@ pub fn polygonize(mpu: &Mpu, params: &PolygonizeParams) -> TriangleSoup {
             soup.faces.push([quad[0], quad[2], quad[3]]);
         }
     }
+    drop_unreferenced_vertices(&mut soup);
     soup
+}
+
+/// Removes the vertices no face uses (those of quads dropped far from the data) and renumbers
+/// the faces, keeping the vertices' order.
+fn drop_unreferenced_vertices(soup: &mut TriangleSoup) {
+    let mut new_index = vec![u32::MAX; soup.vertices.len()];
+    for f in &soup.faces {
+        for &v in f {
+            new_index[v as usize] = 0;
+        }
+    }
+    let mut next = 0u32;
+    let mut kept = Vec::with_capacity(soup.vertices.len());
+    for (v, slot) in new_index.iter_mut().enumerate() {
+        if *slot == 0 {
+            *slot = next;
+            next += 1;
+            kept.push(soup.vertices[v]);
+        }
+    }
+    for f in &mut soup.faces {
+        *f = f.map(|v| new_index[v as usize]);
+    }
+    soup.vertices = kept;
 }
 
 /// Median nearest-neighbour distance over up to 2000 evenly strided points.

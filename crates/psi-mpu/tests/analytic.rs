@@ -256,3 +256,36 @@ fn thin_slab_keeps_both_sheets() {
         assert!((top.z - t).abs() < 1e-3 * d, "top sheet at {}", top.z);
     }
 }
+
+#[test]
+fn polygonized_open_cap_has_no_cap_over_the_hole_and_no_stray_vertices() {
+    // The upper half of a sphere: the MPU closes it below, the polygonizer must not.
+    let points: Vec<_> = AnalyticShape::Sphere { radius: 1.0 }
+        .sample(20_000, 5)
+        .into_iter()
+        .filter(|p| p.p.z > 0.0)
+        .collect();
+    let mpu = Mpu::build(&points, &MpuParams::paper()).expect("build");
+    let mesh = polygonize(
+        &mpu,
+        &PolygonizeParams {
+            resolution: 64,
+            ..PolygonizeParams::standard()
+        },
+    );
+    assert!(mesh.faces.len() > 1000);
+    let mut used = vec![false; mesh.vertices.len()];
+    for f in &mesh.faces {
+        for &v in f {
+            used[v as usize] = true;
+        }
+    }
+    let stray = used.iter().filter(|u| !**u).count();
+    assert_eq!(stray, 0, "{stray} vertices belong to no triangle");
+    let lowest = mesh
+        .vertices
+        .iter()
+        .map(|v| v.z)
+        .fold(f64::INFINITY, f64::min);
+    assert!(lowest > -0.1, "a cap over the hole reaches z = {lowest}");
+}
