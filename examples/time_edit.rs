@@ -1,0 +1,40 @@
+//! Development aid: cost of one local regeneration (`Scene::apply`) on a model, the brush of
+//! issue #5 applied forth and back many times (for profiling with `perf record`).
+//!
+//! `cargo run --release --example time_edit -- ../shared/models/bunny.ply 40`
+
+use std::time::Instant;
+
+use psi::regen::{Edit, Scene};
+use psi::{DVec3, MpuParams, ParticleParams};
+
+fn main() -> anyhow::Result<()> {
+    let mut args = std::env::args().skip(1);
+    let path = args
+        .next()
+        .unwrap_or_else(|| "../shared/models/bunny.ply".into());
+    let rounds: usize = args.next().map_or(Ok(20), |a| a.parse())?;
+    let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
+    let (mut scene, _) = Scene::new(points, &MpuParams::paper(), &ParticleParams::paper())?;
+    let brush = |sign: f64| Edit::Brush {
+        center: DVec3::new(-0.016, 0.11, 0.05),
+        radius: 0.015,
+        displacement: DVec3::new(0.0, 0.0, 0.004 * sign),
+    };
+    let mut times = Vec::new();
+    for k in 0..rounds {
+        let t = Instant::now();
+        let r = scene.apply(&brush(if k % 2 == 0 { 1.0 } else { -1.0 }))?;
+        times.push(t.elapsed().as_secs_f64());
+        if k == 0 {
+            println!("{r:?}");
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    println!(
+        "apply: min {:.1} ms, median {:.1} ms over {rounds}",
+        1e3 * times[0],
+        1e3 * times[rounds / 2]
+    );
+    Ok(())
+}
