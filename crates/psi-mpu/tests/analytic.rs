@@ -289,3 +289,36 @@ fn polygonized_open_cap_has_no_cap_over_the_hole_and_no_stray_vertices() {
         .fold(f64::INFINITY, f64::min);
     assert!(lowest > -0.1, "a cap over the hole reaches z = {lowest}");
 }
+
+#[test]
+fn leaf_lookup_with_a_hint_equals_the_plain_lookup() {
+    let case = &cases()[2];
+    let (mpu, _) = build(case);
+    let leaves: Vec<u32> = mpu.leaves().collect();
+    let origin = mpu.frame_origin();
+    let mut rng = Pcg64Mcg::seed_from_u64(9);
+    let mut hinted = 0;
+    for k in 0..4000 {
+        let leaf = leaves[rng.random_range(0..leaves.len())];
+        let cell = *mpu.octree().cell(leaf);
+        // Inside the leaf, on its faces and corners (where the octant rule decides), and just
+        // outside it.
+        let u = DVec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0;
+        let local = match k % 3 {
+            0 => u,
+            1 => u.signum(),
+            _ => u * 1.01,
+        };
+        let x = origin + cell.center + cell.half * local;
+        let hint = match k % 4 {
+            0 => Some(leaf),
+            1 => Some(leaves[rng.random_range(0..leaves.len())]),
+            2 => Some(0), // the root: never a leaf here
+            _ => None,
+        };
+        let got = mpu.leaf_containing_from(x, hint);
+        assert_eq!(got, mpu.leaf_containing(x), "x {x:?} hint {hint:?}");
+        hinted += usize::from(hint == Some(leaf) && got == hint);
+    }
+    assert!(hinted > 200, "the hint was rarely used ({hinted})");
+}

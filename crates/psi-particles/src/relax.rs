@@ -11,8 +11,8 @@ use crate::neighbours::{FixedSet, NeighbourIndex};
 use crate::project::{newton_project, project_to_surface};
 use crate::{DensityField, ParticleParams, Particles};
 
-/// A particle's new state: position, f, ∇f, depth, σ, σ̂, nearest input point.
-type Update = (DVec3, f64, DVec3, u8, f64, f64, Option<u32>);
+/// A particle's new state: position, f, ∇f, depth, σ, σ̂, nearest input point, leaf.
+type Update = (DVec3, f64, DVec3, u8, f64, f64, Option<u32>, Option<u32>);
 
 /// Which particles may move and where (local regeneration restricts both).
 #[derive(Clone, Copy, Default)]
@@ -77,6 +77,8 @@ pub fn relax_observed(
     let e_hat = params.target_energy_ratio * params.energy_alpha;
     let mut velocity = vec![DVec3::ZERO; n];
     let mut anchor: Vec<Option<u32>> = vec![None; n];
+    // Each particle's leaf, a guess for the next lookup (most moves stay in the leaf).
+    let mut leaf: Vec<Option<u32>> = vec![None; n];
     for iteration in 0..params.iterations {
         if iteration > 0 {
             on_iteration(iteration);
@@ -89,6 +91,7 @@ pub fn relax_observed(
         let fg_ref = &fg;
         let vel = &velocity;
         let anchors = &anchor;
+        let leaves = &leaf;
         let updates: Vec<Option<Update>> = (0..n)
             .into_par_iter()
             .map_init(Vec::new, |scratch, i| {
@@ -143,9 +146,8 @@ pub fn relax_observed(
                 let ok =
                     g1.length_squared() > 0.0 && on_data && region.accept.is_none_or(|a| a(x1));
                 let (x1, f1, g1) = if ok { (x1, f1, g1) } else { (x, f, g) };
-                let depth = mpu
-                    .leaf_containing(x1)
-                    .map_or(state.depth[i], |l| mpu.octree().cell(l).depth);
+                let new_leaf = mpu.leaf_containing_from(x1, leaves[i]);
+                let depth = new_leaf.map_or(state.depth[i], |l| mpu.octree().cell(l).depth);
                 let target = field.target_sigma(depth);
                 let mut sigma = si;
                 if params.adapt_sigma {
@@ -161,12 +163,14 @@ pub fn relax_observed(
                     sigma,
                     target,
                     if ok { new_anchor } else { anchors[i] },
+                    new_leaf,
                 ))
             })
             .collect();
         for (i, u) in updates.into_iter().enumerate() {
-            if let Some((x, f, g, depth, sigma, target, a)) = u {
+            if let Some((x, f, g, depth, sigma, target, a, l)) = u {
                 anchor[i] = a;
+                leaf[i] = l;
                 velocity[i] = x - particles.positions[i];
                 particles.positions[i] = x;
                 particles.normals[i] = g.normalize_or(particles.normals[i]);
