@@ -5,7 +5,6 @@
 use std::time::Instant;
 
 use glam::DVec3;
-use std::collections::HashMap;
 
 use psi_octree::{Aabb, Octree, OctreeParams, OrientedPoint, PointIndex, root_cube};
 use serde::{Deserialize, Serialize};
@@ -189,8 +188,10 @@ impl Mpu {
         let start = Instant::now();
         let (positions, normals) = prepare(points, params, frame)?;
         let eps0 = params.error_rel * frame.diagonal;
-        let index = std::sync::Arc::new(PointIndex::new(&positions));
-        let coarse = crate::fit_cell::CoarseIndex::new(&positions);
+        let (index, coarse) = rayon::join(
+            || std::sync::Arc::new(PointIndex::new(&positions)),
+            || crate::fit_cell::CoarseIndex::new(&positions),
+        );
         let input = FitInput {
             coarse: &coarse,
             positions: &positions,
@@ -203,17 +204,6 @@ impl Mpu {
             alpha: params.alpha,
             max_depth: params.max_depth,
         };
-        let old_cells: HashMap<(u8, [u32; 3]), u32> = reuse
-            .map(|r| {
-                r.old
-                    .octree
-                    .cells()
-                    .iter()
-                    .enumerate()
-                    .map(|(i, c)| ((c.depth, c.key), i as u32))
-                    .collect()
-            })
-            .unwrap_or_default();
         let on_level = |depth: u8, cells: usize| {
             observe(BuildProgress {
                 depth,
@@ -228,7 +218,7 @@ impl Mpu {
             &oparams,
             |v| {
                 if let Some(r) = reuse
-                    && let Some(&old) = old_cells.get(&(v.cell.depth, v.cell.key))
+                    && let Some(old) = r.old.octree.cell_at(v.cell.depth, v.cell.key)
                     && !r.marked[old as usize]
                 {
                     let rec = r.old.record(old);

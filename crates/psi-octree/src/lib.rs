@@ -27,6 +27,7 @@
 
 mod analytic_shapes;
 mod builtin_model;
+mod cell_at;
 mod error;
 mod geometry;
 mod leaf_containing;

@@ -65,17 +65,14 @@ impl<'a> NeighbourIndex<'a> {
         }
     }
 
-    /// The index of a relaxation where only `movable` particles move: the fixed set indexed once
-    /// (`fixed`), the moving particles now.
-    pub(crate) fn split(fixed: &'a FixedSet, positions: &[DVec3], movable: &[bool]) -> Self {
-        let moving_ids: Vec<u32> = (0..positions.len() as u32)
-            .filter(|&i| movable[i as usize])
-            .collect();
-        let pts: Vec<DVec3> = moving_ids.iter().map(|&i| positions[i as usize]).collect();
+    /// The index of a relaxation where only the particles `moving` (indices into `positions`)
+    /// move: the fixed set indexed once (`fixed`), the moving particles now.
+    pub(crate) fn split(fixed: &'a FixedSet, positions: &[DVec3], moving: &[u32]) -> Self {
+        let pts: Vec<DVec3> = moving.iter().map(|&i| positions[i as usize]).collect();
         Self::Split {
             fixed,
             moving: PointIndex::new(&pts),
-            moving_ids,
+            moving_ids: moving.to_vec(),
         }
     }
 

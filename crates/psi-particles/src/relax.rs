@@ -60,17 +60,21 @@ pub fn relax_observed(
     .entered();
     let n = particles.len();
     let tol = params.newton_tolerance * mpu.diagonal();
+    // The moving particles: all, or the movable ones (local regeneration moves few of many,
+    // and no per-iteration work is spent on the others).
+    let active: Vec<u32> = match region.movable {
+        Some(m) => (0..n as u32).filter(|&i| m[i as usize]).collect(),
+        None => (0..n as u32).collect(),
+    };
     // f and ∇f of the moving particles (the fixed ones are never updated).
-    let mut fg: Vec<(f64, DVec3)> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            if region.movable.is_some_and(|m| !m[i]) {
-                (0.0, DVec3::ZERO)
-            } else {
-                mpu.value_and_gradient(particles.positions[i])
-            }
-        })
+    let mut fg: Vec<(f64, DVec3)> = vec![(0.0, DVec3::ZERO); n];
+    let initial: Vec<(f64, DVec3)> = active
+        .par_iter()
+        .map(|&i| mpu.value_and_gradient(particles.positions[i as usize]))
         .collect();
+    for (&i, v) in active.iter().zip(initial) {
+        fg[i as usize] = v;
+    }
     let fixed = region
         .movable
         .map(|m| FixedSet::new(&particles.positions, m));
@@ -84,7 +88,7 @@ pub fn relax_observed(
             on_iteration(iteration);
         }
         let index = match (&fixed, region.movable) {
-            (Some(f), Some(m)) => NeighbourIndex::split(f, &particles.positions, m),
+            (Some(f), Some(_)) => NeighbourIndex::split(f, &particles.positions, &active),
             _ => NeighbourIndex::new(params.neighbours, mpu, &particles.positions),
         };
         let state = &*particles;
@@ -92,12 +96,10 @@ pub fn relax_observed(
         let vel = &velocity;
         let anchors = &anchor;
         let leaves = &leaf;
-        let updates: Vec<Option<Update>> = (0..n)
-            .into_par_iter()
-            .map_init(Vec::new, |scratch, i| {
-                if region.movable.is_some_and(|m| !m[i]) {
-                    return None;
-                }
+        let updates: Vec<Update> = active
+            .par_iter()
+            .map_init(Vec::new, |scratch, &i| {
+                let i = i as usize;
                 let x = state.positions[i];
                 let ni = state.normals[i];
                 let si = state.sigma[i];
@@ -155,7 +157,7 @@ pub fn relax_observed(
                     sigma = (si + params.sigma_dt * ds).abs();
                 }
                 sigma = sigma.clamp(params.sigma_clamp.0 * target, params.sigma_clamp.1 * target);
-                Some((
+                (
                     x1,
                     f1,
                     g1,
@@ -164,32 +166,29 @@ pub fn relax_observed(
                     target,
                     if ok { new_anchor } else { anchors[i] },
                     new_leaf,
-                ))
+                )
             })
             .collect();
-        for (i, u) in updates.into_iter().enumerate() {
-            if let Some((x, f, g, depth, sigma, target, a, l)) = u {
-                anchor[i] = a;
-                leaf[i] = l;
-                velocity[i] = x - particles.positions[i];
-                particles.positions[i] = x;
-                particles.normals[i] = g.normalize_or(particles.normals[i]);
-                particles.depth[i] = depth;
-                particles.sigma[i] = sigma;
-                particles.target[i] = target;
-                fg[i] = (f, g);
-            }
+        for (&i, (x, f, g, depth, sigma, target, a, l)) in active.iter().zip(updates) {
+            let i = i as usize;
+            anchor[i] = a;
+            leaf[i] = l;
+            velocity[i] = x - particles.positions[i];
+            particles.positions[i] = x;
+            particles.normals[i] = g.normalize_or(particles.normals[i]);
+            particles.depth[i] = depth;
+            particles.sigma[i] = sigma;
+            particles.target[i] = target;
+            fg[i] = (f, g);
         }
     }
     on_iteration(params.iterations);
     // Final polish: a particle whose moves were all rejected still sits where it was seeded, on
     // an input point, which can be up to ε0 off the zero set.
-    let polished: Vec<Option<(DVec3, DVec3)>> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            if region.movable.is_some_and(|m| !m[i]) {
-                return None;
-            }
+    let polished: Vec<Option<(DVec3, DVec3)>> = active
+        .par_iter()
+        .map(|&i| {
+            let i = i as usize;
             let (f, g) = fg[i];
             if f.abs() <= tol * g.length() {
                 return None;
@@ -199,7 +198,8 @@ pub fn relax_observed(
             Some((x, g))
         })
         .collect();
-    for (i, p) in polished.into_iter().enumerate() {
+    for (&i, p) in active.iter().zip(polished) {
+        let i = i as usize;
         if let Some((x, g)) = p {
             particles.positions[i] = x;
             particles.normals[i] = g.normalize_or(particles.normals[i]);

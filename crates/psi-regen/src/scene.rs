@@ -9,6 +9,7 @@ use psi_particles::{
     DensityField, ParticleParams, Particles, RelaxRegion, SampleReport, measure_quality, relax,
     seed_leaves,
 };
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::{Edit, RegenError, mark_cells};
@@ -149,7 +150,7 @@ impl Scene {
         let keep: Vec<bool> = self
             .particles
             .positions
-            .iter()
+            .par_iter()
             .map(|&x| {
                 let old = self
                     .mpu
