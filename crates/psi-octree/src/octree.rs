@@ -223,7 +223,6 @@ impl Octree {
         };
         let mut payloads: Vec<T> = Vec::new();
         let mut level = 0..1usize;
-        let mut scratch: Vec<u32> = Vec::new();
         while !level.is_empty() {
             let decisions: Vec<(bool, T)> = {
                 let t = &tree;
@@ -240,12 +239,24 @@ impl Octree {
                     .collect()
             };
             let next_start = tree.cells.len();
+            let mut to_split = Vec::new();
             for (offset, (split, payload)) in decisions.into_iter().enumerate() {
                 let i = level.start + offset;
                 payloads.push(payload);
                 if split && tree.cells[i].depth < params.max_depth {
-                    tree.split(i, &mut scratch);
+                    to_split.push(i);
                 }
+            }
+            // The cells' point ranges are disjoint: partition them in parallel, then append the
+            // children in cell order (the arena stays level by level, whatever the threads).
+            let parts: Vec<([u32; 8], Vec<u32>)> = {
+                let t = &tree;
+                to_split.par_iter().map(|&i| t.partition(i)).collect()
+            };
+            for (&i, (counts, order)) in to_split.iter().zip(parts) {
+                let c = tree.cells[i];
+                tree.order[c.start as usize..c.end as usize].copy_from_slice(&order);
+                tree.push_children(i, counts);
             }
             on_level(tree.cells[level.start].depth, tree.cells.len());
             level = next_start..tree.cells.len();
@@ -273,31 +284,40 @@ impl Octree {
         Self::build_with(points, params, |v| (split(v), ())).map(|(t, _)| t)
     }
 
-    /// Splits cell `i` into 8 children and partitions its points among them (counting sort by
-    /// octant, stable, so the order is deterministic).
-    fn split(&mut self, i: usize, scratch: &mut Vec<u32>) {
+    /// The points of cell `i` partitioned by octant (counting sort, stable, so the order is
+    /// deterministic): the count per octant and the reordered point indices.
+    fn partition(&self, i: usize) -> ([u32; 8], Vec<u32>) {
         let parent = self.cells[i];
-        let range = parent.start as usize..parent.end as usize;
+        let points = &self.order[parent.start as usize..parent.end as usize];
+        let octants: Vec<u8> = points
+            .iter()
+            .map(|&p| parent.octant(self.positions[p as usize]) as u8)
+            .collect();
         let mut counts = [0u32; 8];
-        for &p in &self.order[range.clone()] {
-            counts[parent.octant(self.positions[p as usize])] += 1;
+        for &o in &octants {
+            counts[o as usize] += 1;
         }
-        let mut offsets = [0u32; 8];
-        let mut acc = parent.start;
+        let mut cursor = [0u32; 8];
+        let mut acc = 0;
         for o in 0..8 {
-            offsets[o] = acc;
+            cursor[o] = acc;
             acc += counts[o];
         }
-        scratch.clear();
-        scratch.extend_from_slice(&self.order[range.clone()]);
-        let mut cursor = offsets;
-        for &p in scratch.iter() {
-            let o = parent.octant(self.positions[p as usize]);
-            self.order[cursor[o] as usize] = p;
-            cursor[o] += 1;
+        let mut out = vec![0u32; points.len()];
+        for (&p, &o) in points.iter().zip(&octants) {
+            out[cursor[o as usize] as usize] = p;
+            cursor[o as usize] += 1;
         }
+        (counts, out)
+    }
+
+    /// Appends the 8 children of cell `i`, whose points (already partitioned by
+    /// [`Octree::partition`]) number `counts` per octant.
+    fn push_children(&mut self, i: usize, counts: [u32; 8]) {
+        let parent = self.cells[i];
         let first = self.cells.len() as u32;
         let h = 0.5 * parent.half;
+        let mut start = parent.start;
         for o in 0..8u32 {
             let bit = |k: u32| ((o >> k) & 1) as f64 * 2.0 - 1.0;
             let center = parent.center + h * DVec3::new(bit(0), bit(1), bit(2));
@@ -313,9 +333,10 @@ impl Octree {
                 key,
                 parent: i as u32,
                 first_child: NO_CELL,
-                start: offsets[o as usize],
-                end: offsets[o as usize] + counts[o as usize],
+                start,
+                end: start + counts[o as usize],
             });
+            start += counts[o as usize];
         }
         self.cells[i].first_child = first;
     }
