@@ -13,7 +13,7 @@ fn main() -> anyhow::Result<()> {
     let path = args
         .next()
         .unwrap_or_else(|| "../shared/models/bunny.ply".into());
-    let rounds: usize = args.next().map_or(Ok(20), |a| a.parse())?;
+    let rounds: usize = args.next().map_or(Ok(20), |a| a.parse())?.max(1);
     let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
     let (mut scene, _) = Scene::new(points, &MpuParams::paper(), &ParticleParams::paper())?;
     let brush = |sign: f64| Edit::Brush {

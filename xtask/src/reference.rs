@@ -33,6 +33,9 @@ impl Reference {
 
     /// `n` area-uniform samples of the mesh surface (seeded).
     pub(crate) fn surface_samples(&self, n: usize, seed: u64) -> Vec<DVec3> {
+        if self.mesh.faces.is_empty() {
+            return Vec::new();
+        }
         let tri = |f: &[u32; 3]| f.map(|i| self.mesh.vertices[i as usize]);
         let mut cumulative = Vec::with_capacity(self.mesh.faces.len());
         let mut total = 0.0;

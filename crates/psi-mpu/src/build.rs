@@ -442,18 +442,22 @@ impl Mpu {
         self.octree.leaf_containing(x - self.frame.origin)
     }
 
-    /// [`Mpu::leaf_containing`] with a guess (a particle's leaf before its last move): `hint`
-    /// itself when `x` lies inside that leaf's cube by more than 1e-9 of its half-edge — where
-    /// the lookup cannot answer otherwise — else the lookup. The answer always equals the
-    /// lookup's.
+    /// [`Mpu::leaf_containing`] for world position `x` with a guess (a particle's leaf before
+    /// its last move): `hint` itself when `x` lies inside that leaf's cube by a margin larger
+    /// than the rounding of the cube centres (1e-9 of its half-edge plus 64 ulps of the root's
+    /// half-edge) — where the octant descent cannot answer otherwise — else the lookup. The
+    /// answer always equals the lookup's (`None` for a non-finite `x`).
     pub fn leaf_containing_from(&self, x: DVec3, hint: Option<u32>) -> Option<u32> {
         let y = x - self.frame.origin;
         if let Some(h) = hint
+            && y.is_finite()
             && let Some(cell) = self.octree.cells().get(h as usize)
             && cell.is_leaf()
-            && (y - cell.center).abs().max_element() < cell.half * (1.0 - 1e-9)
         {
-            return Some(h);
+            let margin = 1e-9 * cell.half + 64.0 * f64::EPSILON * self.octree.root().half;
+            if (y - cell.center).abs().max_element() < cell.half - margin {
+                return Some(h);
+            }
         }
         self.octree.leaf_containing(y)
     }
@@ -465,16 +469,16 @@ impl Mpu {
     /// of q, by more than a spacing (inside the data the offset is a fraction of a spacing, on a
     /// straight edge about 0.95, the centroid of a half disc of radius √(2k/π) spacings).
     ///
-    /// Within min(`reach`, 1) spacings of an interior input point (one with data all around,
-    /// [`Mpu::input_is_interior`]) x is inside without the edge test: the data there extends at
-    /// least a spacing in every tangent direction. `anchor` is an input point that was near x
-    /// before (a particle's previous nearest point); when x is that close to an interior anchor
-    /// the answer is yes without a search. Returns the answer and the new anchor.
+    /// Within half a spacing of an interior input point (its own neighbours surround it,
+    /// [`Mpu::input_is_interior`]) x is inside without the edge test. (An interior point can lie
+    /// about half a spacing from the edge; a one-spacing shortcut let some of the bunny's
+    /// particles leave the data: 99.72 % → 99.55 % within 2e-3 D of its mesh.) `anchor` is an input point
+    /// that was near x before (a particle's previous nearest point); when x is that close to an
+    /// interior anchor the answer is yes without a search. Returns the answer and the new anchor.
     pub fn near_data_from(&self, x: DVec3, reach: f64, anchor: Option<u32>) -> (bool, Option<u32>) {
         let y = x - self.frame.origin;
-        let sure = reach.min(1.0);
         if let Some(a) = anchor
-            && (self.octree.positions()[a as usize] - y).length() <= sure * self.input_spacing(a)
+            && (self.octree.positions()[a as usize] - y).length() <= 0.5 * self.input_spacing(a)
             && self.input_is_interior(a)
         {
             return (true, Some(a));
@@ -487,8 +491,8 @@ impl Mpu {
         if d > reach * spacing {
             return (false, Some(q));
         }
-        // Fast path: q lies well inside the data and x is close to it.
-        if d <= sure * spacing && self.input_is_interior(q) {
+        // Fast path: q lies well inside the data and x is within half a spacing of it.
+        if d <= 0.5 * spacing && self.input_is_interior(q) {
             return (true, Some(q));
         }
         (self.centroid_offset(y, q) <= spacing, Some(q))

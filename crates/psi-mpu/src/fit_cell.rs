@@ -221,7 +221,12 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64
     );
     if params.leaf_refit && params.fit_unit.is_some() && smooth && chosen.error <= eps0 {
         let alt = fit_in(r1);
-        if alt.error < chosen.error {
+        // The second solve runs the crease rescue too; a sharp result is not taken either.
+        let alt_smooth = matches!(
+            alt.kind,
+            FitKind::Bivariate | FitKind::GeneralQuadric | FitKind::Plane
+        );
+        if alt_smooth && alt.error < chosen.error {
             return alt;
         }
     }

@@ -39,7 +39,7 @@ pub struct MpuParams {
     /// solved again in units of its fit radius, the one with the smaller error (largest Taubin
     /// distance within R) kept. The split decisions — so the octree, its leaves and the particle count —
     /// stay those of the world-unit fits; only the leaves' functions get more accurate (on the
-    /// paper's models the mean distance to the reference mesh falls from 2.0–2.5e-4 D to
+    /// paper's models the mean distance to the reference mesh falls from 1.5–2.4e-4 D to
     /// 0.9–1.8e-4 D; docs/ARCHITECTURE.md, "Fit units"). Ignored when `fit_unit` is `None`.
     pub leaf_refit: bool,
 }

@@ -2,7 +2,7 @@
 //! is the oracle. Distances are reported relative to the bounding-box diagonal D.
 
 use glam::DVec3;
-use psi_mpu::{Mpu, MpuParams, PolygonizeParams, polygonize};
+use psi_mpu::{FitKind, Mpu, MpuParams, PolygonizeParams, polygonize};
 use psi_octree::{AnalyticShape, assert_near};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -282,12 +282,68 @@ fn polygonized_open_cap_has_no_cap_over_the_hole_and_no_stray_vertices() {
     }
     let stray = used.iter().filter(|u| !**u).count();
     assert_eq!(stray, 0, "{stray} vertices belong to no triangle");
-    let lowest = mesh
-        .vertices
+    // Every vertex on the sampled upper half: none on a cap closing the hole (flat or not), none
+    // on the lower half the MPU extrapolates.
+    for v in &mesh.vertices {
+        assert!(
+            (v.length() - 1.0).abs() < 1e-2,
+            "vertex {v:?} off the sphere"
+        );
+        assert!(v.z > -0.1, "vertex {v:?} on the extrapolated lower half");
+    }
+}
+
+#[test]
+fn leaf_refit_keeps_the_octree_and_improves_small_scale_fits() {
+    // A torus 0.1 across: in world units the cut-offs flatten its fits (fit_unit = Some(1.0)).
+    let points = AnalyticShape::Torus {
+        major: 0.04,
+        minor: 0.014,
+    }
+    .sample(30_000, 4);
+    let with = Mpu::build(&points, &MpuParams::paper()).expect("build");
+    let without = Mpu::build(
+        &points,
+        &MpuParams {
+            leaf_refit: false,
+            ..MpuParams::paper()
+        },
+    )
+    .expect("build");
+    // Same octree: the refit never changes a split decision.
+    assert_eq!(with.octree().cells().len(), without.octree().cells().len());
+    for (a, b) in with.octree().cells().iter().zip(without.octree().cells()) {
+        assert_eq!(
+            (a.depth, a.key, a.first_child),
+            (b.depth, b.key, b.first_child)
+        );
+    }
+    // Some leaves took the scale-invariant fit, none took a sharp one it did not have.
+    let leaves: Vec<u32> = with.leaves().collect();
+    let changed = leaves
         .iter()
-        .map(|v| v.z)
-        .fold(f64::INFINITY, f64::min);
-    assert!(lowest > -0.1, "a cap over the hole reaches z = {lowest}");
+        .filter(|&&l| with.leaf_function(l) != without.leaf_function(l))
+        .count();
+    assert!(changed > 0, "no leaf was refitted");
+    for &l in &leaves {
+        let sharp = |k| matches!(k, Some(FitKind::Edge | FitKind::Corner));
+        assert!(!sharp(with.leaf_kind(l)) || sharp(without.leaf_kind(l)));
+    }
+    // And the surface is closer to the torus at the data.
+    let shape = AnalyticShape::Torus {
+        major: 0.04,
+        minor: 0.014,
+    };
+    let mean_error = |mpu: &Mpu| {
+        let pts = shape.sample(2000, 8);
+        pts.iter()
+            .map(|p| shape.signed_distance(project(mpu, p.p)).abs())
+            .sum::<f64>()
+            / pts.len() as f64
+    };
+    let (e_with, e_without) = (mean_error(&with), mean_error(&without));
+    eprintln!("torus 0.1 across: mean error {e_with:.2e} with leaf refit, {e_without:.2e} without");
+    assert!(e_with < e_without, "{e_with:e} vs {e_without:e}");
 }
 
 #[test]
@@ -317,6 +373,8 @@ fn leaf_lookup_with_a_hint_equals_the_plain_lookup() {
             _ => None,
         };
         let got = mpu.leaf_containing_from(x, hint);
+        let nan = DVec3::new(f64::NAN, x.y, x.z);
+        assert_eq!(mpu.leaf_containing_from(nan, hint), None);
         assert_eq!(got, mpu.leaf_containing(x), "x {x:?} hint {hint:?}");
         hinted += usize::from(hint == Some(leaf) && got == hint);
     }
