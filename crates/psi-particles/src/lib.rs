@@ -33,6 +33,7 @@ mod relax;
 mod sample;
 mod seed;
 mod seed_poisson;
+mod separate;
 
 pub use density::{DensityField, paper_weight};
 pub use octree_buckets::OctreeBuckets;
@@ -45,3 +46,4 @@ pub use relax::{RelaxRegion, relax, relax_observed};
 pub use sample::{
     SampleReport, Sampling, initialize, sample, sample_observed, seed_leaves, surface_area,
 };
+pub use separate::{SEPARATION, SeparationReport, separate_close_pairs};

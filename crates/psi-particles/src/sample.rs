@@ -8,8 +8,8 @@ use serde::{Deserialize, Serialize};
 use crate::seed::{quotas, seed};
 use crate::seed_poisson::poisson_seeds;
 use crate::{
-    DensityField, DensityMode, ParticleParams, Particles, Quality, RelaxRegion, measure_quality,
-    relax_observed,
+    DensityField, DensityMode, ParticleParams, Particles, Quality, RelaxRegion, SeparationReport,
+    measure_quality, relax_observed, separate_close_pairs,
 };
 
 /// What a sampling run did.
@@ -31,6 +31,9 @@ pub struct SampleReport {
     pub before: Quality,
     /// Quality after relaxation.
     pub after: Quality,
+    /// Uniform mode's separation pass (included in `simulate_seconds`).
+    #[serde(default)]
+    pub separation: SeparationReport,
 }
 
 /// Particles and the report of a run.
@@ -157,6 +160,11 @@ pub fn sample_observed(
         RelaxRegion::default(),
         on_iteration,
     );
+    let separation = if params.density == DensityMode::Uniform {
+        separate_close_pairs(mpu, &mut particles, &density, params)
+    } else {
+        SeparationReport::default()
+    };
     let simulate_seconds = t1.elapsed().as_secs_f64();
     let after = measure_quality(mpu, &particles);
     let report = SampleReport {
@@ -168,6 +176,7 @@ pub fn sample_observed(
         density,
         before,
         after,
+        separation,
     };
     Sampling { particles, report }
 }

@@ -4,7 +4,7 @@
 use glam::DVec3;
 use psi_mpu::{Mpu, MpuParams};
 use psi_octree::AnalyticShape;
-use psi_particles::{DensityMode, NeighbourSearch, ParticleParams, sample};
+use psi_particles::{DensityMode, NeighbourSearch, ParticleParams, sample, separate_close_pairs};
 
 fn mpu_of(shape: AnalyticShape, n: usize) -> Mpu {
     Mpu::build(&shape.sample(n, 21), &MpuParams::paper()).unwrap()
@@ -176,4 +176,48 @@ fn identical_for_any_thread_count_and_both_neighbour_searches() {
     let c = run(2, NeighbourSearch::Octree);
     assert_eq!(a, b, "thread count changed the result");
     assert_eq!(a, c, "octree and kd-tree neighbour searches disagree");
+}
+
+#[test]
+fn separation_breaks_up_a_close_pair_and_keeps_the_count() {
+    let shape = AnalyticShape::Sphere { radius: 1.0 };
+    let mpu = mpu_of(shape, 30_000);
+    let params = ParticleParams {
+        density: DensityMode::Uniform,
+        count: Some(2000),
+        ..ParticleParams::paper()
+    };
+    let mut run = sample(&mpu, &params);
+    let spacing = 2.0 * run.report.density.uniform.unwrap();
+    // Brute force: the smallest distance between two particles, over the spacing.
+    let min_pair = |p: &[DVec3]| {
+        let mut m = f64::INFINITY;
+        for i in 0..p.len() {
+            for j in 0..i {
+                m = m.min((p[i] - p[j]).length());
+            }
+        }
+        m / spacing
+    };
+    // Put particle 7 right next to particle 3 (on the surface).
+    let x = run.particles.positions[3] + 0.05 * spacing * DVec3::new(0.6, 0.8, 0.0);
+    run.particles.positions[7] = x / x.length();
+    assert!(min_pair(&run.particles.positions) < 0.1);
+    let report = separate_close_pairs(&mpu, &mut run.particles, &run.report.density, &params);
+    let after = min_pair(&run.particles.positions);
+    eprintln!("separation: {report:?}, brute-force minimum {after:.3}");
+    assert_eq!(run.particles.len(), 2000);
+    assert!(report.moved >= 1);
+    assert!(after >= 0.6, "closest pair at {after} of the spacing");
+    crate_level_checks(&mpu, &run.particles.positions, shape);
+}
+
+/// Every particle on the MPU surface and near the true one.
+fn crate_level_checks(mpu: &Mpu, positions: &[DVec3], shape: AnalyticShape) {
+    let d = mpu.diagonal();
+    for p in positions {
+        let (f, g) = mpu.value_and_gradient(*p);
+        assert!(f.abs() / g.length() <= 1e-4 * d * (1.0 + 1e-9));
+        assert!(shape.signed_distance(*p).abs() <= 1e-3 * d);
+    }
 }

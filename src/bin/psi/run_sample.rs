@@ -107,6 +107,7 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
             "density": s.density,
             "before": s.before,
             "after": s.after,
+            "separation": s.separation,
             "params": params,
         },
         "peak_memory_bytes": crate::input::peak_memory_bytes(),
