@@ -8,7 +8,9 @@
 //! * [`sample`]: seed, relax, measure; [`initialize`] and [`relax`] separately;
 //! * [`ParticleParams::paper`]: k = 1, 20 iterations, WH constants;
 //! * [`DensityField`]: depth → target radius σ̂; [`paper_weight`]: eq. 1's weight;
-//! * [`measure_quality`]: |f|/|∇f| and nearest-neighbour statistics per depth level.
+//! * [`measure_quality`]: |f|/|∇f| and nearest-neighbour statistics per depth level;
+//! * [`separate_close_pairs`]: uniform mode's last step, pushing apart the pairs relaxation
+//!   left closer than [`SEPARATION`] of the spacing.
 //!
 //! ```
 //! use psi_mpu::{Mpu, MpuParams};
