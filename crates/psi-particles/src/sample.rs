@@ -31,9 +31,10 @@ pub struct SampleReport {
     pub before: Quality,
     /// Quality after relaxation.
     pub after: Quality,
-    /// Uniform mode's separation pass (included in `simulate_seconds`).
+    /// Uniform mode's separation pass (its time is included in `simulate_seconds`); `None` in
+    /// adaptive mode.
     #[serde(default)]
-    pub separation: SeparationReport,
+    pub separation: Option<SeparationReport>,
 }
 
 /// Particles and the report of a run.
@@ -163,7 +164,7 @@ pub fn sample_observed(
     let separation = if params.density == DensityMode::Uniform {
         separate_close_pairs(mpu, &mut particles, &density, params)
     } else {
-        SeparationReport::default()
+        None
     };
     let simulate_seconds = t1.elapsed().as_secs_f64();
     let after = measure_quality(mpu, &particles);

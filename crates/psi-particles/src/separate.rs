@@ -22,20 +22,30 @@ use crate::{DensityField, ParticleParams, Particles, nearest_neighbour_distances
 pub const SEPARATION: f64 = 0.8;
 
 /// At most this many rounds (find the close pairs, push their members).
-const ROUNDS: usize = 5;
+pub const ROUNDS: usize = 5;
 
-/// Step search of one push: the first step (× σ̂) and the number of trials (a failed trial
-/// halves the step).
+/// First step of a push, × σ̂ (a failed trial halves the step).
 const FIRST_STEP: f64 = 0.25;
+/// Trials per push.
 const STEPS: usize = 24;
+/// A push moves a particle at most this far (× σ̂) from where the round found it, so its nearest
+/// neighbour stays among the candidates gathered then (within [`CANDIDATES`] × σ̂): any other
+/// particle is more than 5σ̂ away, while the close partner it started with (≤ 1.6σ̂, moved by
+/// at most σ̂ itself) stays within 3.6σ̂.
+const MAX_PUSH: f64 = 1.0;
+/// Candidate neighbours of a pushed particle: those within this many σ̂ at the round's start.
+const CANDIDATES: f64 = 6.0;
 
 /// What the separation pass did.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SeparationReport {
     /// Rounds run (each: find the close pairs, push both members of each).
     pub rounds: usize,
-    /// Pushes, over all rounds (a particle pushed in two rounds counts twice).
+    /// Members of close pairs that moved, over all rounds (a particle moved in two rounds counts
+    /// twice).
     pub pushed: usize,
+    /// Seconds the pass took (also counted in the sampling's `simulate_seconds`).
+    pub seconds: f64,
     /// Smallest nearest-neighbour distance before and after, over the hexagonal spacing 2σ̂.
     pub min_spacing_before: f64,
     /// See `min_spacing_before`.
@@ -45,17 +55,21 @@ pub struct SeparationReport {
 /// Pushes apart the pairs of `particles` (uniform mode: one target radius σ̂ = `field.uniform`,
 /// world units) closer than [`SEPARATION`] × 2σ̂: both members of each pair, in index order,
 /// step along the surface away from their nearest neighbour while that distance grows (each
-/// trial projected onto f = 0 and kept on the data, the step halved when a trial fails), up to
-/// five rounds. Deterministic; the count never changes. Does nothing outside uniform mode.
+/// trial projected onto f = 0 to |f|/|∇f| ≤ the Newton tolerance and kept on the data, the step
+/// halved when a trial fails, at most σ̂ from where the round found the particle), up to
+/// [`ROUNDS`] rounds. Deterministic (sequential pushes); the count never changes. `None` outside
+/// uniform mode or with fewer than two particles.
 pub fn separate_close_pairs(
     mpu: &Mpu,
     particles: &mut Particles,
     field: &DensityField,
     params: &ParticleParams,
-) -> SeparationReport {
-    let Some(s) = field.uniform else {
-        return SeparationReport::default();
-    };
+) -> Option<SeparationReport> {
+    let s = field.uniform?;
+    if particles.len() < 2 {
+        return None;
+    }
+    let start = std::time::Instant::now();
     let spacing = 2.0 * s;
     let min_over = |p: &Particles| {
         nearest_neighbour_distances(&p.positions)
@@ -73,12 +87,12 @@ pub fn separate_close_pairs(
         if members.is_empty() {
             break;
         }
-        push_apart(mpu, particles, &members, s, params);
+        report.pushed += push_apart(mpu, particles, &members, s, params);
         report.rounds += 1;
-        report.pushed += members.len();
         report.min_spacing_after = min_over(particles);
     }
-    report
+    report.seconds = start.elapsed().as_secs_f64();
+    Some(report)
 }
 
 /// Both members of every pair closer than `limit` (world units), sorted.
@@ -100,23 +114,23 @@ fn close_pair_members(positions: &[DVec3], limit: f64) -> Vec<u32> {
 }
 
 /// Moves each of `members`, one after the other, away from its nearest neighbour along the
-/// surface while its distance to the nearest particle grows. `s` is σ̂ (world units).
+/// surface while its distance to the nearest particle grows. `s` is σ̂ (world units). Returns
+/// how many moved.
 fn push_apart(
     mpu: &Mpu,
     particles: &mut Particles,
     members: &[u32],
     s: f64,
     params: &ParticleParams,
-) {
+) -> usize {
     let tol = params.newton_tolerance * mpu.diagonal();
-    // Candidates for each member's nearest neighbour: the particles within 6σ̂ at the start of
-    // the round (pushes move a particle well under σ̂, and 6σ̂ is three spacings).
     let index = PointIndex::new(&particles.positions);
     let mut near = Vec::new();
+    let mut moved = 0;
     for &i in members {
         let i = i as usize;
         near.clear();
-        index.within(particles.positions[i], 6.0 * s, &mut near);
+        index.within(particles.positions[i], CANDIDATES * s, &mut near);
         near.retain(|&j| j as usize != i);
         near.sort_unstable();
         if near.is_empty() {
@@ -130,29 +144,40 @@ fn push_apart(
                 .min_by(|a, b| a.0.total_cmp(&b.0))
                 .expect("non-empty")
         };
-        let mut x = positions[i];
+        let origin = positions[i];
+        let mut x = origin;
         let mut n = particles.normals[i];
         let (mut best, mut from) = nearest(x);
         let mut step = FIRST_STEP * s;
         for _ in 0..STEPS {
             let away = x - from;
-            let tangent = away - n * away.dot(n);
+            let mut tangent = away - n * away.dot(n);
             if tangent.length_squared() <= 0.0 {
-                break;
+                // Coincident with its neighbour: the two leave in opposite directions.
+                let sign = if i.is_multiple_of(2) { 1.0 } else { -1.0 };
+                tangent = sign * n.any_orthonormal_vector();
             }
-            let (y, _, g) = project_to_surface(mpu, x + step * tangent.normalize(), tol, s);
+            let (y, f, g) = project_to_surface(mpu, x + step * tangent.normalize(), tol, s);
             let (d, p) = nearest(y);
-            let on_data = mpu.near_data_from(y, params.data_reach, None).0;
-            if d > best && on_data && g.length_squared() > 0.0 {
+            let on_surface = g.length_squared() > 0.0 && f.abs() <= tol * g.length();
+            let ok = d > best
+                && on_surface
+                && (y - origin).length() <= MAX_PUSH * s
+                && mpu.near_data_from(y, params.data_reach, None).0;
+            if ok {
                 (x, n, best, from) = (y, g.normalize(), d, p);
             } else {
                 step *= 0.5;
             }
         }
-        particles.positions[i] = x;
-        particles.normals[i] = n;
-        if let Some(l) = mpu.leaf_containing(x) {
-            particles.depth[i] = mpu.octree().cell(l).depth;
+        if x != origin {
+            moved += 1;
+            particles.positions[i] = x;
+            particles.normals[i] = n;
+            if let Some(l) = mpu.leaf_containing(x) {
+                particles.depth[i] = mpu.octree().cell(l).depth;
+            }
         }
     }
+    moved
 }

@@ -4,9 +4,7 @@
 use glam::DVec3;
 use psi_mpu::{Mpu, MpuParams};
 use psi_octree::AnalyticShape;
-use psi_particles::{
-    DensityMode, NeighbourSearch, ParticleParams, SEPARATION, sample, separate_close_pairs,
-};
+use psi_particles::{DensityMode, NeighbourSearch, ParticleParams, sample, separate_close_pairs};
 
 fn mpu_of(shape: AnalyticShape, n: usize) -> Mpu {
     Mpu::build(&shape.sample(n, 21), &MpuParams::paper()).unwrap()
@@ -178,6 +176,29 @@ fn identical_for_any_thread_count_and_both_neighbour_searches() {
     let c = run(2, NeighbourSearch::Octree);
     assert_eq!(a, b, "thread count changed the result");
     assert_eq!(a, c, "octree and kd-tree neighbour searches disagree");
+    // Uniform mode, with its separation pass, too.
+    let uniform = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            sample(
+                &mpu,
+                &ParticleParams {
+                    density: DensityMode::Uniform,
+                    count: Some(1500),
+                    ..ParticleParams::paper()
+                },
+            )
+            .particles
+        })
+    };
+    assert_eq!(
+        uniform(1),
+        uniform(2),
+        "thread count changed the uniform result"
+    );
 }
 
 #[test]
@@ -201,20 +222,30 @@ fn separation_breaks_up_a_close_pair_and_keeps_the_count() {
         }
         m / spacing
     };
-    // Put particle 7 right next to particle 3 (on the surface).
+    // Put particle 7 right next to particle 3 (on the sphere, with the sphere's normal), and
+    // particle 9 exactly on particle 5 (a coincident pair).
     let x = run.particles.positions[3] + 0.05 * spacing * DVec3::new(0.6, 0.8, 0.0);
     run.particles.positions[7] = x / x.length();
-    assert!(min_pair(&run.particles.positions) < 0.1);
-    let report = separate_close_pairs(&mpu, &mut run.particles, &run.report.density, &params);
+    run.particles.normals[7] = x / x.length();
+    run.particles.positions[9] = run.particles.positions[5];
+    run.particles.normals[9] = run.particles.normals[5];
+    assert_eq!(min_pair(&run.particles.positions), 0.0);
+    let report = separate_close_pairs(&mpu, &mut run.particles, &run.report.density, &params)
+        .expect("uniform mode");
     let after = min_pair(&run.particles.positions);
     eprintln!("separation: {report:?}, brute-force minimum {after:.3}");
     assert_eq!(run.particles.len(), 2000);
-    assert!(report.pushed >= 2);
-    assert!(
-        after >= SEPARATION,
-        "closest pair at {after} of the spacing"
-    );
+    assert!(report.pushed >= 4);
+    assert!((report.min_spacing_after - after).abs() <= 1e-12 * after);
+    assert!(after >= 0.7, "closest pair at {after} of the spacing");
     crate_level_checks(&mpu, &run.particles.positions, shape);
+    // Adaptive mode has no separation pass.
+    assert!(
+        sample(&mpu, &ParticleParams::paper())
+            .report
+            .separation
+            .is_none()
+    );
 }
 
 /// Every particle on the MPU surface and near the true one.
