@@ -162,7 +162,13 @@ pub fn sample_observed(
         on_iteration,
     );
     let separation = if params.density == DensityMode::Uniform {
-        separate_close_pairs(mpu, &mut particles, &density, params)
+        separate_close_pairs(
+            mpu,
+            &mut particles,
+            &density,
+            params,
+            RelaxRegion::default(),
+        )
     } else {
         None
     };

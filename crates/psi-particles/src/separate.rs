@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::project::project_to_surface;
-use crate::{DensityField, ParticleParams, Particles, nearest_neighbour_distances};
+use crate::{DensityField, ParticleParams, Particles, RelaxRegion, nearest_neighbour_distances};
 
 /// A pair closer than this fraction of the hexagonal spacing 2σ̂ is pushed apart.
 pub const SEPARATION: f64 = 0.8;
@@ -57,13 +57,16 @@ pub struct SeparationReport {
 /// step along the surface away from their nearest neighbour while that distance grows (each
 /// trial projected onto f = 0 to |f|/|∇f| ≤ the Newton tolerance and kept on the data, the step
 /// halved when a trial fails, at most σ̂ from where the round found the particle), up to
-/// [`ROUNDS`] rounds. Deterministic (sequential pushes); the count never changes. `None` outside
-/// uniform mode or with fewer than two particles.
+/// [`ROUNDS`] rounds. `region` restricts which particles may move and where, as for
+/// [`crate::relax`] (local regeneration pushes only its new particles). Deterministic (sequential
+/// pushes); the count never changes. `None` outside uniform mode or with fewer than two
+/// particles.
 pub fn separate_close_pairs(
     mpu: &Mpu,
     particles: &mut Particles,
     field: &DensityField,
     params: &ParticleParams,
+    region: RelaxRegion<'_>,
 ) -> Option<SeparationReport> {
     let s = field.uniform?;
     if particles.len() < 2 {
@@ -83,11 +86,14 @@ pub fn separate_close_pairs(
     };
     report.min_spacing_after = report.min_spacing_before;
     for _ in 0..ROUNDS {
-        let members = close_pair_members(&particles.positions, SEPARATION * spacing);
+        let mut members = close_pair_members(&particles.positions, SEPARATION * spacing);
+        if let Some(m) = region.movable {
+            members.retain(|&i| m[i as usize]);
+        }
         if members.is_empty() {
             break;
         }
-        report.pushed += push_apart(mpu, particles, &members, s, params);
+        report.pushed += push_apart(mpu, particles, &members, s, params, region.accept);
         report.rounds += 1;
         report.min_spacing_after = min_over(particles);
     }
@@ -122,6 +128,7 @@ fn push_apart(
     members: &[u32],
     s: f64,
     params: &ParticleParams,
+    accept: Option<&(dyn Fn(DVec3) -> bool + Sync)>,
 ) -> usize {
     let tol = params.newton_tolerance * mpu.diagonal();
     let index = PointIndex::new(&particles.positions);
@@ -163,6 +170,7 @@ fn push_apart(
             let ok = d > best
                 && on_surface
                 && (y - origin).length() <= MAX_PUSH * s
+                && accept.is_none_or(|a| a(y))
                 && mpu.near_data_from(y, params.data_reach, None).0;
             if ok {
                 (x, n, best, from) = (y, g.normalize(), d, p);

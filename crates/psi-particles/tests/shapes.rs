@@ -4,7 +4,9 @@
 use glam::DVec3;
 use psi_mpu::{Mpu, MpuParams};
 use psi_octree::AnalyticShape;
-use psi_particles::{DensityMode, NeighbourSearch, ParticleParams, sample, separate_close_pairs};
+use psi_particles::{
+    DensityMode, NeighbourSearch, ParticleParams, RelaxRegion, sample, separate_close_pairs,
+};
 
 fn mpu_of(shape: AnalyticShape, n: usize) -> Mpu {
     Mpu::build(&shape.sample(n, 21), &MpuParams::paper()).unwrap()
@@ -230,8 +232,14 @@ fn separation_breaks_up_a_close_pair_and_keeps_the_count() {
     run.particles.positions[9] = run.particles.positions[5];
     run.particles.normals[9] = run.particles.normals[5];
     assert_eq!(min_pair(&run.particles.positions), 0.0);
-    let report = separate_close_pairs(&mpu, &mut run.particles, &run.report.density, &params)
-        .expect("uniform mode");
+    let report = separate_close_pairs(
+        &mpu,
+        &mut run.particles,
+        &run.report.density,
+        &params,
+        RelaxRegion::default(),
+    )
+    .expect("uniform mode");
     let after = min_pair(&run.particles.positions);
     eprintln!("separation: {report:?}, brute-force minimum {after:.3}");
     assert_eq!(run.particles.len(), 2000);

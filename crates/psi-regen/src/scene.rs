@@ -7,7 +7,7 @@ use psi_mpu::{Mpu, MpuParams, Reuse};
 use psi_octree::OrientedPoint;
 use psi_particles::{
     DensityField, ParticleParams, Particles, RelaxRegion, SampleReport, measure_quality, relax,
-    seed_leaves,
+    seed_leaves, separate_close_pairs,
 };
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -182,6 +182,18 @@ impl Scene {
                 movable: Some(&movable),
                 accept: Some(&accept),
             },
+        );
+        // Uniform mode: the new particles' close pairs pushed apart, as a full run does.
+        let region = RelaxRegion {
+            movable: Some(&movable),
+            accept: Some(&accept),
+        };
+        separate_close_pairs(
+            &mpu,
+            &mut particles,
+            &self.field,
+            &self.particle_params,
+            region,
         );
         let particle_seconds = t1.elapsed().as_secs_f64();
 

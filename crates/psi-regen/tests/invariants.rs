@@ -8,7 +8,7 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 use psi_mpu::{Mpu, MpuParams};
 use psi_octree::{AnalyticShape, OrientedPoint};
-use psi_particles::ParticleParams;
+use psi_particles::{DensityMode, ParticleParams};
 use psi_regen::{Edit, Scene, mark_cells, mark_cells_brute_force};
 
 fn leaves(mpu: &Mpu) -> BTreeSet<(u8, [u32; 3])> {
@@ -105,9 +105,15 @@ proptest! {
     #![proptest_config(config())]
 
     #[test]
-    fn local_regeneration_equals_a_rebuild_and_leaves_the_rest_alone(kind in 0u8..2, edit in edits()) {
+    fn local_regeneration_equals_a_rebuild_and_leaves_the_rest_alone(
+        kind in 0u8..2,
+        edit in edits(),
+        uniform in proptest::bool::ANY,
+    ) {
         let points = shape(kind);
-        let params = ParticleParams { iterations: 5, ..ParticleParams::paper() };
+        // Uniform mode also runs the separation pass on the new particles.
+        let density = if uniform { DensityMode::Uniform } else { DensityMode::Adaptive };
+        let params = ParticleParams { iterations: 5, density, ..ParticleParams::paper() };
         let (mut scene, _) = Scene::new(points.clone(), &MpuParams::paper(), &params).unwrap();
         let edit = place(edit, &points);
         let before = scene.particles().clone();
