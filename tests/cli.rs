@@ -1,19 +1,7 @@
 //! The `psi` binary end to end: real data, malformed input, exit codes, atomic outputs.
 
-use std::path::{Path, PathBuf};
-
 mod common;
-use common::{psi, scratch};
-
-fn models() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/models");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("skipped: ../shared/models not found");
-        None
-    }
-}
+use common::{assert_rejected, models, psi, scratch};
 
 #[test]
 fn info_reports_the_bunny_dataset_count() {
@@ -66,18 +54,7 @@ fn malformed_inputs_fail_with_exit_code_2_and_name_the_file() {
             "--iterations",
             "1",
         ]);
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{name}: {err}");
-        assert!(
-            err.contains(name),
-            "{name}: error does not name the file: {err}"
-        );
-        assert_eq!(err.trim().lines().count(), 1, "{name}: not one line: {err}");
-        assert_eq!(
-            std::fs::read(&existing).unwrap(),
-            b"precious",
-            "{name} clobbered the output"
-        );
+        assert_rejected(&out, name, &existing, name);
     }
     for missing in [dir.join("missing.ply"), dir.clone()] {
         let out = psi(&["info", missing.to_str().unwrap()]);

@@ -4,7 +4,7 @@
 use std::process::Output;
 
 mod common;
-use common::{psi, scratch};
+use common::{assert_rejected, psi, scratch};
 
 use psi::DVec3;
 
@@ -171,14 +171,7 @@ fn bad_input_is_exit_code_2_naming_the_file_and_keeps_the_output() {
             "-o",
             existing.to_str().unwrap(),
         ]);
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{name}: {err}");
-        assert!(
-            err.contains(name),
-            "{name}: error does not name the file: {err}"
-        );
-        assert_eq!(err.trim().lines().count(), 1, "{name}: not one line: {err}");
-        assert_eq!(std::fs::read(&existing).unwrap(), b"precious", "{name}");
+        assert_rejected(&out, name, &existing, name);
     }
     let missing = dir.join("missing.ply");
     let out = psi(&[

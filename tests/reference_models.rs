@@ -5,20 +5,20 @@
 
 use std::path::{Path, PathBuf};
 
+mod common;
+use common::models;
+
 use parry3d_f64::query::PointQuery;
 use parry3d_f64::shape::TriMesh;
 use psi::{Mpu, MpuParams, ParticleParams, ReadOptions};
 
+/// `../shared/models/<name>`, or `None` (skipped, with a message) when it is absent.
 fn model(name: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/models")
-        .join(name);
-    if path.is_file() {
-        Some(path)
-    } else {
-        eprintln!("skipped: {} not found", path.display());
+    let path = models()?.join(name);
+    path.is_file().then_some(path).or_else(|| {
+        eprintln!("skipped: {name} not found in ../shared/models");
         None
-    }
+    })
 }
 
 /// Share of the paper pipeline's particles within `tol` × D of the mesh the points came from.

@@ -1,9 +1,9 @@
-//! Helpers shared by the facade's integration tests: running the `psi` binary and scratch
-//! folders.
+//! Helpers shared by the facade's integration tests: running the `psi` binary, scratch
+//! folders, the shared models, and the check every rejected input must pass.
 
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// Runs the `psi` binary with `args`.
@@ -26,4 +26,33 @@ pub(crate) fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("psi-test-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir
+}
+
+/// `../shared/models`, or `None` (with a message: the test is skipped) when it is absent.
+pub(crate) fn models() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/models");
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!("skipped: ../shared/models not found");
+        None
+    }
+}
+
+/// A run on bad input `name` failed as every command must: exit code 2, one line on stderr
+/// naming the file, and the output file `kept` (holding "precious") left untouched. `what`
+/// labels the failure messages.
+pub(crate) fn assert_rejected(out: &Output, name: &str, kept: &Path, what: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{what}: {err}");
+    assert!(
+        err.contains(name),
+        "{what}: error does not name the file: {err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{what}: not one line: {err}");
+    assert_eq!(
+        std::fs::read(kept).unwrap(),
+        b"precious",
+        "{what} clobbered the output"
+    );
 }
