@@ -80,10 +80,7 @@ pub fn write_points_ply(
         for &(_, values) in scalars {
             buf.extend_from_slice(&values[i].to_le_bytes());
         }
-        if buf.len() >= CHUNK {
-            out.write_all(&buf)?;
-            buf.clear();
-        }
+        flush_full(out, &mut buf)?;
     }
     out.write_all(&buf)?;
     out.flush()?;
@@ -137,10 +134,7 @@ pub fn write_mesh_ply(out: &mut impl Write, mesh: &TriangleMesh) -> Result<(), W
         for c in [v.x, v.y, v.z] {
             buf.extend_from_slice(&(c as f32).to_le_bytes());
         }
-        if buf.len() >= CHUNK {
-            out.write_all(&buf)?;
-            buf.clear();
-        }
+        flush_full(out, &mut buf)?;
     }
     for f in &mesh.faces {
         buf.push(3);
@@ -148,13 +142,19 @@ pub fn write_mesh_ply(out: &mut impl Write, mesh: &TriangleMesh) -> Result<(), W
             // Checked above: i <= i32::MAX.
             buf.extend_from_slice(&(i as i32).to_le_bytes());
         }
-        if buf.len() >= CHUNK {
-            out.write_all(&buf)?;
-            buf.clear();
-        }
+        flush_full(out, &mut buf)?;
     }
     out.write_all(&buf)?;
     out.flush()?;
+    Ok(())
+}
+
+/// Writes `buf` out and empties it once it holds a chunk (the writers' buffering).
+fn flush_full(out: &mut impl Write, buf: &mut Vec<u8>) -> std::io::Result<()> {
+    if buf.len() >= CHUNK {
+        out.write_all(buf)?;
+        buf.clear();
+    }
     Ok(())
 }
 

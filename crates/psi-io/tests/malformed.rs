@@ -215,26 +215,24 @@ fn cases() -> Vec<(String, Format, Vec<u8>, Expect)> {
             full[..header_len + 10].to_vec(),
             Expect::Truncated,
         );
-        let lying = String::from_utf8_lossy(&full[..header_len])
-            .replace("element face 4", "element face 5")
-            .into_bytes();
-        let mut lying_faces = lying;
-        lying_faces.extend_from_slice(&full[header_len..]);
+        // The same body under a header whose count says `to` instead of `from`.
+        let lie = |from: &str, to: &str| {
+            let mut bytes = String::from_utf8_lossy(&full[..header_len])
+                .replace(from, to)
+                .into_bytes();
+            bytes.extend_from_slice(&full[header_len..]);
+            bytes
+        };
         add(
             &tag("face count lies"),
             Format::Ply,
-            lying_faces,
+            lie("element face 4", "element face 5"),
             Expect::Truncated,
         );
-        let lying = String::from_utf8_lossy(&full[..header_len])
-            .replace("element vertex 4", "element vertex 4000000000")
-            .into_bytes();
-        let mut lying_vertices = lying;
-        lying_vertices.extend_from_slice(&full[header_len..]);
         add(
             &tag("vertex count lies hugely"),
             Format::Ply,
-            lying_vertices,
+            lie("element vertex 4", "element vertex 4000000000"),
             Expect::Truncated,
         );
 

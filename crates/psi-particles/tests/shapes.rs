@@ -157,48 +157,31 @@ fn exact_counts_are_exact() {
 #[test]
 fn identical_for_any_thread_count_and_both_neighbour_searches() {
     let mpu = mpu_of(AnalyticShape::Sphere { radius: 1.0 }, 10_000);
-    let run = |threads: usize, search: NeighbourSearch| {
+    let run = |threads: usize, params: ParticleParams| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
-        pool.install(|| {
-            sample(
-                &mpu,
-                &ParticleParams {
-                    neighbours: search,
-                    ..ParticleParams::paper()
-                },
-            )
-            .particles
-        })
+        pool.install(|| sample(&mpu, &params).particles)
     };
-    let a = run(1, NeighbourSearch::KdTree);
-    let b = run(2, NeighbourSearch::KdTree);
-    let c = run(2, NeighbourSearch::Octree);
+    let with = |neighbours| ParticleParams {
+        neighbours,
+        ..ParticleParams::paper()
+    };
+    let a = run(1, with(NeighbourSearch::KdTree));
+    let b = run(2, with(NeighbourSearch::KdTree));
+    let c = run(2, with(NeighbourSearch::Octree));
     assert_eq!(a, b, "thread count changed the result");
     assert_eq!(a, c, "octree and kd-tree neighbour searches disagree");
     // Uniform mode, with its separation pass, too.
-    let uniform = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
-            sample(
-                &mpu,
-                &ParticleParams {
-                    density: DensityMode::Uniform,
-                    count: Some(1500),
-                    ..ParticleParams::paper()
-                },
-            )
-            .particles
-        })
+    let uniform = ParticleParams {
+        density: DensityMode::Uniform,
+        count: Some(1500),
+        ..ParticleParams::paper()
     };
     assert_eq!(
-        uniform(1),
-        uniform(2),
+        run(1, uniform),
+        run(2, uniform),
         "thread count changed the uniform result"
     );
 }
