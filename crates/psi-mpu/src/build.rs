@@ -472,9 +472,10 @@ impl Mpu {
     /// Within half a spacing of an interior input point (its own neighbours surround it,
     /// [`Mpu::input_is_interior`]) x is inside without the edge test. (An interior point can lie
     /// about half a spacing from the edge; a one-spacing shortcut let some of the bunny's
-    /// particles leave the data: 99.72 % → 99.55 % within 2e-3 D of its mesh.) `anchor` is an input point
-    /// that was near x before (a particle's previous nearest point); when x is that close to an
-    /// interior anchor the answer is yes without a search. Returns the answer and the new anchor.
+    /// particles leave the data: 99.72 % → 99.55 % within 2e-3 D of its mesh.) `anchor` is an
+    /// input point that was near x before (a particle's previous nearest point); when x is that
+    /// close to an interior anchor the answer is yes without a search. Returns the answer and
+    /// the new anchor.
     pub fn near_data_from(&self, x: DVec3, reach: f64, anchor: Option<u32>) -> (bool, Option<u32>) {
         let y = x - self.frame.origin;
         if let Some(a) = anchor

@@ -48,6 +48,4 @@ pub use relax::{RelaxRegion, relax, relax_observed};
 pub use sample::{
     SampleReport, Sampling, initialize, sample, sample_observed, seed_leaves, surface_area,
 };
-pub use separate::{
-    ROUNDS as SEPARATION_ROUNDS, SEPARATION, SeparationReport, separate_close_pairs,
-};
+pub use separate::{SEPARATION, SeparationReport, separate_close_pairs};

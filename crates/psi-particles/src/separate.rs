@@ -22,7 +22,7 @@ use crate::{DensityField, ParticleParams, Particles, RelaxRegion, nearest_neighb
 pub const SEPARATION: f64 = 0.8;
 
 /// At most this many rounds (find the close pairs, push their members).
-pub const ROUNDS: usize = 5;
+const ROUNDS: usize = 5;
 
 /// First step of a push, × σ̂ (a failed trial halves the step).
 const FIRST_STEP: f64 = 0.25;
@@ -57,7 +57,7 @@ pub struct SeparationReport {
 /// step along the surface away from their nearest neighbour while that distance grows (each
 /// trial projected onto f = 0 to |f|/|∇f| ≤ the Newton tolerance and kept on the data, the step
 /// halved when a trial fails, at most σ̂ from where the round found the particle), up to
-/// [`ROUNDS`] rounds. `region` restricts which particles may move and where, as for
+/// five rounds. `region` restricts which particles may move and where, as for
 /// [`crate::relax`] (local regeneration pushes only its new particles). Deterministic (sequential
 /// pushes); the count never changes. `None` outside uniform mode or with fewer than two
 /// particles.
