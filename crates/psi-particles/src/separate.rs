@@ -12,7 +12,6 @@
 use glam::DVec3;
 use psi_mpu::Mpu;
 use psi_octree::PointIndex;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::project::project_to_surface;
@@ -74,49 +73,30 @@ pub fn separate_close_pairs(
     }
     let start = std::time::Instant::now();
     let spacing = 2.0 * s;
-    let min_over = |p: &Particles| {
-        nearest_neighbour_distances(&p.positions)
-            .into_iter()
-            .fold(f64::INFINITY, f64::min)
-            / spacing
-    };
+    // One nearest-neighbour pass per round gives both the close pairs' members (a particle
+    // whose nearest neighbour is within the limit is a member) and the report's minimum.
+    let mut nn = nearest_neighbour_distances(&particles.positions);
+    let min_of = |nn: &[f64]| nn.iter().copied().fold(f64::INFINITY, f64::min) / spacing;
     let mut report = SeparationReport {
-        min_spacing_before: min_over(particles),
+        min_spacing_before: min_of(&nn),
         ..Default::default()
     };
     report.min_spacing_after = report.min_spacing_before;
     for _ in 0..ROUNDS {
-        let mut members = close_pair_members(&particles.positions, SEPARATION * spacing);
-        if let Some(m) = region.movable {
-            members.retain(|&i| m[i as usize]);
-        }
+        let members: Vec<u32> = (0..nn.len())
+            .filter(|&i| nn[i] < SEPARATION * spacing && region.movable.is_none_or(|m| m[i]))
+            .map(|i| i as u32)
+            .collect();
         if members.is_empty() {
             break;
         }
         report.pushed += push_apart(mpu, particles, &members, s, params, region.accept);
         report.rounds += 1;
-        report.min_spacing_after = min_over(particles);
+        nn = nearest_neighbour_distances(&particles.positions);
+        report.min_spacing_after = min_of(&nn);
     }
     report.seconds = start.elapsed().as_secs_f64();
     Some(report)
-}
-
-/// Both members of every pair closer than `limit` (world units), sorted.
-fn close_pair_members(positions: &[DVec3], limit: f64) -> Vec<u32> {
-    let index = PointIndex::new(positions);
-    let mut members: Vec<u32> = positions
-        .par_iter()
-        .enumerate()
-        .filter_map(|(i, p)| {
-            let mut near = Vec::new();
-            index.within(*p, limit, &mut near);
-            near.iter()
-                .any(|&j| j as usize != i && (positions[j as usize] - *p).length() < limit)
-                .then_some(i as u32)
-        })
-        .collect();
-    members.sort_unstable();
-    members
 }
 
 /// Moves each of `members`, one after the other, away from its nearest neighbour along the
