@@ -7,6 +7,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use psi_octree::{Aabb, Octree, OctreeParams, OrientedPoint, PointIndex, root_cube};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::fit_cell::{CellFit, FitInput, fit_cell};
@@ -95,15 +96,20 @@ pub struct BuildProgress {
     pub cells: usize,
 }
 
-/// A cell's stored decision in a built MPU, reusable by a later build when no edit reached it.
-#[derive(Clone, Debug)]
-pub(crate) struct CellRecord {
-    pub(crate) split: bool,
-    pub(crate) fit: Option<(LocalFunction, FitKind, bool)>,
+/// A cell's decision in a build: fitted now, or taken from a cell of the earlier MPU that no
+/// edit reached (its index there). Small, because a local rebuild reuses most cells and the
+/// records pass through several vectors.
+enum CellRecord {
+    Fitted(Box<FittedCell>),
+    Reused(u32),
+}
+
+/// A cell fitted by this build.
+struct FittedCell {
+    /// A leaf's fit (`None` for a cell that splits).
+    fit: Option<(LocalFunction, FitKind, bool)>,
     /// The radius the fit used (R1 ≥ R): only points within it influence the cell.
-    pub(crate) fit_radius: f64,
-    /// Whether the record was computed by this build (false: taken from the earlier MPU).
-    pub(crate) fitted: bool,
+    fit_radius: f64,
 }
 
 /// What a local rebuild may take from an earlier MPU: the records of its cells that no edit
@@ -211,24 +217,38 @@ impl Mpu {
                 cells,
             })
         };
+        // A local rebuild refits the marked cells of the earlier octree up front, in one parallel
+        // batch: a fit depends only on its cell and the points, and level by level the coarse
+        // levels hold a few expensive fits that keep threads idle. (A marked cell whose parent
+        // no longer splits is fitted for nothing; cells new to the octree are fitted as met.)
+        let marked_old: Vec<u32> = reuse.map_or_else(Vec::new, |r| {
+            (0..r.marked.len() as u32)
+                .filter(|&c| r.marked[c as usize])
+                .collect()
+        });
+        let prefit: Vec<CellFit> = marked_old
+            .par_iter()
+            .map(|&c| {
+                let cell = reuse
+                    .expect("marked cells come with reuse")
+                    .old
+                    .octree
+                    .cell(c);
+                fit_cell(&input, cell.center, cell.half, eps0)
+            })
+            .collect();
         let (octree, records) = Octree::build_in_cube_observed(
             &positions,
             frame.root_center,
             frame.root_half,
             &oparams,
             |v| {
-                if let Some(r) = reuse
-                    && let Some(old) = r.old.octree.cell_at(v.cell.depth, v.cell.key)
+                let old = reuse.and_then(|r| r.old.octree.cell_at(v.cell.depth, v.cell.key));
+                if let (Some(r), Some(old)) = (reuse, old)
                     && !r.marked[old as usize]
                 {
-                    let rec = r.old.record(old);
-                    return (
-                        rec.split,
-                        CellRecord {
-                            fitted: false,
-                            ..rec
-                        },
-                    );
+                    let split = r.old.cell_fit[old as usize] == NO_FIT;
+                    return (split, CellRecord::Reused(old));
                 }
                 let CellFit {
                     function,
@@ -236,23 +256,25 @@ impl Mpu {
                     fallback,
                     error,
                     fit_radius,
-                } = fit_cell(&input, v.cell.center, v.cell.half, eps0);
+                } = match old.and_then(|o| marked_old.binary_search(&o).ok()) {
+                    Some(k) => prefit[k].clone(),
+                    None => fit_cell(&input, v.cell.center, v.cell.half, eps0),
+                };
                 let split = error > eps0 && v.cell.depth < params.max_depth;
                 (
                     split,
-                    CellRecord {
-                        split,
+                    CellRecord::Fitted(Box::new(FittedCell {
                         fit: (!split).then_some((function, kind, fallback)),
                         fit_radius,
-                        fitted: true,
-                    },
+                    })),
                 )
             },
             &on_level,
         )?;
-        let mut fits = Vec::new();
-        let mut fit_kinds = Vec::new();
-        let mut fit_fallback = Vec::new();
+        let leaves = octree.cells().iter().filter(|c| c.is_leaf()).count();
+        let mut fits = Vec::with_capacity(leaves);
+        let mut fit_kinds = Vec::with_capacity(leaves);
+        let mut fit_fallback = Vec::with_capacity(leaves);
         let mut cell_fit = vec![NO_FIT; octree.cells().len()];
         let mut fit_radius = Vec::with_capacity(octree.cells().len());
         let mut fitted = Vec::with_capacity(octree.cells().len());
@@ -268,15 +290,33 @@ impl Mpu {
         report.leaves_per_depth = vec![0; depth_slots];
         report.surface_leaves_per_depth = vec![0; depth_slots];
         for (i, rec) in records.into_iter().enumerate() {
-            fit_radius.push(rec.fit_radius);
-            fitted.push(rec.fitted);
             let cell = octree.cell(i as u32);
+            let fit = match rec {
+                CellRecord::Fitted(f) => {
+                    fit_radius.push(f.fit_radius);
+                    fitted.push(true);
+                    f.fit
+                }
+                CellRecord::Reused(old) => {
+                    let old_mpu = reuse.expect("reused records come from an earlier MPU").old;
+                    fit_radius.push(old_mpu.fit_radius[old as usize]);
+                    fitted.push(false);
+                    let f = old_mpu.cell_fit[old as usize];
+                    (f != NO_FIT).then(|| {
+                        (
+                            old_mpu.fits[f as usize].clone(),
+                            old_mpu.fit_kinds[f as usize],
+                            old_mpu.fit_fallback[f as usize],
+                        )
+                    })
+                }
+            };
             if !cell.is_leaf() {
                 continue;
             }
             // A leaf always has a fit: the decision returns one whenever it does not split, and
             // the builder refuses a split only at the maximum depth, where none is asked for.
-            let (function, kind, fallback) = rec.fit.unwrap_or_else(|| {
+            let (function, kind, fallback) = fit.unwrap_or_else(|| {
                 let f = fit_cell(&input, cell.center, cell.half, eps0);
                 (f.function, f.kind, f.fallback)
             });
@@ -340,24 +380,6 @@ impl Mpu {
                     .collect(),
             ),
         })
-    }
-
-    /// The stored record of cell `i` (for reuse).
-    fn record(&self, i: u32) -> CellRecord {
-        let f = self.cell_fit[i as usize];
-        let fit = (f != NO_FIT).then(|| {
-            (
-                self.fits[f as usize].clone(),
-                self.fit_kinds[f as usize],
-                self.fit_fallback[f as usize],
-            )
-        });
-        CellRecord {
-            split: fit.is_none(),
-            fit,
-            fit_radius: self.fit_radius[i as usize],
-            fitted: self.fitted[i as usize],
-        }
     }
 
     /// The radius (world units) within which input points influenced cell `cell`'s fit (R1 ≥

@@ -4,7 +4,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 use psi_mpu::{Mpu, MpuParams, Reuse};
-use psi_octree::OrientedPoint;
+use psi_octree::{Aabb, OrientedPoint};
 use psi_particles::{
     DensityField, ParticleParams, Particles, RelaxRegion, SampleReport, measure_quality, relax,
     seed_leaves, separate_close_pairs,
@@ -147,11 +147,19 @@ impl Scene {
 
         let t1 = Instant::now();
         // Keep the particles whose old leaf is unmarked and whose new leaf was not refitted.
+        // Outside a box around those leaves the answer is yes without a lookup.
+        let changed_leaves = Aabb::from_points(
+            leaf_corners(&self.mpu, &marked_old).chain(leaf_corners(&mpu, &refit)),
+        );
         let keep: Vec<bool> = self
             .particles
             .positions
             .par_iter()
             .map(|&x| {
+                let y = x - origin;
+                if !changed_leaves.is_some_and(|b| b.contains(y)) && root.contains(y) {
+                    return true;
+                }
                 let old = self
                     .mpu
                     .leaf_containing(x)
@@ -218,4 +226,19 @@ impl Scene {
     pub fn quality(&self) -> psi_particles::Quality {
         measure_quality(&self.mpu, &self.particles)
     }
+}
+
+/// Opposite corners (local frame) of the leaves `l` of `mpu` with `chosen[l]`, grown by a
+/// rounding margin.
+fn leaf_corners<'a>(mpu: &'a Mpu, chosen: &'a [bool]) -> impl Iterator<Item = DVec3> + 'a {
+    let margin = 1e-9 * mpu.octree().root().half;
+    mpu.octree()
+        .cells()
+        .iter()
+        .zip(chosen)
+        .filter(|(c, m)| **m && c.is_leaf())
+        .flat_map(move |(c, _)| {
+            let h = DVec3::splat(c.half + margin);
+            [c.center - h, c.center + h]
+        })
 }
