@@ -46,9 +46,15 @@ pub(crate) fn fit_bivariate(
         let y = *p - origin;
         let (u, v, h) = (e1.dot(y) * inv, e2.dot(y) * inv, normal.dot(y) * inv);
         let phi = SVector::<f64, 6>::from([1.0, u, v, u * u, u * v, v * v]);
-        // Rows w·φ: the normal equations weight residuals by w² (as Ohtake's code).
+        // Rows w·φ: the normal equations weight residuals by w² (as Ohtake's code). Only the
+        // lower triangle is accumulated: the symmetric eigen-solver reads nothing else.
         let w2 = w * w;
-        m += (w2 * phi) * phi.transpose();
+        let a = w2 * phi;
+        for j in 0..6 {
+            for i in j..6 {
+                m[(i, j)] += a[i] * phi[j];
+            }
+        }
         r += (w2 * h) * phi;
     }
     let c = solve_pseudo_inverse6(&m, &r, CUTOFF)?;

@@ -7,6 +7,9 @@ macro_rules! pseudo_inverse_solver {
     ($name:ident, $n:literal) => {
         /// Solves M x = r for symmetric positive semi-definite M by pseudo-inverse, dropping
         /// eigenvalues below `cutoff` × the largest. `None` when M is zero or not finite.
+        /// Only M's lower triangle (with the diagonal) is used: callers may leave the upper
+        /// one unset (nalgebra's symmetric eigen-decomposition reads no more; its scaling by
+        /// the largest entry finds it on the diagonal, as M is semi-definite).
         pub(crate) fn $name(
             m: &SMatrix<f64, $n, $n>,
             r: &SVector<f64, $n>,

@@ -40,7 +40,6 @@ pub struct RegenReport {
 /// Control points, MPU and particles kept consistent under edits.
 #[derive(Clone, Debug)]
 pub struct Scene {
-    points: Vec<OrientedPoint>,
     mpu: Mpu,
     particles: Particles,
     field: DensityField,
@@ -59,9 +58,7 @@ impl Scene {
         let mpu = Mpu::build(&points, mpu_params)?;
         let run = psi_particles::sample(&mpu, particle_params);
         let field = run.report.density;
-        let points = mpu.points().to_vec();
         let scene = Scene {
-            points,
             mpu,
             particles: run.particles,
             field,
@@ -73,7 +70,7 @@ impl Scene {
 
     /// The control points (world units, unit normals).
     pub fn points(&self) -> &[OrientedPoint] {
-        &self.points
+        self.mpu.points()
     }
 
     /// The current MPU.
@@ -95,7 +92,7 @@ impl Scene {
     /// regeneration must equal).
     pub fn rebuild_from_scratch(&self) -> Result<Mpu, RegenError> {
         Ok(Mpu::build_in_frame(
-            &self.points,
+            self.mpu.points(),
             &self.mpu_params,
             self.mpu.frame(),
             None,
@@ -109,7 +106,7 @@ impl Scene {
     pub fn apply(&mut self, edit: &Edit) -> Result<RegenReport, RegenError> {
         let _span = tracing::info_span!("local_regeneration").entered();
         let t0 = Instant::now();
-        let (points, changed) = edit.apply(&self.points)?;
+        let (points, changed) = edit.apply(self.mpu.points())?;
         let root = *self.mpu.octree().root();
         let origin = self.mpu.frame_origin();
         let inside = points.iter().all(|p| root.contains(p.p - origin));
@@ -121,7 +118,7 @@ impl Scene {
                 refit_cells: scene.mpu.octree().cells().len(),
                 particles_removed: self.particles.len(),
                 particles_regenerated: scene.particles.len(),
-                points: scene.points.len(),
+                points: scene.points().len(),
                 full_rebuild: true,
                 seconds: t0.elapsed().as_secs_f64(),
                 ..Default::default()
@@ -216,7 +213,6 @@ impl Scene {
             particle_seconds,
             seconds: t0.elapsed().as_secs_f64(),
         };
-        self.points = mpu.points().to_vec();
         self.mpu = mpu;
         self.particles = particles;
         Ok(report)
