@@ -29,13 +29,14 @@ impl PointIndex {
     /// Builds the index. Non-finite positions are indexed as given; an empty slice gives an
     /// empty index whose queries return nothing.
     pub fn new(points: &[DVec3]) -> Self {
-        let coords: Vec<[f64; 3]> = points.iter().map(|p| p.to_array()).collect();
-        let tree = if coords.is_empty() {
+        // Built straight from the positions (no coordinate copy: 1.7 MB for the bunny, which a
+        // local regeneration would page in afresh).
+        let tree = if points.is_empty() || points.len() >= u32::MAX as usize {
             None
         } else {
             ImmutableKdTree::builder()
                 .with_parallel_construction_threshold(PARALLEL_FROM)
-                .build_from_slice(&coords)
+                .build_from_source(points, |p: &DVec3, d| p[d], |i, _| i as u32)
                 .ok()
         };
         Self { tree }
