@@ -2,6 +2,7 @@
 //! by level (bitwise identical for any thread count), in a local frame centred on the data so
 //! that coordinates offset by 1e6 lose no precision.
 
+use std::borrow::Cow;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -135,23 +136,26 @@ fn check_input_size(points: &[OrientedPoint], params: &MpuParams) -> Result<usiz
     Ok(need)
 }
 
-/// Validates the input and returns local-frame positions and unit normals.
+/// Validates the input and returns local-frame positions and the points with unit normals
+/// (owned points are normalised in place, borrowed ones copied).
 fn prepare(
-    points: &[OrientedPoint],
+    points: Cow<'_, [OrientedPoint]>,
     params: &MpuParams,
     frame: &MpuFrame,
-) -> Result<(Vec<DVec3>, Vec<DVec3>), MpuError> {
-    check_input_size(points, params)?;
-    let mut normals = Vec::with_capacity(points.len());
+) -> Result<(Vec<DVec3>, Vec<OrientedPoint>), MpuError> {
+    check_input_size(&points, params)?;
     for (index, p) in points.iter().enumerate() {
         let len = p.n.length();
         if !p.p.is_finite() || !len.is_finite() || len <= 0.0 {
             return Err(MpuError::BadPoint { index });
         }
-        normals.push(p.n / len);
+    }
+    let mut points = points.into_owned();
+    for p in &mut points {
+        p.n /= p.n.length();
     }
     let positions = points.iter().map(|p| p.p - frame.origin).collect();
-    Ok((positions, normals))
+    Ok((positions, points))
 }
 
 impl Mpu {
@@ -180,9 +184,30 @@ impl Mpu {
         Self::build_observed(points, params, frame, reuse, &|_| {})
     }
 
+    /// [`Mpu::build_in_frame`] taking the points by value: they are kept (normals made unit in
+    /// place) instead of copied, which a local rebuild of a large model notices.
+    pub fn build_in_frame_owned(
+        points: Vec<OrientedPoint>,
+        params: &MpuParams,
+        frame: &MpuFrame,
+        reuse: Option<Reuse<'_>>,
+    ) -> Result<Mpu, MpuError> {
+        Self::build_impl(Cow::Owned(points), params, frame, reuse, &|_| {})
+    }
+
     /// [`Mpu::build_in_frame`], calling `observe` after each octree level (progress reporting).
     pub fn build_observed(
         points: &[OrientedPoint],
+        params: &MpuParams,
+        frame: &MpuFrame,
+        reuse: Option<Reuse<'_>>,
+        observe: &(dyn Fn(BuildProgress) + Sync),
+    ) -> Result<Mpu, MpuError> {
+        Self::build_impl(Cow::Borrowed(points), params, frame, reuse, observe)
+    }
+
+    fn build_impl(
+        points: Cow<'_, [OrientedPoint]>,
         params: &MpuParams,
         frame: &MpuFrame,
         reuse: Option<Reuse<'_>>,
@@ -192,7 +217,7 @@ impl Mpu {
             tracing::info_span!("mpu_build", points = points.len(), local = reuse.is_some())
                 .entered();
         let start = Instant::now();
-        let (positions, normals) = prepare(points, params, frame)?;
+        let (positions, points) = prepare(points, params, frame)?;
         let eps0 = params.error_rel * frame.diagonal;
         let (index, coarse) = rayon::join(
             || std::sync::Arc::new(PointIndex::new(&positions)),
@@ -201,7 +226,7 @@ impl Mpu {
         let input = FitInput {
             coarse: &coarse,
             positions: &positions,
-            normals: &normals,
+            points: &points,
             index: &index,
             params,
         };
@@ -342,11 +367,6 @@ impl Mpu {
         }
         report.max_depth = octree.max_depth_reached();
         report.seconds = start.elapsed().as_secs_f64();
-        let points = points
-            .iter()
-            .zip(&normals)
-            .map(|(p, n)| OrientedPoint { p: p.p, n: *n })
-            .collect();
         let nodes = crate::evaluate::eval_nodes(&octree, &cell_fit, params.alpha);
         let leaf_candidates = std::sync::Arc::new(
             (0..nodes.len())
@@ -370,12 +390,12 @@ impl Mpu {
             report,
             index,
             interior_cache: std::sync::Arc::new(
-                (0..normals.len())
+                (0..positions.len())
                     .map(|_| std::sync::atomic::AtomicU8::new(0))
                     .collect(),
             ),
             spacing_cache: std::sync::Arc::new(
-                (0..normals.len())
+                (0..positions.len())
                     .map(|_| std::sync::atomic::AtomicU64::new(0))
                     .collect(),
             ),

@@ -11,10 +11,11 @@ use crate::fit_general_quadric::{auxiliary_points, fit_general_quadric};
 use crate::fit_sharp::{fit_corner, fit_edge, weighted_frame};
 use crate::{FitKind, LocalFunction, MpuParams, Quadric};
 
-/// Everything a cell fit reads (positions and normals in the MPU's local frame).
+/// Everything a cell fit reads: positions in the MPU's local frame, the points for their unit
+/// normals.
 pub(crate) struct FitInput<'a> {
     pub(crate) positions: &'a [DVec3],
-    pub(crate) normals: &'a [DVec3],
+    pub(crate) points: &'a [psi_octree::OrientedPoint],
     pub(crate) index: &'a PointIndex,
     /// The points whose [`position_hash`] is a multiple of [`COARSE`], and their indices.
     pub(crate) coarse: &'a CoarseIndex,
@@ -148,7 +149,7 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64
     }
     idx.sort_unstable();
     let pos: Vec<DVec3> = idx.iter().map(|&i| input.positions[i as usize]).collect();
-    let nrm: Vec<DVec3> = idx.iter().map(|&i| input.normals[i as usize]).collect();
+    let nrm: Vec<DVec3> = idx.iter().map(|&i| input.points[i as usize].n).collect();
     let w: Vec<f64> = pos
         .iter()
         .map(|p| bspline(1.5 * (*p - center).length() / r1))

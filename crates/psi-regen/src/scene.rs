@@ -127,8 +127,8 @@ impl Scene {
             return Ok(report);
         }
         let marked_old = mark_cells(&self.mpu, &changed);
-        let mpu = Mpu::build_in_frame(
-            &points,
+        let mpu = Mpu::build_in_frame_owned(
+            points,
             &self.mpu_params,
             self.mpu.frame(),
             Some(Reuse {
@@ -207,7 +207,7 @@ impl Scene {
             refit_cells: refit.iter().filter(|m| **m).count(),
             particles_removed: self.particles.len() - kept,
             particles_regenerated: fresh.len(),
-            points: points.len(),
+            points: mpu.points().len(),
             full_rebuild: false,
             mpu_seconds,
             particle_seconds,
