@@ -218,14 +218,16 @@ impl Mpu {
                 .entered();
         let start = Instant::now();
         let (positions, points) = prepare(points, params, frame)?;
+        let n = points.len();
         let eps0 = params.error_rel * frame.diagonal;
         let (index, coarse) = rayon::join(
             || std::sync::Arc::new(PointIndex::new(&positions)),
             || crate::fit_cell::CoarseIndex::new(&positions),
         );
+        // The positions move into the octree, which hands them back to each decision.
         let input = FitInput {
             coarse: &coarse,
-            positions: &positions,
+            positions: &[],
             points: &points,
             index: &index,
             params,
@@ -259,11 +261,11 @@ impl Mpu {
                     .old
                     .octree
                     .cell(c);
-                fit_cell(&input, cell.center, cell.half, eps0)
+                fit_cell(&input.over(&positions), cell.center, cell.half, eps0)
             })
             .collect();
-        let (octree, records) = Octree::build_in_cube_observed(
-            &positions,
+        let (octree, records) = Octree::build_in_cube_owned(
+            positions,
             frame.root_center,
             frame.root_half,
             &oparams,
@@ -283,7 +285,7 @@ impl Mpu {
                     fit_radius,
                 } = match old.and_then(|o| marked_old.binary_search(&o).ok()) {
                     Some(k) => prefit[k].clone(),
-                    None => fit_cell(&input, v.cell.center, v.cell.half, eps0),
+                    None => fit_cell(&input.over(v.positions), v.cell.center, v.cell.half, eps0),
                 };
                 let split = error > eps0 && v.cell.depth < params.max_depth;
                 (
@@ -342,7 +344,7 @@ impl Mpu {
             // A leaf always has a fit: the decision returns one whenever it does not split, and
             // the builder refuses a split only at the maximum depth, where none is asked for.
             let (function, kind, fallback) = fit.unwrap_or_else(|| {
-                let f = fit_cell(&input, cell.center, cell.half, eps0);
+                let f = fit_cell(&input.over(octree.positions()), cell.center, cell.half, eps0);
                 (f.function, f.kind, f.fallback)
             });
             cell_fit[i] = fits.len() as u32;
@@ -390,12 +392,12 @@ impl Mpu {
             report,
             index,
             interior_cache: std::sync::Arc::new(
-                (0..positions.len())
+                (0..n)
                     .map(|_| std::sync::atomic::AtomicU8::new(0))
                     .collect(),
             ),
             spacing_cache: std::sync::Arc::new(
-                (0..positions.len())
+                (0..n)
                     .map(|_| std::sync::atomic::AtomicU64::new(0))
                     .collect(),
             ),

@@ -13,6 +13,7 @@ use crate::{FitKind, LocalFunction, MpuParams, Quadric};
 
 /// Everything a cell fit reads: positions in the MPU's local frame, the points for their unit
 /// normals.
+#[derive(Clone, Copy)]
 pub(crate) struct FitInput<'a> {
     pub(crate) positions: &'a [DVec3],
     pub(crate) points: &'a [psi_octree::OrientedPoint],
@@ -20,6 +21,17 @@ pub(crate) struct FitInput<'a> {
     /// The points whose [`position_hash`] is a multiple of [`COARSE`], and their indices.
     pub(crate) coarse: &'a CoarseIndex,
     pub(crate) params: &'a MpuParams,
+}
+
+impl<'a> FitInput<'a> {
+    /// The same input reading the positions from `positions` (the octree's, once it owns
+    /// them).
+    pub(crate) fn over<'b>(&self, positions: &'b [DVec3]) -> FitInput<'b>
+    where
+        'a: 'b,
+    {
+        FitInput { positions, ..*self }
+    }
 }
 
 /// One point in [`COARSE`] (by position hash) in a kd-tree: large neighbourhoods are thinned to

@@ -106,6 +106,8 @@ pub struct CellView<'a> {
     pub cell: &'a Cell,
     /// Indices (into the build's `points`) of the points inside the cube.
     pub points: &'a [u32],
+    /// All the build's point positions (shape: N, as given).
+    pub positions: &'a [DVec3],
 }
 
 /// An adaptive octree over a point set, with each input point bucketed in exactly one leaf.
@@ -183,6 +185,23 @@ impl Octree {
         T: Send,
         F: Fn(CellView<'_>) -> (bool, T) + Sync,
     {
+        Self::build_in_cube_owned(points.to_vec(), center, half, params, decide, on_level)
+    }
+
+    /// [`Octree::build_in_cube_observed`] taking the positions by value: the tree keeps them
+    /// instead of a copy (the decision reads them from [`CellView::positions`]).
+    pub fn build_in_cube_owned<T, F>(
+        points: Vec<DVec3>,
+        center: DVec3,
+        half: f64,
+        params: &OctreeParams,
+        decide: F,
+        on_level: &(dyn Fn(u8, usize) + Sync),
+    ) -> Result<(Octree, Vec<T>), OctreeError>
+    where
+        T: Send,
+        F: Fn(CellView<'_>) -> (bool, T) + Sync,
+    {
         if params.max_depth > DEPTH_LIMIT {
             return Err(OctreeError::TooDeep {
                 max_depth: params.max_depth,
@@ -205,7 +224,8 @@ impl Octree {
             start: 0,
             end: points.len() as u32,
         };
-        for p in points {
+        let end = root.end;
+        for p in &points {
             if !p.is_finite() {
                 return Err(OctreeError::NonFinite);
             }
@@ -215,9 +235,9 @@ impl Octree {
         }
         let mut tree = Octree {
             cells: vec![root],
-            order: (0..points.len() as u32).collect(),
+            order: (0..end).collect(),
             point_leaf: Vec::new(),
-            positions: points.to_vec(),
+            positions: points,
             params: *params,
             root_edge: 2.0 * half,
         };
@@ -234,6 +254,7 @@ impl Octree {
                             index: i as u32,
                             cell,
                             points: t.points_in(i as u32),
+                            positions: &t.positions,
                         })
                     })
                     .collect()
@@ -261,7 +282,7 @@ impl Octree {
             on_level(tree.cells[level.start].depth, tree.cells.len());
             level = next_start..tree.cells.len();
         }
-        tree.point_leaf = vec![NO_CELL; points.len()];
+        tree.point_leaf = vec![NO_CELL; tree.positions.len()];
         for (i, c) in tree.cells.iter().enumerate() {
             if c.is_leaf() {
                 for &p in &tree.order[c.start as usize..c.end as usize] {
