@@ -13,7 +13,7 @@ fn main() -> anyhow::Result<()> {
     let path = args
         .next()
         .unwrap_or_else(|| "../shared/models/bunny.ply".into());
-    let rounds: usize = args.next().map_or(Ok(20), |a| a.parse())?.max(1);
+    let rounds: usize = args.next().map_or(Ok(20), |a| a.parse())?;
     let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
     let (mut scene, _) = Scene::new(points, &MpuParams::paper(), &ParticleParams::paper())?;
     let brush = |sign: f64| Edit::Brush {
@@ -29,6 +29,9 @@ fn main() -> anyhow::Result<()> {
         if k == 0 {
             println!("{r:?}");
         }
+    }
+    if rounds == 0 {
+        return Ok(());
     }
     times.sort_by(f64::total_cmp);
     println!(
