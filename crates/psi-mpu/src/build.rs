@@ -11,7 +11,7 @@ use psi_octree::{Aabb, Octree, OctreeParams, OrientedPoint, PointIndex, root_cub
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::fit_cell::{CellFit, FitInput, fit_cell};
+use crate::fit_cell::{CellFit, FitInput, fit_cell, try_fit_cell};
 use crate::{BuildReport, FitKind, LocalFunction, MpuError, MpuParams};
 
 /// Marks an inner cell in [`Mpu`]'s cell-to-fit table.
@@ -220,16 +220,51 @@ impl Mpu {
         let (positions, points) = prepare(points, params, frame)?;
         let n = points.len();
         let eps0 = params.error_rel * frame.diagonal;
-        let (index, coarse) = rayon::join(
+        // A local rebuild refits the marked cells of the earlier octree up front, in one parallel
+        // batch: a fit depends only on its cell and the points, and level by level the coarse
+        // levels hold a few expensive fits that keep threads idle. (A marked cell whose parent
+        // no longer splits is fitted for nothing; cells new to the octree are fitted as met.)
+        // The large cells among them that split are fitted from the coarse points alone while
+        // the kd-tree of all points is being built.
+        let marked_old: Vec<u32> = reuse.map_or_else(Vec::new, |r| {
+            (0..r.marked.len() as u32)
+                .filter(|&c| r.marked[c as usize])
+                .collect()
+        });
+        let old_cell = |c: u32| {
+            *reuse
+                .expect("marked cells come with reuse")
+                .old
+                .octree
+                .cell(c)
+        };
+        let (index, (coarse, early)) = rayon::join(
             || std::sync::Arc::new(PointIndex::new(&positions)),
-            || crate::fit_cell::CoarseIndex::new(&positions),
+            || {
+                let coarse = crate::fit_cell::CoarseIndex::new(&positions);
+                let input = FitInput {
+                    coarse: &coarse,
+                    positions: &positions,
+                    points: &points,
+                    index: None,
+                    params,
+                };
+                let early: Vec<Option<CellFit>> = marked_old
+                    .par_iter()
+                    .map(|&c| {
+                        let cell = old_cell(c);
+                        try_fit_cell(&input, cell.center, cell.half, eps0)
+                    })
+                    .collect();
+                (coarse, early)
+            },
         );
         // The positions move into the octree, which hands them back to each decision.
         let input = FitInput {
             coarse: &coarse,
             positions: &[],
             points: &points,
-            index: &index,
+            index: Some(&index),
             params,
         };
         let oparams = OctreeParams {
@@ -244,24 +279,14 @@ impl Mpu {
                 cells,
             })
         };
-        // A local rebuild refits the marked cells of the earlier octree up front, in one parallel
-        // batch: a fit depends only on its cell and the points, and level by level the coarse
-        // levels hold a few expensive fits that keep threads idle. (A marked cell whose parent
-        // no longer splits is fitted for nothing; cells new to the octree are fitted as met.)
-        let marked_old: Vec<u32> = reuse.map_or_else(Vec::new, |r| {
-            (0..r.marked.len() as u32)
-                .filter(|&c| r.marked[c as usize])
-                .collect()
-        });
         let prefit: Vec<CellFit> = marked_old
             .par_iter()
-            .map(|&c| {
-                let cell = reuse
-                    .expect("marked cells come with reuse")
-                    .old
-                    .octree
-                    .cell(c);
-                fit_cell(&input.over(&positions), cell.center, cell.half, eps0)
+            .zip(early)
+            .map(|(&c, early)| {
+                early.unwrap_or_else(|| {
+                    let cell = old_cell(c);
+                    fit_cell(&input.over(&positions), cell.center, cell.half, eps0)
+                })
             })
             .collect();
         let (octree, records) = Octree::build_in_cube_owned(
@@ -344,7 +369,12 @@ impl Mpu {
             // A leaf always has a fit: the decision returns one whenever it does not split, and
             // the builder refuses a split only at the maximum depth, where none is asked for.
             let (function, kind, fallback) = fit.unwrap_or_else(|| {
-                let f = fit_cell(&input.over(octree.positions()), cell.center, cell.half, eps0);
+                let f = fit_cell(
+                    &input.over(octree.positions()),
+                    cell.center,
+                    cell.half,
+                    eps0,
+                );
                 (f.function, f.kind, f.fallback)
             });
             cell_fit[i] = fits.len() as u32;

@@ -17,7 +17,8 @@ use crate::{FitKind, LocalFunction, MpuParams, Quadric};
 pub(crate) struct FitInput<'a> {
     pub(crate) positions: &'a [DVec3],
     pub(crate) points: &'a [psi_octree::OrientedPoint],
-    pub(crate) index: &'a PointIndex,
+    /// The kd-tree of all points; `None` while it is being built (see [`try_fit_cell`]).
+    pub(crate) index: Option<&'a PointIndex>,
     /// The points whose [`position_hash`] is a multiple of [`COARSE`], and their indices.
     pub(crate) coarse: &'a CoarseIndex,
     pub(crate) params: &'a MpuParams,
@@ -80,9 +81,9 @@ pub(crate) struct CellFit {
 /// The enlarged fitting radius: R1 = R + m·λR for the smallest m ≥ 0 with more than N_min
 /// points in B(c, R1) (all points when there are fewer), computed from the (N_min+1)-th
 /// nearest distance instead of Ohtake's loop, with the same result.
-fn fit_radius(input: &FitInput<'_>, center: DVec3, r: f64) -> f64 {
+fn fit_radius(index: &PointIndex, input: &FitInput<'_>, center: DVec3, r: f64) -> f64 {
     let need = (input.params.n_min + 1).min(input.positions.len());
-    let nearest = input.index.nearest(center, need);
+    let nearest = index.nearest(center, need);
     let Some(&(_, d2)) = nearest.last() else {
         return r;
     };
@@ -120,14 +121,42 @@ fn position_hash(p: DVec3) -> u64 {
 /// largest Taubin distance within the nominal radius, except that its computation stops once
 /// it exceeds `eps0` (the split decision needs no more; a leaf's error is the exact maximum).
 pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64) -> CellFit {
+    try_fit_cell(input, center, half, eps0).expect("a fit with the full index always completes")
+}
+
+/// [`fit_cell`], or `None` when `input.index` is `None` and the fit needs it: only a large cell
+/// whose error exceeds ε0 among its coarse points completes without it (bitwise as with it).
+/// Local regeneration fits such cells while the kd-tree of all points is being built.
+pub(crate) fn try_fit_cell(
+    input: &FitInput<'_>,
+    center: DVec3,
+    half: f64,
+    eps0: f64,
+) -> Option<CellFit> {
     let params = input.params;
     let r = params.alpha * 2.0 * 3f64.sqrt() * half;
-    let r1 = fit_radius(input, center, r);
+    // R1 = R when more than N_min points lie well within R — the coarse points suffice to tell
+    // (the margin keeps rounding at the sphere out of it); otherwise the kd-tree decides.
+    let mut coarse = input.coarse.within(center, r);
+    let need = (params.n_min + 1).min(input.positions.len());
+    let inner = r * (1.0 - 1e-9);
+    let inside = coarse
+        .iter()
+        .filter(|&&i| (input.positions[i as usize] - center).length_squared() <= inner * inner)
+        .count();
+    let r1 = if inside >= need {
+        r
+    } else {
+        let r1 = fit_radius(input.index?, input, center, r);
+        if r1 != r {
+            coarse = input.coarse.within(center, r1);
+        }
+        r1
+    };
     // Thinning (a function of the ball's point set only, so a rebuild after an edit thins an
     // unchanged neighbourhood identically): a ball with more than 256 coarse points (about 4096
     // points) keeps the points whose hash is a multiple of 16·⌈c/4096⌉ (at most 4096 of them),
     // found among the coarse points without visiting the ball; smaller balls are used whole.
-    let coarse = input.coarse.within(center, r1);
     let mut full: Option<Vec<u32>> = None;
     let mut idx: Vec<u32> = if coarse.len() > 256 {
         let thin = COARSE * (coarse.len() as u64).div_ceil(MAX_FIT_POINTS as u64);
@@ -138,7 +167,7 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64
             .collect()
     } else {
         let mut ball = Vec::new();
-        input.index.within(center, r1, &mut ball);
+        input.index?.within(center, r1, &mut ball);
         let thin = ball.len().div_ceil(MAX_FIT_POINTS).max(1) as u64;
         let kept = if thin > 1 {
             ball.iter()
@@ -152,9 +181,10 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64
         kept
     };
     if idx.len() < 3 {
+        let index = input.index?;
         let ball = full.get_or_insert_with(|| {
             let mut b = Vec::new();
-            input.index.within(center, r1, &mut b);
+            index.within(center, r1, &mut b);
             b
         });
         idx.clone_from(ball);
@@ -174,6 +204,8 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64
     if let Some(b) = full {
         let _ = full_ball.set(b);
     }
+    // Set when the error needed the whole ball and no kd-tree was given.
+    let incomplete = std::cell::Cell::new(false);
     let error_of = |f: &LocalFunction| {
         let mut e = 0.0f64;
         let mut scan = |set: &[u32]| {
@@ -191,9 +223,13 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64
         if scan(&coarse) {
             return e;
         }
+        let Some(index) = input.index else {
+            incomplete.set(true);
+            return f64::INFINITY;
+        };
         let ball = full_ball.get_or_init(|| {
             let mut b = Vec::new();
-            input.index.within(center, r1, &mut b);
+            index.within(center, r1, &mut b);
             b
         });
         scan(ball);
@@ -222,6 +258,9 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64
         }
     };
     let chosen = fit_in(params.fit_unit.unwrap_or(r1));
+    if incomplete.get() {
+        return None;
+    }
     // MpuParams::leaf_refit: a leaf (its error is within ε0, so it will not split) with a smooth
     // fit — where world-unit cut-offs flatten the quadratic terms — also tries the
     // scale-invariant solve and keeps it when its exact error is smaller. The split decision is
@@ -240,10 +279,10 @@ pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64
             FitKind::Bivariate | FitKind::GeneralQuadric | FitKind::Plane
         );
         if alt_smooth && alt.error < chosen.error {
-            return alt;
+            return Some(alt);
         }
     }
-    chosen
+    Some(chosen)
 }
 
 /// A local fit with its kind, fallback flag and error (world units).
