@@ -12,6 +12,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::fit_cell::{CellFit, FitInput, fit_cell, try_fit_cell};
+use crate::local_function::StoredFunction;
 use crate::{BuildReport, FitKind, LocalFunction, MpuError, MpuParams};
 
 /// Marks an inner cell in [`Mpu`]'s cell-to-fit table.
@@ -23,7 +24,9 @@ pub(crate) const NO_FIT: u32 = u32::MAX;
 #[derive(Clone, Debug)]
 pub struct Mpu {
     pub(crate) octree: Octree,
-    pub(crate) fits: Vec<LocalFunction>,
+    pub(crate) fits: Vec<crate::local_function::StoredFunction>,
+    /// The pieces of the sharp fits (see `StoredFunction`).
+    pub(crate) pieces: Vec<crate::Quadric>,
     pub(crate) fit_kinds: Vec<FitKind>,
     pub(crate) cell_fit: Vec<u32>,
     pub(crate) fit_fallback: Vec<bool>,
@@ -325,6 +328,7 @@ impl Mpu {
         )?;
         let leaves = octree.cells().iter().filter(|c| c.is_leaf()).count();
         let mut fits = Vec::with_capacity(leaves);
+        let mut pieces = Vec::new();
         let mut fit_kinds = Vec::with_capacity(leaves);
         let mut fit_fallback = Vec::with_capacity(leaves);
         let mut cell_fit = vec![NO_FIT; octree.cells().len()];
@@ -347,7 +351,9 @@ impl Mpu {
                 CellRecord::Fitted(f) => {
                     fit_radius.push(f.fit_radius);
                     fitted.push(true);
-                    f.fit
+                    f.fit.map(|(function, kind, fallback)| {
+                        (StoredFunction::store(function, &mut pieces), kind, fallback)
+                    })
                 }
                 CellRecord::Reused(old) => {
                     let old_mpu = reuse.expect("reused records come from an earlier MPU").old;
@@ -356,7 +362,7 @@ impl Mpu {
                     let f = old_mpu.cell_fit[old as usize];
                     (f != NO_FIT).then(|| {
                         (
-                            old_mpu.fits[f as usize].clone(),
+                            old_mpu.fits[f as usize].copy(&old_mpu.pieces, &mut pieces),
                             old_mpu.fit_kinds[f as usize],
                             old_mpu.fit_fallback[f as usize],
                         )
@@ -375,7 +381,11 @@ impl Mpu {
                     cell.half,
                     eps0,
                 );
-                (f.function, f.kind, f.fallback)
+                (
+                    StoredFunction::store(f.function, &mut pieces),
+                    f.kind,
+                    f.fallback,
+                )
             });
             cell_fit[i] = fits.len() as u32;
             fits.push(function);
@@ -410,6 +420,7 @@ impl Mpu {
             nodes,
             octree,
             fits,
+            pieces,
             fit_kinds,
             fit_fallback,
             cell_fit,
@@ -500,9 +511,9 @@ impl Mpu {
     }
 
     /// The local function of leaf `cell`, `None` for an inner cell.
-    pub fn leaf_function(&self, cell: u32) -> Option<&LocalFunction> {
+    pub fn leaf_function(&self, cell: u32) -> Option<LocalFunction> {
         let f = *self.cell_fit.get(cell as usize)?;
-        (f != NO_FIT).then(|| &self.fits[f as usize])
+        (f != NO_FIT).then(|| self.fits[f as usize].load(&self.pieces))
     }
 
     /// The fit kind of leaf `cell`, `None` for an inner cell.

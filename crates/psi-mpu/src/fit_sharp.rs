@@ -95,7 +95,7 @@ pub(crate) fn fit_edge(
     let [a, b] = clusters(pos, nrm, w, [ni, nj], scale)?;
     let convex = convex(&a, &b);
     Some(LocalFunction::Edge {
-        pieces: std::sync::Arc::new([a.q, b.q]),
+        pieces: [a.q, b.q],
         convex,
     })
 }
@@ -125,7 +125,7 @@ pub(crate) fn fit_corner(
     };
     let [a, b, c] = p;
     Some(LocalFunction::Corner {
-        pieces: std::sync::Arc::new([a.q, b.q, c.q]),
+        pieces: [a.q, b.q, c.q],
         order,
         pair_max,
         outer_max,
