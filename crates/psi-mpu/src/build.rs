@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::fit_cell::{CellFit, FitInput, fit_cell, try_fit_cell};
-use crate::local_function::StoredFunction;
+use crate::fit_store::{FitStore, FitStoreBuilder};
 use crate::{BuildReport, FitKind, LocalFunction, MpuError, MpuParams};
 
 /// Marks an inner cell in [`Mpu`]'s cell-to-fit table.
@@ -24,12 +24,9 @@ pub(crate) const NO_FIT: u32 = u32::MAX;
 #[derive(Clone, Debug)]
 pub struct Mpu {
     pub(crate) octree: Octree,
-    pub(crate) fits: Vec<crate::local_function::StoredFunction>,
-    /// The pieces of the sharp fits (see `StoredFunction`).
-    pub(crate) pieces: Vec<crate::Quadric>,
-    pub(crate) fit_kinds: Vec<FitKind>,
+    /// The leaves' functions; `cell_fit` names each leaf's.
+    pub(crate) fits: FitStore,
     pub(crate) cell_fit: Vec<u32>,
-    pub(crate) fit_fallback: Vec<bool>,
     pub(crate) fit_radius: Vec<f64>,
     /// Per cell: fitted by this build (false where a local rebuild reused the earlier record).
     pub(crate) fitted: Vec<bool>,
@@ -326,11 +323,17 @@ impl Mpu {
             },
             &on_level,
         )?;
-        let leaves = octree.cells().iter().filter(|c| c.is_leaf()).count();
-        let mut fits = Vec::with_capacity(leaves);
-        let mut pieces = Vec::new();
-        let mut fit_kinds = Vec::with_capacity(leaves);
-        let mut fit_fallback = Vec::with_capacity(leaves);
+        // A local rebuild shares the earlier MPU's function store when it reuses most of it.
+        let share = reuse.is_some_and(|r| 2 * marked_old.len() < r.old.octree.cells().len());
+        let mut fits = FitStoreBuilder::new(
+            reuse.map(|r| &r.old.fits),
+            share,
+            if share {
+                prefit.len() + 64
+            } else {
+                octree.cells().len()
+            },
+        );
         let mut cell_fit = vec![NO_FIT; octree.cells().len()];
         let mut fit_radius = Vec::with_capacity(octree.cells().len());
         let mut fitted = Vec::with_capacity(octree.cells().len());
@@ -352,7 +355,7 @@ impl Mpu {
                     fit_radius.push(f.fit_radius);
                     fitted.push(true);
                     f.fit.map(|(function, kind, fallback)| {
-                        (StoredFunction::store(function, &mut pieces), kind, fallback)
+                        (fits.push(function, kind, fallback), kind, fallback)
                     })
                 }
                 CellRecord::Reused(old) => {
@@ -362,9 +365,9 @@ impl Mpu {
                     let f = old_mpu.cell_fit[old as usize];
                     (f != NO_FIT).then(|| {
                         (
-                            old_mpu.fits[f as usize].copy(&old_mpu.pieces, &mut pieces),
-                            old_mpu.fit_kinds[f as usize],
-                            old_mpu.fit_fallback[f as usize],
+                            fits.reuse(f),
+                            old_mpu.fits.kind(f),
+                            old_mpu.fits.fallback(f),
                         )
                     })
                 }
@@ -374,7 +377,7 @@ impl Mpu {
             }
             // A leaf always has a fit: the decision returns one whenever it does not split, and
             // the builder refuses a split only at the maximum depth, where none is asked for.
-            let (function, kind, fallback) = fit.unwrap_or_else(|| {
+            let (id, kind, fallback) = fit.unwrap_or_else(|| {
                 let f = fit_cell(
                     &input.over(octree.positions()),
                     cell.center,
@@ -382,15 +385,12 @@ impl Mpu {
                     eps0,
                 );
                 (
-                    StoredFunction::store(f.function, &mut pieces),
+                    fits.push(f.function, f.kind, f.fallback),
                     f.kind,
                     f.fallback,
                 )
             });
-            cell_fit[i] = fits.len() as u32;
-            fits.push(function);
-            fit_kinds.push(kind);
-            fit_fallback.push(fallback);
+            cell_fit[i] = id;
             report.leaves += 1;
             report.leaves_per_depth[usize::from(cell.depth)] += 1;
             if !octree.points_in(i as u32).is_empty() {
@@ -409,6 +409,7 @@ impl Mpu {
         }
         report.max_depth = octree.max_depth_reached();
         report.seconds = start.elapsed().as_secs_f64();
+        let fits = fits.finish();
         let nodes = crate::evaluate::eval_nodes(&octree, &cell_fit, params.alpha);
         let leaf_candidates = std::sync::Arc::new(
             (0..nodes.len())
@@ -420,9 +421,6 @@ impl Mpu {
             nodes,
             octree,
             fits,
-            pieces,
-            fit_kinds,
-            fit_fallback,
             cell_fit,
             fit_radius,
             fitted,
@@ -513,13 +511,13 @@ impl Mpu {
     /// The local function of leaf `cell`, `None` for an inner cell.
     pub fn leaf_function(&self, cell: u32) -> Option<LocalFunction> {
         let f = *self.cell_fit.get(cell as usize)?;
-        (f != NO_FIT).then(|| self.fits[f as usize].load(&self.pieces))
+        (f != NO_FIT).then(|| self.fits.load(f))
     }
 
     /// The fit kind of leaf `cell`, `None` for an inner cell.
     pub fn leaf_kind(&self, cell: u32) -> Option<FitKind> {
         let f = *self.cell_fit.get(cell as usize)?;
-        (f != NO_FIT).then(|| self.fit_kinds[f as usize])
+        (f != NO_FIT).then(|| self.fits.kind(f))
     }
 
     /// The leaf containing world position `x`, `None` outside the root cube.

@@ -153,7 +153,7 @@ impl Mpu {
         if w <= 0.0 {
             return;
         }
-        let (q, gq) = self.fits[node.fit as usize].value_and_gradient(&self.pieces, y);
+        let (q, gq) = self.fits.value_and_gradient(node.fit, y);
         s.w += w;
         s.wq += w * q;
         s.gw += gw;
@@ -172,7 +172,7 @@ impl Mpu {
         if w <= 0.0 {
             return;
         }
-        let (q, gq) = self.fits[f as usize].value_and_gradient(&self.pieces, y);
+        let (q, gq) = self.fits.value_and_gradient(f, y);
         s.w += w;
         s.wq += w * q;
         s.gw += gw;
@@ -211,7 +211,7 @@ impl Mpu {
             let (w, _) = weight_and_gradient_r2(y, node.center, node.r2, d2);
             if w > 0.0 {
                 w_sum += w;
-                wq += w * self.fits[node.fit as usize].value(&self.pieces, y);
+                wq += w * self.fits.value(node.fit, y);
             }
         });
         let background = y.length() + self.octree.root().half;

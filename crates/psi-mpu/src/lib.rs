@@ -35,6 +35,7 @@ mod fit_bivariate;
 mod fit_cell;
 mod fit_general_quadric;
 mod fit_sharp;
+mod fit_store;
 mod least_squares;
 mod local_function;
 mod params;

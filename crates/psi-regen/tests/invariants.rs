@@ -195,6 +195,46 @@ fn an_edit_of_the_whole_shape_equals_a_full_rebuild() {
 }
 
 #[test]
+fn a_long_run_of_edits_keeps_equalling_a_rebuild() {
+    // Successive local rebuilds share the earlier MPUs' stored functions and compact them now
+    // and then: after every edit of a run longer than that cycle (and a removal and an
+    // insertion, which renumber the points), the MPU still equals one built from scratch.
+    let points = shape(1);
+    let (mut scene, _) = Scene::new(
+        points.clone(),
+        &MpuParams::paper(),
+        &ParticleParams {
+            iterations: 3,
+            ..ParticleParams::paper()
+        },
+    )
+    .unwrap();
+    for k in 0..12 {
+        let p = points[(k * 487) % points.len()];
+        let edit = match k {
+            5 => Edit::Remove {
+                center: p.p,
+                radius: 0.15,
+            },
+            9 => Edit::Insert {
+                points: vec![OrientedPoint {
+                    p: p.p + 0.01 * p.n,
+                    n: p.n,
+                }],
+            },
+            _ => Edit::Brush {
+                center: p.p,
+                radius: 0.4,
+                displacement: 0.04 * p.n * if k % 2 == 0 { 1.0 } else { -1.0 },
+            },
+        };
+        let report = scene.apply(&edit).unwrap();
+        assert!(!report.full_rebuild);
+        assert_same_mpu(scene.mpu(), &scene.rebuild_from_scratch().unwrap());
+    }
+}
+
+#[test]
 fn brush_normals_follow_the_inverse_transpose() {
     // A plane z = 0 under a brush: the new normal must be orthogonal to the deformed surface,
     // checked by finite differences of the deformation.
