@@ -121,6 +121,9 @@ pub struct Reuse<'a> {
     pub old: &'a Mpu,
     /// Per cell of `old`: whether an edit reached it (its fit must be recomputed).
     pub marked: &'a [bool],
+    /// Whether every point the edit left unchanged kept its index (a brush or an insertion;
+    /// a removal renumbers): then unmarked cells' partitions are taken from `old` too.
+    pub indices_kept: bool,
 }
 
 /// Checks the parameters and that there are more than N_min points; returns N_min + 1.
@@ -289,11 +292,20 @@ impl Mpu {
                 })
             })
             .collect();
+        // An unmarked cell holds no changed position (its fit radius exceeds its circumradius),
+        // hence the same points: with the same indices, the same partition.
+        let known = reuse
+            .filter(|r| r.indices_kept)
+            .map(|r| psi_octree::KnownPartitions {
+                old: &r.old.octree,
+                changed: r.marked,
+            });
         let (octree, records) = Octree::build_in_cube_owned(
             positions,
             frame.root_center,
             frame.root_half,
             &oparams,
+            known,
             |v| {
                 let old = reuse.and_then(|r| r.old.octree.cell_at(v.cell.depth, v.cell.key));
                 if let (Some(r), Some(old)) = (reuse, old)

@@ -1,6 +1,8 @@
 //! The arena octree: cells with centre, half-edge, depth and children (u32 indices), input points
 //! bucketed per cell, and the level-by-level adaptive build driven by a caller's decision.
 
+use std::borrow::Cow;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -110,6 +112,41 @@ pub struct CellView<'a> {
     pub positions: &'a [DVec3],
 }
 
+/// Partitions a rebuild may take from an earlier octree (see [`Octree::build_in_cube_owned`]).
+#[derive(Clone, Copy, Debug)]
+pub struct KnownPartitions<'a> {
+    /// The earlier octree: same root cube, and every point it shares with the new build has
+    /// the same index in both.
+    pub old: &'a Octree,
+    /// Per cell of `old`: whether its points may have changed (a point entered or left its
+    /// cube); an unflagged cell holds exactly the same points in the new build.
+    pub changed: &'a [bool],
+}
+
+impl<'a> KnownPartitions<'a> {
+    /// The child counts and the partitioned point order of `cell` (a cell of the new build) as
+    /// the earlier octree has them, if it split the same cell over the same points. (A cell's
+    /// range lists its points in increasing index order in both trees, so the earlier
+    /// partition is the new one.)
+    fn partition_of(&self, cell: &Cell) -> Option<([u32; 8], &'a [u32])> {
+        let o = self.old.cell_at(cell.depth, cell.key)?;
+        if self.changed[o as usize] {
+            return None;
+        }
+        let oc = self.old.cell(o);
+        let children = self.old.children(o)?;
+        if oc.end - oc.start != cell.end - cell.start {
+            return None;
+        }
+        let mut counts = [0u32; 8];
+        for (k, ch) in children.enumerate() {
+            let c = self.old.cell(ch);
+            counts[k] = c.end - c.start;
+        }
+        Some((counts, &self.old.order[oc.start as usize..oc.end as usize]))
+    }
+}
+
 /// An adaptive octree over a point set, with each input point bucketed in exactly one leaf.
 #[derive(Clone, Debug)]
 pub struct Octree {
@@ -185,16 +222,27 @@ impl Octree {
         T: Send,
         F: Fn(CellView<'_>) -> (bool, T) + Sync,
     {
-        Self::build_in_cube_owned(points.to_vec(), center, half, params, decide, on_level)
+        Self::build_in_cube_owned(
+            points.to_vec(),
+            center,
+            half,
+            params,
+            None,
+            decide,
+            on_level,
+        )
     }
 
     /// [`Octree::build_in_cube_observed`] taking the positions by value: the tree keeps them
-    /// instead of a copy (the decision reads them from [`CellView::positions`]).
+    /// instead of a copy (the decision reads them from [`CellView::positions`]). With `known`,
+    /// a splitting cell that an earlier octree also split, over the same points, takes that
+    /// octree's partition instead of computing it.
     pub fn build_in_cube_owned<T, F>(
         points: Vec<DVec3>,
         center: DVec3,
         half: f64,
         params: &OctreeParams,
+        known: Option<KnownPartitions<'_>>,
         decide: F,
         on_level: &(dyn Fn(u8, usize) + Sync),
     ) -> Result<(Octree, Vec<T>), OctreeError>
@@ -270,9 +318,18 @@ impl Octree {
             }
             // The cells' point ranges are disjoint: partition them in parallel, then append the
             // children in cell order (the arena stays level by level, whatever the threads).
-            let parts: Vec<([u32; 8], Vec<u32>)> = {
+            let parts: Vec<([u32; 8], Cow<'_, [u32]>)> = {
                 let t = &tree;
-                to_split.par_iter().map(|&i| t.partition(i)).collect()
+                to_split
+                    .par_iter()
+                    .map(|&i| match known.and_then(|k| k.partition_of(&t.cells[i])) {
+                        Some((counts, order)) => (counts, Cow::Borrowed(order)),
+                        None => {
+                            let (counts, order) = t.partition(i);
+                            (counts, Cow::Owned(order))
+                        }
+                    })
+                    .collect()
             };
             for (&i, (counts, order)) in to_split.iter().zip(parts) {
                 let c = tree.cells[i];

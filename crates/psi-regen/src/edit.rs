@@ -53,6 +53,12 @@ fn falloff(y: DVec3, radius: f64) -> (f64, DVec3) {
 }
 
 impl Edit {
+    /// Whether the points the edit leaves unchanged keep their indices (a brush moves points
+    /// in place, an insertion appends; a removal or replacement renumbers).
+    pub fn keeps_indices(&self) -> bool {
+        matches!(self, Edit::Brush { .. } | Edit::Insert { .. })
+    }
+
     /// Applies the edit to `points`, returning the new points and every changed position (old
     /// and new positions of moved points, removed and added points).
     pub fn apply(

@@ -134,6 +134,7 @@ impl Scene {
             Some(Reuse {
                 old: &self.mpu,
                 marked: &marked_old,
+                indices_kept: edit.keeps_indices(),
             }),
         )?;
         // New cells that were fitted again: not present before, or marked.
