@@ -56,6 +56,14 @@ impl DensityField {
         self.target_sigma_at(f64::from(d))
     }
 
+    /// The largest target radius σ̂ at any depth, world units.
+    pub fn max_target_sigma(&self) -> f64 {
+        match self.uniform {
+            Some(s) => s,
+            None => self.scale * 0.5 * self.edge(self.d_min).max(self.edge(self.d_max)),
+        }
+    }
+
     /// Target radius σ̂ at a fractional depth (Ohtake's blended level(x)), world units: the same
     /// rule with t = (d − d_min)/(d_max − d_min) clamped to [0, 1], so σ̂ varies continuously
     /// across the boundaries between depth levels instead of jumping.

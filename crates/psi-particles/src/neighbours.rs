@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 use psi_mpu::Mpu;
-use psi_octree::PointIndex;
+use psi_octree::{Aabb, PointIndex};
 
 use crate::NeighbourSearch;
 use crate::octree_buckets::OctreeBuckets;
@@ -16,10 +16,12 @@ pub(crate) struct FixedSet {
 }
 
 impl FixedSet {
-    /// Indexes the particles with `movable[i] == false`.
-    pub(crate) fn new(positions: &[DVec3], movable: &[bool]) -> Self {
+    /// Indexes the particles with `movable[i] == false` (those in `within` when given).
+    pub(crate) fn new(positions: &[DVec3], movable: &[bool], within: Option<Aabb>) -> Self {
         let ids: Vec<u32> = (0..positions.len() as u32)
-            .filter(|&i| !movable[i as usize])
+            .filter(|&i| {
+                !movable[i as usize] && within.is_none_or(|b| b.contains(positions[i as usize]))
+            })
             .collect();
         let pts: Vec<DVec3> = ids.iter().map(|&i| positions[i as usize]).collect();
         Self {

@@ -5,6 +5,7 @@
 
 use glam::DVec3;
 use psi_mpu::Mpu;
+use psi_octree::Aabb;
 use rayon::prelude::*;
 
 use crate::neighbours::{FixedSet, NeighbourIndex};
@@ -21,6 +22,9 @@ pub struct RelaxRegion<'a> {
     pub movable: Option<&'a [bool]>,
     /// A move is accepted only if this returns true for the new world position.
     pub accept: Option<&'a (dyn Fn(DVec3) -> bool + Sync)>,
+    /// A box (world units) that `accept` keeps the moving particles in: fixed particles beyond
+    /// their largest neighbour reach from it are left out of the neighbour search.
+    pub bounds: Option<Aabb>,
 }
 
 impl std::fmt::Debug for RelaxRegion<'_> {
@@ -75,9 +79,19 @@ pub fn relax_observed(
     for (&i, v) in active.iter().zip(initial) {
         fg[i as usize] = v;
     }
+    // The farthest a moving particle looks: 3σ, σ at most its clamp above the largest σ̂.
+    let reach = params.neighbour_radius
+        * active
+            .iter()
+            .map(|&i| particles.sigma[i as usize])
+            .fold(params.sigma_clamp.1 * field.max_target_sigma(), f64::max);
+    let near = region.bounds.map(|b| Aabb {
+        min: b.min - DVec3::splat(reach),
+        max: b.max + DVec3::splat(reach),
+    });
     let fixed = region
         .movable
-        .map(|m| FixedSet::new(&particles.positions, m));
+        .map(|m| FixedSet::new(&particles.positions, m, near));
     let e_hat = params.target_energy_ratio * params.energy_alpha;
     let mut velocity = vec![DVec3::ZERO; n];
     let mut anchor: Vec<Option<u32>> = vec![None; n];

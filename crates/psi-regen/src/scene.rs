@@ -179,21 +179,21 @@ impl Scene {
         // once and skips their updates).
         let movable: Vec<bool> = (0..particles.len()).map(|i| i >= kept).collect();
         let accept = |x: DVec3| mpu.leaf_containing(x).is_some_and(|l| refit[l as usize]);
+        // The refitted leaves, which `accept` keeps the moving particles in (world units).
+        let bounds = Aabb::from_points(leaf_corners(&mpu, &refit).map(|c| c + origin));
+        let region = RelaxRegion {
+            movable: Some(&movable),
+            accept: Some(&accept),
+            bounds,
+        };
         relax(
             &mpu,
             &mut particles,
             &self.field,
             &self.particle_params,
-            RelaxRegion {
-                movable: Some(&movable),
-                accept: Some(&accept),
-            },
+            region,
         );
         // Uniform mode: the new particles' close pairs pushed apart, as a full run does.
-        let region = RelaxRegion {
-            movable: Some(&movable),
-            accept: Some(&accept),
-        };
         separate_close_pairs(
             &mpu,
             &mut particles,
