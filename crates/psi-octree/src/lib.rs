@@ -43,7 +43,8 @@ pub use builtin_model::{BUILTIN_MODEL_POINTS, BUILTIN_MODEL_SEED, builtin_model,
 pub use error::OctreeError;
 pub use geometry::{Aabb, OrientedPoint};
 pub use octree::{
-    Cell, CellView, DEPTH_LIMIT, KnownPartitions, NO_CELL, Octree, OctreeParams, root_cube,
+    Cell, CellView, DEPTH_LIMIT, KnownPartitions, NO_CELL, Octree, OctreeBuffers, OctreeParams,
+    root_cube,
 };
 pub use orient_normals::{NormalConsistency, check_normal_consistency, orient_normals};
 pub use point_index::PointIndex;

@@ -147,6 +147,45 @@ impl<'a> KnownPartitions<'a> {
     }
 }
 
+/// The arrays of an octree, for a later build to fill instead of allocating its own
+/// ([`Octree::into_buffers`], [`OctreeBuffers::with_capacity`]).
+#[derive(Clone, Debug, Default)]
+pub struct OctreeBuffers {
+    cells: Vec<Cell>,
+    order: Vec<u32>,
+    point_leaf: Vec<u32>,
+}
+
+impl OctreeBuffers {
+    /// Buffers for an octree of about `cells` cells over `points` points, their memory touched
+    /// once (so that the build that fills them finds it mapped).
+    pub fn with_capacity(cells: usize, points: usize) -> Self {
+        let blank = Cell {
+            center: DVec3::ZERO,
+            half: 0.0,
+            depth: 0,
+            key: [0; 3],
+            parent: NO_CELL,
+            first_child: NO_CELL,
+            start: 0,
+            end: 0,
+        };
+        let touched = |v: &mut Vec<u32>| {
+            v.resize(points, 0);
+            v.clear();
+        };
+        let mut b = Self {
+            cells: vec![blank; cells],
+            order: Vec::new(),
+            point_leaf: Vec::new(),
+        };
+        b.cells.clear();
+        touched(&mut b.order);
+        touched(&mut b.point_leaf);
+        b
+    }
+}
+
 /// An adaptive octree over a point set, with each input point bucketed in exactly one leaf.
 #[derive(Clone, Debug)]
 pub struct Octree {
@@ -228,6 +267,7 @@ impl Octree {
             half,
             params,
             None,
+            OctreeBuffers::default(),
             decide,
             on_level,
         )
@@ -236,13 +276,16 @@ impl Octree {
     /// [`Octree::build_in_cube_observed`] taking the positions by value: the tree keeps them
     /// instead of a copy (the decision reads them from [`CellView::positions`]). With `known`,
     /// a splitting cell that an earlier octree also split, over the same points, takes that
-    /// octree's partition instead of computing it.
+    /// octree's partition instead of computing it. The arrays are built in `buffers` (an
+    /// earlier octree's, [`Octree::into_buffers`]: memory already in use needs no new pages).
+    #[allow(clippy::too_many_arguments)]
     pub fn build_in_cube_owned<T, F>(
         points: Vec<DVec3>,
         center: DVec3,
         half: f64,
         params: &OctreeParams,
         known: Option<KnownPartitions<'_>>,
+        buffers: OctreeBuffers,
         decide: F,
         on_level: &(dyn Fn(u8, usize) + Sync),
     ) -> Result<(Octree, Vec<T>), OctreeError>
@@ -281,10 +324,19 @@ impl Octree {
                 return Err(OctreeError::OutsideRoot);
             }
         }
+        let OctreeBuffers {
+            mut cells,
+            mut order,
+            point_leaf,
+        } = buffers;
+        cells.clear();
+        cells.push(root);
+        order.clear();
+        order.extend(0..end);
         let mut tree = Octree {
-            cells: vec![root],
-            order: (0..end).collect(),
-            point_leaf: Vec::new(),
+            cells,
+            order,
+            point_leaf,
             positions: points,
             params: *params,
             root_edge: 2.0 * half,
@@ -339,7 +391,8 @@ impl Octree {
             on_level(tree.cells[level.start].depth, tree.cells.len());
             level = next_start..tree.cells.len();
         }
-        tree.point_leaf = vec![NO_CELL; tree.positions.len()];
+        tree.point_leaf.clear();
+        tree.point_leaf.resize(tree.positions.len(), NO_CELL);
         for (i, c) in tree.cells.iter().enumerate() {
             if c.is_leaf() {
                 for &p in &tree.order[c.start as usize..c.end as usize] {
@@ -417,6 +470,16 @@ impl Octree {
             start += counts[o as usize];
         }
         self.cells[i].first_child = first;
+    }
+
+    /// The octree's arrays for a later build to reuse, and its positions.
+    pub fn into_buffers(self) -> (OctreeBuffers, Vec<DVec3>) {
+        let buffers = OctreeBuffers {
+            cells: self.cells,
+            order: self.order,
+            point_leaf: self.point_leaf,
+        };
+        (buffers, self.positions)
     }
 
     /// All cells, in arena order (root first, then level by level).

@@ -65,6 +65,16 @@ impl Edit {
         &self,
         points: &[OrientedPoint],
     ) -> Result<(Vec<OrientedPoint>, Vec<DVec3>), RegenError> {
+        self.apply_into(points, Vec::with_capacity(points.len()))
+    }
+
+    /// [`Edit::apply`] writing the new points into `out` (emptied first; a buffer to reuse).
+    pub fn apply_into(
+        &self,
+        points: &[OrientedPoint],
+        mut out: Vec<OrientedPoint>,
+    ) -> Result<(Vec<OrientedPoint>, Vec<DVec3>), RegenError> {
+        out.clear();
         let mut changed = Vec::new();
         let finite = |v: DVec3| v.is_finite();
         match self {
@@ -82,7 +92,6 @@ impl Edit {
                         "a brush needs a finite centre, displacement and a positive radius".into(),
                     ));
                 }
-                let mut out = Vec::with_capacity(points.len());
                 for p in points {
                     let (w, gw) = falloff(p.p - *center, *radius);
                     if w == 0.0 {
@@ -120,7 +129,6 @@ impl Edit {
                     ));
                 }
                 let r2 = radius * radius;
-                let mut out = Vec::with_capacity(points.len());
                 for p in points {
                     if (p.p - *center).length_squared() <= r2 {
                         changed.push(p.p);
@@ -139,7 +147,7 @@ impl Edit {
                     center: *center,
                     radius: *radius,
                 }
-                .apply(points)?;
+                .apply_into(points, out)?;
                 let (_, added) = Edit::Insert {
                     points: new.clone(),
                 }
@@ -156,7 +164,7 @@ impl Edit {
                         )));
                     }
                 }
-                let mut out = points.to_vec();
+                out.extend_from_slice(points);
                 out.extend(
                     new.iter()
                         .map(|p| OrientedPoint::new_normalized(p.p, p.n).expect("checked")),

@@ -3,7 +3,7 @@
 use std::time::Instant;
 
 use glam::DVec3;
-use psi_mpu::{Mpu, MpuParams, Reuse};
+use psi_mpu::{Mpu, MpuBuffers, MpuParams, Reuse};
 use psi_octree::{Aabb, OrientedPoint};
 use psi_particles::{
     DensityField, ParticleParams, Particles, RelaxRegion, SampleReport, measure_quality, relax,
@@ -45,6 +45,10 @@ pub struct Scene {
     field: DensityField,
     mpu_params: MpuParams,
     particle_params: ParticleParams,
+    /// Memory the next edit builds its MPU in: the arrays of the MPU it replaced last, or
+    /// fresh ones touched when the scene was made, so that no edit (the first included) pays
+    /// for new pages — ~5 ms of a bunny edit, for one more MPU's worth of memory.
+    spare: MpuBuffers,
 }
 
 impl Scene {
@@ -58,7 +62,9 @@ impl Scene {
         let mpu = Mpu::build(&points, mpu_params)?;
         let run = psi_particles::sample(&mpu, particle_params);
         let field = run.report.density;
+        let spare = MpuBuffers::like(&mpu);
         let scene = Scene {
+            spare,
             mpu,
             particles: run.particles,
             field,
@@ -106,7 +112,7 @@ impl Scene {
     pub fn apply(&mut self, edit: &Edit) -> Result<RegenReport, RegenError> {
         let _span = tracing::info_span!("local_regeneration").entered();
         let t0 = Instant::now();
-        let (points, changed) = edit.apply(self.mpu.points())?;
+        let (points, changed) = edit.apply_into(self.mpu.points(), self.spare.take_points())?;
         let root = *self.mpu.octree().root();
         let origin = self.mpu.frame_origin();
         let inside = points.iter().all(|p| root.contains(p.p - origin));
@@ -136,6 +142,7 @@ impl Scene {
                 marked: &marked_old,
                 indices_kept: edit.keeps_indices(),
             }),
+            std::mem::take(&mut self.spare),
         )?;
         // New cells that were fitted again: not present before, or marked.
         let refit: Vec<bool> = (0..mpu.octree().cells().len() as u32)
@@ -214,7 +221,7 @@ impl Scene {
             particle_seconds,
             seconds: t0.elapsed().as_secs_f64(),
         };
-        self.mpu = mpu;
+        self.spare = std::mem::replace(&mut self.mpu, mpu).into_buffers();
         self.particles = particles;
         Ok(report)
     }
