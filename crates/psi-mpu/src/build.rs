@@ -49,11 +49,22 @@ pub struct Mpu {
 /// ([`Mpu::into_buffers`]) or fresh ones touched once ([`MpuBuffers::like`]). Memory the
 /// process already maps costs nothing to write; fresh memory costs a page fault per 4 KiB
 /// (~1.7 µs each on the test VM, ~5 ms for a bunny-sized rebuild).
-#[derive(Clone, Debug, Default)]
+#[derive(Debug, Default)]
 pub struct MpuBuffers {
     points: Vec<OrientedPoint>,
     positions: Vec<DVec3>,
     octree: psi_octree::OctreeBuffers,
+    nodes: Vec<crate::evaluate::EvalNode>,
+    candidates: Vec<std::sync::OnceLock<Box<[u32]>>>,
+    interior: Vec<std::sync::atomic::AtomicU8>,
+    spacing: Vec<std::sync::atomic::AtomicU64>,
+}
+
+/// Buffers hold no content, only memory: a clone is empty (it allocates when used).
+impl Clone for MpuBuffers {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
 }
 
 impl MpuBuffers {
@@ -69,11 +80,26 @@ impl MpuBuffers {
         points.clear();
         let mut positions = vec![DVec3::ZERO; n];
         positions.clear();
-        Self {
+        let cells = mpu.octree.cells().len() + 1024;
+        let mut b = Self {
             points,
             positions,
-            octree: psi_octree::OctreeBuffers::with_capacity(mpu.octree.cells().len() + 1024, n),
-        }
+            octree: psi_octree::OctreeBuffers::with_capacity(cells, n),
+            nodes: Vec::with_capacity(cells),
+            candidates: Vec::with_capacity(cells),
+            interior: Vec::with_capacity(n),
+            spacing: Vec::with_capacity(n),
+        };
+        // Touched once, then emptied (capacity kept).
+        b.nodes.extend(mpu.nodes.iter().copied());
+        b.nodes.clear();
+        b.candidates.resize_with(cells, std::sync::OnceLock::new);
+        b.candidates.clear();
+        b.interior.resize_with(n, Default::default);
+        b.interior.clear();
+        b.spacing.resize_with(n, Default::default);
+        b.spacing.clear();
+        b
     }
 
     /// The buffer for the next build's points (empty; its capacity kept).
@@ -275,6 +301,10 @@ impl Mpu {
         let MpuBuffers {
             positions,
             octree: octree_buffers,
+            nodes: nodes_buffer,
+            mut candidates,
+            mut interior,
+            mut spacing,
             ..
         } = buffers;
         let (positions, points) = prepare(points, params, frame, positions)?;
@@ -480,12 +510,16 @@ impl Mpu {
         report.max_depth = octree.max_depth_reached();
         report.seconds = start.elapsed().as_secs_f64();
         let fits = fits.finish();
-        let nodes = crate::evaluate::eval_nodes(&octree, &cell_fit, params.alpha);
-        let leaf_candidates = std::sync::Arc::new(
-            (0..nodes.len())
-                .map(|_| std::sync::OnceLock::new())
-                .collect(),
-        );
+        let mut nodes = nodes_buffer;
+        crate::evaluate::eval_nodes_into(&octree, &cell_fit, params.alpha, &mut nodes);
+        // The lazily filled tables start empty, in the buffers' memory when there is some.
+        candidates.clear();
+        candidates.resize_with(nodes.len(), std::sync::OnceLock::new);
+        interior.clear();
+        interior.resize_with(n, || std::sync::atomic::AtomicU8::new(0));
+        spacing.clear();
+        spacing.resize_with(n, || std::sync::atomic::AtomicU64::new(0));
+        let leaf_candidates = std::sync::Arc::new(candidates);
         Ok(Mpu {
             leaf_candidates,
             nodes,
@@ -500,26 +534,25 @@ impl Mpu {
             params: *params,
             report,
             index,
-            interior_cache: std::sync::Arc::new(
-                (0..n)
-                    .map(|_| std::sync::atomic::AtomicU8::new(0))
-                    .collect(),
-            ),
-            spacing_cache: std::sync::Arc::new(
-                (0..n)
-                    .map(|_| std::sync::atomic::AtomicU64::new(0))
-                    .collect(),
-            ),
+            interior_cache: std::sync::Arc::new(interior),
+            spacing_cache: std::sync::Arc::new(spacing),
         })
     }
 
     /// The MPU's largest arrays, for a later build to reuse ([`MpuBuffers`]).
     pub fn into_buffers(self) -> MpuBuffers {
         let (octree, positions) = self.octree.into_buffers();
+        // The lazily filled tables come back only when this MPU held the last reference.
+        let mut candidates = std::sync::Arc::try_unwrap(self.leaf_candidates).unwrap_or_default();
+        candidates.clear();
         MpuBuffers {
             points: self.points,
             positions,
             octree,
+            nodes: self.nodes,
+            candidates,
+            interior: std::sync::Arc::try_unwrap(self.interior_cache).unwrap_or_default(),
+            spacing: std::sync::Arc::try_unwrap(self.spacing_cache).unwrap_or_default(),
         }
     }
 

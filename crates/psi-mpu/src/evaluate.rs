@@ -36,26 +36,24 @@ pub(crate) struct EvalNode {
     pub(crate) fit: u32,
 }
 
-/// The evaluation nodes of an octree and its leaf-fit table (arena order).
-pub(crate) fn eval_nodes(
+/// The evaluation nodes of an octree and its leaf-fit table (arena order), written into
+/// `nodes` (emptied first).
+pub(crate) fn eval_nodes_into(
     octree: &psi_octree::Octree,
     cell_fit: &[u32],
     alpha: f64,
-) -> Vec<EvalNode> {
-    octree
-        .cells()
-        .iter()
-        .zip(cell_fit)
-        .map(|(c, &fit)| {
-            let r = c.support_radius(alpha);
-            EvalNode {
-                center: c.center,
-                r2: r * r,
-                first_child: c.first_child,
-                fit,
-            }
-        })
-        .collect()
+    nodes: &mut Vec<EvalNode>,
+) {
+    nodes.clear();
+    nodes.extend(octree.cells().iter().zip(cell_fit).map(|(c, &fit)| {
+        let r = c.support_radius(alpha);
+        EvalNode {
+            center: c.center,
+            r2: r * r,
+            first_child: c.first_child,
+            fit,
+        }
+    }));
 }
 
 impl Mpu {
