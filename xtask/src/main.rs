@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 
 mod check_reference;
+mod edits;
 mod figures;
 mod host;
 mod memory;
