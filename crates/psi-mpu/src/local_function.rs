@@ -51,27 +51,42 @@ fn pick(max: bool, a: (f64, DVec3), b: (f64, DVec3)) -> (f64, DVec3) {
     if (a.0 >= b.0) == max { a } else { b }
 }
 
+/// An edge: max (convex) or min of its two pieces, with the selected piece's gradient.
+#[inline]
+fn edge(pieces: &[Quadric], convex: bool, x: DVec3) -> (f64, DVec3) {
+    pick(
+        convex,
+        pieces[0].value_and_gradient(x),
+        pieces[1].value_and_gradient(x),
+    )
+}
+
+/// A corner: the pair `order[0..2]` combined first (max or min), then with `order[2]`.
+#[inline]
+fn corner(
+    pieces: &[Quadric],
+    order: [u8; 3],
+    (pair_max, outer_max): (bool, bool),
+    x: DVec3,
+) -> (f64, DVec3) {
+    let q = |k: u8| pieces[k as usize].value_and_gradient(x);
+    let pair = pick(pair_max, q(order[0]), q(order[1]));
+    pick(outer_max, pair, q(order[2]))
+}
+
 impl LocalFunction {
     /// (Q(x), ∇Q(x)); for max/min combinations the gradient of the selected piece.
     #[inline]
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
         match self {
             LocalFunction::Smooth(q) => q.value_and_gradient(x),
-            LocalFunction::Edge { pieces, convex } => pick(
-                *convex,
-                pieces[0].value_and_gradient(x),
-                pieces[1].value_and_gradient(x),
-            ),
+            LocalFunction::Edge { pieces, convex } => edge(pieces, *convex, x),
             LocalFunction::Corner {
                 pieces,
                 order,
                 pair_max,
                 outer_max,
-            } => {
-                let q = |k: u8| pieces[k as usize].value_and_gradient(x);
-                let pair = pick(*pair_max, q(order[0]), q(order[1]));
-                pick(*outer_max, pair, q(order[2]))
-            }
+            } => corner(pieces, *order, (*pair_max, *outer_max), x),
         }
     }
 
@@ -201,24 +216,19 @@ impl StoredFunction {
         match *self {
             StoredFunction::Smooth(ref q) => q.value_and_gradient(x),
             StoredFunction::Edge { first, convex } => {
-                let p = &pieces[first as usize..first as usize + 2];
-                pick(
-                    convex,
-                    p[0].value_and_gradient(x),
-                    p[1].value_and_gradient(x),
-                )
+                edge(&pieces[first as usize..first as usize + 2], convex, x)
             }
             StoredFunction::Corner {
                 first,
                 order,
                 pair_max,
                 outer_max,
-            } => {
-                let p = &pieces[first as usize..first as usize + 3];
-                let q = |k: u8| p[k as usize].value_and_gradient(x);
-                let pair = pick(pair_max, q(order[0]), q(order[1]));
-                pick(outer_max, pair, q(order[2]))
-            }
+            } => corner(
+                &pieces[first as usize..first as usize + 3],
+                order,
+                (pair_max, outer_max),
+                x,
+            ),
         }
     }
 
