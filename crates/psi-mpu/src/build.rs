@@ -184,7 +184,9 @@ struct FittedCell {
 pub struct Reuse<'a> {
     /// The earlier MPU (same frame and parameters).
     pub old: &'a Mpu,
-    /// Per cell of `old`: whether an edit reached it (its fit must be recomputed).
+    /// Per cell of `old`: whether an edit reached it (its fit must be recomputed). Every cell
+    /// whose fit radius holds a changed position (old or new) must be marked — in particular
+    /// every cell whose cube holds one, which the copied partitions rely on.
     pub marked: &'a [bool],
     /// Whether every point the edit left unchanged kept its index (a brush or an insertion;
     /// a removal renumbers): then unmarked cells' partitions are taken from `old` too.
@@ -307,6 +309,15 @@ impl Mpu {
             mut spacing,
             ..
         } = buffers;
+        if let Some(r) = reuse
+            && r.marked.len() != r.old.octree.cells().len()
+        {
+            return Err(MpuError::BadParameter(format!(
+                "reuse: {} marks for an octree of {} cells",
+                r.marked.len(),
+                r.old.octree.cells().len()
+            )));
+        }
         let (positions, points) = prepare(points, params, frame, positions)?;
         let n = points.len();
         let eps0 = params.error_rel * frame.diagonal;
@@ -379,7 +390,8 @@ impl Mpu {
                 })
             })
             .collect();
-        // An unmarked cell holds no changed position (its fit radius exceeds its circumradius),
+        // An unmarked cell holds no changed position (its fit radius R1 ≥ R = α·2√3·half is at
+        // least its circumradius √3·half for α ≥ 0.5, and marking adds a 1e-9 margin),
         // hence the same points: with the same indices, the same partition.
         let known = reuse
             .filter(|r| r.indices_kept)

@@ -482,3 +482,59 @@ fn gradient_is_healthy(q: &Quadric, pos: &[DVec3]) -> bool {
         / pos.len() as f64;
     mean > 0.1
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Mpu, MpuParams};
+    use psi_octree::AnalyticShape;
+
+    #[test]
+    fn a_fit_without_the_kd_tree_is_the_fit_with_it_or_none() {
+        // Enough points that the coarse cells hold more than 256 coarse points.
+        let pts = AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.35,
+        }
+        .sample(40_000, 5);
+        let params = MpuParams::paper();
+        let mpu = Mpu::build(&pts, &params).unwrap();
+        let positions = mpu.octree.positions();
+        let coarse = CoarseIndex::new(positions);
+        let with = FitInput {
+            positions,
+            points: &mpu.points,
+            index: Some(&mpu.index),
+            coarse: &coarse,
+            params: &params,
+        };
+        let without = FitInput {
+            index: None,
+            ..with
+        };
+        let eps0 = params.error_rel * mpu.frame.diagonal;
+        let (mut same, mut gave_up) = (0, 0);
+        for c in mpu.octree.cells() {
+            let full = fit_cell(&with, c.center, c.half, eps0);
+            match try_fit_cell(&without, c.center, c.half, eps0) {
+                Some(f) => {
+                    assert_eq!(f.function, full.function);
+                    assert_eq!(f.kind, full.kind);
+                    assert_eq!(f.fallback, full.fallback);
+                    assert_eq!(f.error.to_bits(), full.error.to_bits());
+                    assert_eq!(f.fit_radius.to_bits(), full.fit_radius.to_bits());
+                    assert!(
+                        f.error > eps0,
+                        "only splitting cells complete without the tree"
+                    );
+                    same += 1;
+                }
+                None => gave_up += 1,
+            }
+        }
+        assert!(
+            same > 0 && gave_up > 0,
+            "{same} completed, {gave_up} gave up"
+        );
+    }
+}

@@ -105,6 +105,8 @@ impl<'a> FitStoreBuilder<'a> {
     }
 
     fn fresh_id(&self) -> u32 {
+        // 2^28 functions per chunk: more leaves than any octree that fits in memory.
+        debug_assert!(self.fresh.functions.len() < 1 << CHUNK_SHIFT);
         let chunk = if self.share {
             self.old.map_or(0, |o| o.chunks.len())
         } else {

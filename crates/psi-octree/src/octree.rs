@@ -124,10 +124,10 @@ pub struct KnownPartitions<'a> {
 }
 
 impl<'a> KnownPartitions<'a> {
-    /// The child counts and the partitioned point order of `cell` (a cell of the new build) as
-    /// the earlier octree has them, if it split the same cell over the same points. (A cell's
-    /// range lists its points in increasing index order in both trees, so the earlier
-    /// partition is the new one.)
+    /// The child counts and the point order of `cell` (a cell of the new build) as the earlier
+    /// octree left them, if it split the same cell over the same points: each child's segment
+    /// holds the child's points (in the order the earlier subtree left them; the build
+    /// restores increasing order where the new subtree differs, see `build_in_cube_owned`).
     fn partition_of(&self, cell: &Cell) -> Option<([u32; 8], &'a [u32])> {
         let o = self.old.cell_at(cell.depth, cell.key)?;
         if self.changed[o as usize] {
@@ -391,6 +391,17 @@ impl Octree {
             on_level(tree.cells[level.start].depth, tree.cells.len());
             level = next_start..tree.cells.len();
         }
+        // Every leaf lists its points in increasing index order, as a build from scratch leaves
+        // them. A partition copied from an earlier octree keeps that octree's order below, which
+        // differs only under a cell whose subtree changed; sorting such leaves restores it.
+        for c in &tree.cells {
+            if c.is_leaf() {
+                let r = &mut tree.order[c.start as usize..c.end as usize];
+                if !r.is_sorted() {
+                    r.sort_unstable();
+                }
+            }
+        }
         tree.point_leaf.clear();
         tree.point_leaf.resize(tree.positions.len(), NO_CELL);
         for (i, c) in tree.cells.iter().enumerate() {
@@ -416,10 +427,21 @@ impl Octree {
     }
 
     /// The points of cell `i` partitioned by octant (counting sort, stable, so the order is
-    /// deterministic): the count per octant and the reordered point indices.
+    /// deterministic): the count per octant and the reordered point indices. The cell's points
+    /// are taken in increasing index order (a range copied from an earlier octree may hold them
+    /// otherwise), so each child's segment is increasing too.
     fn partition(&self, i: usize) -> ([u32; 8], Vec<u32>) {
         let parent = self.cells[i];
-        let points = &self.order[parent.start as usize..parent.end as usize];
+        let range = &self.order[parent.start as usize..parent.end as usize];
+        let sorted;
+        let points = if range.is_sorted() {
+            range
+        } else {
+            let mut v = range.to_vec();
+            v.sort_unstable();
+            sorted = v;
+            &sorted[..]
+        };
         let octants: Vec<u8> = points
             .iter()
             .map(|&p| parent.octant(self.positions[p as usize]) as u8)

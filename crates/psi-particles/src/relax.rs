@@ -22,8 +22,9 @@ pub struct RelaxRegion<'a> {
     pub movable: Option<&'a [bool]>,
     /// A move is accepted only if this returns true for the new world position.
     pub accept: Option<&'a (dyn Fn(DVec3) -> bool + Sync)>,
-    /// A box (world units) that `accept` keeps the moving particles in: fixed particles beyond
-    /// their largest neighbour reach from it are left out of the neighbour search.
+    /// A box (world units) holding every position `accept` accepts: fixed particles beyond the
+    /// moving particles' largest neighbour reach from it and from their starting positions
+    /// (which `accept` need not hold) are left out of the neighbour search.
     pub bounds: Option<Aabb>,
 }
 
@@ -85,9 +86,15 @@ pub fn relax_observed(
             .iter()
             .map(|&i| particles.sigma[i as usize])
             .fold(params.sigma_clamp.1 * field.max_target_sigma(), f64::max);
-    let near = region.bounds.map(|b| Aabb {
-        min: b.min - DVec3::splat(reach),
-        max: b.max + DVec3::splat(reach),
+    // (The margin covers rounding in σ̂'s bound.)
+    let reach = reach * (1.0 + 1e-9);
+    let near = region.bounds.map(|b| {
+        let start = active.iter().map(|&i| particles.positions[i as usize]);
+        let b = Aabb::from_points(start.chain([b.min, b.max])).unwrap_or(b);
+        Aabb {
+            min: b.min - DVec3::splat(reach),
+            max: b.max + DVec3::splat(reach),
+        }
     });
     let fixed = region
         .movable

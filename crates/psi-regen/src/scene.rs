@@ -162,7 +162,10 @@ impl Scene {
             .par_iter()
             .map(|&x| {
                 let y = x - origin;
-                if !changed_leaves.is_some_and(|b| b.contains(y)) && root.contains(y) {
+                if y.is_finite()
+                    && !changed_leaves.is_some_and(|b| b.contains(y))
+                    && root.contains(y)
+                {
                     return true;
                 }
                 let old = self
@@ -186,7 +189,7 @@ impl Scene {
         // once and skips their updates).
         let movable: Vec<bool> = (0..particles.len()).map(|i| i >= kept).collect();
         let accept = |x: DVec3| mpu.leaf_containing(x).is_some_and(|l| refit[l as usize]);
-        // The refitted leaves, which `accept` keeps the moving particles in (world units).
+        // The refitted leaves, which hold every position `accept` accepts (world units).
         let bounds = Aabb::from_points(leaf_corners(&mpu, &refit).map(|c| c + origin));
         let region = RelaxRegion {
             movable: Some(&movable),

@@ -22,6 +22,18 @@ fn leaves(mpu: &Mpu) -> BTreeSet<(u8, [u32; 3])> {
 
 fn assert_same_mpu(local: &Mpu, scratch: &Mpu) {
     assert_eq!(leaves(local), leaves(scratch), "leaf sets differ");
+    // The same points in every cell, in the same order (the local rebuild copies partitions).
+    let (lo, so) = (local.octree(), scratch.octree());
+    for (i, c) in lo.cells().iter().enumerate() {
+        let j = so.cell_at(c.depth, c.key).expect("same cells");
+        assert_eq!(
+            lo.points_in(i as u32),
+            so.points_in(j),
+            "cell {:?} {:?}",
+            c.depth,
+            c.key
+        );
+    }
     let b = scratch.bounds();
     let d = scratch.diagonal();
     for i in 0..200 {
@@ -230,6 +242,34 @@ fn a_long_run_of_edits_keeps_equalling_a_rebuild() {
         };
         let report = scene.apply(&edit).unwrap();
         assert!(!report.full_rebuild);
+        assert_same_mpu(scene.mpu(), &scene.rebuild_from_scratch().unwrap());
+    }
+}
+
+#[test]
+fn sparse_points_rebuild_like_a_fresh_build() {
+    // Few points: fit radii grow past their cells, so a marked cell can sit under an unmarked
+    // one whose partition the rebuild copies; the cells must still hold their points in the
+    // order a fresh build gives.
+    let points = AnalyticShape::Sphere { radius: 1.0 }.sample(400, 9);
+    for k in 0..8 {
+        let (mut scene, _) = Scene::new(
+            points.clone(),
+            &MpuParams::paper(),
+            &ParticleParams {
+                iterations: 2,
+                ..ParticleParams::paper()
+            },
+        )
+        .unwrap();
+        let p = points[k * 47];
+        scene
+            .apply(&Edit::Brush {
+                center: p.p,
+                radius: 0.3,
+                displacement: 0.05 * p.n,
+            })
+            .unwrap();
         assert_same_mpu(scene.mpu(), &scene.rebuild_from_scratch().unwrap());
     }
 }
