@@ -50,6 +50,15 @@ fn assert_same_mpu(local: &Mpu, scratch: &Mpu) {
     }
 }
 
+/// A scene of `points` with the paper's parameters and `iterations` relaxation steps.
+fn scene_of(points: Vec<OrientedPoint>, iterations: usize) -> Scene {
+    let params = ParticleParams {
+        iterations,
+        ..ParticleParams::paper()
+    };
+    Scene::new(points, &MpuParams::paper(), &params).unwrap().0
+}
+
 fn shape(kind: u8) -> Vec<OrientedPoint> {
     match kind % 2 {
         0 => AnalyticShape::Sphere { radius: 1.0 }.sample(5000, 3),
@@ -186,15 +195,7 @@ proptest! {
 #[test]
 fn an_edit_of_the_whole_shape_equals_a_full_rebuild() {
     let points = shape(0);
-    let (mut scene, _) = Scene::new(
-        points,
-        &MpuParams::paper(),
-        &ParticleParams {
-            iterations: 5,
-            ..ParticleParams::paper()
-        },
-    )
-    .unwrap();
+    let mut scene = scene_of(points, 5);
     let report = scene
         .apply(&Edit::Brush {
             center: DVec3::ZERO,
@@ -212,15 +213,7 @@ fn a_long_run_of_edits_keeps_equalling_a_rebuild() {
     // and then: after every edit of a run longer than that cycle (and a removal and an
     // insertion, which renumber the points), the MPU still equals one built from scratch.
     let points = shape(1);
-    let (mut scene, _) = Scene::new(
-        points.clone(),
-        &MpuParams::paper(),
-        &ParticleParams {
-            iterations: 3,
-            ..ParticleParams::paper()
-        },
-    )
-    .unwrap();
+    let mut scene = scene_of(points.clone(), 3);
     for k in 0..12 {
         let p = points[(k * 487) % points.len()];
         let edit = match k {
@@ -253,15 +246,7 @@ fn sparse_points_rebuild_like_a_fresh_build() {
     // order a fresh build gives.
     let points = AnalyticShape::Sphere { radius: 1.0 }.sample(400, 9);
     for k in 0..8 {
-        let (mut scene, _) = Scene::new(
-            points.clone(),
-            &MpuParams::paper(),
-            &ParticleParams {
-                iterations: 2,
-                ..ParticleParams::paper()
-            },
-        )
-        .unwrap();
+        let mut scene = scene_of(points.clone(), 2);
         let p = points[k * 47];
         scene
             .apply(&Edit::Brush {
@@ -303,15 +288,7 @@ fn brush_normals_follow_the_inverse_transpose() {
 
 #[test]
 fn a_failed_edit_leaves_the_scene_unchanged() {
-    let (mut scene, _) = Scene::new(
-        shape(0),
-        &MpuParams::paper(),
-        &ParticleParams {
-            iterations: 2,
-            ..ParticleParams::paper()
-        },
-    )
-    .unwrap();
+    let mut scene = scene_of(shape(0), 2);
     let before = scene.particles().clone();
     assert!(
         scene
