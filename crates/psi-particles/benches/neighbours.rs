@@ -1,12 +1,12 @@
-//! Neighbour search over particle positions: the MPU octree as an adaptive grid versus a kiddo
-//! kd-tree, each built and queried once per relaxation iteration.
+//! Neighbour search over particle positions: the MPU octree as an adaptive grid, a kiddo kd-tree
+//! and a uniform grid (the default), each built and queried once per relaxation iteration.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use psi_mpu::{Mpu, MpuParams};
 use psi_octree::PointIndex;
-use psi_particles::{OctreeBuckets, ParticleParams, initialize};
+use psi_particles::{OctreeBuckets, ParticleGrid, ParticleParams, initialize};
 
 fn neighbours(c: &mut Criterion) {
     let points = psi_octree::builtin_model();
@@ -35,6 +35,17 @@ fn neighbours(c: &mut Criterion) {
                 out.clear();
                 index.within(*x, *r, &mut out);
                 n += out.len();
+            }
+            black_box(n)
+        })
+    });
+    let edge = 0.7 * radii.iter().sum::<f64>() / radii.len() as f64;
+    group.bench_function("grid", |b| {
+        b.iter(|| {
+            let grid = ParticleGrid::new(&local, edge);
+            let mut n = 0usize;
+            for (x, r) in local.iter().zip(&radii) {
+                grid.for_each_within(*x, *r, |_| n += 1);
             }
             black_box(n)
         })

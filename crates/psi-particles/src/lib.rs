@@ -28,6 +28,7 @@ mod density;
 mod neighbours;
 mod octree_buckets;
 mod params;
+mod particle_grid;
 mod particles;
 mod project;
 mod quality;
@@ -40,6 +41,7 @@ mod separate;
 pub use density::{DensityField, paper_weight};
 pub use octree_buckets::OctreeBuckets;
 pub use params::{DensityMode, NeighbourSearch, ParticleParams};
+pub use particle_grid::ParticleGrid;
 pub use particles::Particles;
 pub use quality::{
     LevelStats, Quality, SpacingStats, measure_quality, nearest_neighbour_distances,

@@ -7,6 +7,7 @@ use psi_octree::{Aabb, PointIndex};
 
 use crate::NeighbourSearch;
 use crate::octree_buckets::OctreeBuckets;
+use crate::particle_grid::ParticleGrid;
 
 /// The particles that do not move during a relaxation (local regeneration's fixed neighbours),
 /// indexed once.
@@ -43,6 +44,7 @@ pub(crate) enum NeighbourIndex<'a> {
         index: PointIndex,
         positions: Vec<DVec3>,
     },
+    Grid(ParticleGrid),
     Octree {
         buckets: OctreeBuckets<'a>,
         origin: DVec3,
@@ -50,8 +52,16 @@ pub(crate) enum NeighbourIndex<'a> {
 }
 
 impl<'a> NeighbourIndex<'a> {
-    pub(crate) fn new(kind: NeighbourSearch, mpu: &'a Mpu, positions: &[DVec3]) -> Self {
+    /// The index of `positions` (world units) of kind `kind`; `grid_edge` is the grid's cube
+    /// edge (about the queries' radius; world units).
+    pub(crate) fn new(
+        kind: NeighbourSearch,
+        mpu: &'a Mpu,
+        positions: &[DVec3],
+        grid_edge: f64,
+    ) -> Self {
         match kind {
+            NeighbourSearch::Grid => Self::Grid(ParticleGrid::new(positions, grid_edge)),
             NeighbourSearch::KdTree => Self::Kd {
                 index: PointIndex::new(positions),
                 positions: positions.to_vec(),
@@ -102,6 +112,12 @@ impl<'a> NeighbourIndex<'a> {
                 for j in &mut scratch[n..] {
                     *j = moving_ids[*j as usize];
                 }
+                scratch.sort_unstable();
+                scratch.iter().for_each(|&j| visit(j));
+            }
+            Self::Grid(grid) => {
+                scratch.clear();
+                grid.for_each_within(x, radius, |j| scratch.push(j));
                 scratch.sort_unstable();
                 scratch.iter().for_each(|&j| visit(j));
             }

@@ -18,6 +18,9 @@ pub enum NeighbourSearch {
     Octree,
     /// A kiddo kd-tree rebuilt every iteration.
     KdTree,
+    /// A uniform grid of cubes (0.7 × the mean query radius), rebuilt every iteration: the
+    /// fastest (`benches/neighbours.rs`; 20 bunny iterations ~15 % faster than with the kd-tree).
+    Grid,
 }
 
 /// Every parameter of sampling. Construct with [`ParticleParams::paper`].
@@ -84,7 +87,7 @@ impl ParticleParams {
             count: None,
             iterations: 20,
             density: DensityMode::Adaptive,
-            neighbours: NeighbourSearch::KdTree,
+            neighbours: NeighbourSearch::Grid,
             energy_alpha: 6.0,
             target_energy_ratio: 0.8,
             rho: 15.0,

@@ -110,7 +110,14 @@ pub fn relax_observed(
         }
         let index = match (&fixed, region.movable) {
             (Some(f), Some(_)) => NeighbourIndex::split(f, &particles.positions, &active),
-            _ => NeighbourIndex::new(params.neighbours, mpu, &particles.positions),
+            _ => {
+                // The grid's cubes: 0.7 × the mean query radius (a sweep of 0.5–1.4 on the bunny
+                // was flat within noise; 0.7 was the fastest).
+                let mean_sigma =
+                    particles.sigma.iter().sum::<f64>() / particles.sigma.len().max(1) as f64;
+                let edge = 0.7 * params.neighbour_radius * mean_sigma;
+                NeighbourIndex::new(params.neighbours, mpu, &particles.positions, edge)
+            }
         };
         let state = &*particles;
         let fg_ref = &fg;

@@ -155,7 +155,7 @@ fn exact_counts_are_exact() {
 }
 
 #[test]
-fn identical_for_any_thread_count_and_both_neighbour_searches() {
+fn identical_for_any_thread_count_and_every_neighbour_search() {
     let mpu = mpu_of(AnalyticShape::Sphere { radius: 1.0 }, 10_000);
     let run = |threads: usize, params: ParticleParams| {
         let pool = rayon::ThreadPoolBuilder::new()
@@ -168,11 +168,13 @@ fn identical_for_any_thread_count_and_both_neighbour_searches() {
         neighbours,
         ..ParticleParams::paper()
     };
-    let a = run(1, with(NeighbourSearch::KdTree));
-    let b = run(2, with(NeighbourSearch::KdTree));
+    let a = run(1, with(NeighbourSearch::Grid));
+    let b = run(2, with(NeighbourSearch::Grid));
     let c = run(2, with(NeighbourSearch::Octree));
+    let d = run(2, with(NeighbourSearch::KdTree));
     assert_eq!(a, b, "thread count changed the result");
-    assert_eq!(a, c, "octree and kd-tree neighbour searches disagree");
+    assert_eq!(a, c, "octree and grid neighbour searches disagree");
+    assert_eq!(a, d, "kd-tree and grid neighbour searches disagree");
     // Uniform mode, with its separation pass, too.
     let uniform = ParticleParams {
         density: DensityMode::Uniform,
