@@ -100,7 +100,7 @@ impl ParticleGrid {
     /// Calls `visit(j)` for every indexed point within `radius` of `x` (|p − x| ≤ radius, plain
     /// radius), in no particular order.
     pub fn for_each_within(&self, x: DVec3, radius: f64, mut visit: impl FnMut(u32)) {
-        if self.ids.is_empty() || !(radius >= 0.0) || !x.is_finite() {
+        if self.ids.is_empty() || radius.is_nan() || radius < 0.0 || !x.is_finite() {
             return;
         }
         let lo = ((x - radius - self.min) * self.inv_edge).floor();
