@@ -1,5 +1,5 @@
-//! Neighbour search over the current particle positions: the octree-as-grid or a kd-tree, the
-//! two interchangeable (benches/neighbours.rs compares them).
+//! Neighbour search over the current particle positions: a uniform grid, a kd-tree or the
+//! octree as an adaptive grid, interchangeable (benches/neighbours.rs compares them).
 
 use glam::DVec3;
 use psi_mpu::Mpu;
@@ -12,13 +12,19 @@ use crate::particle_grid::ParticleGrid;
 /// The particles that do not move during a relaxation (local regeneration's fixed neighbours),
 /// indexed once.
 pub(crate) struct FixedSet {
-    index: PointIndex,
+    grid: ParticleGrid,
     ids: Vec<u32>,
 }
 
 impl FixedSet {
-    /// Indexes the particles with `movable[i] == false` (those in `within` when given).
-    pub(crate) fn new(positions: &[DVec3], movable: &[bool], within: Option<Aabb>) -> Self {
+    /// Indexes the particles with `movable[i] == false` (those in `within` when given) in a
+    /// grid of cubes of edge about `edge` (world units).
+    pub(crate) fn new(
+        positions: &[DVec3],
+        movable: &[bool],
+        within: Option<Aabb>,
+        edge: f64,
+    ) -> Self {
         let ids: Vec<u32> = (0..positions.len() as u32)
             .filter(|&i| {
                 !movable[i as usize] && within.is_none_or(|b| b.contains(positions[i as usize]))
@@ -26,7 +32,7 @@ impl FixedSet {
             .collect();
         let pts: Vec<DVec3> = ids.iter().map(|&i| positions[i as usize]).collect();
         Self {
-            index: PointIndex::new(&pts),
+            grid: ParticleGrid::new(&pts, edge),
             ids,
         }
     }
@@ -37,7 +43,7 @@ pub(crate) enum NeighbourIndex<'a> {
     /// Fixed particles indexed once, the moving ones per iteration.
     Split {
         fixed: &'a FixedSet,
-        moving: PointIndex,
+        moving: ParticleGrid,
         moving_ids: Vec<u32>,
     },
     Kd {
@@ -79,11 +85,16 @@ impl<'a> NeighbourIndex<'a> {
 
     /// The index of a relaxation where only the particles `moving` (indices into `positions`)
     /// move: the fixed set indexed once (`fixed`), the moving particles now.
-    pub(crate) fn split(fixed: &'a FixedSet, positions: &[DVec3], moving: &[u32]) -> Self {
+    pub(crate) fn split(
+        fixed: &'a FixedSet,
+        positions: &[DVec3],
+        moving: &[u32],
+        edge: f64,
+    ) -> Self {
         let pts: Vec<DVec3> = moving.iter().map(|&i| positions[i as usize]).collect();
         Self::Split {
             fixed,
-            moving: PointIndex::new(&pts),
+            moving: ParticleGrid::new(&pts, edge),
             moving_ids: moving.to_vec(),
         }
     }
@@ -103,15 +114,10 @@ impl<'a> NeighbourIndex<'a> {
                 moving_ids,
             } => {
                 scratch.clear();
-                fixed.index.within(x, radius, scratch);
-                for j in scratch.iter_mut() {
-                    *j = fixed.ids[*j as usize];
-                }
-                let n = scratch.len();
-                moving.within(x, radius, scratch);
-                for j in &mut scratch[n..] {
-                    *j = moving_ids[*j as usize];
-                }
+                fixed
+                    .grid
+                    .for_each_within(x, radius, |j| scratch.push(fixed.ids[j as usize]));
+                moving.for_each_within(x, radius, |j| scratch.push(moving_ids[j as usize]));
                 scratch.sort_unstable();
                 scratch.iter().for_each(|&j| visit(j));
             }
