@@ -67,7 +67,7 @@ fn render_draws_particles_in_every_colouring_and_view() {
         assert_eq!(png_size(&std::fs::read(&png).unwrap()), (160, 160));
         assert!(String::from_utf8_lossy(&out.stdout).contains("1500 particles"));
     }
-    let out = psi(&[
+    let disks = [
         "render",
         input.to_str().unwrap(),
         "-o",
@@ -77,21 +77,11 @@ fn render_draws_particles_in_every_colouring_and_view() {
         "--style",
         "disks",
         "--no-legend",
-    ]);
-    ok(&out);
+    ];
+    ok(&psi(&disks));
     // Same input, same picture.
     let first = std::fs::read(&png).unwrap();
-    ok(&psi(&[
-        "render",
-        input.to_str().unwrap(),
-        "-o",
-        png.to_str().unwrap(),
-        "--size",
-        "100",
-        "--style",
-        "disks",
-        "--no-legend",
-    ]));
+    ok(&psi(&disks));
     assert_eq!(first, std::fs::read(&png).unwrap());
 }
 

@@ -31,10 +31,10 @@ fn covered_fraction(reference: &Reference, center: DVec3, radius: f64) -> f64 {
     let v = &reference.mesh.vertices;
     let (mut inside, mut total) = (0.0, 0.0);
     for f in &reference.mesh.faces {
-        let [a, b, c] = f.map(|i| v[i as usize]);
-        let area = 0.5 * (b - a).cross(c - a).length();
+        let area = reference.face_area(f);
         total += area;
-        if ((a + b + c) / 3.0 - center).length() < radius {
+        let centroid = f.iter().map(|&i| v[i as usize]).sum::<DVec3>() / 3.0;
+        if (centroid - center).length() < radius {
             inside += area;
         }
     }

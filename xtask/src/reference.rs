@@ -32,6 +32,12 @@ impl Reference {
     }
 
     /// `n` area-uniform samples of the mesh surface (seeded).
+    /// Area of face `f` (vertex indices) of the mesh, world units².
+    pub(crate) fn face_area(&self, f: &[u32; 3]) -> f64 {
+        let [a, b, c] = f.map(|i| self.mesh.vertices[i as usize]);
+        0.5 * (b - a).cross(c - a).length()
+    }
+
     pub(crate) fn surface_samples(&self, n: usize, seed: u64) -> Vec<DVec3> {
         if self.mesh.faces.is_empty() {
             return Vec::new();
@@ -40,8 +46,7 @@ impl Reference {
         let mut cumulative = Vec::with_capacity(self.mesh.faces.len());
         let mut total = 0.0;
         for f in &self.mesh.faces {
-            let [a, b, c] = tri(f);
-            total += 0.5 * (b - a).cross(c - a).length();
+            total += self.face_area(f);
             cumulative.push(total);
         }
         let mut rng = Pcg64Mcg::seed_from_u64(seed);
@@ -101,16 +106,11 @@ pub(crate) fn distance_stats(d: &[f64], diag: f64) -> serde_json::Value {
 
 /// Total area of the reference mesh, world units².
 pub(crate) fn area(reference: &Reference) -> f64 {
-    let v = &reference.mesh.vertices;
     reference
         .mesh
         .faces
         .iter()
-        .map(|f| {
-            0.5 * (v[f[1] as usize] - v[f[0] as usize])
-                .cross(v[f[2] as usize] - v[f[0] as usize])
-                .length()
-        })
+        .map(|f| reference.face_area(f))
         .sum()
 }
 

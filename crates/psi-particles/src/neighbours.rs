@@ -46,10 +46,7 @@ pub(crate) enum NeighbourIndex<'a> {
         moving: ParticleGrid,
         moving_ids: Vec<u32>,
     },
-    Kd {
-        index: PointIndex,
-        positions: Vec<DVec3>,
-    },
+    Kd(PointIndex),
     Grid(ParticleGrid),
     Octree {
         buckets: OctreeBuckets<'a>,
@@ -68,10 +65,7 @@ impl<'a> NeighbourIndex<'a> {
     ) -> Self {
         match kind {
             NeighbourSearch::Grid => Self::Grid(ParticleGrid::new(positions, grid_edge)),
-            NeighbourSearch::KdTree => Self::Kd {
-                index: PointIndex::new(positions),
-                positions: positions.to_vec(),
-            },
+            NeighbourSearch::KdTree => Self::Kd(PointIndex::new(positions)),
             NeighbourSearch::Octree => {
                 let origin = mpu.frame_origin();
                 let local: Vec<DVec3> = positions.iter().map(|p| *p - origin).collect();
@@ -107,41 +101,27 @@ impl<'a> NeighbourIndex<'a> {
         scratch: &mut Vec<u32>,
         mut visit: impl FnMut(u32),
     ) {
+        scratch.clear();
         match self {
             Self::Split {
                 fixed,
                 moving,
                 moving_ids,
             } => {
-                scratch.clear();
                 fixed
                     .grid
                     .for_each_within(x, radius, |j| scratch.push(fixed.ids[j as usize]));
                 moving.for_each_within(x, radius, |j| scratch.push(moving_ids[j as usize]));
-                scratch.sort_unstable();
-                scratch.iter().for_each(|&j| visit(j));
             }
-            Self::Grid(grid) => {
-                scratch.clear();
-                grid.for_each_within(x, radius, |j| scratch.push(j));
-                scratch.sort_unstable();
-                scratch.iter().for_each(|&j| visit(j));
-            }
-            Self::Kd { index, positions } => {
-                scratch.clear();
-                index.within(x, radius, scratch);
-                // kiddo's unsorted order depends on its layout only; sort for a fixed summation
-                // order in both searches.
-                scratch.sort_unstable();
-                let _ = positions;
-                scratch.iter().for_each(|&j| visit(j));
-            }
+            Self::Grid(grid) => grid.for_each_within(x, radius, |j| scratch.push(j)),
+            Self::Kd(index) => index.within(x, radius, scratch),
             Self::Octree { buckets, origin } => {
-                scratch.clear();
                 buckets.for_each_within(x - *origin, radius, |j| scratch.push(j));
-                scratch.sort_unstable();
-                scratch.iter().for_each(|&j| visit(j));
             }
         }
+        // Each structure lists neighbours in an order of its own: sorted, every search sums the
+        // forces in the same order and gives the same result.
+        scratch.sort_unstable();
+        scratch.iter().for_each(|&j| visit(j));
     }
 }
