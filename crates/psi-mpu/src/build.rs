@@ -48,7 +48,7 @@ pub struct Mpu {
 /// Memory for an MPU build to fill instead of allocating: the largest arrays of an earlier MPU
 /// ([`Mpu::into_buffers`]) or fresh ones touched once ([`MpuBuffers::like`]). Memory the
 /// process already maps costs nothing to write; fresh memory costs a page fault per 4 KiB
-/// (~1.7 µs each on the test VM, ~5 ms for a bunny-sized rebuild).
+/// (thousands for a bunny-sized rebuild).
 #[derive(Debug, Default)]
 pub struct MpuBuffers {
     points: Vec<OrientedPoint>,

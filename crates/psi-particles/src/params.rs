@@ -19,7 +19,7 @@ pub enum NeighbourSearch {
     /// A kiddo kd-tree rebuilt every iteration.
     KdTree,
     /// A uniform grid of cubes (0.7 × the mean query radius), rebuilt every iteration: the
-    /// fastest (`benches/neighbours.rs`; 20 bunny iterations ~15 % faster than with the kd-tree).
+    /// fastest (`benches/neighbours.rs`, `examples/tune_relaxation.rs`).
     Grid,
 }
 
