@@ -347,7 +347,7 @@ fn leaf_refit_keeps_the_octree_and_improves_small_scale_fits() {
 }
 
 #[test]
-fn leaf_lookup_with_a_hint_equals_the_plain_lookup() {
+fn leaf_lookup_and_evaluation_with_a_hint_equal_the_plain_ones() {
     let case = &cases()[2];
     let (mpu, _) = build(case);
     let leaves: Vec<u32> = mpu.leaves().collect();
@@ -377,6 +377,15 @@ fn leaf_lookup_with_a_hint_equals_the_plain_lookup() {
         assert_eq!(mpu.leaf_containing_from(nan, hint), None);
         assert_eq!(got, mpu.leaf_containing(x), "x {x:?} hint {hint:?}");
         hinted += usize::from(hint == Some(leaf) && got == hint);
+        // The evaluation with the same guess: bitwise the plain one, and the same leaf.
+        let (f, g, l) = mpu.value_and_gradient_from(x, hint);
+        let (f0, g0) = mpu.value_and_gradient(x);
+        assert_eq!(
+            (f.to_bits(), g.to_array().map(f64::to_bits)),
+            (f0.to_bits(), g0.to_array().map(f64::to_bits)),
+            "x {x:?}"
+        );
+        assert_eq!(l, got);
     }
     assert!(hinted > 200, "the hint was rarely used ({hinted})");
 }

@@ -10,12 +10,27 @@ use psi_mpu::Mpu;
 /// Returns the position, f and ∇f there.
 pub(crate) fn newton_project(
     mpu: &Mpu,
-    mut x: DVec3,
+    x: DVec3,
     tolerance: f64,
     steps: usize,
     max_step: f64,
 ) -> (DVec3, f64, DVec3) {
-    let (mut f, mut g) = mpu.value_and_gradient(x);
+    let (x, f, g, _) = newton_project_from(mpu, x, tolerance, steps, max_step, None);
+    (x, f, g)
+}
+
+/// [`newton_project`] with a guess of the leaf containing `x` (see
+/// [`Mpu::value_and_gradient_from`]); also returns the leaf containing the result. The
+/// position, f and ∇f are bitwise equal to `newton_project`'s.
+pub(crate) fn newton_project_from(
+    mpu: &Mpu,
+    mut x: DVec3,
+    tolerance: f64,
+    steps: usize,
+    max_step: f64,
+    hint: Option<u32>,
+) -> (DVec3, f64, DVec3, Option<u32>) {
+    let (mut f, mut g, mut leaf) = mpu.value_and_gradient_from(x, hint);
     for _ in 0..steps {
         let g2 = g.length_squared();
         if g2 <= 1e-24 || f.abs() <= tolerance * g2.sqrt() {
@@ -29,9 +44,9 @@ pub(crate) fn newton_project(
         let mut accepted = false;
         for _ in 0..7 {
             let y = x - step;
-            let (fy, gy) = mpu.value_and_gradient(y);
+            let (fy, gy, ly) = mpu.value_and_gradient_from(y, leaf);
             if fy.abs() < f.abs() {
-                (x, f, g) = (y, fy, gy);
+                (x, f, g, leaf) = (y, fy, gy, ly);
                 accepted = true;
                 break;
             }
@@ -41,7 +56,7 @@ pub(crate) fn newton_project(
             break;
         }
     }
-    (x, f, g)
+    (x, f, g, leaf)
 }
 
 /// [`project_robust`], and where it finds no root near x (a fold of f just short of zero, as

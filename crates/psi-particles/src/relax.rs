@@ -9,7 +9,7 @@ use psi_octree::Aabb;
 use rayon::prelude::*;
 
 use crate::neighbours::{FixedSet, NeighbourIndex};
-use crate::project::{newton_project, project_to_surface};
+use crate::project::{newton_project_from, project_to_surface};
 use crate::{DensityField, ParticleParams, Particles};
 
 /// A particle's new state: position, f, ∇f, depth, σ, σ̂, nearest input point, leaf.
@@ -71,14 +71,17 @@ pub fn relax_observed(
         Some(m) => (0..n as u32).filter(|&i| m[i as usize]).collect(),
         None => (0..n as u32).collect(),
     };
-    // f and ∇f of the moving particles (the fixed ones are never updated).
+    // f and ∇f of the moving particles (the fixed ones are never updated), and the leaf each
+    // is in, a guess for the next lookup (most moves stay in the leaf).
     let mut fg: Vec<(f64, DVec3)> = vec![(0.0, DVec3::ZERO); n];
-    let initial: Vec<(f64, DVec3)> = active
+    let mut leaf: Vec<Option<u32>> = vec![None; n];
+    let initial: Vec<(f64, DVec3, Option<u32>)> = active
         .par_iter()
-        .map(|&i| mpu.value_and_gradient(particles.positions[i as usize]))
+        .map(|&i| mpu.value_and_gradient_from(particles.positions[i as usize], None))
         .collect();
-    for (&i, v) in active.iter().zip(initial) {
-        fg[i as usize] = v;
+    for (&i, (f, g, l)) in active.iter().zip(initial) {
+        fg[i as usize] = (f, g);
+        leaf[i as usize] = l;
     }
     // The farthest a moving particle looks: 3σ, σ at most its clamp above the largest σ̂.
     let reach = params.neighbour_radius
@@ -107,8 +110,6 @@ pub fn relax_observed(
     let e_hat = params.target_energy_ratio * params.energy_alpha;
     let mut velocity = vec![DVec3::ZERO; n];
     let mut anchor: Vec<Option<u32>> = vec![None; n];
-    // Each particle's leaf, a guess for the next lookup (most moves stay in the leaf).
-    let mut leaf: Vec<Option<u32>> = vec![None; n];
     for iteration in 0..params.iterations {
         if iteration > 0 {
             on_iteration(iteration);
@@ -176,12 +177,17 @@ pub fn relax_observed(
                 if len > cap {
                     step *= cap / len;
                 }
-                let (x1, f1, g1) = newton_project(mpu, x + step, tol, params.newton_steps, si);
+                let (x1, f1, g1, l1) =
+                    newton_project_from(mpu, x + step, tol, params.newton_steps, si, leaves[i]);
                 let (on_data, new_anchor) = mpu.near_data_from(x1, params.data_reach, anchors[i]);
                 let ok =
                     g1.length_squared() > 0.0 && on_data && region.accept.is_none_or(|a| a(x1));
-                let (x1, f1, g1) = if ok { (x1, f1, g1) } else { (x, f, g) };
-                let new_leaf = mpu.leaf_containing_from(x1, leaves[i]);
+                // The leaf of the particle's position: found by the evaluation at x1, or kept.
+                let (x1, f1, g1, new_leaf) = if ok {
+                    (x1, f1, g1, l1)
+                } else {
+                    (x, f, g, leaves[i])
+                };
                 let depth = new_leaf.map_or(state.depth[i], |l| mpu.octree().cell(l).depth);
                 let target = field.target_sigma(depth);
                 let mut sigma = si;

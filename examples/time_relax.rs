@@ -1,0 +1,42 @@
+//! Development aid: times `rounds` full samplings (seeding + 20 iterations) of one MPU and prints
+//! the median simulation time and the per-level CV (for profiling the relaxation alone).
+//!
+//! `cargo run --release --example time_relax -- ../shared/models/bunny.ply 9`
+
+use psi::{Mpu, MpuParams, ParticleParams};
+
+fn main() -> anyhow::Result<()> {
+    let mut args = std::env::args().skip(1);
+    let path = args
+        .next()
+        .unwrap_or_else(|| "../shared/models/bunny.ply".into());
+    let rounds: usize = args.next().map_or(Ok(9), |s| s.parse())?;
+    let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
+    let mpu = Mpu::build(&points, &MpuParams::paper())?;
+    let params = ParticleParams::paper();
+    let mut times = Vec::new();
+    let mut last = None;
+    for _ in 0..rounds {
+        let run = psi::particles::sample(&mpu, &params);
+        times.push(run.report.simulate_seconds);
+        last = Some(run);
+    }
+    times.sort_by(f64::total_cmp);
+    if let Some(run) = last {
+        let levels: Vec<String> = run
+            .report
+            .after
+            .levels
+            .iter()
+            .map(|l| format!("{}:{}/{:.3}", l.depth, l.spacing.count, l.spacing.cv))
+            .collect();
+        println!(
+            "particles {} simulate median {:.4} s (min {:.4}) levels {}",
+            run.report.count,
+            times[times.len() / 2],
+            times[0],
+            levels.join(" ")
+        );
+    }
+    Ok(())
+}
