@@ -725,7 +725,12 @@ impl Mpu {
     /// Tangential offset (in the tangent plane of input point `q`) from local `y` to the centroid
     /// of the 8 input points nearest to `y`, world units.
     fn centroid_offset(&self, y: DVec3, q: u32) -> f64 {
-        let near = self.index.nearest(y, 8);
+        self.centroid_offset_of(y, &self.index.nearest(y, 8), q)
+    }
+
+    /// [`Mpu::centroid_offset`] with the nearest input points given (shape: k, sorted by
+    /// distance).
+    fn centroid_offset_of(&self, y: DVec3, near: &[(u32, f64)], q: u32) -> f64 {
         let positions = self.octree.positions();
         let centroid = near
             .iter()
@@ -738,20 +743,16 @@ impl Mpu {
     }
 
     /// Whether input point `q` lies well inside the data: its own 8 nearest points have their
-    /// centroid within half a spacing of it (an edge point's is about 0.95 spacing away).
-    /// Cached: a pure function of the input.
+    /// centroid within half a spacing of it (an edge point's is about 0.95 spacing away for a
+    /// dense random sampling; a point on the straight border of a regular grid's is only about
+    /// 0.45 away and passes, corners fail: `tests/input_spacing.rs`). Cached: a pure function
+    /// of the input.
     pub fn input_is_interior(&self, q: u32) -> bool {
         use std::sync::atomic::Ordering;
-        let slot = &self.interior_cache[q as usize];
-        match slot.load(Ordering::Relaxed) {
+        match self.interior_cache[q as usize].load(Ordering::Relaxed) {
             1 => true,
             2 => false,
-            _ => {
-                let y = self.octree.positions()[q as usize];
-                let inside = self.centroid_offset(y, q) <= 0.5 * self.input_spacing(q);
-                slot.store(if inside { 1 } else { 2 }, Ordering::Relaxed);
-                inside
-            }
+            _ => self.fill_input_caches(q).1,
         }
     }
 
@@ -759,15 +760,25 @@ impl Mpu {
     /// neighbour (world units). Cached: it is a pure function of the input.
     pub fn input_spacing(&self, q: u32) -> f64 {
         use std::sync::atomic::Ordering;
-        let slot = &self.spacing_cache[q as usize];
-        let bits = slot.load(Ordering::Relaxed);
+        let bits = self.spacing_cache[q as usize].load(Ordering::Relaxed);
         if bits != 0 {
             return f64::from_bits(bits);
         }
-        let around = self.index.nearest(self.octree.positions()[q as usize], 9);
+        self.fill_input_caches(q).0
+    }
+
+    /// Computes and caches [`Mpu::input_spacing`] and [`Mpu::input_is_interior`] of input
+    /// point `q` from one query of its 9 nearest points (itself and 8 neighbours; the interior
+    /// test's 8 nearest are the first 8 of them). Threads racing here store equal values.
+    fn fill_input_caches(&self, q: u32) -> (f64, bool) {
+        use std::sync::atomic::Ordering;
+        let y = self.octree.positions()[q as usize];
+        let around = self.index.nearest(y, 9);
         let s = around.last().map_or(0.0, |n| n.1.sqrt()) * (std::f64::consts::PI / 8.0).sqrt();
-        slot.store(s.to_bits(), Ordering::Relaxed);
-        s
+        let inside = self.centroid_offset_of(y, &around[..around.len().min(8)], q) <= 0.5 * s;
+        self.spacing_cache[q as usize].store(s.to_bits(), Ordering::Relaxed);
+        self.interior_cache[q as usize].store(if inside { 1 } else { 2 }, Ordering::Relaxed);
+        (s, inside)
     }
 
     /// Distance from world position `x` to the nearest input point, world units (plain).
