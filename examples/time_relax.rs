@@ -1,5 +1,6 @@
-//! Development aid: times `rounds` full samplings (seeding + 20 iterations) of one MPU and prints
-//! the median simulation time and the per-level CV (for profiling the relaxation alone).
+//! Development aid: times `rounds` samplings (seeding + 20 iterations), each of a freshly built
+//! MPU, and prints the median simulation time and the per-level CV (for profiling the
+//! relaxation alone).
 //!
 //! `cargo run --release --example time_relax -- ../shared/models/bunny.ply 9`
 
@@ -12,11 +13,13 @@ fn main() -> anyhow::Result<()> {
         .unwrap_or_else(|| "../shared/models/bunny.ply".into());
     let rounds: usize = args.next().map_or(Ok(9), |s| s.parse())?;
     let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
-    let mpu = Mpu::build(&points, &MpuParams::paper())?;
     let params = ParticleParams::paper();
     let mut times = Vec::new();
     let mut last = None;
     for _ in 0..rounds {
+        // A fresh MPU each round: its lazily filled caches (input spacing, interior points)
+        // start empty, as in one `psi sample` run.
+        let mpu = Mpu::build(&points, &MpuParams::paper())?;
         let run = psi::particles::sample(&mpu, &params);
         times.push(run.report.simulate_seconds);
         last = Some(run);

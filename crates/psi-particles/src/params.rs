@@ -79,8 +79,9 @@ pub struct ParticleParams {
 
 impl ParticleParams {
     /// The paper's set-up: k = 1, 20 iterations, depth-adaptive density, Witkin–Heckbert
-    /// constants. Neighbours come from the kd-tree, which benches/neighbours.rs measured twice
-    /// as fast as the octree grid on the built-in model (1.35 ms vs 2.66 ms per iteration).
+    /// constants. Neighbours come from a uniform grid, the fastest of the three searches
+    /// (`benches/neighbours.rs`, `examples/tune_relaxation.rs`; all three give the same
+    /// particles).
     pub fn paper() -> Self {
         Self {
             k: 1,
