@@ -234,8 +234,9 @@ impl Mpu {
     /// Builds the MPU of `points` (shape: N oriented points, world units, unit or non-unit
     /// outward normals) with `params`.
     ///
-    /// Errors: fewer than N_min + 1 points, a non-finite coordinate or zero normal, or all
-    /// points coinciding. Degenerate local fits fall back (counted in [`Mpu::report`]).
+    /// Errors: a parameter out of range, fewer than N_min + 1 points, a non-finite coordinate or
+    /// zero normal, or all points coinciding. Degenerate local fits fall back (counted in
+    /// [`Mpu::report`]).
     pub fn build(points: &[OrientedPoint], params: &MpuParams) -> Result<Mpu, MpuError> {
         let frame = MpuFrame::for_points(points, params)?;
         Self::build_in_frame(points, params, &frame, None)

@@ -49,7 +49,7 @@ pub enum MpuError {
     /// ```
     #[error("bad MPU parameter: {0}")]
     BadParameter(String),
-    /// The octree could not be built (all points coincide, or parameters out of range).
+    /// The octree could not be built (all points coincide).
     ///
     /// ```
     /// use glam::DVec3;

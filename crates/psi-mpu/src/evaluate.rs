@@ -200,13 +200,8 @@ impl Mpu {
     /// surface). Visits only the cells whose support ball contains x.
     #[inline]
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
-        let y = x - self.frame.origin;
-        let mut s = Sums::default();
-        let leaf = self.octree.leaf_containing(y);
-        self.for_each_support_leaf(y, leaf, |node, d2| {
-            self.accumulate_node(y, node, d2, &mut s)
-        });
-        self.finish(y, s)
+        let (f, g, _) = self.value_and_gradient_from(x, None);
+        (f, g)
     }
 
     /// [`Mpu::value_and_gradient`] at world `x` with a guess of the leaf containing it (a

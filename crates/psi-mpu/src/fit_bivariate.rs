@@ -49,12 +49,7 @@ pub(crate) fn fit_bivariate(
         // Rows w·φ: the normal equations weight residuals by w² (as Ohtake's code). Only the
         // lower triangle is accumulated: the symmetric eigen-solver reads nothing else.
         let w2 = w * w;
-        let a = w2 * phi;
-        for j in 0..6 {
-            for i in j..6 {
-                m[(i, j)] += a[i] * phi[j];
-            }
-        }
+        m.syger(1.0, &(w2 * phi), &phi, 1.0);
         r += (w2 * h) * phi;
     }
     let c = solve_pseudo_inverse6(&m, &r, CUTOFF)?;

@@ -241,6 +241,10 @@ pub(crate) fn try_fit_cell(
         let (function, kind, fallback) =
             select_and_fit(&pos, &nrm, &w, center, half, solve_unit, params);
         let error = error_of(&function);
+        if incomplete.get() {
+            // Without the kd-tree the error is unknown: give up before the rescue's work.
+            return None;
+        }
         let fit = rescue_crease(
             (&pos, &nrm, &w),
             solve_unit,
@@ -249,18 +253,16 @@ pub(crate) fn try_fit_cell(
             &error_of,
             (function, kind, fallback, error),
         );
-        CellFit {
+        // (The rescue's errors could need the whole ball too.)
+        (!incomplete.get()).then_some(CellFit {
             function: fit.0,
             kind: fit.1,
             fallback: fit.2,
             error: fit.3,
             fit_radius: r1,
-        }
+        })
     };
-    let chosen = fit_in(params.fit_unit.unwrap_or(r1));
-    if incomplete.get() {
-        return None;
-    }
+    let chosen = fit_in(params.fit_unit.unwrap_or(r1))?;
     // MpuParams::leaf_refit: a leaf (its error is within ε0, so it will not split) with a smooth
     // fit — where world-unit cut-offs flatten the quadratic terms — also tries the
     // scale-invariant solve and keeps it when its exact error is smaller. The split decision is
@@ -272,7 +274,7 @@ pub(crate) fn try_fit_cell(
         FitKind::Bivariate | FitKind::GeneralQuadric | FitKind::Plane
     );
     if params.leaf_refit && params.fit_unit.is_some() && smooth && chosen.error <= eps0 {
-        let alt = fit_in(r1);
+        let alt = fit_in(r1)?;
         // The second solve runs the crease rescue too; a sharp result is not taken either.
         let alt_smooth = matches!(
             alt.kind,

@@ -115,8 +115,7 @@ pub(crate) fn fit_general_quadric(
         m.syger(AUX_WEIGHT, &phi, &phi, 1.0);
         r += (AUX_WEIGHT * d * inv) * phi;
     }
-    // syger fills the lower triangle only: mirror it.
-    m.fill_upper_triangle_with_lower_triangle();
+    // syger fills the lower triangle only, all the solver reads.
     let c = solve_pseudo_inverse10(&m, &r, CUTOFF)?;
     // Q_world(y) = scale · Q_n(y / scale).
     let a = DMat3::from_cols(

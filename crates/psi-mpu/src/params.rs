@@ -35,8 +35,9 @@ pub struct MpuParams {
     /// on the input's units. `None` solves in units of each cell's fit radius: unit-independent
     /// full quadratic fits and fewer cells.
     pub fit_unit: Option<f64>,
-    /// With world-unit solves (`fit_unit = Some(_)`), whether each leaf with a smooth fit is
-    /// solved again in units of its fit radius, the one with the smaller error (largest Taubin
+    /// With world-unit solves (`fit_unit = Some(_)`), whether each leaf with a smooth fit within
+    /// ε0 (not a leaf only for reaching the depth limit) is solved again in units of its fit
+    /// radius, the one with the smaller error (largest Taubin
     /// distance within R) kept. The split decisions — so the octree, its leaves and the particle count —
     /// stay those of the world-unit fits; only the leaves' functions get more accurate (on the
     /// paper's models the mean distance to the reference mesh falls from 1.5–2.4e-4 D to
