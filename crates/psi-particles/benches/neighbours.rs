@@ -6,7 +6,7 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use psi_mpu::{Mpu, MpuParams};
 use psi_octree::PointIndex;
-use psi_particles::{OctreeBuckets, ParticleGrid, ParticleParams, initialize};
+use psi_particles::{GRID_EDGE_FACTOR, OctreeBuckets, ParticleGrid, ParticleParams, initialize};
 
 fn neighbours(c: &mut Criterion) {
     let points = psi_octree::builtin_model();
@@ -39,7 +39,7 @@ fn neighbours(c: &mut Criterion) {
             black_box(n)
         })
     });
-    let edge = 0.7 * radii.iter().sum::<f64>() / radii.len() as f64;
+    let edge = GRID_EDGE_FACTOR * radii.iter().sum::<f64>() / radii.len() as f64;
     group.bench_function("grid", |b| {
         b.iter(|| {
             let grid = ParticleGrid::new(&local, edge);

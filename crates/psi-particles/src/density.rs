@@ -58,10 +58,8 @@ impl DensityField {
 
     /// The largest target radius σ̂ at any depth, world units.
     pub fn max_target_sigma(&self) -> f64 {
-        match self.uniform {
-            Some(s) => s,
-            None => self.scale * 0.5 * self.edge(self.d_min).max(self.edge(self.d_max)),
-        }
+        // The weight is 1 at d_min and never rises, so σ̂ is largest there.
+        self.target_sigma(self.d_min)
     }
 
     /// Target radius σ̂ at a fractional depth (Ohtake's blended level(x)), world units: the same

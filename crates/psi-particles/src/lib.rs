@@ -41,7 +41,7 @@ mod separate;
 pub use density::{DensityField, paper_weight};
 pub use octree_buckets::OctreeBuckets;
 pub use params::{DensityMode, NeighbourSearch, ParticleParams};
-pub use particle_grid::ParticleGrid;
+pub use particle_grid::{GRID_EDGE_FACTOR, ParticleGrid};
 pub use particles::Particles;
 pub use quality::{
     LevelStats, Quality, SpacingStats, measure_quality, nearest_neighbour_distances,

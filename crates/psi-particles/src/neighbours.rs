@@ -44,7 +44,7 @@ pub(crate) enum NeighbourIndex<'a> {
     Split {
         fixed: &'a FixedSet,
         moving: ParticleGrid,
-        moving_ids: Vec<u32>,
+        moving_ids: &'a [u32],
     },
     Kd(PointIndex),
     Grid(ParticleGrid),
@@ -82,14 +82,14 @@ impl<'a> NeighbourIndex<'a> {
     pub(crate) fn split(
         fixed: &'a FixedSet,
         positions: &[DVec3],
-        moving: &[u32],
+        moving: &'a [u32],
         edge: f64,
     ) -> Self {
         let pts: Vec<DVec3> = moving.iter().map(|&i| positions[i as usize]).collect();
         Self::Split {
             fixed,
             moving: ParticleGrid::new(&pts, edge),
-            moving_ids: moving.to_vec(),
+            moving_ids: moving,
         }
     }
 

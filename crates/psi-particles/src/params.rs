@@ -18,8 +18,8 @@ pub enum NeighbourSearch {
     Octree,
     /// A kiddo kd-tree rebuilt every iteration.
     KdTree,
-    /// A uniform grid of cubes (0.7 × the mean query radius), rebuilt every iteration: the
-    /// fastest (`benches/neighbours.rs`, `examples/tune_relaxation.rs`).
+    /// A uniform grid of cubes ([`crate::GRID_EDGE_FACTOR`] × the mean query radius), rebuilt
+    /// every iteration: the fastest (`benches/neighbours.rs`, `examples/tune_relaxation.rs`).
     Grid,
 }
 

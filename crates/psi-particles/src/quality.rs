@@ -64,15 +64,24 @@ fn stats(d: &[f64]) -> SpacingStats {
 
 /// Distance from each point to its nearest other point (shape: N, world units; ∞ for N = 1).
 pub fn nearest_neighbour_distances(positions: &[DVec3]) -> Vec<f64> {
-    let index = PointIndex::new(positions);
-    positions
+    let all: Vec<u32> = (0..positions.len() as u32).collect();
+    nearest_other_distances(&PointIndex::new(positions), positions, &all)
+}
+
+/// For each of `which` (indices into `positions`, shape: M), the distance to its nearest other
+/// point (shape: M, world units; ∞ when there is none); `index` holds `positions`.
+pub(crate) fn nearest_other_distances(
+    index: &PointIndex,
+    positions: &[DVec3],
+    which: &[u32],
+) -> Vec<f64> {
+    which
         .par_iter()
-        .enumerate()
-        .map(|(i, p)| {
+        .map(|&i| {
             index
-                .nearest(*p, 2)
+                .nearest(positions[i as usize], 2)
                 .into_iter()
-                .find(|(j, _)| *j as usize != i)
+                .find(|(j, _)| *j != i)
                 .map_or(f64::INFINITY, |(_, d2)| d2.sqrt())
         })
         .collect()

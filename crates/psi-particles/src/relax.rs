@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use crate::neighbours::{FixedSet, NeighbourIndex};
 use crate::project::{newton_project_from, project_to_surface};
-use crate::{DensityField, ParticleParams, Particles};
+use crate::{DensityField, GRID_EDGE_FACTOR, ParticleParams, Particles};
 
 /// A particle's new state: position, f, ∇f, depth, σ, σ̂, nearest input point, leaf.
 type Update = (DVec3, f64, DVec3, u8, f64, f64, Option<u32>, Option<u32>);
@@ -99,14 +99,14 @@ pub fn relax_observed(
             max: b.max + DVec3::splat(reach),
         }
     });
-    // Grid cubes: 0.7 × the mean query radius (a sweep of 0.5–1.4 on the bunny was flat
-    // within noise; 0.7 was the fastest).
-    let grid_edge = |p: &Particles| {
-        0.7 * params.neighbour_radius * p.sigma.iter().sum::<f64>() / p.sigma.len().max(1) as f64
-    };
+    // Grid cubes: a fixed fraction of the mean query radius at the start (any edge gives the
+    // same neighbours).
+    let grid_edge =
+        GRID_EDGE_FACTOR * params.neighbour_radius * particles.sigma.iter().sum::<f64>()
+            / particles.sigma.len().max(1) as f64;
     let fixed = region
         .movable
-        .map(|m| FixedSet::new(&particles.positions, m, near, grid_edge(particles)));
+        .map(|m| FixedSet::new(&particles.positions, m, near, grid_edge));
     let e_hat = params.target_energy_ratio * params.energy_alpha;
     let mut velocity = vec![DVec3::ZERO; n];
     let mut anchor: Vec<Option<u32>> = vec![None; n];
@@ -116,14 +116,9 @@ pub fn relax_observed(
         }
         let index = match (&fixed, region.movable) {
             (Some(f), Some(_)) => {
-                NeighbourIndex::split(f, &particles.positions, &active, grid_edge(particles))
+                NeighbourIndex::split(f, &particles.positions, &active, grid_edge)
             }
-            _ => NeighbourIndex::new(
-                params.neighbours,
-                mpu,
-                &particles.positions,
-                grid_edge(particles),
-            ),
+            _ => NeighbourIndex::new(params.neighbours, mpu, &particles.positions, grid_edge),
         };
         let state = &*particles;
         let fg_ref = &fg;

@@ -135,7 +135,8 @@ pub fn seed_leaves(
     particles
 }
 
-/// Seeds, relaxes and measures (the paper's pipeline).
+/// Seeds, relaxes (in uniform mode also separates close pairs) and measures (the paper's
+/// pipeline).
 pub fn sample(mpu: &Mpu, params: &ParticleParams) -> Sampling {
     sample_observed(mpu, params, &|_| {})
 }
@@ -161,17 +162,14 @@ pub fn sample_observed(
         RelaxRegion::default(),
         on_iteration,
     );
-    let separation = if params.density == DensityMode::Uniform {
-        separate_close_pairs(
-            mpu,
-            &mut particles,
-            &density,
-            params,
-            RelaxRegion::default(),
-        )
-    } else {
-        None
-    };
+    // Uniform mode only (`None` otherwise).
+    let separation = separate_close_pairs(
+        mpu,
+        &mut particles,
+        &density,
+        params,
+        RelaxRegion::default(),
+    );
     let simulate_seconds = t1.elapsed().as_secs_f64();
     let after = measure_quality(mpu, &particles);
     let report = SampleReport {

@@ -15,7 +15,8 @@ use psi_octree::PointIndex;
 use serde::{Deserialize, Serialize};
 
 use crate::project::project_to_surface;
-use crate::{DensityField, ParticleParams, Particles, RelaxRegion, nearest_neighbour_distances};
+use crate::quality::nearest_other_distances;
+use crate::{DensityField, ParticleParams, Particles, RelaxRegion};
 
 /// A pair closer than this fraction of the hexagonal spacing 2σ̂ is pushed apart.
 pub const SEPARATION: f64 = 0.8;
@@ -45,7 +46,8 @@ pub struct SeparationReport {
     pub pushed: usize,
     /// Seconds the pass took (also counted in the sampling's `simulate_seconds`).
     pub seconds: f64,
-    /// Smallest nearest-neighbour distance before and after, over the hexagonal spacing 2σ̂.
+    /// Smallest nearest-neighbour distance before and after, over the hexagonal spacing 2σ̂, of
+    /// the particles the pass may move (all, outside local regeneration).
     pub min_spacing_before: f64,
     /// See `min_spacing_before`.
     pub min_spacing_after: f64,
@@ -73,9 +75,15 @@ pub fn separate_close_pairs(
     }
     let start = std::time::Instant::now();
     let spacing = 2.0 * s;
-    // One nearest-neighbour pass per round gives both the close pairs' members (a particle
-    // whose nearest neighbour is within the limit is a member) and the report's minimum.
-    let mut nn = nearest_neighbour_distances(&particles.positions);
+    // The particles that may move: only their nearest-neighbour distances are needed.
+    let movable: Vec<u32> = (0..particles.len() as u32)
+        .filter(|&i| region.movable.is_none_or(|m| m[i as usize]))
+        .collect();
+    // One index of the positions per round gives the close pairs' members (a particle whose
+    // nearest neighbour is within the limit is a member), the report's minimum and the pushes'
+    // candidate neighbours.
+    let mut index = PointIndex::new(&particles.positions);
+    let mut nn = nearest_other_distances(&index, &particles.positions, &movable);
     let min_of = |nn: &[f64]| nn.iter().copied().fold(f64::INFINITY, f64::min) / spacing;
     let mut report = SeparationReport {
         min_spacing_before: min_of(&nn),
@@ -83,16 +91,19 @@ pub fn separate_close_pairs(
     };
     report.min_spacing_after = report.min_spacing_before;
     for _ in 0..ROUNDS {
-        let members: Vec<u32> = (0..nn.len())
-            .filter(|&i| nn[i] < SEPARATION * spacing && region.movable.is_none_or(|m| m[i]))
-            .map(|i| i as u32)
+        let members: Vec<u32> = movable
+            .iter()
+            .zip(&nn)
+            .filter(|&(_, &d)| d < SEPARATION * spacing)
+            .map(|(&i, _)| i)
             .collect();
         if members.is_empty() {
             break;
         }
-        report.pushed += push_apart(mpu, particles, &members, s, params, region.accept);
+        report.pushed += push_apart(mpu, particles, &index, &members, s, params, region.accept);
         report.rounds += 1;
-        nn = nearest_neighbour_distances(&particles.positions);
+        index = PointIndex::new(&particles.positions);
+        nn = nearest_other_distances(&index, &particles.positions, &movable);
         report.min_spacing_after = min_of(&nn);
     }
     report.seconds = start.elapsed().as_secs_f64();
@@ -100,18 +111,18 @@ pub fn separate_close_pairs(
 }
 
 /// Moves each of `members`, one after the other, away from its nearest neighbour along the
-/// surface while its distance to the nearest particle grows. `s` is σ̂ (world units). Returns
-/// how many moved.
+/// surface while its distance to the nearest particle grows. `index` holds the positions at the
+/// round's start; `s` is σ̂ (world units). Returns how many moved.
 fn push_apart(
     mpu: &Mpu,
     particles: &mut Particles,
+    index: &PointIndex,
     members: &[u32],
     s: f64,
     params: &ParticleParams,
     accept: Option<&(dyn Fn(DVec3) -> bool + Sync)>,
 ) -> usize {
     let tol = params.newton_tolerance * mpu.diagonal();
-    let index = PointIndex::new(&particles.positions);
     let mut near = Vec::new();
     let mut moved = 0;
     for &i in members {

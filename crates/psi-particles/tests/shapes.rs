@@ -52,10 +52,7 @@ fn uniform_mode_is_blue_noise_and_relaxation_helps() {
         );
         assert!(r.after.spacing.cv < r.before.spacing.cv);
         // On the true surface too.
-        let d = mpu.diagonal();
-        for p in &run.particles.positions {
-            assert!(shape.signed_distance(*p).abs() <= 1e-3 * d);
-        }
+        crate_level_checks(&mpu, &run.particles.positions, shape);
         assert!(r.after.max_surface_distance <= 1e-4 + 1e-12);
     }
 }

@@ -153,8 +153,11 @@ impl Scene {
         let t1 = Instant::now();
         // Keep the particles whose old leaf is unmarked and whose new leaf was not refitted.
         // Outside a box around those leaves the answer is yes without a lookup.
+        // (Local frame; the refitted leaves' box also bounds the relaxation below.)
+        let refit_box = Aabb::from_points(leaf_corners(&mpu, &refit));
         let changed_leaves = Aabb::from_points(
-            leaf_corners(&self.mpu, &marked_old).chain(leaf_corners(&mpu, &refit)),
+            leaf_corners(&self.mpu, &marked_old)
+                .chain(refit_box.iter().flat_map(|b| [b.min, b.max])),
         );
         let keep: Vec<bool> = self
             .particles
@@ -190,7 +193,10 @@ impl Scene {
         let movable: Vec<bool> = (0..particles.len()).map(|i| i >= kept).collect();
         let accept = |x: DVec3| mpu.leaf_containing(x).is_some_and(|l| refit[l as usize]);
         // The refitted leaves, which hold every position `accept` accepts (world units).
-        let bounds = Aabb::from_points(leaf_corners(&mpu, &refit).map(|c| c + origin));
+        let bounds = refit_box.map(|b| Aabb {
+            min: b.min + origin,
+            max: b.max + origin,
+        });
         let region = RelaxRegion {
             movable: Some(&movable),
             accept: Some(&accept),
