@@ -1,8 +1,9 @@
 //! Development aid: times `rounds` samplings (seeding + 20 iterations), each of a freshly built
 //! MPU, and prints the median simulation time and the per-level CV (for profiling the
-//! relaxation alone).
+//! relaxation alone). With `warm` as third argument every round samples one MPU, whose lazily
+//! filled per-point caches are then full after the first round: the difference is their cost.
 //!
-//! `cargo run --release --example time_relax -- ../shared/models/bunny.ply 9`
+//! `cargo run --release --example time_relax -- ../shared/models/bunny.ply 9 [warm]`
 
 use psi::{Mpu, MpuParams, ParticleParams};
 
@@ -12,15 +13,21 @@ fn main() -> anyhow::Result<()> {
         .next()
         .unwrap_or_else(|| "../shared/models/bunny.ply".into());
     let rounds: usize = args.next().map_or(Ok(9), |s| s.parse())?;
+    let warm = args.next().is_some_and(|a| a == "warm");
     let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
     let params = ParticleParams::paper();
     let mut times = Vec::new();
     let mut last = None;
+    let shared = Mpu::build(&points, &MpuParams::paper())?;
     for _ in 0..rounds {
-        // A fresh MPU each round: its lazily filled caches (input spacing, interior points)
-        // start empty, as in one `psi sample` run.
-        let mpu = Mpu::build(&points, &MpuParams::paper())?;
-        let run = psi::particles::sample(&mpu, &params);
+        // Unless warm, a fresh MPU each round: its lazily filled caches (input spacing,
+        // interior points) start empty, as in one `psi sample` run.
+        let fresh = if warm {
+            None
+        } else {
+            Some(Mpu::build(&points, &MpuParams::paper())?)
+        };
+        let run = psi::particles::sample(fresh.as_ref().unwrap_or(&shared), &params);
         times.push(run.report.simulate_seconds);
         last = Some(run);
     }

@@ -3,23 +3,14 @@
 //! asks of every model, here for the three small ones (`cargo xtask reproduce-tables` checks
 //! all seven). Skipped, with a message, when `../shared/models` is absent.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 mod common;
-use common::models;
+use common::model;
 
 use parry3d_f64::query::PointQuery;
 use parry3d_f64::shape::TriMesh;
 use psi::{Mpu, MpuParams, ParticleParams, ReadOptions};
-
-/// `../shared/models/<name>`, or `None` (skipped, with a message) when it is absent.
-fn model(name: &str) -> Option<PathBuf> {
-    let path = models()?.join(name);
-    path.is_file().then_some(path).or_else(|| {
-        eprintln!("skipped: {name} not found in ../shared/models");
-        None
-    })
-}
 
 /// Share of the paper pipeline's particles within `tol` × D of the mesh the points came from.
 fn share_within(path: &Path, tol: f64) -> f64 {

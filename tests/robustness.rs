@@ -5,7 +5,7 @@
 use std::time::{Duration, Instant};
 
 mod common;
-use common::{assert_rejected, psi, psi_env, scratch};
+use common::{assert_rejected, model, psi, psi_env, scratch};
 
 fn xyz(points: &[psi::OrientedPoint]) -> String {
     points
@@ -343,11 +343,9 @@ fn a_flat_patch_is_sampled_on_the_patch() {
 
 #[test]
 fn a_bunny_with_a_quarter_removed_gets_no_particles_in_the_gap() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/models/bunny.ply");
-    if !path.is_file() {
-        eprintln!("skipped: ../shared/models not found");
+    let Some(path) = model("bunny.ply") else {
         return;
-    }
+    };
     let all = psi::load_points(&path, &psi::ReadOptions::paper())
         .unwrap()
         .points;

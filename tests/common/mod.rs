@@ -56,3 +56,12 @@ pub(crate) fn assert_rejected(out: &Output, name: &str, kept: &Path, what: &str)
         "{what} clobbered the output"
     );
 }
+
+/// `../shared/models/<name>`, or `None` (skipped, with a message) when it is absent.
+pub(crate) fn model(name: &str) -> Option<PathBuf> {
+    let path = models()?.join(name);
+    path.is_file().then_some(path).or_else(|| {
+        eprintln!("skipped: {name} not found in ../shared/models");
+        None
+    })
+}

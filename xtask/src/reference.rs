@@ -31,13 +31,13 @@ impl Reference {
             .collect()
     }
 
-    /// `n` area-uniform samples of the mesh surface (seeded).
     /// Area of face `f` (vertex indices) of the mesh, world units².
     pub(crate) fn face_area(&self, f: &[u32; 3]) -> f64 {
         let [a, b, c] = f.map(|i| self.mesh.vertices[i as usize]);
         0.5 * (b - a).cross(c - a).length()
     }
 
+    /// `n` area-uniform samples of the mesh surface (seeded).
     pub(crate) fn surface_samples(&self, n: usize, seed: u64) -> Vec<DVec3> {
         if self.mesh.faces.is_empty() {
             return Vec::new();
@@ -67,17 +67,20 @@ impl Reference {
     }
 }
 
-/// Distance from surface `from` to surface `to` as Metro measures it (Cignoni et al. 1998): mean,
-/// p99 and share within 2e-3 D over 200 000 area-uniform samples of `from` (seeded), the
-/// maximum over those samples and `from_vertices` (its referenced vertices, where a one-sided
-/// Hausdorff maximum often sits). Over D.
+/// Area-uniform samples per surface in [`metro_stats`], and their seed.
+pub(crate) const METRO_SAMPLES: (usize, u64) = (200_000, 29);
+
+/// Distance from a surface to surface `to` as Metro measures it (Cignoni et al. 1998): mean,
+/// p99 and share within 2e-3 D over `from_samples` (area-uniform samples of the surface,
+/// [`Reference::surface_samples`] with [`METRO_SAMPLES`]), the maximum over those samples and
+/// `from_vertices` (its vertices, where a one-sided Hausdorff maximum often sits). Over D.
 pub(crate) fn metro_stats(
-    from: &Reference,
-    to: &Reference,
+    from_samples: &[DVec3],
     from_vertices: &[DVec3],
+    to: &Reference,
     diag: f64,
 ) -> serde_json::Value {
-    let samples = to.distances(&from.surface_samples(200_000, 29));
+    let samples = to.distances(from_samples);
     let vertex_max = to.distances(from_vertices).into_iter().fold(0.0, f64::max);
     let mut stats = distance_stats(&samples, diag);
     let max = stats["max"].as_f64().unwrap_or(0.0).max(vertex_max / diag);

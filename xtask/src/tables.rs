@@ -8,7 +8,9 @@ use anyhow::{Context, Result, bail};
 use serde_json::{Value, json};
 
 use crate::paper::{LEVET, TABLE1, TABLE2};
-use crate::reference::{Reference, area, coverage, distance_stats, metro_stats, worst_gap};
+use crate::reference::{
+    METRO_SAMPLES, Reference, area, coverage, distance_stats, metro_stats, worst_gap,
+};
 use crate::{Flags, host, models_dir, project_root};
 
 /// Builds the release `psi` binary and returns its path.
@@ -165,6 +167,8 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
             .iter()
             .map(|&i| reference.mesh.vertices[i as usize])
             .collect();
+        let (n, seed) = METRO_SAMPLES;
+        let ref_samples = reference.surface_samples(n, seed);
         for (mode, extra) in [
             ("paper", None),
             ("scale-invariant", Some("--scale-invariant")),
@@ -182,8 +186,9 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
                 );
             }
             let ours = Reference::new(psi::load_mesh(&mesh_path)?)?;
-            let to_reference = metro_stats(&ours, &reference, &ours.mesh.vertices, diag);
-            let from_reference = metro_stats(&reference, &ours, &ref_points, diag);
+            let ours_samples = ours.surface_samples(n, seed);
+            let to_reference = metro_stats(&ours_samples, &ours.mesh.vertices, &reference, diag);
+            let from_reference = metro_stats(&ref_samples, &ref_points, &ours, diag);
             md.push_str(&format!(
                 "| {} | {} | {mode} | {:.1e} / {:.1e} | {:.1e} / {:.1e} / {:.1e} |\n",
                 row.model,
