@@ -57,16 +57,19 @@ pub(crate) fn eval_nodes_into(
 }
 
 impl Mpu {
-    /// The leaves whose support ball meets the cube of leaf `leaf` (a superset of the leaves that
-    /// can cover any point of that cube), in arena order; computed on first use and cached.
+    /// The leaves whose support ball meets the cube of leaf `leaf` (exactly the leaves that can
+    /// cover some point of that cube, up to rounding on the ball's surface), in arena order;
+    /// computed on first use and cached.
     fn candidates(&self, leaf: u32) -> &[u32] {
         self.leaf_candidates[leaf as usize].get_or_init(|| {
             let cell = self.octree.cell(leaf);
-            let reach = 3f64.sqrt() * cell.half;
             let nodes = &self.nodes;
+            // Ball–cube test: the squared distance from the ball's centre to the cube, against
+            // R² with a relative margin for rounding (a superset is harmless, a miss is not).
             let meets = |n: &EvalNode| {
-                let r = n.r2.sqrt() + reach;
-                (cell.center - n.center).length_squared() <= r * r
+                let gap =
+                    ((n.center - cell.center).abs() - DVec3::splat(cell.half)).max(DVec3::ZERO);
+                gap.length_squared() <= n.r2 * (1.0 + 1e-9)
             };
             let mut out = Vec::new();
             let mut stack = vec![0u32];
