@@ -785,9 +785,8 @@ impl Mpu {
     /// Distance from world position `x` to the nearest input point, world units (plain).
     pub fn distance_to_data(&self, x: DVec3) -> f64 {
         self.index
-            .nearest(x - self.frame.origin, 1)
-            .first()
-            .map_or(f64::INFINITY, |n| n.1.sqrt())
+            .nearest_one(x - self.frame.origin)
+            .map_or(f64::INFINITY, |(_, d2)| d2.sqrt())
     }
 
     /// Edge length of a cell at `depth`, world units.
