@@ -39,10 +39,21 @@ pub struct Mpu {
     pub(crate) params: MpuParams,
     pub(crate) report: BuildReport,
     pub(crate) index: std::sync::Arc<PointIndex>,
-    /// Lazily computed [`Mpu::input_spacing`] per input point (f64 bits; 0 = not yet).
-    pub(crate) spacing_cache: std::sync::Arc<Vec<std::sync::atomic::AtomicU64>>,
-    /// Lazily computed [`Mpu::input_is_interior`] per input point (0 = not yet, 1 = yes, 2 = no).
-    pub(crate) interior_cache: std::sync::Arc<Vec<std::sync::atomic::AtomicU8>>,
+    /// Per input point, computed on first use: its spacing, whether it is interior and the
+    /// centroid of its 8 nearest points ([`InputLocal`]).
+    pub(crate) input_local: std::sync::Arc<Vec<std::sync::OnceLock<InputLocal>>>,
+}
+
+/// What an input point's 9 nearest points (itself and 8 neighbours) say about the data around
+/// it: a pure function of the input, cached per point by [`Mpu`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct InputLocal {
+    /// Centroid of the point's 8 nearest input points (itself included), local frame.
+    centroid: DVec3,
+    /// d₈·√(π/8), world units ([`Mpu::input_spacing`]).
+    spacing: f64,
+    /// [`Mpu::input_is_interior`].
+    interior: bool,
 }
 
 /// Memory for an MPU build to fill instead of allocating: the largest arrays of an earlier MPU
@@ -56,8 +67,7 @@ pub struct MpuBuffers {
     octree: psi_octree::OctreeBuffers,
     nodes: Vec<crate::evaluate::EvalNode>,
     candidates: Vec<std::sync::OnceLock<Box<[u32]>>>,
-    interior: Vec<std::sync::atomic::AtomicU8>,
-    spacing: Vec<std::sync::atomic::AtomicU64>,
+    input_local: Vec<std::sync::OnceLock<InputLocal>>,
 }
 
 /// Buffers hold no content, only memory: a clone is empty (it allocates when used).
@@ -87,18 +97,15 @@ impl MpuBuffers {
             octree: psi_octree::OctreeBuffers::with_capacity(cells, n),
             nodes: Vec::with_capacity(cells),
             candidates: Vec::with_capacity(cells),
-            interior: Vec::with_capacity(n),
-            spacing: Vec::with_capacity(n),
+            input_local: Vec::with_capacity(n),
         };
         // Touched once, then emptied (capacity kept).
         b.nodes.extend(mpu.nodes.iter().copied());
         b.nodes.clear();
         b.candidates.resize_with(cells, std::sync::OnceLock::new);
         b.candidates.clear();
-        b.interior.resize_with(n, Default::default);
-        b.interior.clear();
-        b.spacing.resize_with(n, Default::default);
-        b.spacing.clear();
+        b.input_local.resize_with(n, Default::default);
+        b.input_local.clear();
         b
     }
 
@@ -306,8 +313,7 @@ impl Mpu {
             octree: octree_buffers,
             nodes: nodes_buffer,
             mut candidates,
-            mut interior,
-            mut spacing,
+            mut input_local,
             ..
         } = buffers;
         if let Some(r) = reuse
@@ -528,10 +534,8 @@ impl Mpu {
         // The lazily filled tables start empty, in the buffers' memory when there is some.
         candidates.clear();
         candidates.resize_with(nodes.len(), std::sync::OnceLock::new);
-        interior.clear();
-        interior.resize_with(n, || std::sync::atomic::AtomicU8::new(0));
-        spacing.clear();
-        spacing.resize_with(n, || std::sync::atomic::AtomicU64::new(0));
+        input_local.clear();
+        input_local.resize_with(n, std::sync::OnceLock::new);
         let leaf_candidates = std::sync::Arc::new(candidates);
         Ok(Mpu {
             leaf_candidates,
@@ -547,8 +551,7 @@ impl Mpu {
             params: *params,
             report,
             index,
-            interior_cache: std::sync::Arc::new(interior),
-            spacing_cache: std::sync::Arc::new(spacing),
+            input_local: std::sync::Arc::new(input_local),
         })
     }
 
@@ -564,8 +567,7 @@ impl Mpu {
             octree,
             nodes: self.nodes,
             candidates,
-            interior: std::sync::Arc::try_unwrap(self.interior_cache).unwrap_or_default(),
-            spacing: std::sync::Arc::try_unwrap(self.spacing_cache).unwrap_or_default(),
+            input_local: std::sync::Arc::try_unwrap(self.input_local).unwrap_or_default(),
         }
     }
 
@@ -672,11 +674,13 @@ impl Mpu {
     }
 
     /// Whether world position `x` lies inside the data's footprint: within `reach` local input
-    /// spacings of the nearest input point, and not beyond the edge of the data (a hole or a
-    /// scan's border). The spacing at the nearest point q is [`Mpu::input_spacing`]; x is past an
-    /// edge when the centroid of its own 8 nearest points is offset from x, in the tangent plane
-    /// of q, by more than a spacing (inside the data the offset is a fraction of a spacing, on a
-    /// straight edge about 0.95, the centroid of a half disc of radius √(2k/π) spacings).
+    /// spacings of the nearest input point q, and not beyond the edge of the data (a hole or a
+    /// scan's border). The spacing at q is [`Mpu::input_spacing`]; x is past an edge when the
+    /// centroid of q's 8 nearest input points (cached per point) is offset from x, in the tangent
+    /// plane of q, by more than a spacing: inside the data that centroid lies a fraction of a
+    /// spacing from q, on a straight edge about 0.95 spacing inward (the centroid of a half disc
+    /// of radius √(2k/π) spacings), so x beyond q, or beside an edge point along the edge by more
+    /// than about 0.3 spacing, is out.
     ///
     /// Within half a spacing of an interior input point (its own neighbours surround it,
     /// [`Mpu::input_is_interior`]) x is inside without the edge test. (An interior point can lie
@@ -687,25 +691,30 @@ impl Mpu {
     /// the new anchor.
     pub fn near_data_from(&self, x: DVec3, reach: f64, anchor: Option<u32>) -> (bool, Option<u32>) {
         let y = x - self.frame.origin;
-        if let Some(a) = anchor
-            && (self.octree.positions()[a as usize] - y).length() <= 0.5 * self.input_spacing(a)
-            && self.input_is_interior(a)
-        {
-            return (true, Some(a));
+        if let Some(a) = anchor {
+            let local = self.input_local(a);
+            if local.interior
+                && (self.octree.positions()[a as usize] - y).length() <= 0.5 * local.spacing
+            {
+                return (true, Some(a));
+            }
         }
         let Some((q, d2)) = self.index.nearest_one(y) else {
             return (false, None);
         };
-        let spacing = self.input_spacing(q);
+        let local = self.input_local(q);
         let d = d2.sqrt();
-        if d > reach * spacing {
+        if d > reach * local.spacing {
             return (false, Some(q));
         }
         // Fast path: q lies well inside the data and x is within half a spacing of it.
-        if d <= 0.5 * spacing && self.input_is_interior(q) {
+        if d <= 0.5 * local.spacing && local.interior {
             return (true, Some(q));
         }
-        (self.centroid_offset(y, q) <= spacing, Some(q))
+        let n = self.points[q as usize].n;
+        let offset = local.centroid - y;
+        let tangential = (offset - n * offset.dot(n)).length();
+        (tangential <= local.spacing, Some(q))
     }
 
     /// The input point nearest to world `x` (world units, unit normal); `None` for an empty input.
@@ -723,65 +732,46 @@ impl Mpu {
         d2.sqrt() / self.input_spacing(q).max(f64::MIN_POSITIVE)
     }
 
-    /// Tangential offset (in the tangent plane of input point `q`) from local `y` to the centroid
-    /// of the 8 input points nearest to `y`, world units.
-    fn centroid_offset(&self, y: DVec3, q: u32) -> f64 {
-        self.centroid_offset_of(y, &self.index.nearest(y, 8), q)
-    }
-
-    /// [`Mpu::centroid_offset`] with the nearest input points given (shape: k, sorted by
-    /// distance).
-    fn centroid_offset_of(&self, y: DVec3, near: &[(u32, f64)], q: u32) -> f64 {
-        let positions = self.octree.positions();
-        let centroid = near
-            .iter()
-            .map(|&(i, _)| positions[i as usize])
-            .sum::<DVec3>()
-            / near.len().max(1) as f64;
-        let n = self.points[q as usize].n;
-        let offset = centroid - y;
-        (offset - n * offset.dot(n)).length()
-    }
-
-    /// Whether input point `q` lies well inside the data: its own 8 nearest points have their
-    /// centroid within half a spacing of it (an edge point's is about 0.95 spacing away for a
-    /// dense random sampling; a point on the straight border of a regular grid's is only about
-    /// 0.45 away and passes, corners fail: `tests/input_spacing.rs`). Cached: a pure function
-    /// of the input.
+    /// Whether input point `q` lies well inside the data: its own 8 nearest points (itself
+    /// included) have their centroid within half a spacing of it in its tangent plane (an edge
+    /// point's is about 0.95 spacing away for a dense random sampling; a point on the straight
+    /// border of a regular grid's is only about 0.45 away and passes, corners fail:
+    /// `tests/input_spacing.rs`). Cached: a pure function of the input.
     pub fn input_is_interior(&self, q: u32) -> bool {
-        use std::sync::atomic::Ordering;
-        match self.interior_cache[q as usize].load(Ordering::Relaxed) {
-            1 => true,
-            2 => false,
-            _ => self.fill_input_caches(q).1,
-        }
+        self.input_local(q).interior
     }
 
     /// The input spacing at input point `q`: d₈·√(π/8), d₈ the distance to its 8th nearest
     /// neighbour (world units). Cached: it is a pure function of the input.
     pub fn input_spacing(&self, q: u32) -> f64 {
-        use std::sync::atomic::Ordering;
-        let bits = self.spacing_cache[q as usize].load(Ordering::Relaxed);
-        if bits != 0 {
-            return f64::from_bits(bits);
-        }
-        self.fill_input_caches(q).0
+        self.input_local(q).spacing
     }
 
-    /// Computes and caches [`Mpu::input_spacing`] and [`Mpu::input_is_interior`] of input
-    /// point `q` from one query of its 9 nearest points (itself and 8 neighbours; the interior
-    /// test's 8 nearest are the first 8 of them). Threads racing here store equal values.
-    fn fill_input_caches(&self, q: u32) -> (f64, bool) {
-        use std::sync::atomic::Ordering;
-        let y = self.octree.positions()[q as usize];
-        let around = self.index.nearest(y, 9);
-        let s = around.last().map_or(0.0, |n| n.1.sqrt()) * (std::f64::consts::PI / 8.0).sqrt();
-        let inside = self.centroid_offset_of(y, &around[..around.len().min(8)], q) <= 0.5 * s;
-        self.spacing_cache[q as usize].store(s.to_bits(), Ordering::Relaxed);
-        self.interior_cache[q as usize].store(if inside { 1 } else { 2 }, Ordering::Relaxed);
-        (s, inside)
+    /// The cached [`InputLocal`] of input point `q`, computed on first use from one query of its
+    /// 9 nearest points (itself and 8 neighbours; the centroid is of the first 8).
+    fn input_local(&self, q: u32) -> InputLocal {
+        *self.input_local[q as usize].get_or_init(|| {
+            let y = self.octree.positions()[q as usize];
+            let around = self.index.nearest(y, 9);
+            let spacing =
+                around.last().map_or(0.0, |n| n.1.sqrt()) * (std::f64::consts::PI / 8.0).sqrt();
+            let first = &around[..around.len().min(8)];
+            let positions = self.octree.positions();
+            let centroid = first
+                .iter()
+                .map(|&(i, _)| positions[i as usize])
+                .sum::<DVec3>()
+                / first.len().max(1) as f64;
+            let n = self.points[q as usize].n;
+            let offset = centroid - y;
+            let interior = (offset - n * offset.dot(n)).length() <= 0.5 * spacing;
+            InputLocal {
+                centroid,
+                spacing,
+                interior,
+            }
+        })
     }
-
     /// Distance from world position `x` to the nearest input point, world units (plain).
     pub fn distance_to_data(&self, x: DVec3) -> f64 {
         self.index
