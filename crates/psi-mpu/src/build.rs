@@ -54,6 +54,12 @@ pub(crate) struct InputLocal {
     spacing: f64,
     /// [`Mpu::input_is_interior`].
     interior: bool,
+    /// The point's 9 nearest input points (itself included), the first `count` valid.
+    near: [u32; 9],
+    count: u8,
+    /// Every input point not in `near` is at least this far from the point, world units (the
+    /// 9th nearest's distance; ∞ when `near` holds every input point).
+    beyond: f64,
 }
 
 /// Memory for an MPU build to fill instead of allocating: the largest arrays of an earlier MPU
@@ -699,7 +705,10 @@ impl Mpu {
                 return (true, Some(a));
             }
         }
-        let Some((q, d2)) = self.index.nearest_one(y) else {
+        let found = anchor
+            .and_then(|a| self.nearest_among_neighbours_of(y, a))
+            .or_else(|| self.index.nearest_one(y));
+        let Some((q, d2)) = found else {
             return (false, None);
         };
         let local = self.input_local(q);
@@ -765,13 +774,47 @@ impl Mpu {
             let n = self.points[q as usize].n;
             let offset = centroid - y;
             let interior = (offset - n * offset.dot(n)).length() <= 0.5 * spacing;
+            let mut near = [0u32; 9];
+            for (slot, &(i, _)) in near.iter_mut().zip(&around) {
+                *slot = i;
+            }
+            let beyond = if around.len() < 9 {
+                f64::INFINITY
+            } else {
+                around[8].1.sqrt()
+            };
             InputLocal {
                 centroid,
                 spacing,
                 interior,
+                near,
+                count: around.len() as u8,
+                beyond,
             }
         })
     }
+
+    /// The input point nearest to local `y` and its squared distance, when the cached 9 nearest
+    /// of input point `a` prove it: the closest of them is nearer to `y` than any other input
+    /// point can be (those are at least `beyond` from `a`, so at least `beyond − |y − a|` from
+    /// `y`). `None` when the proof fails; ties go to the lower index.
+    fn nearest_among_neighbours_of(&self, y: DVec3, a: u32) -> Option<(u32, f64)> {
+        let local = self.input_local(a);
+        let positions = self.octree.positions();
+        let bound = local.beyond - (positions[a as usize] - y).length();
+        if bound <= 0.0 {
+            return None;
+        }
+        let mut best = (u32::MAX, f64::INFINITY);
+        for &j in &local.near[..local.count as usize] {
+            let d2 = (positions[j as usize] - y).length_squared();
+            if d2 < best.1 || (d2 == best.1 && j < best.0) {
+                best = (j, d2);
+            }
+        }
+        (best.1 < bound * bound).then_some(best)
+    }
+
     /// Distance from world position `x` to the nearest input point, world units (plain).
     pub fn distance_to_data(&self, x: DVec3) -> f64 {
         self.index
@@ -782,5 +825,51 @@ impl Mpu {
     /// Edge length of a cell at `depth`, world units.
     pub fn cell_edge(&self, depth: u8) -> f64 {
         self.octree.edge_at_depth(depth)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use psi_octree::AnalyticShape;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    /// The certificate from an input point's cached neighbours against a brute-force nearest
+    /// point: whenever it answers, the answer is the nearest; and it answers for most positions
+    /// within a spacing of the point (else it would save nothing). Positions up to two
+    /// spacings away are tried too, for the answers' sake.
+    #[test]
+    fn nearest_among_neighbours_is_the_brute_force_nearest() {
+        let points = AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.3,
+        }
+        .sample(4000, 5);
+        let mpu = Mpu::build(&points, &MpuParams::paper()).expect("torus builds");
+        let positions = mpu.octree.positions();
+        let mut rng = Pcg64Mcg::seed_from_u64(3);
+        let (mut answered, trials) = (0, 2000);
+        for t in 0..2 * trials {
+            let a = (t * 7 % positions.len()) as u32;
+            let s = mpu.input_spacing(a);
+            let dir = DVec3::new(
+                rng.random::<f64>() - 0.5,
+                rng.random::<f64>() - 0.5,
+                rng.random::<f64>() - 0.5,
+            );
+            let reach = if t < trials { 1.0 } else { 2.0 };
+            let y = positions[a as usize] + reach * s * rng.random::<f64>() * dir.normalize();
+            let brute = positions
+                .iter()
+                .map(|p| (p - y).length_squared())
+                .fold(f64::INFINITY, f64::min);
+            if let Some((q, d2)) = mpu.nearest_among_neighbours_of(y, a) {
+                assert_eq!(d2, brute, "trial {t}");
+                assert_eq!((positions[q as usize] - y).length_squared(), d2);
+                answered += usize::from(t < trials);
+            }
+        }
+        assert!(answered > trials / 2, "answered {answered} of {trials}");
     }
 }
