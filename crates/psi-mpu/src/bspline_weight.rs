@@ -29,7 +29,13 @@ pub(crate) fn weight_and_gradient(x: DVec3, c: DVec3, r: f64, d2: f64) -> (f64, 
 /// common inner branch).
 #[inline]
 pub(crate) fn weight_and_gradient_r2(x: DVec3, c: DVec3, r2: f64, d2: f64) -> (f64, DVec3) {
-    let inv_r2 = 1.0 / r2;
+    weight_and_gradient_inv_r2(x, c, 1.0 / r2, d2)
+}
+
+/// As [`weight_and_gradient_r2`], from `inv_r2` = 1 / R² computed once (no division on the
+/// inner branch; the same rounding as computing it here).
+#[inline]
+pub(crate) fn weight_and_gradient_inv_r2(x: DVec3, c: DVec3, inv_r2: f64, d2: f64) -> (f64, DVec3) {
     let t2 = 2.25 * d2 * inv_r2;
     if t2 < 0.25 {
         (0.75 - t2, (-4.5 * inv_r2) * (x - c))

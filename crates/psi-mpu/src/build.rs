@@ -758,8 +758,8 @@ impl Mpu {
 
     /// The cached [`InputLocal`] of input point `q`, computed on first use from one query of its
     /// 9 nearest points (itself and 8 neighbours; the centroid is of the first 8).
-    fn input_local(&self, q: u32) -> InputLocal {
-        *self.input_local[q as usize].get_or_init(|| {
+    fn input_local(&self, q: u32) -> &InputLocal {
+        self.input_local[q as usize].get_or_init(|| {
             let y = self.octree.positions()[q as usize];
             let around = self.index.nearest(y, 9);
             let spacing =
