@@ -1,25 +1,28 @@
-//! Development aid: where the per-level nearest-neighbour CV comes from. For the paper's
-//! relaxation and for variants with σ pinned to c·σ̂ (no Witkin–Heckbert σ adaptation), prints
-//! per depth level the particle count and CV, split into particles inside their level (their
-//! 7 nearest particles all at the same depth) and at a boundary between levels.
+//! Development aid: where the per-level nearest-neighbour CV comes from. Samples a model with
+//! the paper's parameters and with each pair of cross-level exponents given (`p,q`: the finer
+//! particle's push across a level boundary scaled by (σ_fine/σ_coarse)^p, the coarser one's by
+//! (σ_fine/σ_coarse)^q), and prints per depth level the particle count, the CV and the mean
+//! spacing, split into particles inside their level (their 7 nearest particles all at the same
+//! depth) and at a boundary between levels.
 //!
-//! `cargo run --release --example level_cv -- ../shared/models/bunny.ply`
+//! `cargo run --release --example level_cv -- ../shared/models/bunny.ply 1.5,1 2.5,1`
 
 use std::collections::BTreeMap;
 
 use psi::octree::PointIndex;
-use psi::particles::{RelaxRegion, initialize, nearest_neighbour_distances, relax};
+use psi::particles::nearest_neighbour_distances;
 use psi::{Mpu, MpuParams, ParticleParams, Particles};
 
-/// Coefficient of variation std/mean of `d` (0 when empty).
-fn cv(d: &[f64]) -> f64 {
+/// Mean and coefficient of variation std/mean of `d` (0 when empty).
+fn mean_cv(d: &[f64]) -> (f64, f64) {
     let n = d.len().max(1) as f64;
     let mean = d.iter().sum::<f64>() / n;
     let var = d.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
-    if mean > 0.0 { var.sqrt() / mean } else { 0.0 }
+    (mean, if mean > 0.0 { var.sqrt() / mean } else { 0.0 })
 }
 
-/// Per depth: "depth:count cv (inside cv / boundary cv)".
+/// Per depth: "depth:count cv (inside cv mean / boundary cv mean)", means relative to the
+/// level's mean spacing.
 fn levels(p: &Particles) -> String {
     let index = PointIndex::new(&p.positions);
     let nn = nearest_neighbour_distances(&p.positions);
@@ -35,12 +38,14 @@ fn levels(p: &Particles) -> String {
     by_depth
         .iter()
         .map(|(depth, [all, inside, boundary])| {
+            let (m, cv) = mean_cv(all);
+            let (mi, cvi) = mean_cv(inside);
+            let (mb, cvb) = mean_cv(boundary);
             format!(
-                "{depth}:{} {:.3} ({:.3}/{:.3})",
+                "{depth}:{} {cv:.3} ({cvi:.3} {:.2} / {cvb:.3} {:.2})",
                 all.len(),
-                cv(all),
-                cv(inside),
-                cv(boundary)
+                mi / m,
+                mb / m
             )
         })
         .collect::<Vec<_>>()
@@ -48,41 +53,31 @@ fn levels(p: &Particles) -> String {
 }
 
 fn main() -> anyhow::Result<()> {
-    let path = std::env::args()
-        .nth(1)
+    let mut args = std::env::args().skip(1);
+    let path = args
+        .next()
         .unwrap_or_else(|| "../shared/models/bunny.ply".into());
     let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
     let mpu = Mpu::build(&points, &MpuParams::paper())?;
     let paper = ParticleParams::paper();
-    let pinned = ParticleParams {
-        adapt_sigma: false,
-        sigma_clamp: (1.0, 1.0),
-        ..paper
-    };
-    let runs = [
-        ("paper", paper, 1.0),
-        ("σ = 0.55 σ̂", pinned, 0.55),
-        ("σ = 0.6 σ̂", pinned, 0.6),
-    ];
+    let mut runs = vec![("paper".to_owned(), paper)];
+    for pq in args {
+        let (p, q) = pq
+            .split_once(',')
+            .ok_or_else(|| anyhow::anyhow!("expected p,q, got {pq}"))?;
+        let params = ParticleParams {
+            cross_level_exponents: (p.parse()?, q.parse()?),
+            ..paper
+        };
+        runs.push((format!("cross {pq}"), params));
+    }
     println!(
-        "depth:count CV (inside / boundary), after {} iterations",
+        "depth:count CV (inside CV mean / boundary CV mean), after {} iterations",
         paper.iterations
     );
-    for (name, params, c) in runs {
-        let (mut particles, mut field, _) = initialize(&mpu, &params);
-        field.scale *= c;
-        for i in 0..particles.len() {
-            particles.sigma[i] *= c;
-            particles.target[i] *= c;
-        }
-        relax(
-            &mpu,
-            &mut particles,
-            &field,
-            &params,
-            RelaxRegion::default(),
-        );
-        println!("{name:>12}: {}", levels(&particles));
+    for (name, params) in runs {
+        let run = psi::sample(&mpu, &params);
+        println!("{name:>12}: {}", levels(&run.particles));
     }
     Ok(())
 }

@@ -36,16 +36,44 @@ fn main() -> anyhow::Result<()> {
         ("rho 5", ParticleParams { rho: 5.0, ..base }),
         ("rho 30", ParticleParams { rho: 30.0, ..base }),
         (
-            "sigma step 0.01",
+            "sigma step 0.03",
             ParticleParams {
-                sigma_dt: 0.01,
+                sigma_dt: 0.03,
                 ..base
             },
         ),
         (
-            "sigma step 0.1",
+            "sigma step 0.2",
             ParticleParams {
-                sigma_dt: 0.1,
+                sigma_dt: 0.2,
+                ..base
+            },
+        ),
+        (
+            "cross 1.5, 1",
+            ParticleParams {
+                cross_level_exponents: (1.5, 1.0),
+                ..base
+            },
+        ),
+        (
+            "cross 2.5, 1",
+            ParticleParams {
+                cross_level_exponents: (2.5, 1.0),
+                ..base
+            },
+        ),
+        (
+            "cross 2, 0.5",
+            ParticleParams {
+                cross_level_exponents: (2.0, 0.5),
+                ..base
+            },
+        ),
+        (
+            "cross 2, 1.5",
+            ParticleParams {
+                cross_level_exponents: (2.0, 1.5),
                 ..base
             },
         ),

@@ -33,10 +33,12 @@ mod particles;
 mod project;
 mod quality;
 mod relax;
+mod repulsion;
 mod sample;
 mod seed;
 mod seed_poisson;
 mod separate;
+mod sigma_scale;
 
 pub use density::{DensityField, paper_weight};
 pub use octree_buckets::OctreeBuckets;

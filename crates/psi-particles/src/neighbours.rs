@@ -93,6 +93,28 @@ impl<'a> NeighbourIndex<'a> {
         }
     }
 
+    /// As [`Self::for_each_within`], visiting only the particles that move (all of them
+    /// unless this is a split index).
+    pub(crate) fn for_each_moving_within(
+        &self,
+        x: DVec3,
+        radius: f64,
+        scratch: &mut Vec<u32>,
+        visit: impl FnMut(u32),
+    ) {
+        if let Self::Split {
+            moving, moving_ids, ..
+        } = self
+        {
+            scratch.clear();
+            moving.for_each_within(x, radius, |j| scratch.push(moving_ids[j as usize]));
+            scratch.sort_unstable();
+            scratch.iter().copied().for_each(visit);
+        } else {
+            self.for_each_within(x, radius, scratch, visit);
+        }
+    }
+
     /// Calls `visit(j)` for every particle within `radius` of world position `x` (itself too).
     pub(crate) fn for_each_within(
         &self,

@@ -47,7 +47,8 @@ pub struct ParticleParams {
     pub rho: f64,
     /// Regulariser β of the σ adaptation (WH: 10).
     pub beta: f64,
-    /// Whether σ adapts toward Ê (WH); it stays within `sigma_clamp` × σ̂.
+    /// Whether σ adapts toward Ê (WH's rule on each depth level's mean energy; every particle
+    /// of a level shares one σ); it stays within `sigma_clamp` × σ̂.
     pub adapt_sigma: bool,
     /// Bounds of σ as multiples of the target σ̂: (low, high).
     pub sigma_clamp: (f64, f64),
@@ -59,8 +60,13 @@ pub struct ParticleParams {
     /// Heavy-ball momentum: the fraction of a particle's previous displacement added to its
     /// step (0 = WH's first-order dynamics).
     pub momentum: f64,
-    /// Time step of the σ adaptation (WH: 0.03).
+    /// Time step of the σ adaptation (WH: 0.03 per particle; 0.1 for the one shared scale,
+    /// see docs/ARCHITECTURE.md, "Relaxation").
     pub sigma_dt: f64,
+    /// A pair of particles at different levels repels with the larger σ; the finer one's push
+    /// is scaled by (σ_fine/σ_coarse)^`.0`, the coarser one's by (σ_fine/σ_coarse)^`.1` (2, 1;
+    /// docs/ARCHITECTURE.md, "Relaxation").
+    pub cross_level_exponents: (f64, f64),
     /// Largest move per iteration as a multiple of σ_i (0.5).
     pub max_move: f64,
     /// Neighbours are searched within this multiple of σ_i (3).
@@ -97,7 +103,8 @@ impl ParticleParams {
             sigma_clamp: (0.5, 2.0),
             phi: 15.0,
             dt: 0.3,
-            sigma_dt: 0.03,
+            sigma_dt: 0.1,
+            cross_level_exponents: (2.0, 1.0),
             momentum: 0.7,
             max_move: 0.5,
             neighbour_radius: 3.0,

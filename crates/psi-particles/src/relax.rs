@@ -1,7 +1,8 @@
 //! Witkin–Heckbert relaxation (as Foster et al. use it, algorithms.md §2.1–2.2): Gaussian
-//! repulsion, velocity constrained to the surface with feedback φ, σ adapting toward Ê, each
-//! move clamped, then a Newton polish. Jacobi-style: every particle reads the previous
-//! iteration's state, so the result is identical for any thread count.
+//! repulsion (one kernel per pair across depth levels, `repulsion.rs`), velocity constrained to
+//! the surface with feedback φ, σ_i = c·σ̂_i with one scale c adapting toward Ê
+//! (`sigma_scale.rs`), each move clamped, then a Newton polish. Jacobi-style: every particle
+//! reads the previous iteration's state, so the result is identical for any thread count.
 
 use glam::DVec3;
 use psi_mpu::Mpu;
@@ -10,11 +11,12 @@ use rayon::prelude::*;
 
 use crate::neighbours::{FixedSet, NeighbourIndex};
 use crate::project::{newton_project_from, project_to_surface};
+use crate::repulsion::{Movers, Repulsion, repulsion_into};
+use crate::sigma_scale::{EnergySums, SigmaScale};
 use crate::{DensityField, GRID_EDGE_FACTOR, ParticleParams, Particles};
 
-/// A particle's new state: position, f, ∇f, depth, σ, σ̂, nearest input point, leaf.
-type Update = (DVec3, f64, DVec3, u8, f64, f64, Option<u32>, Option<u32>);
-
+/// A particle's new state: position, f, ∇f, depth, nearest input point, leaf.
+type Update = (DVec3, f64, DVec3, u8, Option<u32>, Option<u32>);
 /// Which particles may move and where (local regeneration restricts both).
 #[derive(Clone, Copy, Default)]
 pub struct RelaxRegion<'a> {
@@ -36,8 +38,11 @@ impl std::fmt::Debug for RelaxRegion<'_> {
     }
 }
 
-/// Relaxes `particles` on `mpu` for `params.iterations` steps. Per-particle target radii come
-/// from `field` and the depth of the leaf each particle is in. The count never changes.
+/// Relaxes `particles` on `mpu` for `params.iterations` steps. A particle's repulsion radius is
+/// σ = c·σ̂, σ̂ from `field` at the depth of the leaf it is in and one scale c: read from the
+/// particles at the start (seeds carry σ̂, so c = 1; a local relaxation reads the fixed
+/// particles' c and keeps it) and, when none is fixed and `params.adapt_sigma`, adapted
+/// toward Ê each iteration. The count never changes.
 pub fn relax(
     mpu: &Mpu,
     particles: &mut Particles,
@@ -71,6 +76,25 @@ pub fn relax_observed(
         Some(m) => (0..n as u32).filter(|&i| m[i as usize]).collect(),
         None => (0..n as u32).collect(),
     };
+    // σ = c·σ̂: c read from the fixed particles of a local relaxation, which keeps their c, or
+    // else from all particles (seeds carry σ̂: c = 1) and adapted.
+    let fixed_ones = |m: &[bool]| (0..n).filter(|&i| !m[i]).collect::<Vec<usize>>();
+    let fixed_ids = region.movable.map(fixed_ones).unwrap_or_default();
+    let adapt = params.adapt_sigma && fixed_ids.is_empty();
+    let mut scale = if fixed_ids.is_empty() {
+        SigmaScale::from_particles(field, &particles.depth, &particles.sigma, 0..n)
+    } else {
+        SigmaScale::from_particles(
+            field,
+            &particles.depth,
+            &particles.sigma,
+            fixed_ids.iter().copied(),
+        )
+    };
+    for &i in &active {
+        let i = i as usize;
+        particles.sigma[i] = scale.sigma(field, particles.depth[i]);
+    }
     // f and ∇f of the moving particles (the fixed ones are never updated), and the leaf each
     // is in, a guess for the next lookup (most moves stay in the leaf).
     let mut fg: Vec<(f64, DVec3)> = vec![(0.0, DVec3::ZERO); n];
@@ -83,12 +107,9 @@ pub fn relax_observed(
         fg[i as usize] = (f, g);
         leaf[i as usize] = l;
     }
-    // The farthest a moving particle looks: 3σ, σ at most its clamp above the largest σ̂.
+    // The farthest any particle looks: 3σ, σ at most its clamp above the largest σ̂.
     let reach = params.neighbour_radius
-        * active
-            .iter()
-            .map(|&i| particles.sigma[i as usize])
-            .fold(params.sigma_clamp.1 * field.max_target_sigma(), f64::max);
+        * (scale.scale().max(params.sigma_clamp.1) * field.max_target_sigma());
     // (The margin covers rounding in σ̂'s bound.)
     let reach = reach * (1.0 + 1e-9);
     let near = region.bounds.map(|b| {
@@ -107,9 +128,28 @@ pub fn relax_observed(
     let fixed = region
         .movable
         .map(|m| FixedSet::new(&particles.positions, m, near, grid_edge));
-    let e_hat = params.target_energy_ratio * params.energy_alpha;
+    // Fixed particles that may be the coarser member of a pair with a moving one (within
+    // reach of the moving region, σ above the smallest moving σ); they hand out shares.
+    let fixed_coarse: Vec<u32> = match region.movable {
+        Some(m) => {
+            let finest = active
+                .iter()
+                .map(|&i| particles.sigma[i as usize])
+                .fold(f64::INFINITY, f64::min);
+            (0..n as u32)
+                .filter(|&i| {
+                    let i = i as usize;
+                    !m[i]
+                        && particles.sigma[i] > finest
+                        && near.is_none_or(|b| b.contains(particles.positions[i]))
+                })
+                .collect()
+        }
+        None => Vec::new(),
+    };
     let mut velocity = vec![DVec3::ZERO; n];
     let mut anchor: Vec<Option<u32>> = vec![None; n];
+    let mut forces = Repulsion::default();
     for iteration in 0..params.iterations {
         if iteration > 0 {
             on_iteration(iteration);
@@ -120,39 +160,26 @@ pub fn relax_observed(
             }
             _ => NeighbourIndex::new(params.neighbours, mpu, &particles.positions, grid_edge),
         };
+        let movers = Movers {
+            active: &active,
+            movable: region.movable,
+            fixed_coarse: &fixed_coarse,
+        };
+        repulsion_into(&mut forces, &index, particles, &movers, params);
         let state = &*particles;
+        let forces_ref = &forces;
         let fg_ref = &fg;
         let vel = &velocity;
         let anchors = &anchor;
         let leaves = &leaf;
         let updates: Vec<Update> = active
             .par_iter()
-            .map_init(Vec::new, |scratch, &i| {
+            .map(|&i| {
                 let i = i as usize;
                 let x = state.positions[i];
                 let ni = state.normals[i];
                 let si = state.sigma[i];
-                let (mut d, mut energy, mut de_ds) = (DVec3::ZERO, 0.0, 0.0);
-                let inv2 = 1.0 / (2.0 * si * si);
-                index.for_each_within(x, params.neighbour_radius * si, scratch, |j| {
-                    let j = j as usize;
-                    if j == i || ni.dot(state.normals[j]) < 0.0 {
-                        return;
-                    }
-                    let r = x - state.positions[j];
-                    let d2 = r.length_squared();
-                    let sj = state.sigma[j];
-                    let eij = params.energy_alpha * (-d2 * inv2).exp();
-                    let reach_j = params.neighbour_radius * sj;
-                    let eji = if d2 <= reach_j * reach_j {
-                        params.energy_alpha * (-d2 / (2.0 * sj * sj)).exp()
-                    } else {
-                        0.0
-                    };
-                    d += r * (eij + (si * si) / (sj * sj) * eji);
-                    energy += eij;
-                    de_ds += d2 * eij / (si * si * si);
-                });
+                let d = forces_ref.push[i];
                 let (f, g) = fg_ref[i];
                 let g2 = g.length_squared();
                 let v = if g2 > 1e-24 {
@@ -163,7 +190,7 @@ pub fn relax_observed(
                 // Per-particle step dt_i = dt / ΣE_ij: on a hexagonal lattice at spacing 2σ the
                 // repulsion's stiffness is 2·ΣE_ij, so dt = 0.5 makes this a Newton step
                 // (derivation in docs/ARCHITECTURE.md, "Relaxation").
-                let dt_i = params.dt / (energy + 1e-3 * params.energy_alpha);
+                let dt_i = params.dt / (forces_ref.energy[i] + 1e-3 * params.energy_alpha);
                 // Heavy-ball momentum: the previous displacement, projected onto the tangent plane.
                 let prev = vel[i] - ni * vel[i].dot(ni);
                 let mut step = dt_i * v + params.momentum * prev;
@@ -184,26 +211,28 @@ pub fn relax_observed(
                     (x, f, g, leaves[i])
                 };
                 let depth = new_leaf.map_or(state.depth[i], |l| mpu.octree().cell(l).depth);
-                let target = field.target_sigma(depth);
-                let mut sigma = si;
-                if params.adapt_sigma {
-                    let ds = -params.rho * (energy - e_hat) / (de_ds + params.beta);
-                    sigma = (si + params.sigma_dt * ds).abs();
-                }
-                sigma = sigma.clamp(params.sigma_clamp.0 * target, params.sigma_clamp.1 * target);
                 (
                     x1,
                     f1,
                     g1,
                     depth,
-                    sigma,
-                    target,
                     if ok { new_anchor } else { anchors[i] },
                     new_leaf,
                 )
             })
             .collect();
-        for (&i, (x, f, g, depth, sigma, target, a, l)) in active.iter().zip(updates) {
+        if adapt {
+            // The scale steps toward Ê on this iteration's energies (summed in index order).
+            let mut sums = EnergySums::default();
+            for &i in &active {
+                let i = i as usize;
+                sums.energy += forces.energy[i];
+                sums.de_dc += forces.de_dsigma[i] * particles.target[i];
+                sums.count += 1;
+            }
+            scale.adapt(&sums, field, params);
+        }
+        for (&i, (x, f, g, depth, a, l)) in active.iter().zip(updates) {
             let i = i as usize;
             anchor[i] = a;
             leaf[i] = l;
@@ -211,8 +240,8 @@ pub fn relax_observed(
             particles.positions[i] = x;
             particles.normals[i] = g.normalize_or(particles.normals[i]);
             particles.depth[i] = depth;
-            particles.sigma[i] = sigma;
-            particles.target[i] = target;
+            particles.sigma[i] = scale.sigma(field, depth);
+            particles.target[i] = field.target_sigma(depth);
             fg[i] = (f, g);
         }
     }
@@ -238,7 +267,10 @@ pub fn relax_observed(
             particles.positions[i] = x;
             particles.normals[i] = g.normalize_or(particles.normals[i]);
             if let Some(l) = mpu.leaf_containing(x) {
-                particles.depth[i] = mpu.octree().cell(l).depth;
+                let depth = mpu.octree().cell(l).depth;
+                particles.depth[i] = depth;
+                particles.sigma[i] = scale.sigma(field, depth);
+                particles.target[i] = field.target_sigma(depth);
             }
         }
     }

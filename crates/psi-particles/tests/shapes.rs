@@ -101,6 +101,16 @@ fn adaptive_mode_is_denser_where_the_octree_is_deeper() {
             w[0].depth
         );
     }
+    // Well spaced within each level, boundary included (issue #4's bunny figure; WH's own
+    // pair term across levels left the finer level here at 0.144).
+    for l in &levels {
+        assert!(
+            l.spacing.cv <= 0.12,
+            "depth {}: CV {}",
+            l.depth,
+            l.spacing.cv
+        );
+    }
     assert!(r.after.spacing.cv < r.before.spacing.cv);
 }
 

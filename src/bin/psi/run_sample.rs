@@ -129,10 +129,17 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         s.iterations,
         s.simulate_seconds
     ));
+    let levels: Vec<String> = s
+        .after
+        .levels
+        .iter()
+        .map(|l| format!("{}:{:.3}", l.depth, l.spacing.cv))
+        .collect();
     ui.summary(&format!(
-        "  nearest-neighbour CV {:.3} -> {:.3}; max |f|/|grad f| {:.1e} D{}",
+        "  nearest-neighbour CV {:.3} -> {:.3} (per depth level {}); max |f|/|grad f| {:.1e} D{}",
         s.before.spacing.cv,
         s.after.spacing.cv,
+        levels.join(" "),
         s.after.max_surface_distance,
         args.output
             .as_ref()
