@@ -62,6 +62,25 @@ pub(crate) struct InputLocal {
     beyond: f64,
 }
 
+/// An input point a particle was near, with what [`Mpu::near_data_from`] reads of it: kept by
+/// the particle between moves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DataAnchor {
+    point: u32,
+    /// The point's position, local frame.
+    position: DVec3,
+    /// Within this distance of `position` (world units) a position is on the data without a
+    /// search: half the point's spacing when it is interior, else −1 (never).
+    fast_radius: f64,
+}
+
+impl DataAnchor {
+    /// The input point's index.
+    pub fn point(&self) -> u32 {
+        self.point
+    }
+}
+
 /// Memory for an MPU build to fill instead of allocating: the largest arrays of an earlier MPU
 /// ([`Mpu::into_buffers`]) or fresh ones touched once ([`MpuBuffers::like`]). Memory the
 /// process already maps costs nothing to write; fresh memory costs a page fault per 4 KiB
@@ -692,38 +711,50 @@ impl Mpu {
     /// [`Mpu::input_is_interior`]) x is inside without the edge test. (An interior point can lie
     /// about half a spacing from the edge; a one-spacing shortcut let some of the bunny's
     /// particles leave the data: 99.72 % → 99.55 % within 2e-3 D of its mesh.) `anchor` is an
-    /// input point that was near x before (a particle's previous nearest point); when x is that
-    /// close to an interior anchor the answer is yes without a search. Returns the answer and
-    /// the new anchor.
-    pub fn near_data_from(&self, x: DVec3, reach: f64, anchor: Option<u32>) -> (bool, Option<u32>) {
+    /// input point that was near x before (a particle's previous nearest point, carried with
+    /// what this test reads of it, so that the common case reads no shared table); when x is
+    /// that close to an interior anchor the answer is yes without a search. Returns the answer
+    /// and the new anchor.
+    pub fn near_data_from(
+        &self,
+        x: DVec3,
+        reach: f64,
+        anchor: Option<DataAnchor>,
+    ) -> (bool, Option<DataAnchor>) {
         let y = x - self.frame.origin;
-        if let Some(a) = anchor {
-            let local = self.input_local(a);
-            if local.interior
-                && (self.octree.positions()[a as usize] - y).length() <= 0.5 * local.spacing
-            {
-                return (true, Some(a));
-            }
+        if let Some(a) = anchor
+            && (a.position - y).length() <= a.fast_radius
+        {
+            return (true, Some(a));
         }
         let found = anchor
-            .and_then(|a| self.nearest_among_neighbours_of(y, a))
+            .and_then(|a| self.nearest_among_neighbours_of(y, a.point))
             .or_else(|| self.index.nearest_one(y));
         let Some((q, d2)) = found else {
             return (false, None);
         };
         let local = self.input_local(q);
+        let new_anchor = Some(DataAnchor {
+            point: q,
+            position: self.octree.positions()[q as usize],
+            fast_radius: if local.interior {
+                0.5 * local.spacing
+            } else {
+                -1.0
+            },
+        });
         let d = d2.sqrt();
         if d > reach * local.spacing {
-            return (false, Some(q));
+            return (false, new_anchor);
         }
         // Fast path: q lies well inside the data and x is within half a spacing of it.
         if d <= 0.5 * local.spacing && local.interior {
-            return (true, Some(q));
+            return (true, new_anchor);
         }
         let n = self.points[q as usize].n;
         let offset = local.centroid - y;
         let tangential = (offset - n * offset.dot(n)).length();
-        (tangential <= local.spacing, Some(q))
+        (tangential <= local.spacing, new_anchor)
     }
 
     /// The input point nearest to world `x` (world units, unit normal); `None` for an empty input.

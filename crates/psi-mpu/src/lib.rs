@@ -43,7 +43,7 @@ mod polygonize;
 mod quadric;
 mod report;
 
-pub use build::{BuildProgress, Mpu, MpuBuffers, MpuFrame, Reuse};
+pub use build::{BuildProgress, DataAnchor, Mpu, MpuBuffers, MpuFrame, Reuse};
 pub use data_coverage::data_coverage;
 pub use error::MpuError;
 pub use evaluate::BACKGROUND_WEIGHT;

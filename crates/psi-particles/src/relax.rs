@@ -5,7 +5,7 @@
 //! reads the previous iteration's state, so the result is identical for any thread count.
 
 use glam::DVec3;
-use psi_mpu::Mpu;
+use psi_mpu::{DataAnchor, Mpu};
 use psi_octree::Aabb;
 use rayon::prelude::*;
 
@@ -15,8 +15,8 @@ use crate::repulsion::{Movers, Repulsion, repulsion_into};
 use crate::sigma_scale::{EnergySums, SigmaScale};
 use crate::{DensityField, GRID_EDGE_FACTOR, ParticleParams, Particles};
 
-/// A particle's new state: position, f, ∇f, depth, nearest input point, leaf.
-type Update = (DVec3, f64, DVec3, u8, Option<u32>, Option<u32>);
+/// A particle's new state: position, f, ∇f, depth, data anchor (a near input point), leaf.
+type Update = (DVec3, f64, DVec3, u8, Option<DataAnchor>, Option<u32>);
 /// Which particles may move and where (local regeneration restricts both).
 #[derive(Clone, Copy, Default)]
 pub struct RelaxRegion<'a> {
@@ -122,9 +122,7 @@ pub fn relax_observed(
     });
     // Grid cubes: a fixed fraction of the mean query radius at the start (any edge gives the
     // same neighbours).
-    let grid_edge =
-        GRID_EDGE_FACTOR * params.neighbour_radius * particles.sigma.iter().sum::<f64>()
-            / particles.sigma.len().max(1) as f64;
+    let grid_edge = GRID_EDGE_FACTOR * params.neighbour_radius * mean(&particles.sigma);
     let fixed = region
         .movable
         .map(|m| FixedSet::new(&particles.positions, m, near, grid_edge));
@@ -148,7 +146,7 @@ pub fn relax_observed(
         None => Vec::new(),
     };
     let mut velocity = vec![DVec3::ZERO; n];
-    let mut anchor: Vec<Option<u32>> = vec![None; n];
+    let mut anchor: Vec<Option<DataAnchor>> = vec![None; n];
     let mut forces = Repulsion::default();
     for iteration in 0..params.iterations {
         if iteration > 0 {
@@ -158,7 +156,11 @@ pub fn relax_observed(
             (Some(f), Some(_)) => {
                 NeighbourIndex::split(f, &particles.positions, &active, grid_edge)
             }
-            _ => NeighbourIndex::new(params.neighbours, mpu, &particles.positions, grid_edge),
+            _ => {
+                // Cubes follow σ as its scale adapts.
+                let edge = GRID_EDGE_FACTOR * params.neighbour_radius * mean(&particles.sigma);
+                NeighbourIndex::new(params.neighbours, mpu, &particles.positions, edge)
+            }
         };
         let movers = Movers {
             active: &active,
@@ -274,4 +276,9 @@ pub fn relax_observed(
             }
         }
     }
+}
+
+/// The mean of `values` (0 when empty).
+fn mean(values: &[f64]) -> f64 {
+    values.iter().sum::<f64>() / values.len().max(1) as f64
 }
