@@ -188,12 +188,12 @@ fn pairs_of(
             visit(
                 j,
                 Pair {
-                    push: r * (2.0 * e * ratio.powf(coarse)),
+                    push: r * (2.0 * e * power(ratio, coarse)),
                     energy: e,
                     de_dsigma: d2 * e / si3,
                     share: Some(Share {
                         target: j,
-                        push: r * (-2.0 * e * ratio.powf(fine)),
+                        push: r * (-2.0 * e * power(ratio, fine)),
                         energy: e,
                         de_dsigma: d2 * e / (sj * sj * sj),
                     }),
@@ -205,6 +205,18 @@ fn pairs_of(
         index.for_each_moving_within(x, radius, scratch, &mut each);
     } else {
         index.for_each_within(x, radius, scratch, &mut each);
+    }
+}
+
+/// x^e for x > 0, without `powf`'s cost for the default exponents 1 and 2 (the same value).
+#[inline]
+fn power(x: f64, e: f64) -> f64 {
+    if e == 1.0 {
+        x
+    } else if e == 2.0 {
+        x * x
+    } else {
+        x.powf(e)
     }
 }
 
