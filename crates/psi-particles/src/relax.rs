@@ -148,6 +148,8 @@ pub fn relax_observed(
     let mut velocity = vec![DVec3::ZERO; n];
     let mut anchor: Vec<Option<DataAnchor>> = vec![None; n];
     let mut forces = Repulsion::default();
+    // Each iteration's new states, in `active` order (one buffer for all iterations).
+    let mut updates: Vec<Update> = Vec::with_capacity(active.len());
     for iteration in 0..params.iterations {
         if iteration > 0 {
             on_iteration(iteration);
@@ -174,7 +176,7 @@ pub fn relax_observed(
         let vel = &velocity;
         let anchors = &anchor;
         let leaves = &leaf;
-        let updates: Vec<Update> = active
+        active
             .par_iter()
             .map(|&i| {
                 let i = i as usize;
@@ -222,7 +224,7 @@ pub fn relax_observed(
                     new_leaf,
                 )
             })
-            .collect();
+            .collect_into_vec(&mut updates);
         if adapt {
             // The scale steps toward Ê on this iteration's energies (summed in index order).
             let mut sums = EnergySums::default();
@@ -234,7 +236,7 @@ pub fn relax_observed(
             }
             scale.adapt(&sums, field, params);
         }
-        for (&i, (x, f, g, depth, a, l)) in active.iter().zip(updates) {
+        for (&i, &(x, f, g, depth, a, l)) in active.iter().zip(&updates) {
             let i = i as usize;
             anchor[i] = a;
             leaf[i] = l;
