@@ -31,7 +31,8 @@ pub struct Mpu {
     /// Per cell: fitted by this build (false where a local rebuild reused the earlier record).
     pub(crate) fitted: Vec<bool>,
     pub(crate) nodes: Vec<crate::evaluate::EvalNode>,
-    /// Per cell (used for leaves): the leaves whose support meets it, built on first use.
+    /// Per cell: the leaves whose support meets its cube, built on first use (for leaves and,
+    /// as the source of their lists, inner cells).
     pub(crate) leaf_candidates: std::sync::Arc<Vec<std::sync::OnceLock<Box<[u32]>>>>,
     pub(crate) frame: MpuFrame,
     pub(crate) points: Vec<OrientedPoint>,

@@ -59,38 +59,68 @@ pub(crate) fn eval_nodes_into(
     }));
 }
 
+/// Cells from this depth down take their candidate lists from their parents' ([`Mpu::candidates`]);
+/// shallower cells, whose lists hold a large share of all leaves, traverse the tree.
+const FILTER_FROM_DEPTH: u8 = 3;
+
+/// Whether a node's support ball meets the cube of centre `center` and half-edge `half` (local
+/// frame): the squared distance from the ball's centre to the cube against R², with a relative
+/// margin for rounding (a superset is harmless, a miss is not). A cube inside that one gives a
+/// larger distance, so a ball that meets it meets this one too.
+fn ball_meets_cube(center: DVec3, half: f64) -> impl Fn(&EvalNode) -> bool {
+    move |n: &EvalNode| {
+        let gap = ((n.center - center).abs() - DVec3::splat(half)).max(DVec3::ZERO);
+        gap.length_squared() <= n.r2 * (1.0 + 1e-9)
+    }
+}
+
 impl Mpu {
-    /// The leaves whose support ball meets the cube of leaf `leaf` (exactly the leaves that can
+    /// The leaves whose support ball meets the cube of cell `cell` (exactly the leaves that can
     /// cover some point of that cube, up to rounding on the ball's surface), in arena order;
-    /// computed on first use and cached.
-    fn candidates(&self, leaf: u32) -> &[u32] {
-        self.leaf_candidates[leaf as usize].get_or_init(|| {
-            let cell = self.octree.cell(leaf);
-            let nodes = &self.nodes;
-            // Ball–cube test: the squared distance from the ball's centre to the cube, against
-            // R² with a relative margin for rounding (a superset is harmless, a miss is not).
-            let meets = |n: &EvalNode| {
-                let gap =
-                    ((n.center - cell.center).abs() - DVec3::splat(cell.half)).max(DVec3::ZERO);
-                gap.length_squared() <= n.r2 * (1.0 + 1e-9)
-            };
-            let mut out = Vec::new();
-            let mut stack = vec![0u32];
-            while let Some(i) = stack.pop() {
-                let n = &nodes[i as usize];
-                if !meets(n) {
-                    continue;
-                }
-                if n.fit != NO_FIT {
-                    out.push(i);
-                }
-                if n.first_child != psi_octree::NO_CELL {
-                    stack.extend(n.first_child..n.first_child + 8);
-                }
+    /// computed on first use and cached. Below depth [`FILTER_FROM_DEPTH`] a cell's list is its
+    /// parent's, filtered: a ball that meets the cell's cube meets the parent's, which holds it,
+    /// so siblings (a surface leaf's often hold particles too) and their descendants share one
+    /// traversal. The result is the traversal's own (`candidates_are_the_traversals`). On the
+    /// bunny's seed leaves a list costs ~1.3 µs instead of ~2.4 µs by traversal alone.
+    fn candidates(&self, cell: u32) -> &[u32] {
+        self.leaf_candidates[cell as usize].get_or_init(|| {
+            let c = self.octree.cell(cell);
+            if c.depth >= FILTER_FROM_DEPTH && c.parent != psi_octree::NO_CELL {
+                let meets = ball_meets_cube(c.center, c.half);
+                let out: Vec<u32> = self
+                    .candidates(c.parent)
+                    .iter()
+                    .copied()
+                    .filter(|&i| meets(&self.nodes[i as usize]))
+                    .collect();
+                return out.into_boxed_slice();
             }
-            out.sort_unstable();
-            out.into_boxed_slice()
+            self.candidates_by_traversal(cell).into_boxed_slice()
         })
+    }
+
+    /// The leaves whose support ball meets the cube of cell `cell`, by a traversal from the root
+    /// pruned at balls that miss it (a child's ball lies inside its parent's), in arena order.
+    fn candidates_by_traversal(&self, cell: u32) -> Vec<u32> {
+        let cell = self.octree.cell(cell);
+        let nodes = &self.nodes;
+        let meets = ball_meets_cube(cell.center, cell.half);
+        let mut out = Vec::new();
+        let mut stack = vec![0u32];
+        while let Some(i) = stack.pop() {
+            let n = &nodes[i as usize];
+            if !meets(n) {
+                continue;
+            }
+            if n.fit != NO_FIT {
+                out.push(i);
+            }
+            if n.first_child != psi_octree::NO_CELL {
+                stack.extend(n.first_child..n.first_child + 8);
+            }
+        }
+        out.sort_unstable();
+        out
     }
 
     /// Calls `visit(node, d2)` for every leaf whose support ball contains local `y`, in arena
@@ -262,5 +292,34 @@ impl Mpu {
             }
         }
         self.finish(y, s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::MpuParams;
+    use psi_octree::AnalyticShape;
+
+    /// Every leaf's candidate list, filtered from its ancestors', equals the traversal's for
+    /// that leaf (the brute-force twin): the same leaves in the same order. Leaves are asked in
+    /// reverse arena order so that some parents are filled by a later sibling.
+    #[test]
+    fn candidates_are_the_traversals() {
+        let points = AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.3,
+        }
+        .sample(3000, 11);
+        let mpu = Mpu::build(&points, &MpuParams::paper()).expect("torus builds");
+        let leaves: Vec<u32> = mpu.leaves().collect();
+        assert!(leaves.len() > 100, "{} leaves", leaves.len());
+        let deepest = leaves.iter().map(|&l| mpu.octree().cell(l).depth).max();
+        assert!(deepest > Some(FILTER_FROM_DEPTH), "depth {deepest:?}");
+        for &leaf in leaves.iter().rev() {
+            let direct = mpu.candidates_by_traversal(leaf);
+            assert!(!direct.is_empty(), "leaf {leaf} has no candidate");
+            assert_eq!(mpu.candidates(leaf), &direct[..], "leaf {leaf}");
+        }
     }
 }
