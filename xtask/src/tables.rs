@@ -132,7 +132,7 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
     let mut rows = Vec::new();
     let mut md = String::new();
     md.push_str(&format!(
-        "## Table 1: {} iterations, one particle per surface-containing octree leaf\n\nSeeding, simulation and MPU build seconds: medians of {TIMED_RUNS} runs of `psi sample` (each a new process); the simulation's fastest and slowest run in brackets.\n\n",
+        "## Table 1: {} iterations, one particle per surface-containing octree leaf\n\nSeeding, simulation and MPU build seconds: medians of {TIMED_RUNS} runs of `psi sample` (each a new process); the simulation's fastest and slowest run in brackets; sim / floor is the first run's (the floor: one evaluation on one thread, the simulation on two).\n\n",
         flags.iterations
     ));
     md.push_str("| model | dataset points | particles (paper) | seeding s (paper) | simulation s (paper) | speed-up | sim / floor | MPU build s | leaves | depth | peak GiB | dist. mean / p99 / max (D) | within 2e-3 D | CV per level | coverage |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");

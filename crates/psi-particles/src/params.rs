@@ -47,8 +47,8 @@ pub struct ParticleParams {
     pub rho: f64,
     /// Regulariser β of the σ adaptation (WH: 10).
     pub beta: f64,
-    /// Whether σ adapts toward Ê (WH's rule on each depth level's mean energy; every particle
-    /// of a level shares one σ); it stays within `sigma_clamp` × σ̂.
+    /// Whether σ adapts toward Ê (WH's rule on the mean energy of all particles, applied to one
+    /// scale c with σ_i = c·σ̂_i, `sigma_scale.rs`); c stays within `sigma_clamp`.
     pub adapt_sigma: bool,
     /// Bounds of σ as multiples of the target σ̂: (low, high).
     pub sigma_clamp: (f64, f64),

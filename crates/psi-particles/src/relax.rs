@@ -126,23 +126,17 @@ pub fn relax_observed(
     let fixed = region
         .movable
         .map(|m| FixedSet::new(&particles.positions, m, near, grid_edge));
-    // Fixed particles that may be the coarser member of a pair with a moving one (within
-    // reach of the moving region, σ above the smallest moving σ); they hand out shares.
+    // Fixed particles that may be the coarser member of a pair with a moving one: every one
+    // within reach of the moving region (a moving particle's σ follows its depth each
+    // iteration, so a σ bound taken at the start could drop pairs); pairs_of keeps only those
+    // with a finer moving neighbour, and they hand out shares.
     let fixed_coarse: Vec<u32> = match region.movable {
-        Some(m) => {
-            let finest = active
-                .iter()
-                .map(|&i| particles.sigma[i as usize])
-                .fold(f64::INFINITY, f64::min);
-            (0..n as u32)
-                .filter(|&i| {
-                    let i = i as usize;
-                    !m[i]
-                        && particles.sigma[i] > finest
-                        && near.is_none_or(|b| b.contains(particles.positions[i]))
-                })
-                .collect()
-        }
+        Some(m) => (0..n as u32)
+            .filter(|&i| {
+                let i = i as usize;
+                !m[i] && near.is_none_or(|b| b.contains(particles.positions[i]))
+            })
+            .collect(),
         None => Vec::new(),
     };
     let mut velocity = vec![DVec3::ZERO; n];
@@ -231,7 +225,7 @@ pub fn relax_observed(
             for &i in &active {
                 let i = i as usize;
                 sums.energy += forces.energy[i];
-                sums.de_dc += forces.de_dsigma[i] * particles.target[i];
+                sums.de_dc += forces.de_dsigma[i] * field.target_sigma(particles.depth[i]);
                 sums.count += 1;
             }
             scale.adapt(&sums, field, params);

@@ -21,8 +21,9 @@ pub struct SampleReport {
     pub seeded_leaves: usize,
     /// Seconds spent seeding (including the density set-up).
     pub init_seconds: f64,
-    /// Seconds spent relaxing (in uniform mode also separating close pairs), from seeds at which
-    /// nothing was evaluated yet: the evaluation tables the run fills are included.
+    /// Seconds spent relaxing (in uniform mode also separating close pairs). Nothing is evaluated
+    /// at the seeds before the clock starts, so the per-leaf and per-point tables the MPU has
+    /// not filled yet are built inside it.
     pub simulate_seconds: f64,
     /// Relaxation iterations.
     pub iterations: usize,
