@@ -107,7 +107,10 @@ impl<'a> NeighbourIndex<'a> {
         } = self
         {
             scratch.clear();
-            moving.for_each_within(x, radius, |j| scratch.push(moving_ids[j as usize]));
+            moving.append_within(x, radius, scratch);
+            for j in scratch.iter_mut() {
+                *j = moving_ids[*j as usize];
+            }
             scratch.sort_unstable();
             scratch.iter().copied().for_each(visit);
         } else {
@@ -130,12 +133,17 @@ impl<'a> NeighbourIndex<'a> {
                 moving,
                 moving_ids,
             } => {
-                fixed
-                    .grid
-                    .for_each_within(x, radius, |j| scratch.push(fixed.ids[j as usize]));
-                moving.for_each_within(x, radius, |j| scratch.push(moving_ids[j as usize]));
+                fixed.grid.append_within(x, radius, scratch);
+                for j in scratch.iter_mut() {
+                    *j = fixed.ids[*j as usize];
+                }
+                let from = scratch.len();
+                moving.append_within(x, radius, scratch);
+                for j in &mut scratch[from..] {
+                    *j = moving_ids[*j as usize];
+                }
             }
-            Self::Grid(grid) => grid.for_each_within(x, radius, |j| scratch.push(j)),
+            Self::Grid(grid) => grid.append_within(x, radius, scratch),
             Self::Kd(index) => index.within(x, radius, scratch),
             Self::Octree { buckets, origin } => {
                 buckets.for_each_within(x - *origin, radius, |j| scratch.push(j));
