@@ -225,7 +225,7 @@ pub fn relax_observed(
             for &i in &active {
                 let i = i as usize;
                 sums.energy += forces.energy[i];
-                sums.de_dc += forces.de_dsigma[i] * field.target_sigma(particles.depth[i]);
+                sums.de_dc += forces.de_dlnc[i] / scale.scale();
                 sums.count += 1;
             }
             scale.adapt(&sums, field, params);

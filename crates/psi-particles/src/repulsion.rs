@@ -1,6 +1,6 @@
 //! Witkin–Heckbert repulsion sums of the moving particles: D_i (the desired velocity before
-//! the surface constraint), E_i and ∂E_i/∂σ_i, with one kernel per pair across depth levels
-//! (docs/ARCHITECTURE.md, "Relaxation").
+//! the surface constraint), E_i and c·∂E_i/∂c (how E_i follows the one σ scale c), with one
+//! kernel per pair across depth levels (docs/ARCHITECTURE.md, "Relaxation").
 //!
 //! Within a level (σ_i = σ_j = σ) this is WH eq. 9 with the erratum's sign:
 //! D_i = Σ_j r_ij (E_ij + E_ji) = Σ_j 2 E_ij r_ij, E_ij = α exp(−|r_ij|²/2σ²), r_ij = x_i − x_j,
@@ -31,8 +31,10 @@ pub(crate) struct Repulsion {
     pub(crate) push: Vec<DVec3>,
     /// E_i = Σ_j E_ij (dimensionless, in units of α's).
     pub(crate) energy: Vec<f64>,
-    /// ∂E_i/∂σ_i = Σ_j |r_ij|² E_ij / σ³, per world unit.
-    pub(crate) de_dsigma: Vec<f64>,
+    /// c·∂E_i/∂c = Σ_j |r_ij|² E_ij / s_ij² (dimensionless): every pair's kernel radius s_ij
+    /// (σ_i within a level, the coarser σ across levels) is c times a target, so
+    /// ∂E_ij/∂c = |r_ij|² E_ij / (s_ij³) · s_ij / c, for both members of the pair.
+    pub(crate) de_dlnc: Vec<f64>,
 }
 
 /// A coarser particle's share of a pair, handed to the finer one.
@@ -41,7 +43,7 @@ struct Share {
     target: u32,
     push: DVec3,
     energy: f64,
-    de_dsigma: f64,
+    de_dlnc: f64,
 }
 
 /// One particle's own sums and the shares it hands out.
@@ -49,7 +51,7 @@ struct Share {
 struct Sums {
     push: DVec3,
     energy: f64,
-    de_dsigma: f64,
+    de_dlnc: f64,
 }
 
 /// The particles whose sums [`repulsion_into`] computes and those that hand them shares.
@@ -78,8 +80,8 @@ pub(crate) fn repulsion_into(
     out.push.resize(n, DVec3::ZERO);
     out.energy.clear();
     out.energy.resize(n, 0.0);
-    out.de_dsigma.clear();
-    out.de_dsigma.resize(n, 0.0);
+    out.de_dlnc.clear();
+    out.de_dlnc.resize(n, 0.0);
     let moves = |j: usize| movers.movable.is_none_or(|m| m[j]);
     let own: Vec<(Vec<Sums>, Vec<Share>)> = movers
         .active
@@ -93,7 +95,7 @@ pub(crate) fn repulsion_into(
                     pairs_of(i, index, state, params, scratch, false, |j, pair| {
                         s.push += pair.push;
                         s.energy += pair.energy;
-                        s.de_dsigma += pair.de_dsigma;
+                        s.de_dlnc += pair.de_dlnc;
                         if let Some(share) = pair.share
                             && moves(j as usize)
                         {
@@ -122,7 +124,7 @@ pub(crate) fn repulsion_into(
     for (&i, s) in movers.active.iter().zip(own.iter().flat_map(|(s, _)| s)) {
         out.push[i as usize] = s.push;
         out.energy[i as usize] = s.energy;
-        out.de_dsigma[i as usize] = s.de_dsigma;
+        out.de_dlnc[i as usize] = s.de_dlnc;
     }
     let shares = own
         .iter()
@@ -132,7 +134,7 @@ pub(crate) fn repulsion_into(
         let t = s.target as usize;
         out.push[t] += s.push;
         out.energy[t] += s.energy;
-        out.de_dsigma[t] += s.de_dsigma;
+        out.de_dlnc[t] += s.de_dlnc;
     }
 }
 
@@ -140,7 +142,7 @@ pub(crate) fn repulsion_into(
 struct Pair {
     push: DVec3,
     energy: f64,
-    de_dsigma: f64,
+    de_dlnc: f64,
     share: Option<Share>,
 }
 
@@ -161,7 +163,7 @@ fn pairs_of(
     let ni = state.normals[i];
     let si = state.sigma[i];
     let inv2 = 1.0 / (2.0 * si * si);
-    let si3 = si * si * si;
+    let inv_si2 = 1.0 / (si * si);
     let radius = params.neighbour_radius * si;
     let mut each = |j: u32| {
         let ju = j as usize;
@@ -178,7 +180,7 @@ fn pairs_of(
                 Pair {
                     push: r * (2.0 * e),
                     energy: e,
-                    de_dsigma: d2 * e / si3,
+                    de_dlnc: d2 * e * inv_si2,
                     share: None,
                 },
             );
@@ -190,12 +192,13 @@ fn pairs_of(
                 Pair {
                     push: r * (2.0 * e * power(ratio, coarse)),
                     energy: e,
-                    de_dsigma: d2 * e / si3,
+                    de_dlnc: d2 * e * inv_si2,
                     share: Some(Share {
                         target: j,
                         push: r * (-2.0 * e * power(ratio, fine)),
                         energy: e,
-                        de_dsigma: d2 * e / (sj * sj * sj),
+                        // The pair's kernel is σ_i for the finer particle too.
+                        de_dlnc: d2 * e * inv_si2,
                     }),
                 },
             );
@@ -268,7 +271,7 @@ mod tests {
             };
             s.push += r * (2.0 * e * w);
             s.energy += e;
-            s.de_dsigma += d2 * e / (si * si * si);
+            s.de_dlnc += d2 * e / (big * big);
         }
         s
     }
@@ -297,8 +300,54 @@ mod tests {
             assert_near!(out.push[i].x, want.push.x, 1e-12);
             assert_near!(out.push[i].y, want.push.y, 1e-12);
             assert_near!(out.energy[i], want.energy, 1e-12);
-            assert_near!(out.de_dsigma[i], want.de_dsigma, 1e-6);
+            assert_near!(out.de_dlnc[i], want.de_dlnc, 1e-12);
         }
+    }
+
+    /// c·∂E/∂c against a finite difference of the brute-force energies with every σ scaled
+    /// by c: across levels the finer particle's energy follows the coarser one's σ.
+    #[test]
+    fn the_scale_derivative_is_the_finite_difference_of_the_energy() {
+        let base = scene();
+        let params = ParticleParams::paper();
+        let n = base.len();
+        let scaled = |c: f64| {
+            let mut p = base.clone();
+            p.sigma.iter_mut().for_each(|s| *s *= c);
+            p
+        };
+        let energy = |c: f64| -> Vec<f64> {
+            let p = scaled(c);
+            (0..n).map(|i| brute(&p, &params, i).energy).collect()
+        };
+        let c = 0.8;
+        let p = scaled(c);
+        let active: Vec<u32> = (0..n as u32).collect();
+        let index = NeighbourIndex::Grid(ParticleGrid::new(&p.positions, 0.05));
+        let mut out = Repulsion::default();
+        let movers = Movers {
+            active: &active,
+            movable: None,
+            fixed_coarse: &[],
+        };
+        repulsion_into(&mut out, &index, &p, &movers, &params);
+        let h = 1e-6;
+        let (up, down) = (energy(c + h), energy(c - h));
+        let mut crossing = 0;
+        for i in 0..n {
+            let fd = c * (up[i] - down[i]) / (2.0 * h);
+            // (A pair at the 3σ cut-off jumps in or out between c ± h: none here.)
+            assert_near!(out.de_dlnc[i], fd, 1e-6 * (1.0 + fd.abs()));
+            crossing += usize::from((0..n).any(|j| {
+                j != i
+                    && p.sigma[j] > p.sigma[i]
+                    && (p.positions[i] - p.positions[j]).length() < 3.0 * p.sigma[j]
+            }));
+        }
+        assert!(
+            crossing > 10,
+            "{crossing} particles with a coarser neighbour"
+        );
     }
 
     #[test]
