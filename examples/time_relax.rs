@@ -1,9 +1,12 @@
 //! Development aid: times `rounds` samplings (seeding + 20 iterations), each of a freshly built
 //! MPU, and prints the median simulation time and the per-level CV (for profiling the
 //! relaxation alone). With `warm` as third argument every round samples one MPU, whose lazily
-//! filled per-point caches are then full after the first round: the difference is their cost.
+//! filled tables (the footprint's per-point table, the evaluation's candidate lists) are then
+//! full after the first round: the difference is their cost. With `prefill`, every round's
+//! fresh MPU has its footprint table filled for every input point before the clock starts:
+//! the difference to a plain run is what filling it during the relaxation costs.
 //!
-//! `cargo run --release --example time_relax -- ../shared/models/bunny.ply 9 [warm]`
+//! `cargo run --release --example time_relax -- ../shared/models/bunny.ply 9 [warm|prefill]`
 
 use psi::{Mpu, MpuParams, ParticleParams};
 
@@ -13,7 +16,9 @@ fn main() -> anyhow::Result<()> {
         .next()
         .unwrap_or_else(|| "../shared/models/bunny.ply".into());
     let rounds: usize = args.next().map_or(Ok(9), |s| s.parse())?;
-    let warm = args.next().is_some_and(|a| a == "warm");
+    let mode = args.next().unwrap_or_default();
+    let warm = mode == "warm";
+    let prefill = mode == "prefill";
     let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
     let params = ParticleParams::paper();
     let mut times = Vec::new();
@@ -27,7 +32,14 @@ fn main() -> anyhow::Result<()> {
         } else {
             Some(Mpu::build(&points, &MpuParams::paper())?)
         };
-        let run = psi::particles::sample(fresh.as_ref().unwrap_or(&shared), &params);
+        let mpu = fresh.as_ref().unwrap_or(&shared);
+        if prefill {
+            use rayon::prelude::*;
+            (0..mpu.points().len() as u32)
+                .into_par_iter()
+                .for_each(|q| _ = mpu.input_spacing(q));
+        }
+        let run = psi::particles::sample(mpu, &params);
         times.push(run.report.simulate_seconds);
         last = Some(run);
     }
