@@ -13,6 +13,10 @@ use crate::reference::{
 };
 use crate::{Flags, host, models_dir, project_root};
 
+/// Depth levels with fewer particles than this show their count beside their CV (a
+/// coefficient of variation from a handful of distances is mostly noise).
+const FEW_PARTICLES: u64 = 30;
+
 /// Builds the release `psi` binary and returns its path.
 pub(crate) fn build_release() -> Result<PathBuf> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
@@ -150,7 +154,16 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
             .as_array()
             .map(|ls| {
                 ls.iter()
-                    .map(|l| format!("{}:{:.3}", l["depth"], f(&l["spacing"]["cv"])))
+                    .map(|l| {
+                        // A level of a few particles gets its count: its CV says little.
+                        let count = l["spacing"]["count"].as_u64().unwrap_or(0);
+                        let few = if count < FEW_PARTICLES {
+                            format!(" (n={count})")
+                        } else {
+                            String::new()
+                        };
+                        format!("{}:{:.3}{few}", l["depth"], f(&l["spacing"]["cv"]))
+                    })
                     .collect()
             })
             .unwrap_or_default();
