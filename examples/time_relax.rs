@@ -17,6 +17,10 @@ fn main() -> anyhow::Result<()> {
         .unwrap_or_else(|| "../shared/models/bunny.ply".into());
     let rounds: usize = args.next().map_or(Ok(9), |s| s.parse())?;
     let mode = args.next().unwrap_or_default();
+    anyhow::ensure!(
+        ["", "warm", "prefill"].contains(&mode.as_str()),
+        "third argument: warm or prefill, not {mode:?}"
+    );
     let warm = mode == "warm";
     let prefill = mode == "prefill";
     let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
@@ -26,7 +30,8 @@ fn main() -> anyhow::Result<()> {
     let shared = Mpu::build(&points, &MpuParams::paper())?;
     for _ in 0..rounds {
         // Unless warm, a fresh MPU each round: its lazily filled caches (input spacing,
-        // interior points) start empty, as in one `psi sample` run.
+        // interior points) start empty, as in one `psi sample` run (unless `prefill` fills the
+        // footprint table below).
         let fresh = if warm {
             None
         } else {

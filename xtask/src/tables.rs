@@ -156,11 +156,9 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
                 ls.iter()
                     .map(|l| {
                         // A level of a few particles gets its count: its CV says little.
-                        let count = l["spacing"]["count"].as_u64().unwrap_or(0);
-                        let few = if count < FEW_PARTICLES {
-                            format!(" (n={count})")
-                        } else {
-                            String::new()
+                        let few = match l["spacing"]["count"].as_u64() {
+                            Some(count) if count < FEW_PARTICLES => format!(" (n={count})"),
+                            _ => String::new(),
                         };
                         format!("{}:{:.3}{few}", l["depth"], f(&l["spacing"]["cv"]))
                     })

@@ -1,7 +1,8 @@
 //! Particles bucketed in a uniform grid of cubes, for the relaxation's ball queries: a query
-//! of radius r visits the cubes its bounding box meets, without a branch per candidate. With the edge near the typical query
-//! radius (3σ) a query reads a few dozen candidates from contiguous memory, where a kd-tree
-//! descends from its root; the grid is rebuilt each iteration by one counting sort.
+//! of radius r visits the cubes its bounding box meets, without a branch per candidate. With
+//! the edge near the typical query radius (3σ) a query reads a few dozen candidates from
+//! contiguous memory, where a kd-tree descends from its root; the grid is rebuilt each
+//! iteration by one counting sort.
 
 use glam::DVec3;
 

@@ -341,7 +341,8 @@ mod tests {
             crossing += usize::from((0..n).any(|j| {
                 j != i
                     && p.sigma[j] > p.sigma[i]
-                    && (p.positions[i] - p.positions[j]).length() < 3.0 * p.sigma[j]
+                    && (p.positions[i] - p.positions[j]).length()
+                        < params.neighbour_radius * p.sigma[j]
             }));
         }
         assert!(
@@ -382,6 +383,7 @@ mod tests {
             assert_near!(out.push[i].x, want.push.x, 1e-12);
             assert_near!(out.push[i].y, want.push.y, 1e-12);
             assert_near!(out.energy[i], want.energy, 1e-12);
+            assert_near!(out.de_dlnc[i], want.de_dlnc, 1e-12);
         }
         // Fixed particles get nothing.
         assert!(

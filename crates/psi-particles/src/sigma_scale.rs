@@ -16,12 +16,12 @@ pub(crate) struct SigmaScale {
     c: f64,
 }
 
-/// Sums over particles for [`SigmaScale::adapt`]: Σ E_i, Σ ∂E_i/∂σ_i·σ̂_i and their count.
+/// Sums over particles for [`SigmaScale::adapt`]: Σ E_i, Σ ∂E_i/∂c and their count.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct EnergySums {
     /// Σ E_i.
     pub(crate) energy: f64,
-    /// Σ ∂E_i/∂σ_i · σ̂_i (= Σ ∂E_i/∂c, dimensionless).
+    /// Σ ∂E_i/∂c (dimensionless: the repulsion's c·∂E_i/∂c over c).
     pub(crate) de_dc: f64,
     /// Particles summed.
     pub(crate) count: usize,
