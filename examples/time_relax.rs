@@ -26,6 +26,9 @@ fn main() -> anyhow::Result<()> {
     let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
     let params = ParticleParams::paper();
     let mut times = Vec::new();
+    // CPU seconds of each sampling (both threads; measured apart from the host's steal time,
+    // which moves the wall clock on a shared VM).
+    let mut cpu = Vec::new();
     let mut last = None;
     let shared = Mpu::build(&points, &MpuParams::paper())?;
     for _ in 0..rounds {
@@ -44,7 +47,9 @@ fn main() -> anyhow::Result<()> {
                 .into_par_iter()
                 .for_each(|q| _ = mpu.input_spacing(q));
         }
+        let before = cpu_seconds();
         let run = psi::particles::sample(mpu, &params);
+        cpu.push(cpu_seconds().zip(before).map_or(f64::NAN, |(a, b)| a - b));
         times.push(run.report.simulate_seconds);
         last = Some(run);
     }
@@ -57,13 +62,24 @@ fn main() -> anyhow::Result<()> {
             .iter()
             .map(|l| format!("{}:{}/{:.3}", l.depth, l.spacing.count, l.spacing.cv))
             .collect();
+        let cpu_mean = cpu.iter().sum::<f64>() / cpu.len().max(1) as f64;
         println!(
-            "particles {} simulate median {:.4} s (min {:.4}) levels {}",
+            "particles {} simulate median {:.4} s (min {:.4}; sampling CPU {:.3} s) levels {}",
             run.report.count,
             times[times.len() / 2],
             times[0],
+            cpu_mean,
             levels.join(" ")
         );
     }
     Ok(())
+}
+
+/// User + system CPU seconds of this process so far (Linux `/proc/self/stat`; `None` elsewhere).
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let fields: Vec<&str> = stat[stat.rfind(')')? + 2..].split_whitespace().collect();
+    let ticks = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
+    // Linux reports these in clock ticks of 1/100 s.
+    Some(ticks / 100.0)
 }
