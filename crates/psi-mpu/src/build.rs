@@ -48,7 +48,7 @@ pub struct Mpu {
 /// What an input point's 9 nearest points (itself and 8 neighbours) say about the data around
 /// it: a pure function of the input, cached per point by [`Mpu`]. 56 bytes, so that with its
 /// once-flag an entry of the table fills one cache line ([`InputLocalSlot`]): the footprint
-/// test reads one line a point instead of two (~2 % of a relaxation).
+/// test reads one line a point instead of two.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct InputLocal {
     /// Centroid of the point's 8 nearest input points (itself included) minus the point, local
@@ -71,7 +71,7 @@ impl InputLocal {
     /// d₈·√(π/8), world units ([`Mpu::input_spacing`]).
     #[inline]
     fn spacing(&self) -> f64 {
-        self.last * (std::f64::consts::PI / 8.0).sqrt()
+        spacing_of(self.last)
     }
 
     /// Every input point but the point and `near` is at least this far from the point, world
@@ -80,6 +80,12 @@ impl InputLocal {
     fn beyond(&self) -> f64 {
         if self.full { self.last } else { f64::INFINITY }
     }
+}
+
+/// The input spacing d₈·√(π/8) for a distance d₈ to the 8th neighbour (world units).
+#[inline]
+fn spacing_of(d8: f64) -> f64 {
+    d8 * (std::f64::consts::PI / 8.0).sqrt()
 }
 
 /// A table entry: an [`InputLocal`] filled on first use, aligned to a cache line.
@@ -759,9 +765,10 @@ impl Mpu {
             return (false, None);
         };
         let local = self.input_local(q);
+        let q_position = self.octree.positions()[q as usize];
         let new_anchor = Some(DataAnchor {
             point: q,
-            position: self.octree.positions()[q as usize],
+            position: q_position,
             fast_radius: if local.interior {
                 0.5 * local.spacing()
             } else {
@@ -779,7 +786,7 @@ impl Mpu {
         }
         let n = self.points[q as usize].n;
         let [cx, cy, cz] = local.centroid_offset.map(f64::from);
-        let offset = self.octree.positions()[q as usize] + DVec3::new(cx, cy, cz) - y;
+        let offset = q_position + DVec3::new(cx, cy, cz) - y;
         let tangential = (offset - n * offset.dot(n)).length();
         (tangential <= spacing, new_anchor)
     }
@@ -821,7 +828,7 @@ impl Mpu {
             let y = self.octree.positions()[q as usize];
             let around = self.index.nearest(y, 9);
             let last = around.last().map_or(0.0, |n| n.1.sqrt());
-            let spacing = last * (std::f64::consts::PI / 8.0).sqrt();
+            let spacing = spacing_of(last);
             let first = &around[..around.len().min(8)];
             let positions = self.octree.positions();
             let centroid = first

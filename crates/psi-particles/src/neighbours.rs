@@ -107,10 +107,7 @@ impl<'a> NeighbourIndex<'a> {
         } = self
         {
             scratch.clear();
-            moving.append_within(x, radius, scratch);
-            for j in scratch.iter_mut() {
-                *j = moving_ids[*j as usize];
-            }
+            append_mapped(moving, moving_ids, x, radius, scratch);
             scratch.sort_unstable();
             scratch.iter().copied().for_each(visit);
         } else {
@@ -133,15 +130,8 @@ impl<'a> NeighbourIndex<'a> {
                 moving,
                 moving_ids,
             } => {
-                fixed.grid.append_within(x, radius, scratch);
-                for j in scratch.iter_mut() {
-                    *j = fixed.ids[*j as usize];
-                }
-                let from = scratch.len();
-                moving.append_within(x, radius, scratch);
-                for j in &mut scratch[from..] {
-                    *j = moving_ids[*j as usize];
-                }
+                append_mapped(&fixed.grid, &fixed.ids, x, radius, scratch);
+                append_mapped(moving, moving_ids, x, radius, scratch);
             }
             Self::Grid(grid) => grid.append_within(x, radius, scratch),
             Self::Kd(index) => index.within(x, radius, scratch),
@@ -153,5 +143,15 @@ impl<'a> NeighbourIndex<'a> {
         // forces in the same order and gives the same result.
         scratch.sort_unstable();
         scratch.iter().for_each(|&j| visit(j));
+    }
+}
+
+/// Appends to `out` the particles of `grid` (built over a subset, `ids` naming each of its
+/// points' particle) within `radius` of `x`, as particle indices.
+fn append_mapped(grid: &ParticleGrid, ids: &[u32], x: DVec3, radius: f64, out: &mut Vec<u32>) {
+    let from = out.len();
+    grid.append_within(x, radius, out);
+    for j in &mut out[from..] {
+        *j = ids[*j as usize];
     }
 }
