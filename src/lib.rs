@@ -3,12 +3,14 @@
 //! The facade of the psi workspace: it re-exports the layer crates and wires them to files.
 //! It holds no algorithm. The layers, in dependency order:
 //!
-//! * [`octree`] (`psi-octree`): the adaptive octree, oriented points, tolerances, test shapes;
+//! * [`octree`] (`psi-octree`): the adaptive octree, its point queries, oriented points;
 //! * [`io`] (`psi-io`): PLY/OBJ/XYZ parsing and PLY writing, on bytes;
+//! * [`preprocess`] (`psi-preprocess`): what a scan needs before the fit (normal orientation);
 //! * [`mpu`] (`psi-mpu`): the MPU implicit (Ohtake et al. 2003) and its polygonizer;
 //! * [`particles`] (`psi-particles`): octree-seeded, depth-adaptive particle sampling;
 //! * [`regen`] (`psi-regen`): local regeneration after shape edits;
-//! * [`render`] (`psi-render`, beside the chain): pictures of particles and meshes (PNG).
+//! * [`render`] (`psi-render`, beside the chain): pictures of particles and meshes (PNG);
+//! * [`shapes`] (`psi-shapes`, beside the chain): the built-in model, analytic shapes, tolerances.
 //!
 //! ```
 //! use psi::{Mpu, MpuParams, ParticleParams};
@@ -28,7 +30,9 @@ pub use psi_io as io;
 pub use psi_mpu as mpu;
 pub use psi_octree as octree;
 pub use psi_particles as particles;
+pub use psi_preprocess as preprocess;
 pub use psi_regen as regen;
+pub use psi_shapes as shapes;
 
 pub use error::PsiError;
 pub use files::{
@@ -40,8 +44,9 @@ pub use psi_io::{MeshSampling, PointCloudFile, ReadOptions, TriangleMesh};
 pub use psi_mpu::{
     BuildReport, Mpu, MpuError, MpuParams, PolygonizeParams, TriangleSoup, polygonize,
 };
-pub use psi_octree::{Aabb, AnalyticShape, OrientedPoint, builtin_model};
+pub use psi_octree::{Aabb, OrientedPoint};
 pub use psi_particles::{
     DensityMode, NeighbourSearch, ParticleParams, Particles, SampleReport, Sampling, sample,
 };
+pub use psi_shapes::{AnalyticShape, builtin_model};
 pub use render::{render_particles_png, save_png};

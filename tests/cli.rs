@@ -25,7 +25,7 @@ fn info_on_the_builtin_model() {
     let out = psi(&["info", "--json"]);
     assert!(out.status.success());
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(j["points"], psi::octree::BUILTIN_MODEL_POINTS);
+    assert_eq!(j["points"], psi::shapes::BUILTIN_MODEL_POINTS);
 }
 
 #[test]

@@ -7,7 +7,7 @@ use psi_io::{
     Format, MeshSampling, ReadOptions, TriangleMesh, read_mesh, read_points, write_mesh_ply,
     write_points_ply,
 };
-use psi_octree::{AnalyticShape, assert_near, tolerance::EXACT};
+use psi_shapes::{AnalyticShape, assert_near, tolerance::EXACT};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 

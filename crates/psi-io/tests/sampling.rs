@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 use psi_io::{Format, MeshSampling, ReadError, ReadOptions, read_points};
-use psi_octree::{assert_near, tolerance::EXACT};
+use psi_shapes::{assert_near, tolerance::EXACT};
 
 fn vertex_normals() -> ReadOptions {
     ReadOptions {

@@ -5,7 +5,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use psi_mpu::{Mpu, MpuParams};
 
 fn build(c: &mut Criterion) {
-    let points = psi_octree::builtin_model();
+    let points = psi_shapes::builtin_model();
     let mut group = c.benchmark_group("mpu_build");
     group.sample_size(10);
     group.bench_function("builtin_80k", |b| {

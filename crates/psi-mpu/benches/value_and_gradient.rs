@@ -7,7 +7,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use psi_mpu::{Mpu, MpuParams};
 
 fn value_and_gradient(c: &mut Criterion) {
-    let points = psi_octree::builtin_model();
+    let points = psi_shapes::builtin_model();
     let mpu = Mpu::build(&points, &MpuParams::paper()).unwrap();
     let queries: Vec<_> = points
         .iter()

@@ -51,7 +51,7 @@ pub(crate) fn weight_and_gradient_inv_r2(x: DVec3, c: DVec3, inv_r2: f64, d2: f6
 #[cfg(test)]
 mod tests {
     use super::*;
-    use psi_octree::assert_near;
+    use psi_shapes::assert_near;
 
     #[test]
     fn spline_is_continuous_and_zero_at_the_support() {

@@ -895,7 +895,7 @@ impl Mpu {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use psi_octree::AnalyticShape;
+    use psi_shapes::AnalyticShape;
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg64Mcg;
 

@@ -49,7 +49,7 @@ pub fn data_coverage(mpu: &Mpu) -> f64 {
 mod tests {
     use super::*;
     use crate::MpuParams;
-    use psi_octree::AnalyticShape;
+    use psi_shapes::AnalyticShape;
 
     #[test]
     fn a_hemisphere_is_less_covered_than_a_sphere() {

@@ -28,7 +28,8 @@ pub enum MpuError {
     /// ```
     /// use glam::DVec3;
     /// use psi_mpu::{Mpu, MpuError, MpuParams};
-    /// use psi_octree::{AnalyticShape, OrientedPoint};
+    /// use psi_octree::OrientedPoint;
+    /// use psi_shapes::AnalyticShape;
     /// let mut pts = AnalyticShape::Sphere { radius: 1.0 }.sample(100, 1);
     /// pts[7].n = DVec3::ZERO;
     /// assert_eq!(Mpu::build(&pts, &MpuParams::paper()).unwrap_err(), MpuError::BadPoint { index: 7 });
@@ -42,7 +43,7 @@ pub enum MpuError {
     ///
     /// ```
     /// use psi_mpu::{Mpu, MpuError, MpuParams};
-    /// use psi_octree::AnalyticShape;
+    /// use psi_shapes::AnalyticShape;
     /// let pts = AnalyticShape::Sphere { radius: 1.0 }.sample(100, 1);
     /// let params = MpuParams { error_rel: -1.0, ..MpuParams::paper() };
     /// assert!(matches!(Mpu::build(&pts, &params), Err(MpuError::BadParameter(_))));

@@ -311,7 +311,7 @@ impl Mpu {
 mod tests {
     use super::*;
     use crate::MpuParams;
-    use psi_octree::AnalyticShape;
+    use psi_shapes::AnalyticShape;
 
     /// Every leaf's candidate list, filtered from its ancestors', equals the traversal's for
     /// that leaf (the brute-force twin): the same leaves in the same order. Leaves are asked in

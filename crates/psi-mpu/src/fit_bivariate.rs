@@ -72,7 +72,7 @@ pub(crate) fn fit_bivariate(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use psi_octree::assert_near;
+    use psi_shapes::assert_near;
 
     #[test]
     fn recovers_a_paraboloid_exactly() {

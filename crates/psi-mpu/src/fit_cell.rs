@@ -489,7 +489,7 @@ fn gradient_is_healthy(q: &Quadric, pos: &[DVec3]) -> bool {
 mod tests {
     use super::*;
     use crate::{Mpu, MpuParams};
-    use psi_octree::AnalyticShape;
+    use psi_shapes::AnalyticShape;
 
     #[test]
     fn a_fit_without_the_kd_tree_is_the_fit_with_it_or_none() {

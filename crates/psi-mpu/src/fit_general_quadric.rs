@@ -135,7 +135,7 @@ pub(crate) fn fit_general_quadric(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use psi_octree::{AnalyticShape, assert_near};
+    use psi_shapes::{AnalyticShape, assert_near};
 
     #[test]
     fn fits_a_sphere_patch_as_a_distance_like_quadric() {

@@ -16,7 +16,7 @@
 //! ```
 //! use glam::DVec3;
 //! use psi_mpu::{Mpu, MpuParams};
-//! use psi_octree::AnalyticShape;
+//! use psi_shapes::AnalyticShape;
 //!
 //! let points = AnalyticShape::Sphere { radius: 1.0 }.sample(3000, 1);
 //! let mpu = Mpu::build(&points, &MpuParams::paper()).unwrap();

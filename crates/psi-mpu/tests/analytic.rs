@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 use psi_mpu::{FitKind, Mpu, MpuParams, PolygonizeParams, polygonize};
-use psi_octree::{AnalyticShape, assert_near};
+use psi_shapes::{AnalyticShape, assert_near};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 

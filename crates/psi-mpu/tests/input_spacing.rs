@@ -6,7 +6,8 @@
 
 use glam::DVec3;
 use psi_mpu::{Mpu, MpuParams};
-use psi_octree::{OrientedPoint, assert_near};
+use psi_octree::OrientedPoint;
+use psi_shapes::assert_near;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 

@@ -4,7 +4,8 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::DVec3;
-use psi_octree::{Octree, OctreeParams, PointIndex, builtin_model};
+use psi_octree::{Octree, OctreeParams, PointIndex};
+use psi_shapes::builtin_model;
 
 fn ball_query(c: &mut Criterion) {
     let points: Vec<DVec3> = builtin_model().iter().map(|p| p.p).collect();

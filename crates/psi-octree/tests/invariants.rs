@@ -86,14 +86,14 @@ proptest! {
                 let cc = tree.cell(ch);
                 prop_assert_eq!(cc.depth, c.depth + 1);
                 prop_assert_eq!(cc.parent, i as u32);
-                psi_octree::assert_near!(cc.half, 0.5 * c.half, 0.0);
+                psi_shapes::assert_near!(cc.half, 0.5 * c.half, 0.0);
                 // The child cube lies in the parent cube, touching its centre.
                 let off = (cc.center - c.center).abs();
                 prop_assert!((off - DVec3::splat(cc.half)).abs().max_element() <= 1e-12 * c.half.max(1.0));
                 volume += (2.0 * cc.half).powi(3);
                 union.extend_from_slice(tree.points_in(ch));
             }
-            psi_octree::assert_near!(volume, (2.0 * c.half).powi(3), 1e-9 * (2.0 * c.half).powi(3));
+            psi_shapes::assert_near!(volume, (2.0 * c.half).powi(3), 1e-9 * (2.0 * c.half).powi(3));
             let mut parent: Vec<u32> = tree.points_in(i as u32).to_vec();
             union.sort_unstable();
             parent.sort_unstable();
@@ -185,7 +185,7 @@ fn pruning_would_be_inexact_below_one_half() {
 
 #[test]
 fn nearest_matches_brute_force() {
-    let pts = psi_octree::AnalyticShape::Sphere { radius: 1.0 }.sample(500, 3);
+    let pts = psi_shapes::AnalyticShape::Sphere { radius: 1.0 }.sample(500, 3);
     let pos: Vec<DVec3> = pts.iter().map(|p| p.p).collect();
     let index = PointIndex::new(&pos);
     let q = DVec3::new(0.3, -0.2, 0.9);
@@ -197,7 +197,7 @@ fn nearest_matches_brute_force() {
         .collect();
     brute.sort_by(|a, b| a.1.total_cmp(&b.1));
     for (g, b) in got.iter().zip(&brute) {
-        psi_octree::assert_near!(g.1, b.1, psi_octree::tolerance::EXACT);
+        psi_shapes::assert_near!(g.1, b.1, psi_shapes::tolerance::EXACT);
     }
     assert_eq!(got.len(), 5);
 }

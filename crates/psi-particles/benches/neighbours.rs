@@ -9,7 +9,7 @@ use psi_octree::PointIndex;
 use psi_particles::{GRID_EDGE_FACTOR, OctreeBuckets, ParticleGrid, ParticleParams, initialize};
 
 fn neighbours(c: &mut Criterion) {
-    let points = psi_octree::builtin_model();
+    let points = psi_shapes::builtin_model();
     let mpu = Mpu::build(&points, &MpuParams::paper()).unwrap();
     let (particles, _, _) = initialize(&mpu, &ParticleParams::paper());
     let origin = mpu.frame_origin();

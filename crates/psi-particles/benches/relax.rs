@@ -9,7 +9,7 @@ use psi_mpu::{Mpu, MpuParams};
 use psi_particles::{ParticleParams, RelaxRegion, initialize, relax};
 
 fn relaxation(c: &mut Criterion) {
-    let points = psi_octree::builtin_model();
+    let points = psi_shapes::builtin_model();
     let mpu = Mpu::build(&points, &MpuParams::paper()).unwrap();
     let params = ParticleParams::paper();
     let mut group = c.benchmark_group("particles_builtin");

@@ -1,8 +1,8 @@
 //! Parameter sweep of the relaxation on a sphere and a torus (development aid):
 //! prints the nearest-neighbour CV after relaxation for step sizes and σ adaptation.
 use psi_mpu::{Mpu, MpuParams};
-use psi_octree::AnalyticShape;
 use psi_particles::{DensityMode, ParticleParams, sample};
+use psi_shapes::AnalyticShape;
 
 fn main() {
     for shape in [

@@ -84,7 +84,7 @@ impl DensityField {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use psi_octree::assert_near;
+    use psi_shapes::assert_near;
 
     #[test]
     fn weight_has_the_published_values_and_no_quirks() {

@@ -14,7 +14,7 @@
 //!
 //! ```
 //! use psi_mpu::{Mpu, MpuParams};
-//! use psi_octree::AnalyticShape;
+//! use psi_shapes::AnalyticShape;
 //! use psi_particles::{ParticleParams, sample};
 //!
 //! let points = AnalyticShape::Torus { major: 1.0, minor: 0.4 }.sample(8000, 1);

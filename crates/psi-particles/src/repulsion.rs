@@ -228,7 +228,7 @@ mod tests {
     use super::*;
     use crate::ParticleGrid;
     use crate::neighbours::FixedSet;
-    use psi_octree::assert_near;
+    use psi_shapes::assert_near;
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg64Mcg;
 

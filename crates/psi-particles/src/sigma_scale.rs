@@ -87,7 +87,7 @@ impl SigmaScale {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use psi_octree::assert_near;
+    use psi_shapes::assert_near;
 
     fn field() -> DensityField {
         DensityField {

@@ -3,10 +3,10 @@
 
 use glam::DVec3;
 use psi_mpu::{Mpu, MpuParams};
-use psi_octree::AnalyticShape;
 use psi_particles::{
     DensityMode, NeighbourSearch, ParticleParams, RelaxRegion, sample, separate_close_pairs,
 };
+use psi_shapes::AnalyticShape;
 
 fn mpu_of(shape: AnalyticShape, n: usize) -> Mpu {
     Mpu::build(&shape.sample(n, 21), &MpuParams::paper()).unwrap()

@@ -10,7 +10,7 @@ use psi_particles::ParticleParams;
 use psi_regen::{Edit, Scene};
 
 fn regenerate(c: &mut Criterion) {
-    let points = psi_octree::builtin_model();
+    let points = psi_shapes::builtin_model();
     let (scene, _) = Scene::new(
         points.clone(),
         &MpuParams::paper(),

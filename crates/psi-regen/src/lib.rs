@@ -9,7 +9,7 @@
 //! ```
 //! use glam::DVec3;
 //! use psi_mpu::MpuParams;
-//! use psi_octree::AnalyticShape;
+//! use psi_shapes::AnalyticShape;
 //! use psi_particles::ParticleParams;
 //! use psi_regen::{Edit, Scene};
 //!

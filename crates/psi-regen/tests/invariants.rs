@@ -7,9 +7,10 @@ use glam::DVec3;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 use psi_mpu::{Mpu, MpuParams};
-use psi_octree::{AnalyticShape, OrientedPoint};
+use psi_octree::OrientedPoint;
 use psi_particles::{DensityMode, ParticleParams};
 use psi_regen::{Edit, Scene, mark_cells, mark_cells_brute_force};
+use psi_shapes::AnalyticShape;
 
 fn leaves(mpu: &Mpu) -> BTreeSet<(u8, [u32; 3])> {
     mpu.leaves()
@@ -45,8 +46,8 @@ fn assert_same_mpu(local: &Mpu, scratch: &Mpu) {
         let x = b.min - 0.1 * b.extent() + 1.2 * b.extent() * t;
         let (f1, g1) = local.value_and_gradient(x);
         let (f2, g2) = scratch.value_and_gradient(x);
-        psi_octree::assert_near!(f1, f2, 1e-12 * d.max(f2.abs()));
-        psi_octree::assert_near!((g1 - g2).length(), 0.0, 1e-12 * g2.length().max(1.0));
+        psi_shapes::assert_near!(f1, f2, 1e-12 * d.max(f2.abs()));
+        psi_shapes::assert_near!((g1 - g2).length(), 0.0, 1e-12 * g2.length().max(1.0));
     }
 }
 
@@ -293,8 +294,8 @@ fn brush_normals_follow_the_inverse_transpose() {
     let h = 1e-6;
     let tx = (deform(p + DVec3::X * h) - deform(p - DVec3::X * h)) / (2.0 * h);
     let ty = (deform(p + DVec3::Y * h) - deform(p - DVec3::Y * h)) / (2.0 * h);
-    psi_octree::assert_near!(out[0].n.dot(tx), 0.0, 1e-8);
-    psi_octree::assert_near!(out[0].n.dot(ty), 0.0, 1e-8);
+    psi_shapes::assert_near!(out[0].n.dot(tx), 0.0, 1e-8);
+    psi_shapes::assert_near!(out[0].n.dot(ty), 0.0, 1e-8);
     assert!(out[0].n.z > 0.0);
 }
 

@@ -19,7 +19,7 @@ pub(crate) struct Loaded {
     pub(crate) name: String,
     pub(crate) file: PointCloudFile,
     /// Same-sheet neighbour pairs with opposed normals (before any reorientation).
-    pub(crate) normals: psi::octree::NormalConsistency,
+    pub(crate) normals: psi::preprocess::NormalConsistency,
     /// Normals flipped by `--orient-normals`.
     pub(crate) flipped: usize,
 }
@@ -56,8 +56,8 @@ pub(crate) fn load(args: &InputArgs) -> anyhow::Result<Loaded> {
         None => {
             let n = args
                 .builtin_points
-                .unwrap_or(psi::octree::BUILTIN_MODEL_POINTS);
-            let points = psi::octree::sample_builtin(n, psi::octree::BUILTIN_MODEL_SEED);
+                .unwrap_or(psi::shapes::BUILTIN_MODEL_POINTS);
+            let points = psi::shapes::sample_builtin(n, psi::shapes::BUILTIN_MODEL_SEED);
             (
                 "builtin".to_owned(),
                 PointCloudFile {
@@ -81,10 +81,10 @@ pub(crate) fn load(args: &InputArgs) -> anyhow::Result<Loaded> {
             (path.display().to_string(), file)
         }
     };
-    let normals = psi::octree::check_normal_consistency(&file.points, 20_000);
+    let normals = psi::preprocess::check_normal_consistency(&file.points, 20_000);
     let mut flipped = 0;
     if args.orient_normals {
-        flipped = psi::octree::orient_normals(&mut file.points);
+        flipped = psi::preprocess::orient_normals(&mut file.points);
     } else if normals.opposed_fraction() > 0.01 {
         eprintln!(
             "psi: warning: {name}: {:.1} % of neighbouring normals point to opposite sides; try --orient-normals",

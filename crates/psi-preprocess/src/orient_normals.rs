@@ -9,7 +9,7 @@ use std::collections::BinaryHeap;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::{OrientedPoint, PointIndex};
+use psi_octree::{OrientedPoint, PointIndex};
 
 /// Neighbours per point in the graph.
 const K: usize = 8;
@@ -171,7 +171,7 @@ pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::AnalyticShape;
+    use psi_shapes::AnalyticShape;
 
     #[test]
     fn detects_and_repairs_flipped_normals() {

@@ -13,7 +13,7 @@ pub const FINITE_DIFFERENCE: f64 = 1e-5;
 /// Asserts `|a - b| <= tol`, printing both values and the difference on failure.
 ///
 /// ```
-/// psi_octree::assert_near!(1.0, 1.0 + 1e-13, psi_octree::tolerance::EXACT);
+/// psi_shapes::assert_near!(1.0, 1.0 + 1e-13, psi_shapes::tolerance::EXACT);
 /// ```
 #[macro_export]
 macro_rules! assert_near {
@@ -41,7 +41,7 @@ macro_rules! assert_near {
 /// Asserts `|a - b| <= tol * scale` (a tolerance relative to a length scale such as `D`).
 ///
 /// ```
-/// psi_octree::assert_rel_near!(2.0, 2.001, 1e-3, 2.0);
+/// psi_shapes::assert_rel_near!(2.0, 2.001, 1e-3, 2.0);
 /// ```
 #[macro_export]
 macro_rules! assert_rel_near {

@@ -7,7 +7,7 @@ use glam::DVec3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-use crate::OrientedPoint;
+use psi_octree::OrientedPoint;
 
 /// A closed analytic surface centred at the origin.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -8,7 +8,7 @@ use glam::DVec3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-use crate::OrientedPoint;
+use psi_octree::OrientedPoint;
 
 /// Number of points [`builtin_model`] returns.
 pub const BUILTIN_MODEL_POINTS: usize = 80_000;
