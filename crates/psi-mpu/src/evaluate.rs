@@ -11,7 +11,7 @@ use glam::DVec3;
 
 use crate::Mpu;
 use crate::bspline_weight::{weight_and_gradient, weight_and_gradient_inv_r2};
-use crate::build::NO_FIT;
+use crate::eval_nodes::{EvalNode, NO_FIT};
 
 /// Weight of the positive background term (a partition of unity sums to O(1) near data).
 pub const BACKGROUND_WEIGHT: f64 = 1e-9;
@@ -23,40 +23,6 @@ struct Sums {
     wq: f64,
     gw: DVec3,
     g_wq: DVec3,
-}
-
-/// A cell as the evaluation traverses it: 48 bytes, siblings contiguous, so one sibling group
-/// is six cache lines (the octree's `Cell` carries more).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct EvalNode {
-    pub(crate) center: DVec3,
-    /// Squared support radius R².
-    pub(crate) r2: f64,
-    /// 1 / R², for the weight (a division saved per evaluated leaf).
-    pub(crate) inv_r2: f64,
-    pub(crate) first_child: u32,
-    pub(crate) fit: u32,
-}
-
-/// The evaluation nodes of an octree and its leaf-fit table (arena order), written into
-/// `nodes` (emptied first).
-pub(crate) fn eval_nodes_into(
-    octree: &psi_octree::Octree,
-    cell_fit: &[u32],
-    alpha: f64,
-    nodes: &mut Vec<EvalNode>,
-) {
-    nodes.clear();
-    nodes.extend(octree.cells().iter().zip(cell_fit).map(|(c, &fit)| {
-        let r = c.support_radius(alpha);
-        EvalNode {
-            center: c.center,
-            r2: r * r,
-            inv_r2: 1.0 / (r * r),
-            first_child: c.first_child,
-            fit,
-        }
-    }));
 }
 
 /// Cells from this depth down take their candidate lists from their parents' ([`Mpu::candidates`]);

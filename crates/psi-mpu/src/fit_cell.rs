@@ -65,17 +65,39 @@ impl CoarseIndex {
     }
 }
 
-/// The result of fitting one cell.
+/// A local function with how it was chosen.
 #[derive(Clone, Debug)]
-pub(crate) struct CellFit {
+pub(crate) struct LeafFit {
     pub(crate) function: LocalFunction,
     pub(crate) kind: FitKind,
     /// The selected kind failed and a simpler one was used.
     pub(crate) fallback: bool,
+}
+
+/// The result of fitting one cell.
+#[derive(Clone, Debug)]
+pub(crate) struct CellFit {
+    pub(crate) fit: LeafFit,
     /// Largest Taubin distance over the points within the nominal radius (world units).
     pub(crate) error: f64,
     /// The enlarged radius R1 the fit used (world units).
     pub(crate) fit_radius: f64,
+}
+
+/// A local fit with its error: the largest Taubin distance within the nominal radius, world
+/// units.
+struct ScoredFit {
+    fit: LeafFit,
+    error: f64,
+}
+
+/// The points a cell's fit reads (shape: K each, local frame): positions, unit normals and
+/// their weights b(1.5·|p − c| / R1).
+#[derive(Clone, Copy)]
+struct Neighbourhood<'a> {
+    positions: &'a [DVec3],
+    normals: &'a [DVec3],
+    weights: &'a [f64],
 }
 
 /// The enlarged fitting radius: R1 = R + m·λR for the smallest m ≥ 0 with more than N_min
@@ -237,28 +259,30 @@ pub(crate) fn try_fit_cell(
     };
     // `solve_unit`: the length unit of the least-squares solves, in which the relative
     // singular-value cut-offs apply (MpuParams::fit_unit).
+    let ball = Neighbourhood {
+        positions: &pos,
+        normals: &nrm,
+        weights: &w,
+    };
     let fit_in = |solve_unit: f64| {
-        let (function, kind, fallback) =
-            select_and_fit(&pos, &nrm, &w, center, half, solve_unit, params);
-        let error = error_of(&function);
+        let fit = select_and_fit(ball, center, half, solve_unit, params);
+        let error = error_of(&fit.function);
         if incomplete.get() {
             // Without the kd-tree the error is unknown: give up before the rescue's work.
             return None;
         }
-        let fit = rescue_crease(
-            (&pos, &nrm, &w),
+        let rescue = CreaseRescue {
             solve_unit,
             params,
-            (eps0, r),
-            &error_of,
-            (function, kind, fallback, error),
-        );
+            eps0,
+            radius: r,
+            error_of: &error_of,
+        };
+        let ScoredFit { fit, error } = rescue.apply(ball, ScoredFit { fit, error });
         // (The rescue's errors could need the whole ball too.)
         (!incomplete.get()).then_some(CellFit {
-            function: fit.0,
-            kind: fit.1,
-            fallback: fit.2,
-            error: fit.3,
+            fit,
+            error,
             fit_radius: r1,
         })
     };
@@ -270,14 +294,14 @@ pub(crate) fn try_fit_cell(
     // at the points can come with a worse extrapolation along the feature (on the thin slab of
     // tests/analytic.rs the rim's worst distance rose from 2.7e-4 to 6.7e-4 D).
     let smooth = matches!(
-        chosen.kind,
+        chosen.fit.kind,
         FitKind::Bivariate | FitKind::GeneralQuadric | FitKind::Plane
     );
     if params.leaf_refit && params.fit_unit.is_some() && smooth && chosen.error <= eps0 {
         let alt = fit_in(r1)?;
         // The second solve runs the crease rescue too; a sharp result is not taken either.
         let alt_smooth = matches!(
-            alt.kind,
+            alt.fit.kind,
             FitKind::Bivariate | FitKind::GeneralQuadric | FitKind::Plane
         );
         if alt_smooth && alt.error < chosen.error {
@@ -287,41 +311,48 @@ pub(crate) fn try_fit_cell(
     Some(chosen)
 }
 
-/// A local fit with its kind, fallback flag and error (world units).
-type ScoredFit = (LocalFunction, FitKind, bool, f64);
-
-/// The crease rescue (psi's addition, explained inside), applied to a `fit` of the points `(pos, nrm, w)` (local
-/// frame) solved in `solve_unit`; `(eps0, r)` are ε0 and the nominal radius (world units) and
-/// `error_of` the cell's error measure. Returns the fit to keep.
-fn rescue_crease(
-    (pos, nrm, w): (&[DVec3], &[DVec3], &[f64]),
+/// The crease rescue (psi's addition, explained in [`CreaseRescue::apply`]) of one cell.
+struct CreaseRescue<'a> {
+    /// The length unit of the least-squares solves (world units).
     solve_unit: f64,
-    params: &MpuParams,
-    (eps0, r): (f64, f64),
-    error_of: &dyn Fn(&LocalFunction) -> f64,
-    fit: ScoredFit,
-) -> ScoredFit {
-    let (function, kind, fallback, error) = fit;
+    params: &'a MpuParams,
+    /// ε0, world units.
+    eps0: f64,
+    /// The cell's nominal support radius R, world units.
+    radius: f64,
+    /// The cell's error measure.
+    error_of: &'a dyn Fn(&LocalFunction) -> f64,
+}
 
-    // psi's addition to Ohtake's selection: Ohtake tries sharp pieces only in cells with at
-    // most 2·N_min points, so a dense scan's creases are approximated by smooth fits rounded
-    // within ε0. When a smooth fit was chosen, the normals show a crease (extreme normals
-    // differ by more than 60°) and the smooth fit is not already near-exact, the sharp fit is
-    // tried too and kept if it at least halves the error. Where the smooth error exceeds ε0 it
-    // is only known to be ≥ ε0 (the computation stopped there), so the sharp fit must then reach
-    // ε0/2.
-    if params.sharp
-        && matches!(kind, FitKind::Bivariate | FitKind::GeneralQuadric)
-        && error > 1e-3 * r
-        && let Some(sharp) = sharp_candidate(pos, nrm, w, solve_unit, params)
-    {
-        let sharp_error = error_of(&sharp.0);
-        let better = sharp_error < 0.5 * error.min(eps0);
-        if better {
-            return (sharp.0, sharp.1, false, sharp_error);
+impl CreaseRescue<'_> {
+    /// Applied to `scored`, a fit of the points `ball`: returns the fit to keep.
+    fn apply(&self, ball: Neighbourhood<'_>, scored: ScoredFit) -> ScoredFit {
+        let params = self.params;
+        let ScoredFit { fit, error } = scored;
+
+        // psi's addition to Ohtake's selection: Ohtake tries sharp pieces only in cells with at
+        // most 2·N_min points, so a dense scan's creases are approximated by smooth fits rounded
+        // within ε0. When a smooth fit was chosen, the normals show a crease (extreme normals
+        // differ by more than 60°) and the smooth fit is not already near-exact, the sharp fit is
+        // tried too and kept if it at least halves the error. Where the smooth error exceeds ε0 it
+        // is only known to be ≥ ε0 (the computation stopped there), so the sharp fit must then reach
+        // ε0/2.
+        if params.sharp
+            && matches!(fit.kind, FitKind::Bivariate | FitKind::GeneralQuadric)
+            && error > 1e-3 * self.radius
+            && let Some(sharp) = sharp_candidate(ball, self.solve_unit, params)
+        {
+            let sharp_error = (self.error_of)(&sharp.function);
+            let better = sharp_error < 0.5 * error.min(self.eps0);
+            if better {
+                return ScoredFit {
+                    fit: sharp,
+                    error: sharp_error,
+                };
+            }
         }
+        ScoredFit { fit, error }
     }
-    (function, kind, fallback, error)
 }
 
 /// The crease test of the rescue: extreme normals more than 60° apart. Ohtake's T_edge (25.8°)
@@ -331,12 +362,15 @@ const CREASE_DOT: f64 = 0.5;
 /// The sharp fit of a cell with many points, from approximately extreme normals found in
 /// linear time (the normal farthest from the mean, then the normal farthest from that one).
 fn sharp_candidate(
-    pos: &[DVec3],
-    nrm: &[DVec3],
-    w: &[f64],
+    ball: Neighbourhood<'_>,
     solve_unit: f64,
     params: &MpuParams,
-) -> Option<(LocalFunction, FitKind)> {
+) -> Option<LeafFit> {
+    let Neighbourhood {
+        positions: pos,
+        normals: nrm,
+        weights: w,
+    } = ball;
     let mean = nrm.iter().copied().sum::<DVec3>().normalize_or_zero();
     let argmin = |d: DVec3| (0..nrm.len()).min_by(|&a, &b| nrm[a].dot(d).total_cmp(&nrm[b].dot(d)));
     let i = argmin(mean)?;
@@ -348,29 +382,48 @@ fn sharp_candidate(
     let (k, spread) = (0..nrm.len())
         .map(|k| (k, m.dot(nrm[k]).abs()))
         .max_by(|a, b| a.1.total_cmp(&b.1))?;
-    if spread < params.t_corner {
-        fit_edge(pos, nrm, w, nrm[i], nrm[j], solve_unit).map(|f| (f, FitKind::Edge))
+    let (function, kind) = if spread < params.t_corner {
+        (
+            fit_edge(pos, nrm, w, nrm[i], nrm[j], solve_unit)?,
+            FitKind::Edge,
+        )
     } else {
-        fit_corner(pos, nrm, w, [nrm[i], nrm[j], nrm[k]], solve_unit).map(|f| (f, FitKind::Corner))
-    }
+        (
+            fit_corner(pos, nrm, w, [nrm[i], nrm[j], nrm[k]], solve_unit)?,
+            FitKind::Corner,
+        )
+    };
+    Some(LeafFit {
+        function,
+        kind,
+        fallback: false,
+    })
 }
 
 /// Ohtake's selection test, then the fit with its fallbacks (sharp → general quadric →
 /// bivariate → plane).
 fn select_and_fit(
-    pos: &[DVec3],
-    nrm: &[DVec3],
-    w: &[f64],
+    ball: Neighbourhood<'_>,
     center: DVec3,
     half: f64,
     solve_unit: f64,
     params: &MpuParams,
-) -> (LocalFunction, FitKind, bool) {
+) -> LeafFit {
+    let Neighbourhood {
+        positions: pos,
+        normals: nrm,
+        weights: w,
+    } = ball;
+    let leaf = |function, kind, fallback| LeafFit {
+        function,
+        kind,
+        fallback,
+    };
     let Some((o, nbar)) =
         weighted_frame(pos, nrm, w).or_else(|| nearest_point_frame(pos, nrm, center))
     else {
         // No points at all (cannot happen with a non-empty input): a plane through the centre.
-        return (
+        return leaf(
             LocalFunction::Smooth(Quadric::plane(center, DVec3::Z)),
             FitKind::Plane,
             true,
@@ -412,20 +465,20 @@ fn select_and_fit(
         FitKind::Plane => Some(plane()),
     };
     if let Some(f) = attempt.filter(LocalFunction::is_finite) {
-        return (f, chosen, false);
+        return leaf(f, chosen, false);
     }
     // Fallback chain: a failed sharp fit tries the general quadric; then bivariate; then plane.
     if matches!(chosen, FitKind::Edge | FitKind::Corner)
         && let Some(f) = general()
     {
-        return (f, FitKind::GeneralQuadric, true);
+        return leaf(f, FitKind::GeneralQuadric, true);
     }
     if chosen != FitKind::Bivariate
         && let Some(f) = bivariate()
     {
-        return (f, FitKind::Bivariate, true);
+        return leaf(f, FitKind::Bivariate, true);
     }
-    (plane(), FitKind::Plane, true)
+    leaf(plane(), FitKind::Plane, true)
 }
 
 /// Frame of the point nearest the centre (used when the weighted normals cancel).
@@ -520,9 +573,9 @@ mod tests {
             let full = fit_cell(&with, c.center, c.half, eps0);
             match try_fit_cell(&without, c.center, c.half, eps0) {
                 Some(f) => {
-                    assert_eq!(f.function, full.function);
-                    assert_eq!(f.kind, full.kind);
-                    assert_eq!(f.fallback, full.fallback);
+                    assert_eq!(f.fit.function, full.fit.function);
+                    assert_eq!(f.fit.kind, full.fit.kind);
+                    assert_eq!(f.fit.fallback, full.fit.fallback);
                     assert_eq!(f.error.to_bits(), full.error.to_bits());
                     assert_eq!(f.fit_radius.to_bits(), full.fit_radius.to_bits());
                     assert!(

@@ -27,27 +27,36 @@
 //! ```
 
 mod bspline_weight;
+mod buffers;
 mod build;
 mod data_coverage;
+mod data_footprint;
 mod error;
+mod eval_nodes;
 mod evaluate;
 mod fit_bivariate;
 mod fit_cell;
 mod fit_general_quadric;
 mod fit_sharp;
 mod fit_store;
+mod frame;
 mod least_squares;
 mod local_function;
+mod mpu;
 mod params;
 mod polygonize;
 mod quadric;
 mod report;
 
-pub use build::{BuildProgress, DataAnchor, Mpu, MpuBuffers, MpuFrame, Reuse};
+pub use buffers::MpuBuffers;
+pub use build::{BuildOptions, BuildProgress, Reuse};
 pub use data_coverage::data_coverage;
+pub use data_footprint::DataAnchor;
 pub use error::MpuError;
 pub use evaluate::BACKGROUND_WEIGHT;
+pub use frame::MpuFrame;
 pub use local_function::{FitKind, LocalFunction};
+pub use mpu::Mpu;
 pub use params::MpuParams;
 pub use polygonize::{PolygonizeParams, TriangleSoup, polygonize};
 pub use quadric::Quadric;

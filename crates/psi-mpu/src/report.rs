@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::FitKind;
+
 /// Counts of leaf fits by kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct FitCounts {
@@ -44,4 +46,26 @@ pub struct BuildReport {
     pub bbox_diagonal: f64,
     /// Wall-clock seconds of the build.
     pub seconds: f64,
+}
+
+impl BuildReport {
+    /// Counts one leaf at `depth` (the per-depth vectors must reach it) with its fit `kind`,
+    /// whether its cube holds input points (`surface`) and whether its fit fell back.
+    pub(crate) fn count_leaf(&mut self, depth: u8, surface: bool, kind: FitKind, fallback: bool) {
+        self.leaves += 1;
+        self.leaves_per_depth[usize::from(depth)] += 1;
+        if surface {
+            self.surface_leaves += 1;
+            self.surface_leaves_per_depth[usize::from(depth)] += 1;
+        }
+        self.fallbacks += usize::from(fallback);
+        let counts = &mut self.fits;
+        match kind {
+            FitKind::GeneralQuadric => counts.general_quadric += 1,
+            FitKind::Bivariate => counts.bivariate += 1,
+            FitKind::Edge => counts.edge += 1,
+            FitKind::Corner => counts.corner += 1,
+            FitKind::Plane => counts.plane += 1,
+        }
+    }
 }

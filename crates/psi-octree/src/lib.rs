@@ -43,7 +43,7 @@ mod support_cells;
 pub use error::OctreeError;
 pub use geometry::{Aabb, OrientedPoint};
 pub use octree::{
-    Cell, CellView, DEPTH_LIMIT, KnownPartitions, NO_CELL, Octree, OctreeBuffers, OctreeParams,
-    root_cube,
+    Cell, CellView, DEPTH_LIMIT, KnownPartitions, NO_CELL, Octree, OctreeBuffers, OctreeBuild,
+    OctreeParams, RootCube, root_cube,
 };
 pub use point_index::PointIndex;

@@ -112,7 +112,7 @@ pub struct CellView<'a> {
     pub positions: &'a [DVec3],
 }
 
-/// Partitions a rebuild may take from an earlier octree (see [`Octree::build_in_cube_owned`]).
+/// Partitions a rebuild may take from an earlier octree (see [`OctreeBuild::known`]).
 #[derive(Clone, Copy, Debug)]
 pub struct KnownPartitions<'a> {
     /// The earlier octree: same root cube, and every point it shares with the new build has
@@ -127,7 +127,7 @@ impl<'a> KnownPartitions<'a> {
     /// The child counts and the point order of `cell` (a cell of the new build) as the earlier
     /// octree left them, if it split the same cell over the same points: each child's segment
     /// holds the child's points (in the order the earlier subtree left them; the build
-    /// restores increasing order where the new subtree differs, see `build_in_cube_owned`).
+    /// restores increasing order where the new subtree differs, see `Octree::build_with`).
     fn partition_of(&self, cell: &Cell) -> Option<([u32; 8], &'a [u32])> {
         let o = self.old.cell_at(cell.depth, cell.key)?;
         if self.changed[o as usize] {
@@ -197,9 +197,18 @@ pub struct Octree {
     pub(crate) root_edge: f64,
 }
 
+/// The root cube of an octree, in the frame of its points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RootCube {
+    /// Centre.
+    pub center: DVec3,
+    /// Half of the edge (plain length, same units as the points).
+    pub half: f64,
+}
+
 /// The root cube for a bounding box: centred on the box, edge `box_scale` × the largest extent.
-/// Returns `(centre, half-edge)`; errors when the box is empty, flat to a point or not finite.
-pub fn root_cube(bounds: &Aabb, box_scale: f64) -> Result<(DVec3, f64), OctreeError> {
+/// Errors when the box is empty, flat to a point or not finite.
+pub fn root_cube(bounds: &Aabb, box_scale: f64) -> Result<RootCube, OctreeError> {
     let largest = bounds.extent().max_element();
     if !largest.is_finite() || !bounds.center().is_finite() {
         return Err(OctreeError::NonFinite);
@@ -207,92 +216,67 @@ pub fn root_cube(bounds: &Aabb, box_scale: f64) -> Result<(DVec3, f64), OctreeEr
     if largest <= 0.0 {
         return Err(OctreeError::DegenerateBounds);
     }
-    Ok((bounds.center(), 0.5 * box_scale * largest))
+    Ok(RootCube {
+        center: bounds.center(),
+        half: 0.5 * box_scale * largest,
+    })
+}
+
+/// How [`Octree::build_with`] runs beyond its parameters. `OctreeBuild::default()` is a plain
+/// build: the root cube from the points' bounding box, everything partitioned afresh, fresh
+/// memory, no progress reports.
+#[derive(Default)]
+pub struct OctreeBuild<'a> {
+    /// The root cube, which must hold every point (local regeneration keeps an earlier
+    /// build's); default [`root_cube`] of the points' bounding box.
+    pub root: Option<RootCube>,
+    /// Partitions an earlier octree computed: a splitting cell that the earlier octree also
+    /// split, over the same points, takes that partition instead of computing it.
+    pub known: Option<KnownPartitions<'a>>,
+    /// Memory for the arrays (an earlier octree's, [`Octree::into_buffers`]: memory already in
+    /// use needs no new pages).
+    pub buffers: OctreeBuffers,
+    /// Called after each level is decided with the level's depth and the cells so far.
+    pub on_level: Option<&'a (dyn Fn(u8, usize) + Sync)>,
 }
 
 impl Octree {
-    /// Builds an octree over `points` (shape: N world positions), splitting every cell for which
-    /// `decide` returns `true` (and whose depth is below `params.max_depth`).
+    /// Builds an octree over `points` (shape: N positions, any frame; the tree keeps them),
+    /// splitting every cell for which `decide` says so (and whose depth is below
+    /// `params.max_depth`), as `options` say.
     ///
-    /// Cells are processed level by level; the cells of one level are decided in parallel and the
-    /// result does not depend on the number of threads. `decide` also returns a payload `T` per
-    /// cell (for MPU: the local fit); the payloads come back in arena order, one per cell.
+    /// Cells are processed level by level; the cells of one level are decided in parallel and
+    /// the result does not depend on the number of threads. `decide` sees each cell with the
+    /// indices of its points and all positions ([`CellView`]) and returns "split?" and a payload
+    /// `T` (for MPU: the local fit); the payloads come back in arena order, one per cell. Every
+    /// leaf lists its points in increasing index order, whether or not partitions were copied
+    /// from an earlier octree.
+    ///
+    /// Errors: no points, non-finite positions, a point outside the given root cube, a flat
+    /// bounding box, too many points, or `max_depth` beyond [`DEPTH_LIMIT`].
     pub fn build_with<T, F>(
-        points: &[DVec3],
-        params: &OctreeParams,
-        decide: F,
-    ) -> Result<(Octree, Vec<T>), OctreeError>
-    where
-        T: Send,
-        F: Fn(CellView<'_>) -> (bool, T) + Sync,
-    {
-        let bounds = Aabb::from_points(points.iter().copied()).ok_or(OctreeError::Empty)?;
-        let (center, half) = root_cube(&bounds, params.box_scale)?;
-        Self::build_in_cube(points, center, half, params, decide)
-    }
-
-    /// Like [`Octree::build_with`], but in a given root cube (centre, half-edge), which must hold
-    /// every point. Local regeneration uses this to keep the root of an earlier build.
-    pub fn build_in_cube<T, F>(
-        points: &[DVec3],
-        center: DVec3,
-        half: f64,
-        params: &OctreeParams,
-        decide: F,
-    ) -> Result<(Octree, Vec<T>), OctreeError>
-    where
-        T: Send,
-        F: Fn(CellView<'_>) -> (bool, T) + Sync,
-    {
-        Self::build_in_cube_observed(points, center, half, params, decide, &|_, _| {})
-    }
-
-    /// [`Octree::build_in_cube`], calling `on_level(depth, cells so far)` after each level is
-    /// decided (progress reporting).
-    pub fn build_in_cube_observed<T, F>(
-        points: &[DVec3],
-        center: DVec3,
-        half: f64,
-        params: &OctreeParams,
-        decide: F,
-        on_level: &(dyn Fn(u8, usize) + Sync),
-    ) -> Result<(Octree, Vec<T>), OctreeError>
-    where
-        T: Send,
-        F: Fn(CellView<'_>) -> (bool, T) + Sync,
-    {
-        Self::build_in_cube_owned(
-            points.to_vec(),
-            center,
-            half,
-            params,
-            None,
-            OctreeBuffers::default(),
-            decide,
-            on_level,
-        )
-    }
-
-    /// [`Octree::build_in_cube_observed`] taking the positions by value: the tree keeps them
-    /// instead of a copy (the decision reads them from [`CellView::positions`]). With `known`,
-    /// a splitting cell that an earlier octree also split, over the same points, takes that
-    /// octree's partition instead of computing it. The arrays are built in `buffers` (an
-    /// earlier octree's, [`Octree::into_buffers`]: memory already in use needs no new pages).
-    #[allow(clippy::too_many_arguments)]
-    pub fn build_in_cube_owned<T, F>(
         points: Vec<DVec3>,
-        center: DVec3,
-        half: f64,
         params: &OctreeParams,
-        known: Option<KnownPartitions<'_>>,
-        buffers: OctreeBuffers,
+        options: OctreeBuild<'_>,
         decide: F,
-        on_level: &(dyn Fn(u8, usize) + Sync),
     ) -> Result<(Octree, Vec<T>), OctreeError>
     where
         T: Send,
         F: Fn(CellView<'_>) -> (bool, T) + Sync,
     {
+        let OctreeBuild {
+            root,
+            known,
+            buffers,
+            on_level,
+        } = options;
+        let RootCube { center, half } = match root {
+            Some(r) => r,
+            None => {
+                let bounds = Aabb::from_points(points.iter().copied()).ok_or(OctreeError::Empty)?;
+                root_cube(&bounds, params.box_scale)?
+            }
+        };
         if params.max_depth > DEPTH_LIMIT {
             return Err(OctreeError::TooDeep {
                 max_depth: params.max_depth,
@@ -388,7 +372,9 @@ impl Octree {
                 tree.order[c.start as usize..c.end as usize].copy_from_slice(&order);
                 tree.push_children(i, counts);
             }
-            on_level(tree.cells[level.start].depth, tree.cells.len());
+            if let Some(on_level) = on_level {
+                on_level(tree.cells[level.start].depth, tree.cells.len());
+            }
             level = next_start..tree.cells.len();
         }
         // Every leaf lists its points in increasing index order, as a build from scratch leaves
@@ -414,7 +400,8 @@ impl Octree {
         Ok((tree, payloads))
     }
 
-    /// Builds with a plain split predicate (no payload).
+    /// [`Octree::build_with`] with a plain split predicate (no payload) and default options,
+    /// over a copy of `points`.
     pub fn build<F>(
         points: &[DVec3],
         params: &OctreeParams,
@@ -423,7 +410,10 @@ impl Octree {
     where
         F: Fn(CellView<'_>) -> bool + Sync,
     {
-        Self::build_with(points, params, |v| (split(v), ())).map(|(t, _)| t)
+        Self::build_with(points.to_vec(), params, OctreeBuild::default(), |v| {
+            (split(v), ())
+        })
+        .map(|(t, _)| t)
     }
 
     /// The points of cell `i` partitioned by octant (counting sort, stable, so the order is

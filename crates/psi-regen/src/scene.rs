@@ -3,7 +3,7 @@
 use std::time::Instant;
 
 use glam::DVec3;
-use psi_mpu::{Mpu, MpuBuffers, MpuParams, Reuse};
+use psi_mpu::{BuildOptions, Mpu, MpuBuffers, MpuParams, Reuse};
 use psi_octree::{Aabb, OrientedPoint};
 use psi_particles::{
     DensityField, ParticleParams, Particles, RelaxRegion, SampleReport, measure_quality, relax,
@@ -97,11 +97,14 @@ impl Scene {
     /// An MPU built from scratch on the current points in the scene's frame (the oracle local
     /// regeneration must equal).
     pub fn rebuild_from_scratch(&self) -> Result<Mpu, RegenError> {
-        Ok(Mpu::build_in_frame(
+        let options = BuildOptions {
+            frame: Some(*self.mpu.frame()),
+            ..Default::default()
+        };
+        Ok(Mpu::build_with(
             self.mpu.points(),
             &self.mpu_params,
-            self.mpu.frame(),
-            None,
+            options,
         )?)
     }
 
@@ -133,17 +136,17 @@ impl Scene {
             return Ok(report);
         }
         let marked_old = mark_cells(&self.mpu, &changed);
-        let mpu = Mpu::build_in_frame_owned(
-            points,
-            &self.mpu_params,
-            self.mpu.frame(),
-            Some(Reuse {
+        let options = BuildOptions {
+            frame: Some(*self.mpu.frame()),
+            reuse: Some(Reuse {
                 old: &self.mpu,
                 marked: &marked_old,
                 indices_kept: edit.keeps_indices(),
             }),
-            std::mem::take(&mut self.spare),
-        )?;
+            buffers: std::mem::take(&mut self.spare),
+            observe: None,
+        };
+        let mpu = Mpu::build_with(points, &self.mpu_params, options)?;
         // New cells that were fitted again: not present before, or marked.
         let refit: Vec<bool> = (0..mpu.octree().cells().len() as u32)
             .map(|c| mpu.was_refit(c))

@@ -58,17 +58,15 @@ pub(crate) fn build_mpu(
     params: &psi::MpuParams,
 ) -> Result<psi::Mpu, psi::MpuError> {
     let bar = ui.bar("MPU levels", u64::from(params.max_depth) + 1);
-    let frame = psi::mpu::MpuFrame::for_points(points, params)?;
-    let mpu = psi::Mpu::build_observed(
-        points,
-        params,
-        &frame,
-        None,
-        &|p: psi::mpu::BuildProgress| {
-            bar.set_position(u64::from(p.depth) + 1);
-            bar.set_message(format!("{} cells", p.cells));
-        },
-    );
+    let observe = |p: psi::mpu::BuildProgress| {
+        bar.set_position(u64::from(p.depth) + 1);
+        bar.set_message(format!("{} cells", p.cells));
+    };
+    let options = psi::mpu::BuildOptions {
+        observe: Some(&observe),
+        ..Default::default()
+    };
+    let mpu = psi::Mpu::build_with(points, params, options);
     bar.finish_and_clear();
     mpu
 }

@@ -1,0 +1,90 @@
+//! Memory for an MPU build to fill instead of allocating: the largest arrays of an earlier MPU,
+//! or fresh ones touched once.
+
+use std::sync::OnceLock;
+
+use glam::DVec3;
+use psi_octree::{OctreeBuffers, OrientedPoint};
+
+use crate::Mpu;
+use crate::data_footprint::InputLocalSlot;
+use crate::eval_nodes::EvalNode;
+
+/// Memory for an MPU build to fill instead of allocating: the largest arrays of an earlier MPU
+/// ([`Mpu::into_buffers`]) or fresh ones touched once ([`MpuBuffers::like`]). Memory the
+/// process already maps costs nothing to write; fresh memory costs a page fault per 4 KiB
+/// (thousands for a bunny-sized rebuild).
+#[derive(Debug, Default)]
+pub struct MpuBuffers {
+    pub(crate) points: Vec<OrientedPoint>,
+    pub(crate) positions: Vec<DVec3>,
+    pub(crate) octree: OctreeBuffers,
+    pub(crate) nodes: Vec<EvalNode>,
+    pub(crate) candidates: Vec<OnceLock<Box<[u32]>>>,
+    pub(crate) input_local: Vec<InputLocalSlot>,
+}
+
+/// Buffers hold no content, only memory: a clone is empty (it allocates when used).
+impl Clone for MpuBuffers {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl MpuBuffers {
+    /// Buffers sized for an MPU like `mpu` (about its cells, its number of points), their
+    /// memory touched once.
+    pub fn like(mpu: &Mpu) -> Self {
+        let n = mpu.points.len();
+        let blank = OrientedPoint {
+            p: DVec3::ZERO,
+            n: DVec3::ZERO,
+        };
+        let mut points = vec![blank; n];
+        points.clear();
+        let mut positions = vec![DVec3::ZERO; n];
+        positions.clear();
+        let cells = mpu.octree.cells().len() + 1024;
+        let mut b = Self {
+            points,
+            positions,
+            octree: OctreeBuffers::with_capacity(cells, n),
+            nodes: Vec::with_capacity(cells),
+            candidates: Vec::with_capacity(cells),
+            input_local: Vec::with_capacity(n),
+        };
+        // Touched once, then emptied (capacity kept).
+        b.nodes.extend(mpu.nodes.iter().copied());
+        b.nodes.clear();
+        b.candidates.resize_with(cells, OnceLock::new);
+        b.candidates.clear();
+        b.input_local.resize_with(n, Default::default);
+        b.input_local.clear();
+        b
+    }
+
+    /// The buffer for the next build's points (empty; its capacity kept).
+    pub fn take_points(&mut self) -> Vec<OrientedPoint> {
+        let mut p = std::mem::take(&mut self.points);
+        p.clear();
+        p
+    }
+}
+
+impl Mpu {
+    /// The MPU's largest arrays, for a later build to reuse ([`MpuBuffers`]).
+    pub fn into_buffers(self) -> MpuBuffers {
+        let (octree, positions) = self.octree.into_buffers();
+        // The lazily filled tables come back only when this MPU held the last reference.
+        let mut candidates = std::sync::Arc::try_unwrap(self.leaf_candidates).unwrap_or_default();
+        candidates.clear();
+        MpuBuffers {
+            points: self.points,
+            positions,
+            octree,
+            nodes: self.nodes,
+            candidates,
+            input_local: self.footprint.into_memory(),
+        }
+    }
+}

@@ -1,0 +1,292 @@
+//! The data's footprint: where on the surface there are input points. Per input point, what its
+//! 9 nearest points say about the data around it (its spacing, whether its neighbours surround
+//! it, their centroid), cached on first use; and the test whether a position lies within the
+//! data rather than on a part of the implicit that no data backs (a hole, a scan's border).
+
+use std::sync::{Arc, OnceLock};
+
+use glam::DVec3;
+use psi_octree::{OrientedPoint, PointIndex};
+
+/// The input as the footprint reads it.
+#[derive(Clone, Copy)]
+pub(crate) struct InputData<'a> {
+    /// Positions, local frame (shape: N).
+    pub(crate) positions: &'a [DVec3],
+    /// The points, for their unit normals (shape: N).
+    pub(crate) points: &'a [OrientedPoint],
+    /// A kd-tree over `positions`.
+    pub(crate) index: &'a PointIndex,
+}
+
+/// What an input point's 9 nearest points (itself and 8 neighbours) say about the data around
+/// it: a pure function of the input. 56 bytes, so that with its once-flag an entry of the table
+/// fills one cache line ([`InputLocalSlot`]): the footprint test reads one line a point
+/// instead of two.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct InputLocal {
+    /// Centroid of the point's 8 nearest input points (itself included) minus the point, local
+    /// frame (f32: a fraction of a spacing, to about 1e-7 of it).
+    centroid_offset: [f32; 3],
+    /// The distance to the 9th nearest (to the last, when there are fewer), world units.
+    last: f64,
+    /// The point's nearest input points other than itself (its 9 nearest but itself; the
+    /// first 8 of them in a cluster of 9 or more coincident points that leaves it out), the
+    /// first `near_len` valid.
+    near: [u32; 8],
+    near_len: u8,
+    /// Whether the point's 9 nearest are 9 (the input has more points than that).
+    full: bool,
+    /// [`DataFootprint::is_interior`].
+    interior: bool,
+}
+
+impl InputLocal {
+    /// d₈·√(π/8), world units ([`DataFootprint::spacing`]).
+    #[inline]
+    fn spacing(&self) -> f64 {
+        spacing_of(self.last)
+    }
+
+    /// Every input point but the point and `near` is at least this far from the point, world
+    /// units (the 9th nearest's distance; ∞ when there are no more points).
+    #[inline]
+    fn beyond(&self) -> f64 {
+        if self.full { self.last } else { f64::INFINITY }
+    }
+}
+
+/// The input spacing d₈·√(π/8) for a distance d₈ to the 8th neighbour (world units): the
+/// radius of the disc that holds one point on average when 8 points fill the disc of radius d₈.
+#[inline]
+fn spacing_of(d8: f64) -> f64 {
+    d8 * (std::f64::consts::PI / 8.0).sqrt()
+}
+
+/// A table entry: an [`InputLocal`] filled on first use, aligned to a cache line.
+#[derive(Debug, Default)]
+#[repr(align(64))]
+pub(crate) struct InputLocalSlot(OnceLock<InputLocal>);
+
+/// An input point a particle was near, with what [`DataFootprint::near_data_from`] reads of it:
+/// kept by the particle between moves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DataAnchor {
+    point: u32,
+    /// The point's position, local frame.
+    position: DVec3,
+    /// Within this distance of `position` (world units) a position is on the data without a
+    /// search: half the point's spacing when it is interior, else −1 (never).
+    fast_radius: f64,
+}
+
+impl DataAnchor {
+    /// The input point's index.
+    pub fn point(&self) -> u32 {
+        self.point
+    }
+}
+
+/// The per-point table of [`InputLocal`]s, filled lazily and shared by the clones of an MPU.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct DataFootprint {
+    table: Arc<Vec<InputLocalSlot>>,
+}
+
+impl DataFootprint {
+    /// An empty table for `n` input points, in `memory`'s allocation (emptied first).
+    pub(crate) fn new_in(mut memory: Vec<InputLocalSlot>, n: usize) -> Self {
+        memory.clear();
+        memory.resize_with(n, InputLocalSlot::default);
+        Self {
+            table: Arc::new(memory),
+        }
+    }
+
+    /// The table's memory, when no other MPU shares it.
+    pub(crate) fn into_memory(self) -> Vec<InputLocalSlot> {
+        Arc::try_unwrap(self.table).unwrap_or_default()
+    }
+
+    /// The input spacing at input point `q`: d₈·√(π/8), d₈ the distance to its 8th nearest
+    /// neighbour (world units).
+    pub(crate) fn spacing(&self, data: InputData<'_>, q: u32) -> f64 {
+        self.local(data, q).spacing()
+    }
+
+    /// Whether input point `q` lies well inside the data: its own 8 nearest points (itself
+    /// included) have their centroid within half a spacing of it in its tangent plane (an edge
+    /// point's is about 0.95 spacing away for a dense random sampling; a point on the straight
+    /// border of a regular grid's is only about 0.45 away and passes, corners fail).
+    pub(crate) fn is_interior(&self, data: InputData<'_>, q: u32) -> bool {
+        self.local(data, q).interior
+    }
+
+    /// The cached [`InputLocal`] of input point `q`, computed on first use from one query of
+    /// its 9 nearest points (itself and 8 neighbours; the centroid is of the first 8).
+    fn local(&self, data: InputData<'_>, q: u32) -> &InputLocal {
+        self.table[q as usize].0.get_or_init(|| {
+            let positions = data.positions;
+            let y = positions[q as usize];
+            let around = data.index.nearest(y, 9);
+            let last = around.last().map_or(0.0, |n| n.1.sqrt());
+            let spacing = spacing_of(last);
+            let first = &around[..around.len().min(8)];
+            let centroid = first
+                .iter()
+                .map(|&(i, _)| positions[i as usize])
+                .sum::<DVec3>()
+                / first.len().max(1) as f64;
+            let n = data.points[q as usize].n;
+            let offset = centroid - y;
+            let interior = (offset - n * offset.dot(n)).length() <= 0.5 * spacing;
+            let mut near = [0u32; 8];
+            let mut near_len = 0;
+            for &(i, _) in &around {
+                if i != q && near_len < near.len() {
+                    near[near_len] = i;
+                    near_len += 1;
+                }
+            }
+            InputLocal {
+                centroid_offset: [offset.x as f32, offset.y as f32, offset.z as f32],
+                last,
+                near,
+                near_len: near_len as u8,
+                full: around.len() >= 9,
+                interior,
+            }
+        })
+    }
+
+    /// Whether local position `y` lies inside the data's footprint, and the new anchor (see
+    /// `Mpu::near_data_from`, which states the test).
+    pub(crate) fn near_data_from(
+        &self,
+        data: InputData<'_>,
+        y: DVec3,
+        reach: f64,
+        anchor: Option<DataAnchor>,
+    ) -> (bool, Option<DataAnchor>) {
+        if let Some(a) = anchor
+            && (a.position - y).length() <= a.fast_radius
+        {
+            return (true, Some(a));
+        }
+        let found = anchor
+            .and_then(|a| self.nearest_among_neighbours_of(data, y, a.point))
+            .or_else(|| data.index.nearest_one(y));
+        let Some((q, d2)) = found else {
+            return (false, None);
+        };
+        let local = self.local(data, q);
+        let q_position = data.positions[q as usize];
+        let new_anchor = Some(DataAnchor {
+            point: q,
+            position: q_position,
+            fast_radius: if local.interior {
+                0.5 * local.spacing()
+            } else {
+                -1.0
+            },
+        });
+        let d = d2.sqrt();
+        let spacing = local.spacing();
+        if d > reach * spacing {
+            return (false, new_anchor);
+        }
+        // Fast path: q lies well inside the data and y is within half a spacing of it.
+        if d <= 0.5 * spacing && local.interior {
+            return (true, new_anchor);
+        }
+        let n = data.points[q as usize].n;
+        let [cx, cy, cz] = local.centroid_offset.map(f64::from);
+        let offset = q_position + DVec3::new(cx, cy, cz) - y;
+        let tangential = (offset - n * offset.dot(n)).length();
+        (tangential <= spacing, new_anchor)
+    }
+
+    /// The input point nearest to local `y` and its squared distance, when the cached 9 nearest
+    /// of input point `a` prove it: the closest of them is nearer to `y` than any other input
+    /// point can be (those are at least `beyond` from `a`, so at least `beyond − |y − a|` from
+    /// `y`). `None` when the proof fails; ties go to the lower index.
+    fn nearest_among_neighbours_of(
+        &self,
+        data: InputData<'_>,
+        y: DVec3,
+        a: u32,
+    ) -> Option<(u32, f64)> {
+        let local = self.local(data, a);
+        let positions = data.positions;
+        let bound = local.beyond() - (positions[a as usize] - y).length();
+        if bound <= 0.0 {
+            return None;
+        }
+        let mut best = (u32::MAX, f64::INFINITY);
+        for &j in std::iter::once(&a).chain(&local.near[..usize::from(local.near_len)]) {
+            let d2 = (positions[j as usize] - y).length_squared();
+            if d2 < best.1 || (d2 == best.1 && j < best.0) {
+                best = (j, d2);
+            }
+        }
+        (best.1 < bound * bound).then_some(best)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use psi_shapes::AnalyticShape;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    #[test]
+    fn a_footprint_entry_is_one_cache_line() {
+        assert_eq!(std::mem::size_of::<InputLocalSlot>(), 64);
+        assert_eq!(std::mem::align_of::<InputLocalSlot>(), 64);
+    }
+
+    /// The certificate from an input point's cached neighbours against a brute-force nearest
+    /// point: whenever it answers, the answer is the nearest; and it answers for most positions
+    /// within a spacing of the point (else it would save nothing). Positions up to two
+    /// spacings away are tried too, for the answers' sake.
+    #[test]
+    fn nearest_among_neighbours_is_the_brute_force_nearest() {
+        let points = AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.3,
+        }
+        .sample(4000, 5);
+        let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+        let index = PointIndex::new(&positions);
+        let data = InputData {
+            positions: &positions,
+            points: &points,
+            index: &index,
+        };
+        let footprint = DataFootprint::new_in(Vec::new(), points.len());
+        let mut rng = Pcg64Mcg::seed_from_u64(3);
+        let (mut answered, trials) = (0, 2000);
+        for t in 0..2 * trials {
+            let a = (t * 7 % positions.len()) as u32;
+            let s = footprint.spacing(data, a);
+            let dir = DVec3::new(
+                rng.random::<f64>() - 0.5,
+                rng.random::<f64>() - 0.5,
+                rng.random::<f64>() - 0.5,
+            );
+            let reach = if t < trials { 1.0 } else { 2.0 };
+            let y = positions[a as usize] + reach * s * rng.random::<f64>() * dir.normalize();
+            let brute = positions
+                .iter()
+                .map(|p| (p - y).length_squared())
+                .fold(f64::INFINITY, f64::min);
+            if let Some((q, d2)) = footprint.nearest_among_neighbours_of(data, y, a) {
+                assert_eq!(d2, brute, "trial {t}");
+                assert_eq!((positions[q as usize] - y).length_squared(), d2);
+                answered += usize::from(t < trials);
+            }
+        }
+        assert!(answered > trials / 2, "answered {answered} of {trials}");
+    }
+}
