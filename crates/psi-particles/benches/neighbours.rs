@@ -11,7 +11,7 @@ use psi_particles::{GRID_EDGE_FACTOR, OctreeBuckets, ParticleGrid, ParticleParam
 fn neighbours(c: &mut Criterion) {
     let points = psi_shapes::builtin_model();
     let mpu = Mpu::build(&points, &MpuParams::paper()).unwrap();
-    let (particles, _, _) = initialize(&mpu, &ParticleParams::paper());
+    let particles = initialize(&mpu, &ParticleParams::paper()).particles;
     let origin = mpu.frame_origin();
     let local: Vec<_> = particles.positions.iter().map(|p| *p - origin).collect();
     let radii: Vec<f64> = particles.sigma.iter().map(|s| 3.0 * s).collect();

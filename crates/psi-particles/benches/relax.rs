@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use psi_mpu::{Mpu, MpuParams};
-use psi_particles::{ParticleParams, RelaxRegion, initialize, relax};
+use psi_particles::{ParticleParams, RelaxOptions, initialize, relax};
 
 fn relaxation(c: &mut Criterion) {
     let points = psi_shapes::builtin_model();
@@ -15,11 +15,15 @@ fn relaxation(c: &mut Criterion) {
     let mut group = c.benchmark_group("particles_builtin");
     group.sample_size(10);
     group.bench_function("seed", |b| b.iter(|| black_box(initialize(&mpu, &params))));
-    let (seeds, field, _) = initialize(&mpu, &params);
+    let psi_particles::Seeding {
+        particles: seeds,
+        density: field,
+        ..
+    } = initialize(&mpu, &params);
     group.bench_function("relax_20", |b| {
         b.iter(|| {
             let mut p = seeds.clone();
-            relax(&mpu, &mut p, &field, &params, RelaxRegion::default());
+            relax(&mpu, &mut p, &field, &params, RelaxOptions::default());
             black_box(p)
         })
     });
@@ -27,7 +31,7 @@ fn relaxation(c: &mut Criterion) {
     // Distance to the evaluation floor.
     let t = Instant::now();
     let mut p = seeds.clone();
-    relax(&mpu, &mut p, &field, &params, RelaxRegion::default());
+    relax(&mpu, &mut p, &field, &params, RelaxOptions::default());
     let sim = t.elapsed().as_secs_f64();
     let t = Instant::now();
     for x in &seeds.positions {

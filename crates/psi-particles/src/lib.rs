@@ -48,8 +48,8 @@ pub use particles::Particles;
 pub use quality::{
     LevelStats, Quality, SpacingStats, measure_quality, nearest_neighbour_distances,
 };
-pub use relax::{RelaxRegion, relax, relax_observed};
+pub use relax::{RelaxOptions, RelaxRegion, relax};
 pub use sample::{
-    SampleReport, Sampling, initialize, sample, sample_observed, seed_leaves, surface_area,
+    SampleReport, Sampling, Seeding, initialize, sample, sample_with, seed_leaves, surface_area,
 };
 pub use separate::{SEPARATION, SeparationReport, separate_close_pairs};

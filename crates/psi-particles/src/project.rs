@@ -5,33 +5,50 @@
 use glam::DVec3;
 use psi_mpu::Mpu;
 
+/// A position with f and ∇f there and the leaf containing it (world units).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Evaluated {
+    pub(crate) position: DVec3,
+    pub(crate) f: f64,
+    pub(crate) gradient: DVec3,
+    /// The leaf containing `position`, `None` outside the root cube.
+    pub(crate) leaf: Option<u32>,
+}
+
+impl Evaluated {
+    /// `mpu`'s f, ∇f and leaf at world `x`, from a guess of the leaf (see
+    /// [`Mpu::value_and_gradient_from`]).
+    fn at(mpu: &Mpu, x: DVec3, hint: Option<u32>) -> Self {
+        let (f, gradient, leaf) = mpu.value_and_gradient_from(x, hint);
+        Self {
+            position: x,
+            f,
+            gradient,
+            leaf,
+        }
+    }
+
+    /// |f|/|∇f|, world units: about the distance to the zero set.
+    fn distance(&self) -> f64 {
+        self.f.abs() / self.gradient.length().max(f64::MIN_POSITIVE)
+    }
+}
+
 /// Projects world position `x` onto f = 0 with at most `steps` Newton steps, stopping once
 /// |f|/|∇f| ≤ `tolerance` (world units). Each step is clamped to `max_step` (world units).
-/// Returns the position, f and ∇f there.
+/// Returns the position with f, ∇f and its leaf there. `hint` is a guess of the leaf containing
+/// `x` (see [`Mpu::value_and_gradient_from`]); the result does not depend on it.
 pub(crate) fn newton_project(
     mpu: &Mpu,
     x: DVec3,
     tolerance: f64,
     steps: usize,
     max_step: f64,
-) -> (DVec3, f64, DVec3) {
-    let (x, f, g, _) = newton_project_from(mpu, x, tolerance, steps, max_step, None);
-    (x, f, g)
-}
-
-/// [`newton_project`] with a guess of the leaf containing `x` (see
-/// [`Mpu::value_and_gradient_from`]); also returns the leaf containing the result. The
-/// position, f and ∇f are bitwise equal to `newton_project`'s.
-pub(crate) fn newton_project_from(
-    mpu: &Mpu,
-    mut x: DVec3,
-    tolerance: f64,
-    steps: usize,
-    max_step: f64,
     hint: Option<u32>,
-) -> (DVec3, f64, DVec3, Option<u32>) {
-    let (mut f, mut g, mut leaf) = mpu.value_and_gradient_from(x, hint);
+) -> Evaluated {
+    let mut at = Evaluated::at(mpu, x, hint);
     for _ in 0..steps {
+        let (f, g) = (at.f, at.gradient);
         let g2 = g.length_squared();
         if g2 <= 1e-24 || f.abs() <= tolerance * g2.sqrt() {
             break;
@@ -43,10 +60,9 @@ pub(crate) fn newton_project_from(
         }
         let mut accepted = false;
         for _ in 0..7 {
-            let y = x - step;
-            let (fy, gy, ly) = mpu.value_and_gradient_from(y, leaf);
-            if fy.abs() < f.abs() {
-                (x, f, g, leaf) = (y, fy, gy, ly);
+            let next = Evaluated::at(mpu, at.position - step, at.leaf);
+            if next.f.abs() < f.abs() {
+                at = next;
                 accepted = true;
                 break;
             }
@@ -56,29 +72,23 @@ pub(crate) fn newton_project_from(
             break;
         }
     }
-    (x, f, g, leaf)
+    at
 }
 
 /// [`project_robust`], and where it finds no root near x (a fold of f just short of zero, as
 /// MPU blending can make in thin parts), the same from the nearest input point, which lies
 /// within ε0 of the surface, searching four times as far. The result with the smaller |f|/|∇f|
 /// wins.
-pub(crate) fn project_to_surface(
-    mpu: &Mpu,
-    x: DVec3,
-    tolerance: f64,
-    max_step: f64,
-) -> (DVec3, f64, DVec3) {
+pub(crate) fn project_to_surface(mpu: &Mpu, x: DVec3, tolerance: f64, max_step: f64) -> Evaluated {
     let first = project_robust(mpu, x, tolerance, max_step);
-    let ratio = |r: &(DVec3, f64, DVec3)| r.1.abs() / r.2.length().max(f64::MIN_POSITIVE);
-    if ratio(&first) <= tolerance {
+    if first.distance() <= tolerance {
         return first;
     }
     let Some(q) = mpu.nearest_input(x) else {
         return first;
     };
     let second = project_robust(mpu, q.p, tolerance, 4.0 * max_step);
-    if ratio(&second) < ratio(&first) {
+    if second.distance() < first.distance() {
         second
     } else {
         first
@@ -89,17 +99,13 @@ pub(crate) fn project_to_surface(
 /// is continuous, so along a direction where its sign changes within 4 × `max_step` the root is
 /// halved down to rounding. Directions tried: against the gradient (by the sign of f), then the
 /// six axis directions (at a ridge of max(Q1, Q2) the selected piece's gradient may point along
-/// the ridge); the nearest sign change wins. Returns the position, f and ∇f there.
-pub(crate) fn project_robust(
-    mpu: &Mpu,
-    x: DVec3,
-    tolerance: f64,
-    max_step: f64,
-) -> (DVec3, f64, DVec3) {
-    let (x, f, g) = newton_project(mpu, x, tolerance, 12, max_step);
+/// the ridge); the nearest sign change wins.
+pub(crate) fn project_robust(mpu: &Mpu, x: DVec3, tolerance: f64, max_step: f64) -> Evaluated {
+    let newton = newton_project(mpu, x, tolerance, 12, max_step, None);
+    let (x, f, g) = (newton.position, newton.f, newton.gradient);
     let gl = g.length();
     if f.abs() <= tolerance * gl || f == 0.0 {
-        return (x, f, g);
+        return newton;
     }
     let mut directions = Vec::with_capacity(7);
     if gl > 0.0 {
@@ -126,7 +132,7 @@ pub(crate) fn project_robust(
         }
     }
     let Some((mut hi, dir)) = best else {
-        return (x, f, g);
+        return newton;
     };
     let mut lo = 0.0;
     for _ in 0..60 {
@@ -137,7 +143,5 @@ pub(crate) fn project_robust(
             hi = mid;
         }
     }
-    let y = x + hi * dir;
-    let (fy, gy) = mpu.value_and_gradient(y);
-    (y, fy, gy)
+    Evaluated::at(mpu, x + hi * dir, None)
 }

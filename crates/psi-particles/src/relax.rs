@@ -10,13 +10,30 @@ use psi_octree::Aabb;
 use rayon::prelude::*;
 
 use crate::neighbours::{FixedSet, NeighbourIndex};
-use crate::project::{newton_project_from, project_to_surface};
+use crate::project::{Evaluated, newton_project, project_to_surface};
 use crate::repulsion::{Movers, Repulsion, repulsion_into};
 use crate::sigma_scale::{EnergySums, SigmaScale};
 use crate::{DensityField, GRID_EDGE_FACTOR, ParticleParams, Particles};
 
-/// A particle's new state: position, f, ∇f, depth, data anchor (a near input point), leaf.
-type Update = (DVec3, f64, DVec3, u8, Option<DataAnchor>, Option<u32>);
+/// A particle's state after a move (or its old state where the move was rejected).
+struct Update {
+    /// Position, f, ∇f and leaf there.
+    at: Evaluated,
+    depth: u8,
+    /// An input point near the particle (see [`Mpu::near_data_from`]).
+    anchor: Option<DataAnchor>,
+}
+
+/// How a relaxation runs beyond its parameters: which particles move and where, and who hears of
+/// its progress. `RelaxOptions::default()` moves every particle anywhere, silently.
+#[derive(Clone, Copy, Default)]
+pub struct RelaxOptions<'a> {
+    /// Which particles may move and where.
+    pub region: RelaxRegion<'a>,
+    /// Called with the number of iterations done after each iteration (progress reporting).
+    pub on_iteration: Option<&'a (dyn Fn(usize) + Sync)>,
+}
+
 /// Which particles may move and where (local regeneration restricts both).
 #[derive(Clone, Copy, Default)]
 pub struct RelaxRegion<'a> {
@@ -42,26 +59,24 @@ impl std::fmt::Debug for RelaxRegion<'_> {
 /// σ = c·σ̂, σ̂ from `field` at the depth of the leaf it is in and one scale c: read from the
 /// particles at the start (seeds carry σ̂, so c = 1; a local relaxation reads the fixed
 /// particles' c and keeps it) and, when none is fixed and `params.adapt_sigma`, adapted
-/// toward Ê each iteration. The count never changes.
+/// toward Ê each iteration. The count never changes. `options` restrict the moves (local
+/// regeneration) and report progress.
 pub fn relax(
     mpu: &Mpu,
     particles: &mut Particles,
     field: &DensityField,
     params: &ParticleParams,
-    region: RelaxRegion<'_>,
+    options: RelaxOptions<'_>,
 ) {
-    relax_observed(mpu, particles, field, params, region, &|_| {});
-}
-
-/// [`relax`], calling `on_iteration(iterations done)` after each iteration (progress reporting).
-pub fn relax_observed(
-    mpu: &Mpu,
-    particles: &mut Particles,
-    field: &DensityField,
-    params: &ParticleParams,
-    region: RelaxRegion<'_>,
-    on_iteration: &(dyn Fn(usize) + Sync),
-) {
+    let RelaxOptions {
+        region,
+        on_iteration,
+    } = options;
+    let on_iteration = |done: usize| {
+        if let Some(f) = on_iteration {
+            f(done)
+        }
+    };
     let _span = tracing::info_span!(
         "relaxation",
         particles = particles.len(),
@@ -197,26 +212,31 @@ pub fn relax_observed(
                 if len > cap {
                     step *= cap / len;
                 }
-                let (x1, f1, g1, l1) =
-                    newton_project_from(mpu, x + step, tol, params.newton_steps, si, leaves[i]);
+                let moved = newton_project(mpu, x + step, tol, params.newton_steps, si, leaves[i]);
+                let x1 = moved.position;
                 let (on_data, new_anchor) = mpu.near_data_from(x1, params.data_reach, anchors[i]);
-                let ok =
-                    g1.length_squared() > 0.0 && on_data && region.accept.is_none_or(|a| a(x1));
+                let ok = moved.gradient.length_squared() > 0.0
+                    && on_data
+                    && region.accept.is_none_or(|a| a(x1));
                 // The leaf of the particle's position: found by the evaluation at x1, or kept.
-                let (x1, f1, g1, new_leaf) = if ok {
-                    (x1, f1, g1, l1)
+                let at = if ok {
+                    moved
                 } else {
-                    (x, f, g, leaves[i])
+                    Evaluated {
+                        position: x,
+                        f,
+                        gradient: g,
+                        leaf: leaves[i],
+                    }
                 };
-                let depth = new_leaf.map_or(state.depth[i], |l| mpu.octree().cell(l).depth);
-                (
-                    x1,
-                    f1,
-                    g1,
+                let depth = at
+                    .leaf
+                    .map_or(state.depth[i], |l| mpu.octree().cell(l).depth);
+                Update {
+                    at,
                     depth,
-                    if ok { new_anchor } else { anchors[i] },
-                    new_leaf,
-                )
+                    anchor: if ok { new_anchor } else { anchors[i] },
+                }
             })
             .collect_into_vec(&mut updates);
         if adapt {
@@ -230,9 +250,16 @@ pub fn relax_observed(
             }
             scale.adapt(&sums, field, params);
         }
-        for (&i, &(x, f, g, depth, a, l)) in active.iter().zip(&updates) {
+        for (&i, u) in active.iter().zip(&updates) {
             let i = i as usize;
-            anchor[i] = a;
+            let Evaluated {
+                position: x,
+                f,
+                gradient: g,
+                leaf: l,
+            } = u.at;
+            let depth = u.depth;
+            anchor[i] = u.anchor;
             leaf[i] = l;
             velocity[i] = x - particles.positions[i];
             particles.positions[i] = x;
@@ -254,9 +281,8 @@ pub fn relax_observed(
             if f.abs() <= tol * g.length() {
                 return None;
             }
-            let (x, _, g) =
-                project_to_surface(mpu, particles.positions[i], tol, particles.sigma[i]);
-            Some((x, g))
+            let on = project_to_surface(mpu, particles.positions[i], tol, particles.sigma[i]);
+            Some((on.position, on.gradient))
         })
         .collect();
     for (&i, p) in active.iter().zip(polished) {

@@ -8,8 +8,8 @@ use serde::{Deserialize, Serialize};
 use crate::seed::{quotas, seed};
 use crate::seed_poisson::poisson_seeds;
 use crate::{
-    DensityField, DensityMode, ParticleParams, Particles, Quality, RelaxRegion, SeparationReport,
-    measure_quality, relax_observed, separate_close_pairs,
+    DensityField, DensityMode, ParticleParams, Particles, Quality, RelaxOptions, RelaxRegion,
+    SeparationReport, measure_quality, relax, separate_close_pairs,
 };
 
 /// What a sampling run did.
@@ -37,6 +37,17 @@ pub struct SampleReport {
     /// adaptive mode.
     #[serde(default)]
     pub separation: Option<SeparationReport>,
+}
+
+/// The seeds of a run and the density field they fix.
+#[derive(Clone, Debug)]
+pub struct Seeding {
+    /// The seeded particles, their targets and σ set to σ̂.
+    pub particles: Particles,
+    /// The density field (target spacing per depth, or uniform).
+    pub density: DensityField,
+    /// Surface-containing leaves seeded from.
+    pub seeded_leaves: usize,
 }
 
 /// Particles and the report of a run.
@@ -69,7 +80,7 @@ pub fn surface_area(mpu: &Mpu) -> f64 {
 
 /// Seeds particles from `mpu`'s surface leaves and returns them with their density field
 /// (targets and σ set). Deterministic for a given `params.seed`.
-pub fn initialize(mpu: &Mpu, params: &ParticleParams) -> (Particles, DensityField, usize) {
+pub fn initialize(mpu: &Mpu, params: &ParticleParams) -> Seeding {
     let leaves: Vec<u32> = mpu.surface_leaves().collect();
     let depths = leaves.iter().map(|&l| mpu.octree().cell(l).depth);
     let d_min = depths.clone().min().unwrap_or(0);
@@ -118,7 +129,11 @@ pub fn initialize(mpu: &Mpu, params: &ParticleParams) -> (Particles, DensityFiel
     for s in &seeds {
         particles.push(s.p, s.n, s.depth, field.target_sigma(s.depth));
     }
-    (particles, field, leaves.len())
+    Seeding {
+        particles,
+        density: field,
+        seeded_leaves: leaves.len(),
+    }
 }
 
 /// Seeds `params.k` particles in each of `leaves` (surface-containing leaves of `mpu`) with
@@ -138,20 +153,25 @@ pub fn seed_leaves(
 }
 
 /// Seeds, relaxes (in uniform mode also separates close pairs) and measures (the paper's
-/// pipeline).
+/// pipeline): [`sample_with`] without progress reports.
 pub fn sample(mpu: &Mpu, params: &ParticleParams) -> Sampling {
-    sample_observed(mpu, params, &|_| {})
+    sample_with(mpu, params, None)
 }
 
-/// [`sample`], calling `on_iteration(iterations done)` during relaxation (progress reporting).
-pub fn sample_observed(
+/// [`sample`], calling `on_iteration(iterations done)` after each relaxation iteration when
+/// given (progress reporting).
+pub fn sample_with(
     mpu: &Mpu,
     params: &ParticleParams,
-    on_iteration: &(dyn Fn(usize) + Sync),
+    on_iteration: Option<&(dyn Fn(usize) + Sync)>,
 ) -> Sampling {
     let t0 = Instant::now();
     let seeding = tracing::info_span!("seeding").entered();
-    let (mut particles, density, seeded_leaves) = initialize(mpu, params);
+    let Seeding {
+        mut particles,
+        density,
+        seeded_leaves,
+    } = initialize(mpu, params);
     drop(seeding);
     let init_seconds = t0.elapsed().as_secs_f64();
     // The seeds are measured after the simulation, so that its clock starts with nothing
@@ -159,14 +179,11 @@ pub fn sample_observed(
     // of the seeds' leaves off the clock (about 0.02 s of the bunny's 20 iterations).
     let seeds = particles.clone();
     let t1 = Instant::now();
-    relax_observed(
-        mpu,
-        &mut particles,
-        &density,
-        params,
-        RelaxRegion::default(),
+    let options = RelaxOptions {
+        region: RelaxRegion::default(),
         on_iteration,
-    );
+    };
+    relax(mpu, &mut particles, &density, params, options);
     // Uniform mode only (`None` otherwise).
     let separation = separate_close_pairs(
         mpu,

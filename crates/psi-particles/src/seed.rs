@@ -143,7 +143,8 @@ fn seed_leaf(mpu: &Mpu, leaf: u32, quota: usize, seed: u64, tol: f64) -> Vec<See
         attempts += 1;
         let u = DVec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - DVec3::ONE;
         let x0 = origin + cell.center + cell.half * u;
-        let (x, f, g) = newton_project(mpu, x0, tol, 8, cell.half);
+        let on = newton_project(mpu, x0, tol, 8, cell.half, None);
+        let (x, f, g) = (on.position, on.f, on.gradient);
         let inside = ((x - origin) - cell.center).abs().max_element() <= 1.5 * cell.half;
         if g.length_squared() > 0.0 && f.abs() <= tol * g.length() && inside {
             out.push(Seed {

@@ -155,7 +155,8 @@ fn push_apart(
                 let sign = if i.is_multiple_of(2) { 1.0 } else { -1.0 };
                 tangent = sign * n.any_orthonormal_vector();
             }
-            let (y, f, g) = project_to_surface(mpu, x + step * tangent.normalize(), tol, s);
+            let on = project_to_surface(mpu, x + step * tangent.normalize(), tol, s);
+            let (y, f, g) = (on.position, on.f, on.gradient);
             let (d, p) = nearest(y);
             let on_surface = g.length_squared() > 0.0 && f.abs() <= tol * g.length();
             let ok = d > best

@@ -6,8 +6,8 @@ use glam::DVec3;
 use psi_mpu::{BuildOptions, Mpu, MpuBuffers, MpuParams, Reuse};
 use psi_octree::{Aabb, OrientedPoint};
 use psi_particles::{
-    DensityField, ParticleParams, Particles, RelaxRegion, SampleReport, measure_quality, relax,
-    seed_leaves, separate_close_pairs,
+    DensityField, ParticleParams, Particles, RelaxOptions, RelaxRegion, SampleReport,
+    measure_quality, relax, seed_leaves, separate_close_pairs,
 };
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -205,12 +205,16 @@ impl Scene {
             accept: Some(&accept),
             bounds,
         };
+        let options = RelaxOptions {
+            region,
+            on_iteration: None,
+        };
         relax(
             &mpu,
             &mut particles,
             &self.field,
             &self.particle_params,
-            region,
+            options,
         );
         // Uniform mode: the new particles' close pairs pushed apart, as a full run does.
         separate_close_pairs(

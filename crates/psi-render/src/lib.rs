@@ -61,6 +61,7 @@ mod panel;
 mod params;
 mod radius;
 mod shading;
+mod splat;
 mod splats;
 mod surface;
 

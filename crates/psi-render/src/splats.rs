@@ -7,41 +7,9 @@ use tiny_skia::{Color, Paint, PathBuilder, Pixmap, Rect, Transform};
 use crate::camera::Camera;
 use crate::canvas::{canvas, finish};
 use crate::shading::{back_factor, brightness, shade};
+use crate::splat::{ScreenEllipse, Splat};
 use crate::surface::draw_surface;
 use crate::{Backfaces, RenderError, RenderParams, SplatStyle};
-
-/// Smallest drawn minor/major axis ratio: a disk seen edge-on stays a thin ellipse.
-const MIN_ASPECT: f64 = 0.2;
-/// Smallest drawn semi-axis, pixels.
-const MIN_RADIUS_PX: f64 = 0.5;
-
-/// One particle on screen.
-pub(crate) struct Splat {
-    /// Centre in pixels (x right, y down).
-    pub(crate) center: DVec2,
-    /// Depth, world units, larger = nearer.
-    pub(crate) depth: f64,
-    /// Normal in the camera frame (right, up, toward viewer), unit.
-    pub(crate) normal: DVec3,
-    /// Radius, world units (scaled by `splat_scale`).
-    pub(crate) radius: f64,
-    /// Lambert brightness (back faces darkened).
-    pub(crate) light: f64,
-    pub(crate) index: usize,
-}
-
-impl Splat {
-    /// The screen ellipse of a disk of radius `r` world units: unit minor-axis direction (in
-    /// pixels, y down) and the semi-axes (major, minor) in pixels.
-    pub(crate) fn ellipse(&self, r: f64, scale: f64) -> (DVec2, f64, f64) {
-        let major = (r * scale).max(MIN_RADIUS_PX);
-        let minor = (major * self.normal.z.abs().max(MIN_ASPECT)).max(MIN_RADIUS_PX);
-        let dir = DVec2::new(self.normal.x, -self.normal.y)
-            .try_normalize()
-            .unwrap_or(DVec2::X);
-        (dir, major, minor)
-    }
-}
 
 /// Renders particles as shaded, oriented disks ("splats").
 ///
@@ -144,15 +112,8 @@ pub fn render_splats(
     match params.style {
         SplatStyle::Disks => {
             for s in &splats {
-                let (dir, a, b) = s.ellipse(s.radius, scale);
-                fill_ellipse(
-                    &mut pixmap,
-                    s.center,
-                    dir,
-                    a,
-                    b,
-                    shade(colors[s.index], s.light),
-                );
+                let e = s.ellipse(s.radius, scale);
+                fill_ellipse(&mut pixmap, s.center, e, shade(colors[s.index], s.light));
             }
         }
         SplatStyle::Dots { dot, surface } => {
@@ -163,10 +124,10 @@ pub fn render_splats(
                 0.5
             };
             for (s, _) in splats.iter().zip(&visible).filter(|(_, v)| **v) {
-                let (dir, a, b) = s.ellipse(s.radius / splat_scale * dot, scale);
+                let e = s.ellipse(s.radius / splat_scale * dot, scale);
                 // Dots keep their colour (as in the legend); the surface carries the shading.
                 let k = back_factor(s.normal.z);
-                fill_ellipse(&mut pixmap, s.center, dir, a, b, shade(colors[s.index], k));
+                fill_ellipse(&mut pixmap, s.center, e, shade(colors[s.index], k));
             }
         }
     }
@@ -185,16 +146,13 @@ pub(crate) fn corners(lo: DVec3, hi: DVec3) -> [DVec3; 8] {
     })
 }
 
-/// Fills the ellipse centred at `center` (pixels) with semi-axes `major` and `minor` (pixels),
-/// the minor one along the unit vector `dir`.
-fn fill_ellipse(
-    pixmap: &mut Pixmap,
-    center: DVec2,
-    dir: DVec2,
-    major: f64,
-    minor: f64,
-    color: Color,
-) {
+/// Fills `ellipse` centred at `center` (pixels).
+fn fill_ellipse(pixmap: &mut Pixmap, center: DVec2, ellipse: ScreenEllipse, color: Color) {
+    let ScreenEllipse {
+        minor_axis: dir,
+        major,
+        minor,
+    } = ellipse;
     let (a, b) = (major as f32, minor as f32);
     let Some(rect) = Rect::from_ltrb(-b, -a, b, a) else {
         return;

@@ -5,7 +5,7 @@ use glam::{DVec2, DVec3};
 use tiny_skia::{Pixmap, PremultipliedColorU8};
 
 use crate::shading::{back_factor, lambert};
-use crate::splats::Splat;
+use crate::splat::Splat;
 
 /// The surface is resolved at this many times the image resolution, then averaged down.
 const SUPERSAMPLE: usize = 2;
@@ -24,7 +24,8 @@ fn rasterize(
     mut f: impl FnMut(usize, f64, f64),
 ) {
     let k = SUPERSAMPLE as f64;
-    let (dir, a, b) = s.ellipse(s.radius, scale);
+    let ellipse = s.ellipse(s.radius, scale);
+    let (dir, a, b) = (ellipse.minor_axis, ellipse.major, ellipse.minor);
     let (a, b, center) = (a * k, b * k, s.center * k);
     // Depth change per buffer pixel along x and y (y down) on the tangent plane.
     let nz = if s.normal.z >= 0.0 {

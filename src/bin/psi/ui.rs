@@ -74,7 +74,7 @@ pub(crate) fn build_mpu(
 /// Samples with a progress bar over the relaxation iterations.
 pub(crate) fn sample(ui: Ui, mpu: &psi::Mpu, params: &psi::ParticleParams) -> psi::Sampling {
     let bar = ui.bar("relaxation", params.iterations as u64);
-    let run = psi::particles::sample_observed(mpu, params, &|i| bar.set_position(i as u64));
+    let run = psi::particles::sample_with(mpu, params, Some(&|i| bar.set_position(i as u64)));
     bar.finish_and_clear();
     run
 }
