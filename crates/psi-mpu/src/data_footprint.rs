@@ -87,6 +87,16 @@ impl DataAnchor {
     }
 }
 
+/// The answer of the footprint test ([`DataFootprint::near_data_from`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FootprintTest {
+    /// Whether the position lies inside the data's footprint.
+    pub inside: bool,
+    /// The input point nearest the position, to pass to the next test of a nearby position
+    /// (`None` for an empty input).
+    pub anchor: Option<DataAnchor>,
+}
+
 /// The per-point table of [`InputLocal`]s, filled lazily and shared by the clones of an MPU.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct DataFootprint {
@@ -167,17 +177,18 @@ impl DataFootprint {
         y: DVec3,
         reach: f64,
         anchor: Option<DataAnchor>,
-    ) -> (bool, Option<DataAnchor>) {
+    ) -> FootprintTest {
+        let answer = |inside, anchor| FootprintTest { inside, anchor };
         if let Some(a) = anchor
             && (a.position - y).length() <= a.fast_radius
         {
-            return (true, Some(a));
+            return answer(true, Some(a));
         }
         let found = anchor
             .and_then(|a| self.nearest_among_neighbours_of(data, y, a.point))
             .or_else(|| data.index.nearest_one(y));
         let Some((q, d2)) = found else {
-            return (false, None);
+            return answer(false, None);
         };
         let local = self.local(data, q);
         let q_position = data.positions[q as usize];
@@ -193,17 +204,17 @@ impl DataFootprint {
         let d = d2.sqrt();
         let spacing = local.spacing();
         if d > reach * spacing {
-            return (false, new_anchor);
+            return answer(false, new_anchor);
         }
         // Fast path: q lies well inside the data and y is within half a spacing of it.
         if d <= 0.5 * spacing && local.interior {
-            return (true, new_anchor);
+            return answer(true, new_anchor);
         }
         let n = data.points[q as usize].n;
         let [cx, cy, cz] = local.centroid_offset.map(f64::from);
         let offset = q_position + DVec3::new(cx, cy, cz) - y;
         let tangential = (offset - n * offset.dot(n)).length();
-        (tangential <= spacing, new_anchor)
+        answer(tangential <= spacing, new_anchor)
     }
 
     /// The input point nearest to local `y` and its squared distance, when the cached 9 nearest

@@ -13,6 +13,17 @@ use crate::Mpu;
 use crate::bspline_weight::{weight_and_gradient, weight_and_gradient_inv_r2};
 use crate::eval_nodes::{EvalNode, NO_FIT};
 
+/// f and ∇f at a position, and the leaf containing it ([`Mpu::value_and_gradient_from`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeafEvaluation {
+    /// f, world units (≈ signed distance near the surface; > 0 outside).
+    pub f: f64,
+    /// ∇f (dimensionless; |∇f| ≈ 1 near the surface).
+    pub gradient: DVec3,
+    /// The leaf containing the position, `None` outside the root cube.
+    pub leaf: Option<u32>,
+}
+
 /// Weight of the positive background term (a partition of unity sums to O(1) near data).
 pub const BACKGROUND_WEIGHT: f64 = 1e-9;
 
@@ -214,28 +225,24 @@ impl Mpu {
     /// surface). Visits only the cells whose support ball contains x.
     #[inline]
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
-        let (f, g, _) = self.value_and_gradient_from(x, None);
-        (f, g)
+        let e = self.value_and_gradient_from(x, None);
+        (e.f, e.gradient)
     }
 
     /// [`Mpu::value_and_gradient`] at world `x` with a guess of the leaf containing it (a
-    /// particle's leaf before its last move, see [`Mpu::leaf_containing_from`]); returns f, ∇f
-    /// and the leaf containing `x` (`None` outside the root cube). f and ∇f are bitwise equal to
-    /// `value_and_gradient`'s: the guess only saves the descent from the root.
+    /// particle's leaf before its last move, see [`Mpu::leaf_containing_from`]); also returns
+    /// the leaf containing `x`. f and ∇f are bitwise equal to `value_and_gradient`'s: the guess
+    /// only saves the descent from the root.
     #[inline]
-    pub fn value_and_gradient_from(
-        &self,
-        x: DVec3,
-        hint: Option<u32>,
-    ) -> (f64, DVec3, Option<u32>) {
+    pub fn value_and_gradient_from(&self, x: DVec3, hint: Option<u32>) -> LeafEvaluation {
         let y = x - self.frame.origin;
         let mut s = Sums::default();
         let leaf = self.leaf_containing_from(x, hint);
         self.for_each_support_leaf(y, leaf, |node, d2| {
             self.accumulate_node(y, node, d2, &mut s)
         });
-        let (f, g) = self.finish(y, s);
-        (f, g, leaf)
+        let (f, gradient) = self.finish(y, s);
+        LeafEvaluation { f, gradient, leaf }
     }
 
     /// f(x), world units (≈ signed distance near the surface; > 0 outside).

@@ -6,7 +6,7 @@ use std::sync::{Arc, OnceLock};
 use glam::DVec3;
 use psi_octree::{Aabb, Octree, OrientedPoint, PointIndex};
 
-use crate::data_footprint::{DataFootprint, InputData};
+use crate::data_footprint::{DataFootprint, FootprintTest, InputData};
 use crate::eval_nodes::{EvalNode, NO_FIT};
 use crate::fit_store::FitStore;
 use crate::{BuildReport, DataAnchor, FitKind, LocalFunction, MpuFrame, MpuParams};
@@ -166,13 +166,13 @@ impl Mpu {
     /// `anchor` is an input point that was near x before (a particle's previous nearest point,
     /// carried with what this test reads of it, so that the common case reads no shared table);
     /// when x is that close to an interior anchor the answer is yes without a search. Returns
-    /// the answer and the new anchor.
+    /// the answer and the new anchor (the input point nearest x).
     pub fn near_data_from(
         &self,
         x: DVec3,
         reach: f64,
         anchor: Option<DataAnchor>,
-    ) -> (bool, Option<DataAnchor>) {
+    ) -> FootprintTest {
         self.footprint
             .near_data_from(self.input_data(), x - self.frame.origin, reach, anchor)
     }

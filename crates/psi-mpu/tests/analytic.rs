@@ -379,7 +379,8 @@ fn leaf_lookup_and_evaluation_with_a_hint_equal_the_plain_ones() {
         hinted += usize::from(hint == Some(leaf) && got == hint);
         // The evaluation with the same guess (right, wrong or none) sums the same leaves as the
         // brute force over all of them.
-        let (f, g, _) = mpu.value_and_gradient_from(x, hint);
+        let e = mpu.value_and_gradient_from(x, hint);
+        let (f, g) = (e.f, e.gradient);
         let (fb, gb) = mpu.value_and_gradient_brute_force(x);
         assert_near!(f, fb, 1e-12 * (1.0 + fb.abs()));
         assert_near!((g - gb).length(), 0.0, 1e-12 * (1.0 + gb.length()));

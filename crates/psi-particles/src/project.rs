@@ -19,12 +19,12 @@ impl Evaluated {
     /// `mpu`'s f, ∇f and leaf at world `x`, from a guess of the leaf (see
     /// [`Mpu::value_and_gradient_from`]).
     fn at(mpu: &Mpu, x: DVec3, hint: Option<u32>) -> Self {
-        let (f, gradient, leaf) = mpu.value_and_gradient_from(x, hint);
+        let e = mpu.value_and_gradient_from(x, hint);
         Self {
             position: x,
-            f,
-            gradient,
-            leaf,
+            f: e.f,
+            gradient: e.gradient,
+            leaf: e.leaf,
         }
     }
 

@@ -5,7 +5,7 @@
 //! reads the previous iteration's state, so the result is identical for any thread count.
 
 use glam::DVec3;
-use psi_mpu::{DataAnchor, Mpu};
+use psi_mpu::{DataAnchor, LeafEvaluation, Mpu};
 use psi_octree::Aabb;
 use rayon::prelude::*;
 
@@ -114,13 +114,13 @@ pub fn relax(
     // is in, a guess for the next lookup (most moves stay in the leaf).
     let mut fg: Vec<(f64, DVec3)> = vec![(0.0, DVec3::ZERO); n];
     let mut leaf: Vec<Option<u32>> = vec![None; n];
-    let initial: Vec<(f64, DVec3, Option<u32>)> = active
+    let initial: Vec<LeafEvaluation> = active
         .par_iter()
         .map(|&i| mpu.value_and_gradient_from(particles.positions[i as usize], None))
         .collect();
-    for (&i, (f, g, l)) in active.iter().zip(initial) {
-        fg[i as usize] = (f, g);
-        leaf[i as usize] = l;
+    for (&i, e) in active.iter().zip(initial) {
+        fg[i as usize] = (e.f, e.gradient);
+        leaf[i as usize] = e.leaf;
     }
     // The farthest any particle looks: 3σ, σ at most its clamp above the largest σ̂.
     let reach = params.neighbour_radius
@@ -214,7 +214,8 @@ pub fn relax(
                 }
                 let moved = newton_project(mpu, x + step, tol, params.newton_steps, si, leaves[i]);
                 let x1 = moved.position;
-                let (on_data, new_anchor) = mpu.near_data_from(x1, params.data_reach, anchors[i]);
+                let test = mpu.near_data_from(x1, params.data_reach, anchors[i]);
+                let (on_data, new_anchor) = (test.inside, test.anchor);
                 let ok = moved.gradient.length_squared() > 0.0
                     && on_data
                     && region.accept.is_none_or(|a| a(x1));
