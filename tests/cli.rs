@@ -114,6 +114,28 @@ fn sample_writes_a_readable_particle_file_and_report() {
         let (a, b) = key.split_once('.').unwrap();
         assert!(!j[a][b].is_null(), "report lacks {key}");
     }
+    // The evaluation floor is a benchmark: measured only when asked.
+    assert!(j["particles"]["value_and_gradient_seconds"].is_null());
+    let floor_report = dir.join("floor.json");
+    let out = psi(&[
+        "sample",
+        input.to_str().unwrap(),
+        "--iterations",
+        "2",
+        "--evaluation-floor",
+        "--json",
+        floor_report.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    let f: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&floor_report).unwrap()).unwrap();
+    assert!(
+        f["particles"]["value_and_gradient_seconds"]
+            .as_f64()
+            .unwrap()
+            > 0.0
+    );
+    assert!(f["particles"]["evaluation_floor_ratio"].as_f64().unwrap() > 0.0);
     let n = j["particles"]["count"].as_u64().unwrap() as usize;
     let back = psi::load_points(&out_ply, &psi::ReadOptions::paper()).unwrap();
     assert_eq!(back.points.len(), n);

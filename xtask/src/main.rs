@@ -10,11 +10,14 @@
 //!   `psi sample`, reporting time and peak memory.
 //! * `figures [--models DIR]`: regenerates the README's pictures in `docs/images/` (built-in
 //!   model and bunny coloured by octree depth, a brush edit, uniform beside adaptive).
+//! * `bench <program> [args]`: timing and tuning programs of the library (`bench.rs`), run
+//!   from a release build.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
+mod bench;
 mod check_reference;
 mod edits;
 mod figures;
@@ -88,6 +91,7 @@ fn main() -> std::process::ExitCode {
         Some("reproduce-tables") => parse(&args[1..]).and_then(|f| tables::run(&f)),
         Some("check-reference") => parse(&args[1..]).and_then(|f| check_reference::run(&f)),
         Some("figures") => parse(&args[1..]).and_then(|f| figures::run(&f)),
+        Some("bench") => bench::run(&args[1..]),
         Some("memory") => {
             let points = match args.get(1).map(String::as_str) {
                 Some("--points") => args
@@ -100,7 +104,7 @@ fn main() -> std::process::ExitCode {
         }
         _ => {
             eprintln!(
-                "usage: cargo xtask reproduce-tables|check-reference|figures [--models DIR] [--only a,b] [--iterations N] [--json FILE]"
+                "usage: cargo xtask reproduce-tables|check-reference|figures [--models DIR] [--only a,b] [--iterations N] [--json FILE]\n       cargo xtask memory [--points N]\n       cargo xtask bench relax|eval|edit|tune|tune-shapes|level-cv [args]"
             );
             return std::process::ExitCode::from(2);
         }

@@ -44,7 +44,12 @@ pub(crate) fn sample(
     let out = Command::new(psi)
         .arg("sample")
         .arg(model)
-        .args(["--iterations", &iterations.to_string(), "-o"])
+        .args([
+            "--iterations",
+            &iterations.to_string(),
+            "--evaluation-floor",
+            "-o",
+        ])
         .arg(&ply)
         .arg("--json")
         .arg(&report)

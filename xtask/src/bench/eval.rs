@@ -1,15 +1,16 @@
-//! Development aid: cost of one `value_and_gradient` on a model's MPU at points near the surface.
+//! `bench eval`: the cost of one `value_and_gradient` on a model's MPU at points near the surface.
 //!
-//! `cargo run --release --example time_eval -- ../shared/models/bunny.ply`
+//! `cargo xtask bench eval ../shared/models/bunny.ply`
 
 use std::hint::black_box;
 use std::time::Instant;
 
 use psi::{Mpu, MpuParams};
 
-fn main() -> anyhow::Result<()> {
-    let path = std::env::args()
-        .nth(1)
+pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
+    let path = args
+        .first()
+        .cloned()
         .unwrap_or_else(|| "../shared/models/bunny.ply".into());
     let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
     let mpu = Mpu::build(&points, &MpuParams::paper())?;

@@ -1,16 +1,17 @@
-//! Development aid: relaxation constants varied one at a time on a model file (default: the
+//! `bench tune`: relaxation constants varied one at a time on a model file (default: the
 //! shared bunny), printing the overall and per-level nearest-neighbour CV, the worst
 //! |f|/|∇f| (over D) and the simulation time of each setting (the neighbour searches give the
 //! same particles, so their lines differ only in time).
 //!
-//! `cargo run --release --example tune_relaxation -- ../shared/models/bunny.ply`
+//! `cargo xtask bench tune ../shared/models/bunny.ply`
 
 use psi::particles::NeighbourSearch;
 use psi::{Mpu, MpuParams, ParticleParams};
 
-fn main() -> anyhow::Result<()> {
-    let path = std::env::args()
-        .nth(1)
+pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
+    let path = args
+        .first()
+        .cloned()
         .unwrap_or_else(|| "../shared/models/bunny.ply".into());
     let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
     let mpu = Mpu::build(&points, &MpuParams::paper())?;

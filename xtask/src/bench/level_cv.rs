@@ -1,11 +1,11 @@
-//! Development aid: where the per-level nearest-neighbour CV comes from. Samples a model with
+//! `bench level-cv`: where the per-level nearest-neighbour CV comes from. Samples a model with
 //! the paper's parameters and with each pair of cross-level exponents given (`p,q`: the finer
 //! particle's push across a level boundary scaled by (σ_fine/σ_coarse)^p, the coarser one's by
 //! (σ_fine/σ_coarse)^q), and prints per depth level the particle count, the CV and the mean
 //! spacing, split into particles inside their level (their 7 nearest particles all at the same
 //! depth) and at a boundary between levels.
 //!
-//! `cargo run --release --example level_cv -- ../shared/models/bunny.ply 1.5,1 2.5,1`
+//! `cargo xtask bench level-cv ../shared/models/bunny.ply 1.5,1 2.5,1`
 
 use std::collections::BTreeMap;
 
@@ -52,8 +52,8 @@ fn levels(p: &Particles) -> String {
         .join("  ")
 }
 
-fn main() -> anyhow::Result<()> {
-    let mut args = std::env::args().skip(1);
+pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
+    let mut args = args.iter().cloned();
     let path = args
         .next()
         .unwrap_or_else(|| "../shared/models/bunny.ply".into());

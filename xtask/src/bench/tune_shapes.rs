@@ -1,10 +1,12 @@
-//! Parameter sweep of the relaxation on a sphere and a torus (development aid):
-//! prints the nearest-neighbour CV after relaxation for step sizes and σ adaptation.
-use psi_mpu::{Mpu, MpuParams};
-use psi_particles::{DensityMode, ParticleParams, sample};
-use psi_shapes::AnalyticShape;
+//! `bench tune-shapes`: a parameter sweep of the relaxation on a sphere and a torus: prints the nearest-neighbour CV
+//! after relaxation for step sizes and σ adaptation.
+//!
+//! `cargo xtask bench tune-shapes`
 
-fn main() {
+use psi::particles::{DensityMode, ParticleParams, sample};
+use psi::{AnalyticShape, Mpu, MpuParams};
+
+pub(crate) fn run() -> anyhow::Result<()> {
     for shape in [
         AnalyticShape::Sphere { radius: 1.0 },
         AnalyticShape::Torus {
@@ -12,7 +14,7 @@ fn main() {
             minor: 0.35,
         },
     ] {
-        let mpu = Mpu::build(&shape.sample(30_000, 21), &MpuParams::paper()).unwrap();
+        let mpu = Mpu::build(&shape.sample(30_000, 21), &MpuParams::paper())?;
         for uniform in [true, false] {
             for dt in [0.25, 0.3] {
                 for adapt in [false, true] {
@@ -44,4 +46,5 @@ fn main() {
             }
         }
     }
+    Ok(())
 }

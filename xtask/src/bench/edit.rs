@@ -1,15 +1,15 @@
-//! Development aid: cost of one local regeneration (`Scene::apply`) on a model, the brush of
+//! `bench edit`: the cost of one local regeneration (`Scene::apply`) on a model, the brush of
 //! issue #5 applied forth and back many times (for profiling with `perf record`).
 //!
-//! `cargo run --release --example time_edit -- ../shared/models/bunny.ply 40`
+//! `cargo xtask bench edit ../shared/models/bunny.ply 40`
 
 use std::time::Instant;
 
 use psi::regen::{Edit, Scene};
 use psi::{DVec3, MpuParams, ParticleParams};
 
-fn main() -> anyhow::Result<()> {
-    let mut args = std::env::args().skip(1);
+pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
+    let mut args = args.iter().cloned();
     let path = args
         .next()
         .unwrap_or_else(|| "../shared/models/bunny.ply".into());

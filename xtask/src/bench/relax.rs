@@ -1,4 +1,4 @@
-//! Development aid: times `rounds` samplings (seeding + 20 iterations), each of a freshly built
+//! `bench relax`: times `rounds` samplings (seeding + 20 iterations), each of a freshly built
 //! MPU, and prints the median simulation time and the per-level CV (for profiling the
 //! relaxation alone). With `warm` as third argument every round samples one MPU, whose lazily
 //! filled tables (the footprint's per-point table, the evaluation's candidate lists) are then
@@ -6,12 +6,12 @@
 //! fresh MPU has its footprint table filled for every input point before the clock starts:
 //! the difference to a plain run is what filling it during the relaxation costs.
 //!
-//! `cargo run --release --example time_relax -- ../shared/models/bunny.ply 9 [warm|prefill]`
+//! `cargo xtask bench relax ../shared/models/bunny.ply 9 [warm|prefill]`
 
 use psi::{Mpu, MpuParams, ParticleParams};
 
-fn main() -> anyhow::Result<()> {
-    let mut args = std::env::args().skip(1);
+pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
+    let mut args = args.iter().cloned();
     let path = args
         .next()
         .unwrap_or_else(|| "../shared/models/bunny.ply".into());

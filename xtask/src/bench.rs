@@ -1,0 +1,52 @@
+//! `cargo xtask bench <program> [args]`: timing and tuning programs of the library itself (the
+//! paper's tables time the `psi` binary instead: `reproduce-tables`). Timings mean nothing in a
+//! debug build, so a debug xtask runs itself again built with `--release`.
+//!
+//! * `relax [MODEL] [ROUNDS] [warm|prefill]`: medians of the relaxation on fresh MPUs;
+//! * `eval [MODEL]`: one `value_and_gradient` near the surface;
+//! * `edit [MODEL] [ROUNDS]`: one local regeneration, a brush applied forth and back;
+//! * `tune [MODEL]`: relaxation constants varied one at a time;
+//! * `tune-shapes`: step sizes and σ adaptation on a sphere and a torus;
+//! * `level-cv [MODEL] [p,q ...]`: the per-level nearest-neighbour CV split into a level's
+//!   inside and its boundaries.
+//!
+//! MODEL defaults to `../shared/models/bunny.ply`.
+
+use anyhow::{Context, Result, bail};
+
+mod edit;
+mod eval;
+mod level_cv;
+mod relax;
+mod tune;
+mod tune_shapes;
+
+pub(crate) fn run(args: &[String]) -> Result<()> {
+    if cfg!(debug_assertions) {
+        let status = std::process::Command::new(env!("CARGO"))
+            .current_dir(crate::project_root())
+            .args(["run", "--release", "--quiet", "--package", "xtask", "--"])
+            .arg("bench")
+            .args(args)
+            .status()
+            .context("running the release build of xtask")?;
+        if !status.success() {
+            bail!("the release build of `xtask bench` failed ({status})");
+        }
+        return Ok(());
+    }
+    let (program, rest) = args
+        .split_first()
+        .context("bench needs a program: relax, eval, edit, tune, tune-shapes or level-cv")?;
+    match program.as_str() {
+        "relax" => relax::run(rest),
+        "eval" => eval::run(rest),
+        "edit" => edit::run(rest),
+        "tune" => tune::run(rest),
+        "tune-shapes" => tune_shapes::run(),
+        "level-cv" => level_cv::run(rest),
+        other => {
+            bail!("unknown bench program {other}: relax, eval, edit, tune, tune-shapes or level-cv")
+        }
+    }
+}
