@@ -26,6 +26,7 @@ mod memory;
 mod paper;
 mod reference;
 mod tables;
+mod tidy;
 
 /// Command-line flags shared by the tasks.
 pub(crate) struct Flags {

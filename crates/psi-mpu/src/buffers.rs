@@ -12,8 +12,7 @@ use crate::eval_nodes::EvalNode;
 
 /// Memory for an MPU build to fill instead of allocating: the largest arrays of an earlier MPU
 /// ([`Mpu::into_buffers`]) or fresh ones touched once ([`MpuBuffers::like`]). Memory the
-/// process already maps costs nothing to write; fresh memory costs a page fault per 4 KiB
-/// (thousands for a bunny-sized rebuild).
+/// process already maps costs nothing to write; fresh memory costs a page fault per 4 KiB.
 #[derive(Debug, Default)]
 pub struct MpuBuffers {
     pub(crate) points: Vec<OrientedPoint>,

@@ -1,7 +1,7 @@
 //! The leaves' local functions, stored in append-only chunks that a rebuilt MPU shares with the
 //! one it replaces: a local regeneration appends the refitted leaves' functions in a new chunk
-//! and names every reused leaf's function by its old id, so nothing is copied (copying the
-//! bunny's 25 000 functions and their sharp pieces wrote 6 MB of fresh memory per edit).
+//! and names every reused leaf's function by its old id, so nothing is copied (copying them
+//! wrote megabytes of fresh memory per edit: notes, local regeneration).
 //!
 //! A fit id is `chunk << CHUNK_SHIFT | index`. Replaced functions stay in their chunk until the
 //! chunks are compacted: a build that finds [`MAX_CHUNKS`] chunks copies the live functions into

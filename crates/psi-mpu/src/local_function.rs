@@ -117,8 +117,8 @@ impl LocalFunction {
 
 /// A leaf's local function as an MPU stores it: a sharp function's pieces live in one table of
 /// quadrics beside the fits (`pieces`), named by the index of the first. Copying a leaf into a
-/// rebuilt MPU then copies plain values (a shared pointer per sharp leaf — 40 % of the bunny's
-/// leaves — cost a cache miss each to count).
+/// rebuilt MPU then copies plain values (a shared pointer per sharp leaf would cost a cache miss
+/// each to count).
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum StoredFunction {
     Smooth(Quadric),

@@ -37,11 +37,11 @@ pub struct MpuParams {
     pub fit_unit: Option<f64>,
     /// With world-unit solves (`fit_unit = Some(_)`), whether each leaf with a smooth fit within
     /// ε0 (not a leaf only for reaching the depth limit) is solved again in units of its fit
-    /// radius, the one with the smaller error (largest Taubin
-    /// distance within R) kept. The split decisions — so the octree, its leaves and the particle count —
-    /// stay those of the world-unit fits; only the leaves' functions get more accurate (on the
-    /// paper's models the mean distance to the reference mesh falls from 1.5–2.4e-4 D to
-    /// 0.9–1.8e-4 D; docs/ARCHITECTURE.md, "Fit units"). Ignored when `fit_unit` is `None`.
+    /// radius, the one with the smaller error (largest Taubin distance within R) kept. The split
+    /// decisions — so the octree, its leaves and the particle count — stay those of the
+    /// world-unit fits; only the leaves' functions get closer to the data (figures in
+    /// docs/results, reasons in docs/notes/2026-11-24-mpu-fits.md). Ignored when `fit_unit` is
+    /// `None`.
     pub leaf_refit: bool,
 }
 

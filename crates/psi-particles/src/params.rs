@@ -19,7 +19,7 @@ pub enum NeighbourSearch {
     /// A kiddo kd-tree rebuilt every iteration.
     KdTree,
     /// A uniform grid of cubes ([`crate::GRID_EDGE_FACTOR`] × the mean query radius), rebuilt
-    /// every iteration: the fastest (`benches/neighbours.rs`, `examples/tune_relaxation.rs`).
+    /// every iteration: the fastest (`benches/neighbours.rs`, `cargo xtask bench tune`).
     Grid,
 }
 
@@ -61,11 +61,11 @@ pub struct ParticleParams {
     /// step (0 = WH's first-order dynamics).
     pub momentum: f64,
     /// Time step of the σ adaptation (WH: 0.03 per particle; 0.1 for the one shared scale,
-    /// see docs/ARCHITECTURE.md, "Relaxation").
+    /// see docs/notes/2026-11-24-relaxation.md).
     pub sigma_dt: f64,
     /// A pair of particles at different levels repels with the larger σ; the finer one's push
     /// is scaled by (σ_fine/σ_coarse)^`.0`, the coarser one's by (σ_fine/σ_coarse)^`.1` (2, 1;
-    /// docs/ARCHITECTURE.md, "Relaxation").
+    /// docs/notes/2026-11-24-relaxation.md).
     pub cross_level_exponents: (f64, f64),
     /// Largest move per iteration as a multiple of σ_i (0.5).
     pub max_move: f64,
@@ -77,7 +77,7 @@ pub struct ParticleParams {
     pub newton_steps: usize,
     /// A move is rejected when it ends farther from every input point than this multiple of the
     /// local input spacing: particles stay where there is data (open scans, holes). 1 (see
-    /// docs/ARCHITECTURE.md, "Relaxation", for why not more).
+    /// docs/notes/2026-11-24-relaxation.md, for why not more).
     pub data_reach: f64,
     /// Seed of every random choice.
     pub seed: u64,
@@ -86,7 +86,7 @@ pub struct ParticleParams {
 impl ParticleParams {
     /// The paper's set-up: k = 1, 20 iterations, depth-adaptive density, Witkin–Heckbert
     /// constants. Neighbours come from a uniform grid, the fastest of the three searches
-    /// (`benches/neighbours.rs`, `examples/tune_relaxation.rs`; all three give the same
+    /// (`benches/neighbours.rs`, `cargo xtask bench tune`; all three give the same
     /// particles).
     pub fn paper() -> Self {
         Self {

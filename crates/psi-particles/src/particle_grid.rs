@@ -18,8 +18,8 @@ pub struct ParticleGrid {
     positions: Vec<DVec3>,
 }
 
-/// The relaxation's grid cubes are this fraction of the mean query radius 3σ (a sweep of
-/// 0.5–1.4 on the bunny was flat within noise; 0.7 was the fastest).
+/// The relaxation's grid cubes are this fraction of the mean query radius 3σ (chosen by a sweep:
+/// notes, relaxation); any edge gives the same neighbours.
 pub const GRID_EDGE_FACTOR: f64 = 0.7;
 
 /// At most this many cubes per point: a sparse set gets larger cubes instead of a huge table.

@@ -202,7 +202,7 @@ pub fn relax(
                 };
                 // Per-particle step dt_i = dt / ΣE_ij: on a hexagonal lattice at spacing 2σ the
                 // repulsion's stiffness is 2·ΣE_ij, so dt = 0.5 makes this a Newton step
-                // (derivation in docs/ARCHITECTURE.md, "Relaxation").
+                // (derivation in docs/notes/2026-11-24-relaxation.md).
                 let dt_i = params.dt / (forces_ref.energy[i] + 1e-3 * params.energy_alpha);
                 // Heavy-ball momentum: the previous displacement, projected onto the tangent plane.
                 let prev = vel[i] - ni * vel[i].dot(ni);

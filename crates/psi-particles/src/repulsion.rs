@@ -1,6 +1,6 @@
 //! Witkin–Heckbert repulsion sums of the moving particles: D_i (the desired velocity before
 //! the surface constraint), E_i and c·∂E_i/∂c (how E_i follows the one σ scale c), with one
-//! kernel per pair across depth levels (docs/ARCHITECTURE.md, "Relaxation").
+//! kernel per pair across depth levels (docs/notes/2026-11-24-relaxation.md).
 //!
 //! Within a level (σ_i = σ_j = σ) this is WH eq. 9 with the erratum's sign:
 //! D_i = Σ_j r_ij (E_ij + E_ji) = Σ_j 2 E_ij r_ij, E_ij = α exp(−|r_ij|²/2σ²), r_ij = x_i − x_j,

@@ -7,7 +7,7 @@
 //! rejecting darts, which an exact count rules out.
 //!
 //! Tried first and dropped: moving one particle of each pair to the largest gap — the gaps of a
-//! relaxed set are only about 0.7 of the spacing wide, which capped the bunny's ρ at 0.68.
+//! relaxed set are too narrow for that (notes: relaxation).
 
 use glam::DVec3;
 use psi_mpu::Mpu;

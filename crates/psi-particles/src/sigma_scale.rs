@@ -1,13 +1,13 @@
 //! The repulsion radius σ_i = c·σ̂_i of every particle: σ̂_i from its leaf's depth (paper eq. 1,
 //! [`DensityField`]) and one scale c, shared by all particles, adapting toward Witkin–Heckbert's
-//! target energy Ê on the particles' mean energy (docs/ARCHITECTURE.md, "Relaxation": why one
+//! target energy Ê on the particles' mean energy (docs/notes/2026-11-24-relaxation.md: why one
 //! scale and not one σ per particle).
 
 use crate::{DensityField, ParticleParams};
 
 /// Largest relative change of the scale in one adaptation step: WH's rule, applied to a mean
 /// over all particles with a step larger than WH's, overshoots when the seeds' energy is far
-/// above Ê (on the bunny a step of 0.3 oscillated without this bound).
+/// above Ê (a step of 0.3 oscillated without this bound).
 const MAX_RELATIVE_STEP: f64 = 0.25;
 
 /// The scale c of σ = c·σ̂.

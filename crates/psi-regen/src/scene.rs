@@ -47,7 +47,7 @@ pub struct Scene {
     particle_params: ParticleParams,
     /// Memory the next edit builds its MPU in: the arrays of the MPU it replaced last, or
     /// fresh ones touched when the scene was made, so that no edit (the first included) pays
-    /// for new pages — ~5 ms of a bunny edit, for one more MPU's worth of memory.
+    /// for new pages (the price: one more MPU's worth of memory; notes: local regeneration).
     spare: MpuBuffers,
 }
 
