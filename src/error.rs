@@ -1,4 +1,5 @@
-//! Errors of the facade's file operations: each names the file and wraps the layer's reason.
+//! Errors of the facade's file operations: each names the file and says the layer's reason
+//! (in its message, not again as a source, so a chain of contexts prints each cause once).
 
 use std::path::PathBuf;
 
@@ -13,12 +14,12 @@ pub enum PsiError {
     /// let err = psi::load_points(std::path::Path::new("no/such/file.ply"), &psi::ReadOptions::paper()).unwrap_err();
     /// assert!(err.to_string().contains("no/such/file.ply"));
     /// ```
-    #[error("{path}: {source}")]
+    #[error("{path}: {reason}")]
     Open {
         /// The file.
         path: PathBuf,
         /// The operating system's reason.
-        source: std::io::Error,
+        reason: std::io::Error,
     },
     /// The file's contents are malformed.
     ///
@@ -30,12 +31,12 @@ pub enum PsiError {
     /// let err = psi::load_points(&path, &psi::ReadOptions::paper()).unwrap_err();
     /// assert!(matches!(err, psi::PsiError::Read { .. }));
     /// ```
-    #[error("{path}: {source}")]
+    #[error("{path}: {reason}")]
     Read {
         /// The file.
         path: PathBuf,
         /// What is wrong with it.
-        source: psi_io::ReadError,
+        reason: psi_io::ReadError,
     },
     /// A picture could not be made from these arguments (its size, or mismatched columns).
     ///
@@ -45,12 +46,12 @@ pub enum PsiError {
     /// let err = psi::render_particles_png(std::path::Path::new("x.png"), &particles, &params).unwrap_err();
     /// assert!(matches!(err, psi::PsiError::Render { .. }));
     /// ```
-    #[error("{path}: cannot render: {source}")]
+    #[error("{path}: cannot render: {reason}")]
     Render {
         /// The output file.
         path: PathBuf,
         /// The reason.
-        source: psi_render::RenderError,
+        reason: psi_render::RenderError,
     },
     /// Writing the output failed; the previous file at `path`, if any, is untouched.
     ///
@@ -58,11 +59,11 @@ pub enum PsiError {
     /// let err = psi::write_atomically(std::path::Path::new("/no/such/dir/out.ply"), |_| Ok(())).unwrap_err();
     /// assert!(matches!(err, psi::PsiError::Write { .. }));
     /// ```
-    #[error("{path}: cannot write: {source}")]
+    #[error("{path}: cannot write: {reason}")]
     Write {
         /// The output file.
         path: PathBuf,
         /// The reason.
-        source: std::io::Error,
+        reason: std::io::Error,
     },
 }

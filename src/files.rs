@@ -11,9 +11,9 @@ use psi_io::{Format, PointCloudFile, ReadError, ReadOptions, TriangleMesh};
 use crate::PsiError;
 
 fn read_bytes(path: &Path) -> Result<Vec<u8>, PsiError> {
-    let open = |source| PsiError::Open {
+    let open = |reason| PsiError::Open {
         path: path.to_path_buf(),
-        source,
+        reason,
     };
     if path.is_dir() {
         return Err(open(std::io::Error::new(
@@ -35,9 +35,9 @@ fn format_of(path: &Path, bytes: &[u8]) -> Format {
 /// A mesh gives one point per triangle (or per vertex, per `opts`).
 pub fn load_points(path: &Path, opts: &ReadOptions) -> Result<PointCloudFile, PsiError> {
     let bytes = read_bytes(path)?;
-    psi_io::read_points(&bytes, format_of(path, &bytes), opts).map_err(|source| PsiError::Read {
+    psi_io::read_points(&bytes, format_of(path, &bytes), opts).map_err(|reason| PsiError::Read {
         path: path.to_path_buf(),
-        source,
+        reason,
     })
 }
 
@@ -74,9 +74,9 @@ pub struct ParticleColumns {
 /// is NaN or infinite.
 pub fn load_particles(path: &Path) -> Result<ParticleColumns, PsiError> {
     let bytes = read_bytes(path)?;
-    let read_error = |source| PsiError::Read {
+    let read_error = |reason| PsiError::Read {
         path: path.to_path_buf(),
-        source,
+        reason,
     };
     if format_of(path, &bytes) != Format::Ply {
         let file = psi_io::read_points(&bytes, format_of(path, &bytes), &ReadOptions::paper())
@@ -119,10 +119,27 @@ pub fn load_particles(path: &Path) -> Result<ParticleColumns, PsiError> {
 /// Reads a triangle mesh (a reference mesh, say) from a PLY or OBJ file.
 pub fn load_mesh(path: &Path) -> Result<TriangleMesh, PsiError> {
     let bytes = read_bytes(path)?;
-    psi_io::read_mesh(&bytes, format_of(path, &bytes)).map_err(|source| PsiError::Read {
+    psi_io::read_mesh(&bytes, format_of(path, &bytes)).map_err(|reason| PsiError::Read {
         path: path.to_path_buf(),
-        source,
+        reason,
     })
+}
+
+/// Whether `a` and `b` name the same existing file (after resolving links and relative
+/// parts); false when either does not exist.
+///
+/// ```
+/// let dir = std::env::temp_dir();
+/// let file = dir.join(format!("psi-doc-same-{}.txt", std::process::id()));
+/// std::fs::write(&file, b"x").unwrap();
+/// assert!(psi::same_file(&file, &dir.join(".").join(file.file_name().unwrap())));
+/// assert!(!psi::same_file(&file, &dir.join("no-such-file")));
+/// ```
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    match (fs::canonicalize(a), fs::canonicalize(b)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    }
 }
 
 /// Writes `path` by calling `write` on a buffered temporary file in the same directory, then
@@ -131,9 +148,9 @@ pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), PsiError> {
-    let fail = |source| PsiError::Write {
+    let fail = |reason| PsiError::Write {
         path: path.to_path_buf(),
-        source,
+        reason,
     };
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),

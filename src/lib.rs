@@ -5,7 +5,8 @@
 //!
 //! * [`octree`] (`psi-octree`): the adaptive octree, its point queries, oriented points;
 //! * [`io`] (`psi-io`): PLY/OBJ/XYZ parsing and PLY writing, on bytes;
-//! * [`preprocess`] (`psi-preprocess`): what a scan needs before the fit (normal orientation);
+//! * [`preprocess`] (`psi-preprocess`): what a scan needs before the fit (outliers, normals,
+//!   noise);
 //! * [`mpu`] (`psi-mpu`): the MPU implicit (Ohtake et al. 2003) and its polygonizer;
 //! * [`particles`] (`psi-particles`): octree-seeded, depth-adaptive particle sampling;
 //! * [`regen`] (`psi-regen`): local regeneration after shape edits;
@@ -36,8 +37,8 @@ pub use psi_shapes as shapes;
 
 pub use error::PsiError;
 pub use files::{
-    ParticleColumns, load_mesh, load_particles, load_points, save_json, save_mesh, save_particles,
-    write_atomically,
+    ParticleColumns, load_mesh, load_particles, load_points, same_file, save_json, save_mesh,
+    save_particles, write_atomically,
 };
 pub use glam::DVec3;
 pub use psi_io::{MeshSampling, PointCloudFile, ReadOptions, TriangleMesh};

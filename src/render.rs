@@ -15,7 +15,7 @@ use crate::PsiError;
 pub fn save_png(path: &Path, image: &Pixmap) -> Result<(), PsiError> {
     let png = image.encode_png().map_err(|e| PsiError::Write {
         path: path.to_path_buf(),
-        source: std::io::Error::other(e),
+        reason: std::io::Error::other(e),
     })?;
     crate::write_atomically(path, |w| w.write_all(&png))
 }
@@ -68,9 +68,9 @@ pub fn render_particles_png(
     particles: &psi_particles::Particles,
     params: &RenderParams,
 ) -> Result<(), PsiError> {
-    let image = particles_image(particles, params).map_err(|source| PsiError::Render {
+    let image = particles_image(particles, params).map_err(|reason| PsiError::Render {
         path: path.to_path_buf(),
-        source,
+        reason,
     })?;
     save_png(path, &image)
 }

@@ -39,8 +39,8 @@ pub(crate) fn models() -> Option<PathBuf> {
     }
 }
 
-/// A run on bad input `name` failed as every command must: exit code 2, one line on stderr
-/// naming the file, and the output file `kept` (holding "precious") left untouched. `what`
+/// A run on bad input `name` failed as every command must: exit code 2, one error line on
+/// stderr naming the file (notices may precede it), and the output file `kept` (holding "precious") left untouched. `what`
 /// labels the failure messages.
 pub(crate) fn assert_rejected(out: &Output, name: &str, kept: &Path, what: &str) {
     let err = String::from_utf8_lossy(&out.stderr);
@@ -49,7 +49,12 @@ pub(crate) fn assert_rejected(out: &Output, name: &str, kept: &Path, what: &str)
         err.contains(name),
         "{what}: error does not name the file: {err}"
     );
-    assert_eq!(err.trim().lines().count(), 1, "{what}: not one line: {err}");
+    let errors = err.lines().filter(|l| l.starts_with("psi: error:")).count();
+    assert_eq!(errors, 1, "{what}: not one error line: {err}");
+    assert!(
+        err.lines().all(|l| l.starts_with("psi: ")),
+        "{what}: stray output: {err}"
+    );
     assert_eq!(
         std::fs::read(kept).unwrap(),
         b"precious",

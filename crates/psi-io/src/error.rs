@@ -130,17 +130,14 @@ pub enum ReadError {
         vertices: usize,
     },
 
-    /// Points without normals and without faces: nothing to orient them by.
+    /// A particle file's `vertex` element without `nx ny nz` (particles carry their normals).
     ///
     /// ```
-    /// use psi_io::{read_points, Format, ReadError, ReadOptions};
-    /// let err = read_points(b"0 0 0\n1 0 0\n", Format::Xyz, &ReadOptions::paper()).unwrap_err();
-    /// assert_eq!(err, ReadError::NoNormals);
+    /// let ply = b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n";
+    /// let columns = psi_io::read_point_scalars(ply, &["x", "y", "z", "nx", "ny", "nz"]).unwrap();
+    /// assert!(columns[3].is_none()); // the caller reports psi_io::ReadError::NoNormals
     /// ```
-    #[error(
-        "the file has points but no normals (nx ny nz) and no faces; \
-         give oriented points or a triangle mesh"
-    )]
+    #[error("the file has points but no normals (nx ny nz)")]
     NoNormals,
 
     /// An OBJ file without faces whose `vn` count differs from its `v` count, so normals cannot
@@ -220,7 +217,7 @@ pub enum WriteError {
     /// let err = write_points_ply(&mut Full, &[DVec3::ZERO], &[DVec3::Z], &[]).unwrap_err();
     /// assert!(matches!(err, WriteError::Io(_)));
     /// ```
-    #[error("could not write PLY: {0}")]
+    #[error(transparent)]
     Io(#[from] std::io::Error),
 
     /// A per-point array does not have one entry per position.

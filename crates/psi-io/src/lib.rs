@@ -58,7 +58,7 @@ mod write_ply;
 
 pub use error::{ReadError, WriteError};
 pub use format::Format;
-pub use model::{PointCloudFile, TriangleMesh};
+pub use model::{NormalSource, PointCloudFile, TriangleMesh};
 pub use options::{MeshSampling, ReadOptions};
 pub use read_scalars::read_point_scalars;
 pub use write_ply::{write_mesh_ply, write_points_ply};
@@ -80,14 +80,16 @@ fn parse(bytes: &[u8], format: Format) -> Result<Parsed, ReadError> {
 /// * `opts`: how a mesh becomes points ([`ReadOptions::paper`]: one point per triangle).
 ///
 /// When the file has faces, the points come from the mesh per `opts.sampling`, degenerate
-/// triangles are skipped and counted, and the mesh is returned too. Without faces, every vertex
-/// needs a normal (PLY `nx ny nz`, OBJ one `vn` per `v`, XYZ six columns); non-unit normals are
-/// normalised and zero normals are skipped and counted. Positions are in the file's units.
+/// triangles are skipped and counted, and the mesh is returned too. Without faces, the points
+/// are the vertices with their normals (PLY `nx ny nz`, OBJ one `vn` per `v`, XYZ six columns;
+/// non-unit normals are normalised, zero normals are skipped and counted), or, when the file
+/// has none, with zero normals and [`NormalSource::Missing`]. Positions are in the file's
+/// units.
 ///
 /// # Errors
 ///
 /// A [`ReadError`] for empty, malformed or truncated input, NaN or infinite values, face
-/// indices out of range, points without normals or faces, and when no usable point remains.
+/// indices out of range, and when no usable point remains.
 ///
 /// ```
 /// use psi_io::{read_points, Format, ReadOptions};

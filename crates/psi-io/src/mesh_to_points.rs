@@ -5,7 +5,7 @@ use glam::DVec3;
 use psi_octree::OrientedPoint;
 
 use crate::error::ReadError;
-use crate::model::{Parsed, PointCloudFile, TriangleMesh};
+use crate::model::{NormalSource, Parsed, PointCloudFile, TriangleMesh};
 use crate::options::{MeshSampling, ReadOptions};
 
 /// `v / |v|`, robust to lengths that under- or overflow when squared; `None` for a zero or
@@ -123,6 +123,10 @@ pub(crate) fn to_point_cloud(
         };
         PointCloudFile {
             points,
+            normals: match opts.sampling {
+                MeshSampling::FaceCentroids => NormalSource::Faces,
+                MeshSampling::VertexNormals => NormalSource::Vertices,
+            },
             vertices,
             faces,
             degenerate_faces,
@@ -132,6 +136,22 @@ pub(crate) fn to_point_cloud(
     } else if vertices == 0 {
         PointCloudFile {
             points: Vec::new(),
+            normals: NormalSource::File,
+            vertices,
+            faces,
+            degenerate_faces: 0,
+            dropped_points: 0,
+            mesh: None,
+        }
+    } else if parsed.normals.is_none() {
+        // Positions only: normals are estimated later (psi-preprocess).
+        PointCloudFile {
+            points: parsed
+                .vertices
+                .iter()
+                .map(|&p| OrientedPoint { p, n: DVec3::ZERO })
+                .collect(),
+            normals: NormalSource::Missing,
             vertices,
             faces,
             degenerate_faces: 0,
@@ -139,7 +159,7 @@ pub(crate) fn to_point_cloud(
             mesh: None,
         }
     } else {
-        let normals = parsed.normals.ok_or(ReadError::NoNormals)?;
+        let normals = parsed.normals.unwrap_or_default();
         let mut points = Vec::with_capacity(vertices);
         let mut dropped_points = 0;
         for (index, (&p, &n)) in parsed.vertices.iter().zip(&normals).enumerate() {
@@ -158,6 +178,7 @@ pub(crate) fn to_point_cloud(
         }
         PointCloudFile {
             points,
+            normals: NormalSource::File,
             vertices,
             faces,
             degenerate_faces: 0,

@@ -13,11 +13,30 @@ pub struct TriangleMesh {
     pub faces: Vec<[u32; 3]>,
 }
 
+/// Where the normals of a [`PointCloudFile`]'s points came from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum NormalSource {
+    /// The file's own per-point normals (PLY `nx ny nz`, OBJ `vn`, XYZ columns 4–6).
+    #[default]
+    File,
+    /// Face normals of the file's triangles ([`crate::MeshSampling::FaceCentroids`]).
+    Faces,
+    /// Area-weighted vertex normals of the file's triangles
+    /// ([`crate::MeshSampling::VertexNormals`]).
+    Vertices,
+    /// None: a point cloud of positions only. Every point's `n` is zero until normals are
+    /// estimated (`psi_preprocess::estimate_normals`).
+    Missing,
+}
+
 /// Oriented points read from a file, with the counts that explain where they came from.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PointCloudFile {
-    /// The oriented points to use (shape: N): positions in the file's units, unit normals.
+    /// The points to use (shape: N): positions in the file's units, unit normals — or zero
+    /// normals when [`PointCloudFile::normals`] is [`NormalSource::Missing`].
     pub points: Vec<OrientedPoint>,
+    /// Where the normals came from.
+    pub normals: NormalSource,
     /// Vertex records in the file (PLY `vertex` elements, OBJ `v` lines, XYZ point lines).
     pub vertices: usize,
     /// Triangles in the file after splitting polygons into fans; 0 for a point cloud.

@@ -48,6 +48,7 @@ pub(crate) fn read_obj(bytes: &[u8]) -> Result<Parsed, ReadError> {
         }
     }
     let faces = triangulate(&polygons, vertices.len())?;
+    // Without faces and without `vn`: positions only.
     let normals = if !faces.is_empty() || normals.is_empty() {
         None
     } else if normals.len() == vertices.len() {

@@ -1,4 +1,4 @@
-//! XYZ reader: one oriented point `x y z nx ny nz` per line.
+//! XYZ reader: one point per line, `x y z nx ny nz` or positions only, `x y z`.
 
 use glam::DVec3;
 
@@ -6,14 +6,16 @@ use crate::error::ReadError;
 use crate::model::Parsed;
 use crate::text::{is_blank, line_str, numbered_lines, parse_number};
 
-/// Parses whitespace-separated `x y z nx ny nz` lines; blank lines and lines starting with `#`
-/// are skipped. A line of three numbers means the file has no normals.
+/// Parses whitespace-separated `x y z nx ny nz` or `x y z` lines (the first point line sets
+/// which, for the whole file); blank lines and lines starting with `#` are skipped.
 pub(crate) fn read_xyz(bytes: &[u8]) -> Result<Parsed, ReadError> {
     if is_blank(bytes) {
         return Err(ReadError::Empty);
     }
     let mut vertices = Vec::new();
     let mut normals = Vec::new();
+    // Columns per line: set by the first point line (6, or 3 for positions only).
+    let mut columns = None;
     for (number, raw) in numbered_lines(bytes) {
         let text = line_str(raw, number)?.trim();
         if text.is_empty() || text.starts_with('#') {
@@ -27,20 +29,31 @@ pub(crate) fn read_xyz(bytes: &[u8]) -> Result<Parsed, ReadError> {
             }
             count += 1;
         }
-        match count {
-            6 => {}
-            3 => return Err(ReadError::NoNormals),
-            _ => {
-                return Err(ReadError::Line {
-                    line: number,
-                    reason: format!("expected 6 numbers (x y z nx ny nz), found {count} tokens"),
-                });
-            }
+        let expected = match columns {
+            Some(c) => c,
+            None if count == 3 || count == 6 => *columns.insert(count),
+            None => 0,
+        };
+        if count != expected {
+            let what = match expected {
+                6 => "6 numbers (x y z nx ny nz) as on the first point line",
+                3 => "3 numbers (x y z) as on the first point line",
+                _ => "6 numbers (x y z nx ny nz) or 3 (x y z)",
+            };
+            return Err(ReadError::Line {
+                line: number,
+                reason: format!("expected {what}, found {count} tokens"),
+            });
         }
         let index = vertices.len();
         let p = DVec3::new(values[0], values[1], values[2]);
         let n = DVec3::new(values[3], values[4], values[5]);
-        for (what, v) in [("position", p), ("normal", n)] {
+        let checked: &[(&str, DVec3)] = if expected == 6 {
+            &[("position", p), ("normal", n)]
+        } else {
+            &[("position", p)]
+        };
+        for &(what, v) in checked {
             if !v.is_finite() {
                 return Err(ReadError::NonFinite {
                     element: "point",
@@ -55,7 +68,7 @@ pub(crate) fn read_xyz(bytes: &[u8]) -> Result<Parsed, ReadError> {
     }
     Ok(Parsed {
         vertices,
-        normals: Some(normals),
+        normals: (columns != Some(3)).then_some(normals),
         faces: Vec::new(),
     })
 }

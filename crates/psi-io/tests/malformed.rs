@@ -18,7 +18,6 @@ enum Expect {
     Truncated,
     NonFinite,
     IndexOutOfRange,
-    NoNormals,
     NoPoints,
 }
 
@@ -32,7 +31,6 @@ fn matches(err: &ReadError, expect: &Expect) -> bool {
             | (ReadError::Truncated { .. }, Expect::Truncated)
             | (ReadError::NonFinite { .. }, Expect::NonFinite)
             | (ReadError::IndexOutOfRange { .. }, Expect::IndexOutOfRange)
-            | (ReadError::NoNormals, Expect::NoNormals)
             | (ReadError::NoPoints { .. }, Expect::NoPoints)
     )
 }
@@ -278,12 +276,6 @@ fn cases() -> Vec<(String, Format, Vec<u8>, Expect)> {
             ply(enc, &XYZN_DOUBLE, &zero_normals, None, &[]),
             Expect::NoPoints,
         );
-        add(
-            &tag("no normals, no faces"),
-            Format::Ply,
-            ply(enc, &XYZ_FLOAT, &tv, None, &[]),
-            Expect::NoNormals,
-        );
 
         // Faces.
         let int_list = ("uchar", "int", "vertex_indices");
@@ -413,12 +405,6 @@ fn cases() -> Vec<(String, Format, Vec<u8>, Expect)> {
         Expect::Line,
     );
     add(
-        "OBJ points without normals",
-        Format::Obj,
-        b"v 0 0 0\n".to_vec(),
-        Expect::NoNormals,
-    );
-    add(
         "OBJ only zero normals",
         Format::Obj,
         b"v 0 0 0\nvn 0 0 0\n".to_vec(),
@@ -427,10 +413,16 @@ fn cases() -> Vec<(String, Format, Vec<u8>, Expect)> {
 
     // XYZ.
     add(
-        "XYZ three numbers",
+        "XYZ three numbers, then six",
         Format::Xyz,
-        b"0 0 0\n".to_vec(),
-        Expect::NoNormals,
+        b"0 0 0\n0 0 0 0 0 1\n".to_vec(),
+        Expect::Line,
+    );
+    add(
+        "XYZ six numbers, then three",
+        Format::Xyz,
+        b"0 0 0 0 0 1\n0 0 0\n".to_vec(),
+        Expect::Line,
     );
     add(
         "XYZ five numbers",

@@ -10,8 +10,8 @@ use common::{
 };
 use proptest::prelude::*;
 use psi_io::{
-    Format, MeshSampling, PointCloudFile, ReadOptions, TriangleMesh, read_mesh, read_point_scalars,
-    read_points,
+    Format, MeshSampling, NormalSource, PointCloudFile, ReadOptions, TriangleMesh, read_mesh,
+    read_point_scalars, read_points,
 };
 
 fn check_mesh(mesh: &TriangleMesh) {
@@ -28,7 +28,11 @@ fn check_points(file: &PointCloudFile) {
     assert!(!file.points.is_empty());
     for p in &file.points {
         assert!(p.p.is_finite());
-        assert!((p.n.length() - 1.0).abs() < 1e-12, "{:?}", p.n);
+        if file.normals == NormalSource::Missing {
+            assert_eq!(p.n, glam::DVec3::ZERO);
+        } else {
+            assert!((p.n.length() - 1.0).abs() < 1e-12, "{:?}", p.n);
+        }
     }
     if let Some(mesh) = &file.mesh {
         check_mesh(mesh);

@@ -4,7 +4,7 @@ mod common;
 
 use common::{Enc, TETRA_OBJ, tetrahedron_ply};
 use glam::DVec3;
-use psi_io::{Format, ReadError, ReadOptions, read_mesh, read_points};
+use psi_io::{Format, NormalSource, ReadError, ReadOptions, read_mesh, read_points};
 
 fn read(bytes: &[u8], format: Format) -> Result<psi_io::PointCloudFile, ReadError> {
     read_points(bytes, format, &ReadOptions::paper())
@@ -47,14 +47,31 @@ fn obj_point_cloud_with_normals_by_index() {
     assert!(file.mesh.is_none());
 }
 
+/// Positions without normals or faces, in every format, are read as such: the points with
+/// zero normals, marked [`NormalSource::Missing`] (normals are estimated later).
 #[test]
-fn obj_without_faces_or_normals_is_refused() {
-    let err = read(b"v 0 0 0\nv 1 0 0\n", Format::Obj).unwrap_err();
-    assert_eq!(err, ReadError::NoNormals);
-    assert!(
-        err.to_string()
-            .contains("no normals (nx ny nz) and no faces")
-    );
+fn positions_without_normals_are_read_with_missing_normals() {
+    let expected = [DVec3::ZERO, DVec3::X, DVec3::new(0.0, 2.0, 0.5)];
+    let obj = b"v 0 0 0\nv 1 0 0\nv 0 2 0.5\n".to_vec();
+    let xyz = b"# x y z\n0 0 0\n1 0 0\n\n0 2 0.5\n".to_vec();
+    let ply = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\nend_header\n0 0 0\n1 0 0\n0 2 0.5\n".to_vec();
+    for (bytes, format) in [(obj, Format::Obj), (xyz, Format::Xyz), (ply, Format::Ply)] {
+        let file = read(&bytes, format).unwrap();
+        assert_eq!(file.normals, NormalSource::Missing, "{format:?}");
+        assert_eq!((file.vertices, file.faces, file.dropped_points), (3, 0, 0));
+        let positions: Vec<DVec3> = file.points.iter().map(|p| p.p).collect();
+        assert_eq!(positions, expected, "{format:?}");
+        assert!(file.points.iter().all(|p| p.n == DVec3::ZERO));
+    }
+    // Files with normals or faces say where theirs came from.
+    let with = read(b"0 0 0 0 0 1\n", Format::Xyz).unwrap();
+    assert_eq!(with.normals, NormalSource::File);
+    let mesh = read(TETRA_OBJ.as_bytes(), Format::Obj).unwrap();
+    assert_eq!(mesh.normals, NormalSource::Faces);
+}
+
+#[test]
+fn obj_normal_count_must_match_positions() {
     let err = read(b"v 0 0 0\nv 1 0 0\nvn 0 0 1\n", Format::Obj).unwrap_err();
     assert_eq!(
         err,
@@ -100,12 +117,9 @@ fn xyz_reads_oriented_points() {
 
 #[test]
 fn xyz_errors() {
-    let no_normals = read(b"0 0 0\n1 1 1\n", Format::Xyz).unwrap_err();
-    assert_eq!(no_normals, ReadError::NoNormals);
-    assert_eq!(
-        no_normals.to_string(),
-        "the file has points but no normals (nx ny nz) and no faces; give oriented points or a triangle mesh"
-    );
+    let mixed = read(b"0 0 0\n1 1 1 0 0 1\n", Format::Xyz).unwrap_err();
+    assert!(matches!(mixed, ReadError::Line { line: 2, .. }), "{mixed}");
+    assert!(mixed.to_string().contains("3 numbers (x y z)"), "{mixed}");
     let err = read(b"0 0 0 0 0 1\n0 0 0 0 1\n", Format::Xyz).unwrap_err();
     assert!(matches!(err, ReadError::Line { line: 2, .. }), "{err}");
     let err = read(b"0 0 0 0 0 1\n# c\n0 0 0 0 1 1 1\n", Format::Xyz).unwrap_err();

@@ -59,6 +59,6 @@ pub enum MpuError {
     /// let pts = vec![OrientedPoint { p: DVec3::ONE, n: DVec3::Z }; 20];
     /// assert!(matches!(Mpu::build(&pts, &MpuParams::paper()), Err(MpuError::Octree(_))));
     /// ```
-    #[error("octree: {0}")]
+    #[error(transparent)]
     Octree(#[from] OctreeError),
 }

@@ -3,8 +3,16 @@
 //! What happens to a point set between reading it and fitting the MPU: the repairs a real scan
 //! needs. Each step is a function on borrowed slices, usable on its own.
 //!
-//! * [`check_normal_consistency`], [`orient_normals`]: flipped normals detected and made
-//!   consistent by propagation over a neighbour graph (Hoppe et al. 1992).
+//! * [`find_outliers`]: stray points that no surface supports;
+//! * [`estimate_normals`]: normals for a cloud of positions only, from plane fits over an
+//!   adaptive neighbourhood;
+//! * [`orient_normals`] (propagation over a neighbour graph, after Hoppe et al. 1992) and
+//!   [`orient_toward`] (a range scan's sensor position) give normals a consistent side;
+//!   [`check_normal_consistency`] counts the neighbours whose normals oppose;
+//! * [`estimate_noise`]: the noise level of the positions, from quadric fits, and
+//!   [`error_threshold_for_noise`], the MPU error threshold it suggests;
+//! * [`preprocess`]: all of it in order, each step on or off ([`PreprocessParams`]), with a
+//!   [`PreprocessReport`].
 //!
 //! ```
 //! use psi_preprocess::{check_normal_consistency, orient_normals};
@@ -20,6 +28,21 @@
 //! assert_eq!(points, truth);
 //! ```
 
+mod estimate_noise;
+mod estimate_normals;
+mod find_outliers;
+mod local_fit;
 mod orient_normals;
+mod preprocess;
 
-pub use orient_normals::{NormalConsistency, check_normal_consistency, orient_normals};
+pub use estimate_noise::{NoiseEstimate, estimate_noise};
+pub use estimate_normals::estimate_normals;
+pub use find_outliers::{Outliers, find_outliers};
+pub use orient_normals::{
+    NormalConsistency, check_normal_consistency, orient_normals, orient_toward,
+};
+pub use preprocess::{
+    NOISE_ERROR_FACTOR, NormalTreatment, OutlierReport, PAPER_ERROR_REL, PreprocessError,
+    PreprocessParams, PreprocessReport, Preprocessed, StepSeconds, error_threshold_for_noise,
+    preprocess,
+};

@@ -168,6 +168,29 @@ pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
     flips
 }
 
+/// Orients every normal toward `viewpoint` (world units), the sensor of a single range scan:
+/// n ← −n where n·(viewpoint − p) < 0. Returns the number flipped.
+///
+/// ```
+/// use glam::DVec3;
+/// use psi_octree::OrientedPoint;
+/// use psi_preprocess::orient_toward;
+///
+/// let mut points = vec![OrientedPoint { p: DVec3::ZERO, n: DVec3::NEG_Z }];
+/// assert_eq!(orient_toward(&mut points, DVec3::new(0.0, 0.0, 5.0)), 1);
+/// assert_eq!(points[0].n, DVec3::Z);
+/// ```
+pub fn orient_toward(points: &mut [OrientedPoint], viewpoint: glam::DVec3) -> usize {
+    let mut flipped = 0;
+    for p in points {
+        if p.n.dot(viewpoint - p.p) < 0.0 {
+            p.n = -p.n;
+            flipped += 1;
+        }
+    }
+    flipped
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -25,6 +25,6 @@ pub enum RegenError {
     /// let r = Scene::new(pts, &psi_mpu::MpuParams::paper(), &psi_particles::ParticleParams::paper());
     /// assert!(matches!(r, Err(RegenError::Mpu(_))));
     /// ```
-    #[error("{0}")]
+    #[error(transparent)]
     Mpu(#[from] MpuError),
 }

@@ -1,10 +1,15 @@
-//! Loading the input (a file or the built-in model) with a description for reports.
+//! Loading the input (a file or the built-in model) and preparing it for the MPU (outliers,
+//! normals, noise), with a description for reports.
+
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use psi::io::NormalSource;
+use psi::preprocess::{NormalTreatment, PreprocessParams, PreprocessReport};
 use psi::{MeshSampling, OrientedPoint, PointCloudFile, ReadOptions};
 use serde_json::json;
 
-use crate::InputArgs;
+use crate::{Failure, InputArgs};
 
 /// Peak resident memory of this process so far (Linux `VmHWM`), bytes; `None` elsewhere.
 pub(crate) fn peak_memory_bytes() -> Option<u64> {
@@ -14,27 +19,54 @@ pub(crate) fn peak_memory_bytes() -> Option<u64> {
     Some(kb * 1024)
 }
 
-/// What was loaded.
+/// What was loaded and how it was prepared.
 pub(crate) struct Loaded {
     pub(crate) name: String,
+    /// The input file (`None` for the built-in model).
+    pub(crate) path: Option<PathBuf>,
+    /// What the file held (its points as read).
     pub(crate) file: PointCloudFile,
-    /// Same-sheet neighbour pairs with opposed normals (before any reorientation).
-    pub(crate) normals: psi::preprocess::NormalConsistency,
-    /// Normals flipped by `--orient-normals`.
-    pub(crate) flipped: usize,
+    /// The points for the MPU, after preprocessing.
+    pub(crate) points: Vec<OrientedPoint>,
+    /// What preprocessing did.
+    pub(crate) prep: PreprocessReport,
 }
 
 impl Loaded {
     pub(crate) fn points(&self) -> &[OrientedPoint] {
-        &self.file.points
+        &self.points
+    }
+
+    /// Refuses `output` when it names the input file (it would be overwritten).
+    pub(crate) fn check_output(&self, output: &Path, flag: &str) -> Result<(), Failure> {
+        if let Some(input) = &self.path
+            && psi::same_file(input, output)
+        {
+            return Err(Failure {
+                error: anyhow::anyhow!(
+                    "{flag} {} names the input file; choose another output",
+                    output.display()
+                ),
+                code: 2,
+            });
+        }
+        Ok(())
     }
 
     /// The report's `input` object.
     pub(crate) fn json(&self) -> serde_json::Value {
-        let bbox = psi::Aabb::from_points(self.file.points.iter().map(|p| p.p));
+        let bbox = psi::Aabb::from_points(self.points.iter().map(|p| p.p));
+        let p = &self.prep;
+        let source = match self.file.normals {
+            NormalSource::File => "file",
+            NormalSource::Faces => "faces",
+            NormalSource::Vertices => "vertices",
+            NormalSource::Missing => "estimated",
+        };
         json!({
             "source": self.name,
-            "points": self.file.points.len(),
+            "points": self.points.len(),
+            "points_read": self.file.points.len(),
             "vertices": self.file.vertices,
             "faces": self.file.faces,
             "degenerate_faces": self.file.degenerate_faces,
@@ -43,16 +75,49 @@ impl Loaded {
             "bbox_max": bbox.map(|b| b.max.to_array()),
             "bbox_diagonal": bbox.map_or(0.0, |b| b.diagonal()),
             "normals": {
-                "pairs_checked": self.normals.pairs,
-                "opposed_fraction": self.normals.opposed_fraction(),
-                "flipped_by_orient_normals": self.flipped,
+                "source": source,
+                "treatment": p.normals,
+                "pairs_checked": p.consistency.map(|c| c.pairs),
+                "opposed_fraction": p.consistency.map(|c| c.opposed_fraction()),
+                "flipped": p.normals_flipped,
             },
+            "outliers": p.outliers,
+            "noise_estimate": p.noise.map(|n| json!({
+                "sigma": n.sigma,
+                "relative": p.noise_rel,
+                "samples": n.samples,
+            })),
+            "preprocess_seconds": p.seconds,
         })
+    }
+
+    /// The MPU error threshold ε0/D to use and where it comes from: the user's `--mpu-error`,
+    /// else the one the noise suggests ("noise", when above the paper's), else the paper's.
+    pub(crate) fn error_threshold(&self, user: Option<f64>) -> (f64, &'static str) {
+        match user {
+            Some(e) => (e, "user"),
+            None if self.prep.error_rel > psi::preprocess::PAPER_ERROR_REL => {
+                (self.prep.error_rel, "noise")
+            }
+            None => (psi::preprocess::PAPER_ERROR_REL, "paper"),
+        }
     }
 }
 
-pub(crate) fn load(args: &InputArgs) -> anyhow::Result<Loaded> {
-    let (name, mut file) = match &args.input {
+/// The preprocessing steps the flags ask for, for `file`: outliers are looked for in point
+/// clouds only (a mesh's points sample its triangles, which its connectivity supports).
+fn preprocess_params(args: &InputArgs, file: &PointCloudFile) -> PreprocessParams {
+    PreprocessParams {
+        remove_outliers: !args.keep_outliers && file.faces == 0,
+        estimate_normals: !args.no_normal_estimation,
+        viewpoint: args.viewpoint.map(|v| psi::DVec3::from_array(v.0)),
+        orient_given_normals: args.orient_normals,
+        estimate_noise: !args.no_noise_estimate,
+    }
+}
+
+pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failure> {
+    let (name, file) = match &args.input {
         None => {
             let n = args
                 .builtin_points
@@ -62,6 +127,7 @@ pub(crate) fn load(args: &InputArgs) -> anyhow::Result<Loaded> {
                 "builtin".to_owned(),
                 PointCloudFile {
                     points,
+                    normals: NormalSource::File,
                     vertices: n,
                     faces: 0,
                     degenerate_faces: 0,
@@ -81,20 +147,69 @@ pub(crate) fn load(args: &InputArgs) -> anyhow::Result<Loaded> {
             (path.display().to_string(), file)
         }
     };
-    let normals = psi::preprocess::check_normal_consistency(&file.points, 20_000);
-    let mut flipped = 0;
-    if args.orient_normals {
-        flipped = psi::preprocess::orient_normals(&mut file.points);
-    } else if normals.opposed_fraction() > 0.01 {
+    let missing = file.normals == NormalSource::Missing;
+    if missing && !args.no_normal_estimation {
+        ui.notice(&format!(
+            "{name}: the points have no normals; estimating them{}",
+            if args.viewpoint.is_some() {
+                " and orienting them toward the viewpoint"
+            } else {
+                " and orienting them by propagation (--viewpoint for a single range scan)"
+            }
+        ));
+    }
+    let params = preprocess_params(args, &file);
+    let prepared =
+        psi::preprocess::preprocess(file.points.clone(), !missing, &params).map_err(|e| {
+            Failure {
+                error: anyhow::anyhow!(
+                    "{name}: {e}; drop --no-normal-estimation or give oriented points"
+                ),
+                code: 2,
+            }
+        })?;
+    let prep = prepared.report;
+    if let Some(c) = prep.consistency
+        && !args.orient_normals
+        && c.opposed_fraction() > 0.01
+    {
         eprintln!(
             "psi: warning: {name}: {:.1} % of neighbouring normals point to opposite sides; try --orient-normals",
-            100.0 * normals.opposed_fraction()
+            100.0 * c.opposed_fraction()
         );
+    }
+    ui.timing("outliers", prep.seconds.outliers);
+    ui.timing("normals", prep.seconds.normals);
+    ui.timing("noise estimate", prep.seconds.noise);
+    if ui.verbose {
+        if let Some(o) = prep.outliers {
+            eprintln!(
+                "psi: outliers: {} removed ({} far from the surface, {} off it)",
+                o.removed, o.far, o.off_surface
+            );
+        }
+        let treatment = match prep.normals {
+            NormalTreatment::Given => "as given",
+            NormalTreatment::GivenReoriented => "given, reoriented by propagation",
+            NormalTreatment::EstimatedPropagated => "estimated, oriented by propagation",
+            NormalTreatment::EstimatedTowardViewpoint => "estimated, oriented toward the viewpoint",
+        };
+        eprintln!(
+            "psi: normals: {treatment}; {} flipped",
+            prep.normals_flipped
+        );
+        if let (Some(n), Some(rel)) = (prep.noise, prep.noise_rel) {
+            eprintln!(
+                "psi: noise estimate: {:.3e} ({:.2e} D), suggesting an MPU error threshold of {:.4} D",
+                n.sigma, rel, prep.error_rel
+            );
+        }
     }
     Ok(Loaded {
         name,
+        path: args.input.clone(),
         file,
-        normals,
-        flipped,
+        points: prepared.points,
+        prep,
     })
 }

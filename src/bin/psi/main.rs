@@ -46,17 +46,49 @@ pub(crate) struct InputArgs {
     /// The built-in model with this many points instead of the default (stress tests).
     #[arg(long, hide = true, conflicts_with = "input")]
     pub(crate) builtin_points: Option<usize>,
-    /// Make inconsistent normals consistent by propagation over a neighbour graph.
+    /// Make inconsistent given normals consistent by propagation over a neighbour graph.
     #[arg(long)]
     pub(crate) orient_normals: bool,
+    /// Orient estimated normals toward this sensor position (a single range scan), `x,y,z`.
+    #[arg(long, value_name = "X,Y,Z", value_parser = point3)]
+    pub(crate) viewpoint: Option<Point3>,
+    /// Keep points that no surface supports (default: found and left out of the fit, in point
+    /// clouds; a mesh's triangles are connected).
+    #[arg(long)]
+    pub(crate) keep_outliers: bool,
+    /// Refuse points without normals instead of estimating their normals.
+    #[arg(long)]
+    pub(crate) no_normal_estimation: bool,
+    /// Do not estimate the noise (the MPU error threshold stays the paper's 0.005 unless
+    /// --mpu-error is given).
+    #[arg(long)]
+    pub(crate) no_noise_estimate: bool,
+}
+
+/// A point `x,y,z` of the command line (world units).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Point3(pub(crate) [f64; 3]);
+
+/// Parses `x,y,z` into three finite numbers.
+fn point3(text: &str) -> Result<Point3, String> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("{text} is not three numbers x,y,z"))?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Point3([x, y, z])),
+        _ => Err(format!("{text} is not three finite numbers x,y,z")),
+    }
 }
 
 /// MPU parameters a user may change (defaults: Ohtake et al.'s, `MpuParams::paper()`).
 #[derive(Args, Clone, Debug)]
 pub(crate) struct MpuArgs {
-    /// MPU error threshold ε0 relative to the bounding-box diagonal.
-    #[arg(long, default_value_t = psi::MpuParams::paper().error_rel, value_parser = positive_fraction)]
-    pub(crate) mpu_error: f64,
+    /// MPU error threshold ε0 relative to the bounding-box diagonal [default: from the noise
+    /// estimate, 4σ/D, never below the paper's 0.005].
+    #[arg(long, value_parser = positive_fraction)]
+    pub(crate) mpu_error: Option<f64>,
     /// Maximum octree depth.
     #[arg(long, default_value_t = psi::MpuParams::paper().max_depth, value_parser = clap::value_parser!(u8).range(0..=16))]
     pub(crate) max_depth: u8,
@@ -99,9 +131,10 @@ fn positive_fraction(text: &str) -> Result<f64, String> {
 }
 
 impl MpuArgs {
-    pub(crate) fn params(&self) -> psi::MpuParams {
+    /// The MPU parameters with the error threshold ε0/D `error_rel`.
+    pub(crate) fn params(&self, error_rel: f64) -> psi::MpuParams {
         psi::MpuParams {
-            error_rel: self.mpu_error,
+            error_rel,
             max_depth: self.max_depth,
             sharp: !self.smooth,
             fit_unit: if self.scale_invariant {
@@ -158,6 +191,7 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
             c.downcast_ref::<psi::PsiError>()
                 .is_some_and(|p| !matches!(p, psi::PsiError::Write { .. }))
                 || c.downcast_ref::<psi::MpuError>().is_some()
+                || c.downcast_ref::<psi::regen::RegenError>().is_some()
         });
         Failure {
             error,
@@ -182,7 +216,7 @@ fn main() -> ExitCode {
         verbose: cli.verbose,
     };
     let result = match cli.command {
-        Command::Info { input, json } => run_info::run(&input, json),
+        Command::Info { input, json } => run_info::run(&input, json, ui),
         Command::Mesh(args) => run_mesh::run(&args, ui),
         Command::Sample(args) => run_sample::run(&args, ui),
         Command::Edit(args) => run_edit::run(&args, ui),

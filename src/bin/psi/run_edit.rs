@@ -78,12 +78,19 @@ fn edits(args: &EditArgs) -> Result<Vec<Edit>, Failure> {
 
 pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     let edits = edits(args)?;
-    let loaded = load(&args.input)?;
+    let loaded = load(&args.input, ui)?;
+    loaded.check_output(&args.output, "-o")?;
+    for (path, flag) in [(&args.before, "--before"), (&args.json, "--json")] {
+        if let Some(path) = path {
+            loaded.check_output(path, flag)?;
+        }
+    }
     let params = ParticleParams {
         iterations: args.iterations,
         ..ParticleParams::paper()
     };
-    let mpu_params = args.mpu.params();
+    let (error_rel, _) = loaded.error_threshold(args.mpu.mpu_error);
+    let mpu_params = args.mpu.params(error_rel);
     let (mut scene, _) = Scene::new(loaded.points().to_vec(), &mpu_params, &params)
         .with_context(|| format!("{}: building the scene", loaded.name))?;
     if let Some(path) = &args.before {

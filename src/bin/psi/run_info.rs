@@ -3,8 +3,8 @@
 use crate::input::load;
 use crate::{Failure, InputArgs};
 
-pub(crate) fn run(args: &InputArgs, json: bool) -> Result<(), Failure> {
-    let loaded = load(args)?;
+pub(crate) fn run(args: &InputArgs, json: bool, ui: crate::ui::Ui) -> Result<(), Failure> {
+    let loaded = load(args, ui)?;
     let j = loaded.json();
     if json {
         println!("{}", serde_json::to_string_pretty(&j)?);
@@ -12,7 +12,11 @@ pub(crate) fn run(args: &InputArgs, json: bool) -> Result<(), Failure> {
         println!("input          {}", loaded.name);
         println!("vertices       {}", loaded.file.vertices);
         println!("faces          {}", loaded.file.faces);
-        println!("points         {} oriented", loaded.file.points.len());
+        println!(
+            "points         {} read, {} kept",
+            loaded.file.points.len(),
+            loaded.points.len()
+        );
         if loaded.file.degenerate_faces > 0 {
             println!(
                 "skipped        {} degenerate faces",
@@ -22,12 +26,29 @@ pub(crate) fn run(args: &InputArgs, json: bool) -> Result<(), Failure> {
         println!("bbox min       {}", j["bbox_min"]);
         println!("bbox max       {}", j["bbox_max"]);
         println!("bbox diagonal  {}", j["bbox_diagonal"]);
-        println!(
-            "normals        {:.2} % of neighbouring pairs opposed",
-            100.0 * loaded.normals.opposed_fraction()
-        );
-        if loaded.flipped > 0 {
-            println!("reoriented     {} normals flipped", loaded.flipped);
+        let p = &loaded.prep;
+        if let Some(c) = p.consistency {
+            println!(
+                "normals        {:.2} % of neighbouring pairs opposed",
+                100.0 * c.opposed_fraction()
+            );
+        } else {
+            println!("normals        estimated");
+        }
+        if p.normals_flipped > 0 {
+            println!("reoriented     {} normals flipped", p.normals_flipped);
+        }
+        if let Some(o) = p.outliers {
+            println!(
+                "outliers       {} ({} far from the surface, {} off it)",
+                o.removed, o.far, o.off_surface
+            );
+        }
+        if let Some(rel) = p.noise_rel {
+            println!(
+                "noise          {rel:.2e} D (MPU error threshold {:.4} D)",
+                p.error_rel
+            );
         }
     }
     Ok(())

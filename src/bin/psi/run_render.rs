@@ -95,10 +95,19 @@ pub(crate) fn run(args: &RenderArgs) -> Result<(), Failure> {
         ..base
     };
 
+    if psi::same_file(&args.input, &args.output) {
+        return Err(Failure {
+            error: anyhow::anyhow!(
+                "-o {} names the input file; choose another output",
+                args.output.display()
+            ),
+            code: 2,
+        });
+    }
     let mesh = match psi::load_mesh(&args.input) {
         Ok(mesh) => Some(mesh),
         Err(psi::PsiError::Read {
-            source: psi::io::ReadError::NoFaces,
+            reason: psi::io::ReadError::NoFaces,
             ..
         }) => None,
         Err(e) => return Err(e.into()),

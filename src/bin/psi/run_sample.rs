@@ -59,8 +59,18 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
             code: 2,
         });
     }
-    let loaded = load(&args.input)?;
-    let mpu = crate::ui::build_mpu(ui, loaded.points(), &args.mpu.params())
+    let loaded = load(&args.input, ui)?;
+    for (path, flag) in [
+        (&args.output, "-o"),
+        (&args.json, "--json"),
+        (&args.png, "--png"),
+    ] {
+        if let Some(path) = path {
+            loaded.check_output(path, flag)?;
+        }
+    }
+    let (error_rel, error_source) = loaded.error_threshold(args.mpu.mpu_error);
+    let mpu = crate::ui::build_mpu(ui, loaded.points(), &args.mpu.params(error_rel))
         .with_context(|| format!("{}: building the MPU implicit", loaded.name))?;
     let params = ParticleParams {
         k: args.k,
@@ -100,6 +110,11 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
             "leaves": r.leaves,
             "surface_leaves": r.surface_leaves,
             "max_depth": r.max_depth,
+            "error_threshold": {
+                "relative": error_rel,
+                "world": r.eps0,
+                "source": error_source,
+            },
             "report": r,
             "params": mpu.params(),
         },

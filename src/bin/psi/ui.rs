@@ -43,6 +43,13 @@ impl Ui {
         }
     }
 
+    /// Prints a notice on stderr unless `--quiet`.
+    pub(crate) fn notice(&self, line: &str) {
+        if !self.quiet {
+            eprintln!("psi: {line}");
+        }
+    }
+
     /// Prints a timing line on stderr with `-v`.
     pub(crate) fn timing(&self, what: &str, seconds: f64) {
         if self.verbose {

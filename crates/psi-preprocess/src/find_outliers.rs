@@ -1,0 +1,331 @@
+//! Stray points: points that no surface supports. First the points that clearly sit on a
+//! surface are found — "core" points: their neighbourhood is about as dense as their
+//! neighbours' and as the data's typical one, and they lie on the quadric surface their
+//! neighbours describe, within those neighbours' own spread and the sample spacing. Every other
+//! point is then judged against the core points near it: it is an outlier when the nearest core
+//! point is several sample spacings away, or when it lies off the surface those core points
+//! describe. Two stages, so that a clump of stray points, which supports itself, is judged
+//! against the surface rather than against itself.
+
+use glam::DVec3;
+use psi_octree::PointIndex;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::local_fit::QuadricFit;
+
+/// Neighbours per point (itself excluded).
+const NEIGHBOURS: usize = 16;
+
+/// A core point's 16th-neighbour distance is at most this multiple of the median of its
+/// neighbours' …
+const LOCAL_DENSITY: f64 = 1.5;
+
+/// … and, unless its neighbours lie on a surface, at most this multiple of the median over
+/// all points.
+const GLOBAL_DENSITY: f64 = 3.0;
+
+/// Neighbours lie on a surface when their residual standard deviation about their quadric is
+/// below this share of their reach (a cloud scattered through a volume gives about 0.4).
+const SURFACE_LIKE: f64 = 0.2;
+
+/// A point sparser than its neighbours is kept without the second stage when its
+/// 16th-neighbour distance is at most this multiple of theirs, and they lie on a surface within
+/// a sample spacing.
+const SPARSE_PART: f64 = 2.5;
+
+/// … and when it lies among them: its offset from their centroid in their plane is at most this
+/// share of its 16th-neighbour distance (a point beside a patch is judged by extrapolating the
+/// patch's quadric, which can pass anywhere).
+const BESIDE: f64 = 0.6;
+
+/// A point is off the surface when its distance to the quadric of its neighbours exceeds this
+/// many of their residual standard deviations plus [`OFF_SURFACE_SPACINGS`] sample spacings.
+const OFF_SURFACE_SPREADS: f64 = 4.0;
+
+/// See [`OFF_SURFACE_SPREADS`].
+const OFF_SURFACE_SPACINGS: f64 = 1.5;
+
+/// Two normals agree when |n_i·n_j| reaches this (60°).
+const NORMAL_AGREEMENT: f64 = 0.5;
+
+/// A normal that disagrees with the neighbours' counts against a point this many sample
+/// spacings or more off their quadric.
+const LIFTED_SPACINGS: f64 = 0.25;
+
+/// A non-core point whose nearest core point is farther than this many sample spacings is an
+/// outlier.
+const FAR_SPACINGS: f64 = 3.0;
+
+/// What [`find_outliers`] found.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Outliers {
+    /// Per point (shape: N): whether it is an outlier.
+    pub mask: Vec<bool>,
+    /// Outliers farther than a few sample spacings from every point on a surface.
+    pub far: usize,
+    /// Outliers near the data but off the surface it describes (or, with normals given, with a
+    /// normal across it).
+    pub off_surface: usize,
+}
+
+impl Outliers {
+    /// The number of outliers.
+    pub fn count(&self) -> usize {
+        self.far + self.off_surface
+    }
+}
+
+/// A point's standing after the first stage.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Status {
+    /// Clearly on a surface: the second stage judges the others against these.
+    Core,
+    /// On a surface its neighbours describe, if sparser than they are.
+    Inlier,
+    /// To be judged against the core points near it.
+    Unsure,
+}
+
+/// The 16th-neighbour distance → sample spacing: the radius of the disc one of 16 points fills.
+fn spacing_of(reach: f64) -> f64 {
+    reach * (std::f64::consts::PI / NEIGHBOURS as f64).sqrt()
+}
+
+/// The median of `v` (reordered); 0 for an empty slice.
+fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mid = v.len() / 2;
+    *v.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// Whether `p` lies off `fit`, the quadric surface of its neighbours: farther from it than
+/// 4 × their residual standard deviation plus 1.5 × `spacing`, the sample spacing there.
+fn off_surface(fit: &QuadricFit, p: DVec3, spacing: f64) -> bool {
+    let limit = OFF_SURFACE_SPREADS * fit.sigma() + OFF_SURFACE_SPACINGS * spacing;
+    fit.height(p).abs() > limit
+}
+
+/// Finds the points of `positions` (shape: N, world units) that no surface supports. With d(p)
+/// the distance from p to its 16th nearest other point and a spacing d·√(π/16), a core point
+/// has d(p) ≤ 1.5 × the median of d over those neighbours; lies within 4 residual standard
+/// deviations plus 1.5 spacings of the least-squares quadric of those neighbours; with
+/// `normals` (shape: N, unit, either sign), unless it lies within a quarter of a spacing of that
+/// quadric, has a normal within 60° of (either sign of) at least a quarter of theirs; and, when
+/// d(p) > 3 × the median of d over all points, has neighbours that lie on a surface (residual
+/// deviation below 0.2 d(p)). A point that passes the quadric test and is sparser than its
+/// neighbours (d(p) up to 2.5 × theirs) but among them (its offset from their centroid in their
+/// plane at most 0.6 d(p)), on a quadric that fits them within a spacing, is kept. Any other
+/// point is an outlier when its nearest core point is farther than 3 spacings of the core
+/// points there, or when it fails the quadric or normal test against its 16 nearest core
+/// points. Inputs of at most 16 points have no outliers. Deterministic and
+/// independent of the thread count.
+///
+/// ```
+/// use glam::DVec3;
+/// use psi_preprocess::find_outliers;
+///
+/// let mut points: Vec<DVec3> = (0..900)
+///     .map(|i| DVec3::new((i % 30) as f64, (i / 30) as f64, 0.0))
+///     .collect();
+/// points.push(DVec3::new(14.5, 14.5, 6.0)); // six spacings above the grid
+/// points.push(DVec3::new(14.5, 14.5, 0.5)); // half a spacing: noise, not an outlier
+/// let found = find_outliers(&points, None);
+/// assert_eq!(found.count(), 1);
+/// assert!(found.mask[900] && !found.mask[901]);
+/// ```
+pub fn find_outliers(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers {
+    let n = positions.len();
+    let normals = normals.filter(|v| v.len() == n);
+    // Whether a point's given normal lies along the normals of at least a quarter of `near`
+    // (either sign: orientation is repaired later), as a point of a surface's does.
+    let normal_fits = |i: usize, near: &mut dyn Iterator<Item = usize>| {
+        let Some(normals) = normals else {
+            return true;
+        };
+        let (mut agree, mut count) = (0, 0);
+        for j in near {
+            count += 1;
+            agree += usize::from(normals[i].dot(normals[j]).abs() >= NORMAL_AGREEMENT);
+        }
+        4 * agree >= count
+    };
+    if n <= NEIGHBOURS {
+        return Outliers {
+            mask: vec![false; n],
+            ..Outliers::default()
+        };
+    }
+    let index = PointIndex::new(positions);
+    // Each point's neighbours, itself excluded (a coincident twin counts as a neighbour).
+    let neighbours: Vec<Vec<u32>> = (0..n as u32)
+        .into_par_iter()
+        .map(|i| {
+            let mut near: Vec<u32> = index
+                .nearest(positions[i as usize], NEIGHBOURS + 1)
+                .into_iter()
+                .map(|(j, _)| j)
+                .collect();
+            match near.iter().position(|&j| j == i) {
+                Some(k) => near.remove(k),
+                None => near.pop().unwrap_or_default(),
+            };
+            near
+        })
+        .collect();
+    let reach: Vec<f64> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            neighbours[i]
+                .iter()
+                .map(|&j| (positions[j as usize] - positions[i]).length())
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    let typical = median(&mut reach.clone());
+    let status: Vec<Status> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let near = &neighbours[i];
+            let mut around: Vec<f64> = near.iter().map(|&j| reach[j as usize]).collect();
+            let local = median(&mut around);
+            let pts: Vec<DVec3> = near.iter().map(|&j| positions[j as usize]).collect();
+            let Some(fit) = QuadricFit::of(&pts, reach[i]) else {
+                return Status::Unsure;
+            };
+            let surface_like = fit.sigma() <= SURFACE_LIKE * reach[i];
+            let on_it = !off_surface(&fit, positions[i], spacing_of(local));
+            let dense = reach[i] <= LOCAL_DENSITY * local;
+            let sparse_cloud = reach[i] > GLOBAL_DENSITY * typical && !surface_like;
+            // Sparser than its neighbours but on the thin surface they describe: a sparsely
+            // sampled part of it (large triangles beside small ones, a scan's border).
+            let sparse_part = reach[i] <= SPARSE_PART * local
+                && fit.sigma() <= spacing_of(local)
+                && fit.tangential_offset(positions[i]) <= BESIDE * reach[i];
+            // A normal across the surface counts against a point a little off it.
+            let lifted = fit.height(positions[i]).abs() > LIFTED_SPACINGS * spacing_of(local);
+            let across = lifted && !normal_fits(i, &mut near.iter().map(|&j| j as usize));
+            match (dense, on_it && !across, sparse_cloud) {
+                (true, true, false) => Status::Core,
+                (false, true, false) if sparse_part => Status::Inlier,
+                _ => Status::Unsure,
+            }
+        })
+        .collect();
+    let core: Vec<bool> = status.iter().map(|s| *s == Status::Core).collect();
+    // The other points, judged against the core points near them.
+    let core_ids: Vec<u32> = (0..n as u32).filter(|&i| core[i as usize]).collect();
+    let core_positions: Vec<DVec3> = core_ids.iter().map(|&i| positions[i as usize]).collect();
+    let core_index = PointIndex::new(&core_positions);
+    // 0: inlier, 1: far, 2: off the surface.
+    let verdicts: Vec<u8> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            if status[i] != Status::Unsure {
+                return 0;
+            }
+            let near = core_index.nearest(positions[i], NEIGHBOURS);
+            if near.len() < NEIGHBOURS {
+                // Hardly any surface at all: nothing to judge against.
+                return 0;
+            }
+            let mut reaches: Vec<f64> = near
+                .iter()
+                .map(|&(k, _)| reach[core_ids[k as usize] as usize])
+                .collect();
+            let spacing = spacing_of(median(&mut reaches));
+            if near[0].1.sqrt() > FAR_SPACINGS * spacing {
+                return 1;
+            }
+            let pts: Vec<DVec3> = near
+                .iter()
+                .map(|&(k, _)| core_positions[k as usize])
+                .collect();
+            let fit_reach = near.last().map_or(0.0, |l| l.1.sqrt());
+            let Some(fit) = QuadricFit::of(&pts, fit_reach) else {
+                return 0;
+            };
+            let lifted = fit.height(positions[i]).abs() > LIFTED_SPACINGS * spacing;
+            let across = lifted
+                && !normal_fits(
+                    i,
+                    &mut near.iter().map(|&(k, _)| core_ids[k as usize] as usize),
+                );
+            if off_surface(&fit, positions[i], spacing) || across {
+                2
+            } else {
+                0
+            }
+        })
+        .collect();
+    Outliers {
+        mask: verdicts.iter().map(|&v| v != 0).collect(),
+        far: verdicts.iter().filter(|&&v| v == 1).count(),
+        off_surface: verdicts.iter().filter(|&&v| v == 2).count(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use psi_shapes::AnalyticShape;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    /// Outliers planted at known places are found — scattered through the bounding box, and
+    /// a few spacings above the surface — and a clean surface loses no point.
+    #[test]
+    fn planted_outliers_are_found_and_clean_points_kept() {
+        let shape = AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.35,
+        };
+        let surface = shape.sample(30_000, 6);
+        let spacing = (shape.area() / 30_000.0).sqrt();
+        let mut positions: Vec<DVec3> = surface.iter().map(|p| p.p).collect();
+        assert_eq!(find_outliers(&positions, None).count(), 0, "clean torus");
+        // Sharp edges and corners, and a thin slab, are surfaces too.
+        for shape in [
+            AnalyticShape::Box {
+                half: DVec3::splat(0.5),
+            },
+            AnalyticShape::Box {
+                half: DVec3::new(0.5, 0.5, 0.02),
+            },
+        ] {
+            let clean: Vec<DVec3> = shape.sample(20_000, 3).iter().map(|p| p.p).collect();
+            assert_eq!(find_outliers(&clean, None).count(), 0, "{shape:?}");
+        }
+        let mut rng = Pcg64Mcg::seed_from_u64(2);
+        let clean = positions.len();
+        // 300 in the box, 100 between 3 and 10 spacings off the surface.
+        for _ in 0..300 {
+            positions.push(DVec3::new(
+                rng.random_range(-1.4..1.4),
+                rng.random_range(-1.4..1.4),
+                rng.random_range(-0.4..0.4),
+            ));
+        }
+        for k in 0..100 {
+            let p = surface[k * 97];
+            positions.push(p.p + rng.random_range(3.0..10.0) * spacing * p.n);
+        }
+        let found = find_outliers(&positions, None);
+        let missed_far = (clean..positions.len())
+            .filter(|&i| {
+                !found.mask[i] && shape.signed_distance(positions[i]).abs() > 3.0 * spacing
+            })
+            .count();
+        let false_positives = found.mask[..clean].iter().filter(|&&m| m).count();
+        assert_eq!(missed_far, 0, "outliers farther than 3 spacings kept");
+        assert_eq!(false_positives, 0, "surface points removed");
+    }
+
+    #[test]
+    fn tiny_inputs_have_no_outliers() {
+        assert_eq!(find_outliers(&[], None).count(), 0);
+        assert_eq!(find_outliers(&[DVec3::ONE; 10], None).mask, vec![false; 10]);
+    }
+}

@@ -1,0 +1,231 @@
+//! Fits to a small neighbourhood of points: the least-squares plane (principal component
+//! analysis) and a quadratic height field over it, with their residuals.
+
+use glam::DVec3;
+use nalgebra::{Matrix3, SMatrix, SVector};
+
+/// The least-squares plane of a point set: its centroid, unit normal (the direction of least
+/// variance; sign arbitrary) and the covariance's eigenvalues, ascending (world units²: the
+/// mean squared distance to the plane is `eigenvalues[0]`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct PlaneFit {
+    pub(crate) centroid: DVec3,
+    pub(crate) normal: DVec3,
+    pub(crate) eigenvalues: [f64; 3],
+}
+
+impl PlaneFit {
+    /// Surface variation λ0 / (λ0 + λ1 + λ2) (Pauly et al. 2002): 0 on a plane, 1/3 for an
+    /// isotropic cloud.
+    pub(crate) fn variation(&self) -> f64 {
+        let sum: f64 = self.eigenvalues.iter().sum();
+        if sum > 0.0 {
+            self.eigenvalues[0] / sum
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Running sums of a point set, for plane fits of growing prefixes of a neighbour list.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Moments {
+    count: usize,
+    /// The points are summed relative to this origin (the query point), for precision.
+    origin: DVec3,
+    sum: DVec3,
+    /// Σ y yᵀ, upper triangle: xx, xy, xz, yy, yz, zz.
+    outer: [f64; 6],
+}
+
+impl Moments {
+    /// Empty sums relative to `origin`.
+    pub(crate) fn around(origin: DVec3) -> Self {
+        Self {
+            origin,
+            ..Self::default()
+        }
+    }
+
+    /// Adds a point.
+    pub(crate) fn add(&mut self, p: DVec3) {
+        let y = p - self.origin;
+        self.count += 1;
+        self.sum += y;
+        self.outer[0] += y.x * y.x;
+        self.outer[1] += y.x * y.y;
+        self.outer[2] += y.x * y.z;
+        self.outer[3] += y.y * y.y;
+        self.outer[4] += y.y * y.z;
+        self.outer[5] += y.z * y.z;
+    }
+
+    /// Number of points added.
+    pub(crate) fn count(&self) -> usize {
+        self.count
+    }
+
+    /// The plane of the points added so far; `None` for fewer than 3 points or a non-finite fit.
+    pub(crate) fn plane(&self) -> Option<PlaneFit> {
+        if self.count < 3 {
+            return None;
+        }
+        let n = self.count as f64;
+        let m = self.sum / n;
+        let [xx, xy, xz, yy, yz, zz] = self.outer.map(|v| v / n);
+        let cov = Matrix3::new(
+            xx - m.x * m.x,
+            xy - m.x * m.y,
+            xz - m.x * m.z,
+            xy - m.x * m.y,
+            yy - m.y * m.y,
+            yz - m.y * m.z,
+            xz - m.x * m.z,
+            yz - m.y * m.z,
+            zz - m.z * m.z,
+        );
+        let eig = cov.symmetric_eigen();
+        let mut order = [0usize, 1, 2];
+        order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+        let v = eig.eigenvectors.column(order[0]);
+        let normal = DVec3::new(v[0], v[1], v[2]).normalize_or_zero();
+        let eigenvalues = order.map(|k| eig.eigenvalues[k].max(0.0));
+        (normal != DVec3::ZERO && eigenvalues.iter().all(|e| e.is_finite())).then_some(PlaneFit {
+            centroid: self.origin + m,
+            normal,
+            eigenvalues,
+        })
+    }
+}
+
+/// The least-squares plane of `points`; `None` for fewer than 3 points or a degenerate set.
+pub(crate) fn fit_plane(points: impl IntoIterator<Item = DVec3>) -> Option<PlaneFit> {
+    let mut points = points.into_iter().peekable();
+    let mut m = Moments::around(*points.peek()?);
+    for p in points {
+        m.add(p);
+    }
+    m.plane()
+}
+
+/// A least-squares quadratic height field h(u, v) = a + b·u + c·v + d·u² + e·uv + f·v² over a
+/// plane: heights along the plane's normal, u and v along two directions in it, lengths in
+/// units of `scale` for conditioning.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct QuadricFit {
+    plane: PlaneFit,
+    tangent: DVec3,
+    bitangent: DVec3,
+    scale: f64,
+    coef: [f64; 6],
+    /// Residual sum of squares over the fitted points, world units².
+    pub(crate) rss: f64,
+    /// Points fitted.
+    pub(crate) count: usize,
+}
+
+impl QuadricFit {
+    /// The quadric height field of `points` over their least-squares plane, with lengths in
+    /// units of `scale` (world units; about the neighbourhood's radius). `None` for fewer than
+    /// 7 points, a degenerate plane or a singular system.
+    pub(crate) fn of(points: &[DVec3], scale: f64) -> Option<Self> {
+        if points.len() < 7 || scale.is_nan() || scale <= 0.0 {
+            return None;
+        }
+        let plane = fit_plane(points.iter().copied())?;
+        let tangent = plane.normal.any_orthonormal_vector();
+        let bitangent = plane.normal.cross(tangent);
+        let mut fit = Self {
+            plane,
+            tangent,
+            bitangent,
+            scale,
+            coef: [0.0; 6],
+            rss: 0.0,
+            count: points.len(),
+        };
+        let mut ata = SMatrix::<f64, 6, 6>::zeros();
+        let mut atb = SVector::<f64, 6>::zeros();
+        for p in points {
+            let (row, h) = fit.row(*p);
+            for i in 0..6 {
+                atb[i] += row[i] * h;
+                for j in 0..6 {
+                    ata[(i, j)] += row[i] * row[j];
+                }
+            }
+        }
+        let coef = ata.cholesky()?.solve(&atb);
+        fit.coef = [coef[0], coef[1], coef[2], coef[3], coef[4], coef[5]];
+        fit.rss = points.iter().map(|p| fit.height(*p).powi(2)).sum();
+        fit.rss.is_finite().then_some(fit)
+    }
+
+    /// The monomials (1, u, v, u², uv, v²) of `p` and its height over the plane, in units of
+    /// the scale.
+    fn row(&self, p: DVec3) -> ([f64; 6], f64) {
+        let d = (p - self.plane.centroid) / self.scale;
+        let (u, v, h) = (
+            d.dot(self.tangent),
+            d.dot(self.bitangent),
+            d.dot(self.plane.normal),
+        );
+        ([1.0, u, v, u * u, u * v, v * v], h)
+    }
+
+    /// The signed distance of `p` from the height field along the plane's normal, world units.
+    pub(crate) fn height(&self, p: DVec3) -> f64 {
+        let (row, h) = self.row(p);
+        let fit: f64 = row.iter().zip(&self.coef).map(|(m, c)| m * c).sum();
+        (h - fit) * self.scale
+    }
+
+    /// The distance from `p`'s projection onto the plane to the fitted points' centroid, world
+    /// units: how far `p` lies beside the patch rather than over it.
+    pub(crate) fn tangential_offset(&self, p: DVec3) -> f64 {
+        let d = p - self.plane.centroid;
+        (d - self.plane.normal * d.dot(self.plane.normal)).length()
+    }
+
+    /// √(RSS/(k − 6)): the residual's standard deviation with the six coefficients' degrees of
+    /// freedom removed (world units).
+    pub(crate) fn sigma(&self) -> f64 {
+        (self.rss / self.count.saturating_sub(6).max(1) as f64).sqrt()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use psi_shapes::assert_near;
+
+    #[test]
+    fn a_tilted_plane_is_found_exactly() {
+        let n = DVec3::new(1.0, 2.0, 2.0) / 3.0;
+        let t = n.any_orthonormal_vector();
+        let b = n.cross(t);
+        let pts: Vec<DVec3> = (0..50)
+            .map(|i| {
+                let (u, v) = ((i % 7) as f64 - 3.0, (i / 7) as f64 - 3.0);
+                DVec3::new(5.0, -1.0, 2.0) + u * t + v * b
+            })
+            .collect();
+        let fit = fit_plane(pts.iter().copied()).unwrap();
+        assert_near!(fit.normal.dot(n).abs(), 1.0, 1e-12);
+        assert_near!(fit.eigenvalues[0], 0.0, 1e-12);
+        assert_near!(fit.variation(), 0.0, 1e-12);
+        // A gentle paraboloid is a quadratic height field over its own plane, to rounding.
+        let bowl: Vec<DVec3> = pts
+            .iter()
+            .map(|p| {
+                let (u, v) = ((*p - pts[24]).dot(t), (*p - pts[24]).dot(b));
+                *p + 0.01 * (u * u - 0.5 * u * v) * n
+            })
+            .collect();
+        let fit = QuadricFit::of(&bowl, 3.0).unwrap();
+        assert!(fit.sigma() < 1e-4, "{}", fit.sigma());
+        // A point off the bowl is at its height.
+        let off = bowl[20] + 0.5 * n;
+        assert_near!(fit.height(off).abs(), 0.5, 1e-3);
+    }
+}

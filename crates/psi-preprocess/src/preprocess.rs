@@ -1,0 +1,280 @@
+//! The preprocessing stage as a whole: the steps a real scan needs, in order, each one on or
+//! off, with a report of what each did.
+
+use std::time::Instant;
+
+use glam::DVec3;
+use psi_octree::{Aabb, OrientedPoint};
+use serde::{Deserialize, Serialize};
+
+use crate::{
+    NoiseEstimate, NormalConsistency, check_normal_consistency, estimate_noise, estimate_normals,
+    find_outliers, orient_normals, orient_toward,
+};
+
+/// Ohtake's error threshold ε0 relative to the bounding-box diagonal D (algorithms.md §1.1):
+/// the threshold never goes below it.
+pub const PAPER_ERROR_REL: f64 = 0.005;
+
+/// ε0 from a noise estimate σ: this many σ. The MPU's error is the largest Taubin distance of
+/// the points in a cell's ball, and the largest of n Gaussian deviates is about
+/// σ·√(2 ln n) — about 3σ for the balls of a leaf, 4σ for a coarse cell's thousands — so a
+/// threshold below that splits cells on the noise alone.
+pub const NOISE_ERROR_FACTOR: f64 = 4.0;
+
+/// Which steps run ([`PreprocessParams::scan`]: all of them).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PreprocessParams {
+    /// Find and drop points no surface supports ([`crate::find_outliers`]).
+    pub remove_outliers: bool,
+    /// Estimate normals where the input has none ([`crate::estimate_normals`]); when off, such
+    /// an input is refused by [`preprocess`].
+    pub estimate_normals: bool,
+    /// Orient estimated normals toward this sensor position (a single range scan) instead of
+    /// by propagation.
+    pub viewpoint: Option<DVec3>,
+    /// Make given normals consistent by propagation ([`crate::orient_normals`]); estimated
+    /// normals are always oriented.
+    pub orient_given_normals: bool,
+    /// Estimate the positions' noise and suggest ε0 from it ([`crate::estimate_noise`]).
+    pub estimate_noise: bool,
+}
+
+impl PreprocessParams {
+    /// Every repair on: outliers removed, missing normals estimated and oriented by
+    /// propagation, noise estimated; given normals kept as they are.
+    pub fn scan() -> Self {
+        Self {
+            remove_outliers: true,
+            estimate_normals: true,
+            viewpoint: None,
+            orient_given_normals: false,
+            estimate_noise: true,
+        }
+    }
+
+    /// Every step off: the points go to the MPU as read (the paper's set-up).
+    pub fn none() -> Self {
+        Self {
+            remove_outliers: false,
+            estimate_normals: false,
+            viewpoint: None,
+            orient_given_normals: false,
+            estimate_noise: false,
+        }
+    }
+}
+
+/// What happened to the normals.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NormalTreatment {
+    /// Kept as given.
+    Given,
+    /// Given, then made consistent by propagation.
+    GivenReoriented,
+    /// Estimated, then oriented by propagation over a neighbour graph.
+    EstimatedPropagated,
+    /// Estimated, then oriented toward the sensor.
+    EstimatedTowardViewpoint,
+}
+
+/// The outlier step's result.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct OutlierReport {
+    /// Points dropped.
+    pub removed: usize,
+    /// Of those, farther than a few sample spacings from every surface point.
+    pub far: usize,
+    /// Of those, near the data but off the surface it describes.
+    pub off_surface: usize,
+}
+
+/// What [`preprocess`] did, step by step.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PreprocessReport {
+    /// Points given.
+    pub points_in: usize,
+    /// Points passed on (to the MPU).
+    pub points_out: usize,
+    /// The outlier step, when it ran.
+    pub outliers: Option<OutlierReport>,
+    /// What happened to the normals.
+    pub normals: NormalTreatment,
+    /// Normals flipped by an orientation step.
+    pub normals_flipped: usize,
+    /// Same-sheet neighbour pairs with opposed normals, given normals only (before any
+    /// reorientation).
+    pub consistency: Option<NormalConsistency>,
+    /// The noise estimate, when it ran.
+    pub noise: Option<NoiseEstimate>,
+    /// The noise relative to the bounding-box diagonal D of the points passed on.
+    pub noise_rel: Option<f64>,
+    /// The MPU error threshold ε0 relative to D that the data suggest: the paper's 0.005, or
+    /// [`NOISE_ERROR_FACTOR`] × the noise when that is larger.
+    pub error_rel: f64,
+    /// Seconds of each step that ran: outliers, normals, noise.
+    pub seconds: StepSeconds,
+}
+
+/// Seconds per step (0 for a step that did not run).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StepSeconds {
+    /// Finding outliers.
+    pub outliers: f64,
+    /// Estimating, checking and orienting normals.
+    pub normals: f64,
+    /// Estimating the noise.
+    pub noise: f64,
+}
+
+/// The points after preprocessing and the report.
+#[derive(Clone, Debug)]
+pub struct Preprocessed {
+    /// The points for the MPU (shape: M ≤ N, world units, unit normals).
+    pub points: Vec<OrientedPoint>,
+    /// What each step did.
+    pub report: PreprocessReport,
+}
+
+/// Why [`preprocess`] could not prepare the points.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum PreprocessError {
+    /// The points have no normals and normal estimation is off.
+    ///
+    /// ```
+    /// use psi_octree::OrientedPoint;
+    /// use psi_preprocess::{preprocess, PreprocessError, PreprocessParams};
+    /// let points = vec![OrientedPoint { p: glam::DVec3::ZERO, n: glam::DVec3::ZERO }; 20];
+    /// let err = preprocess(points, false, &PreprocessParams::none()).unwrap_err();
+    /// assert_eq!(err, PreprocessError::NoNormals);
+    /// ```
+    #[error("the points have no normals and normal estimation is off")]
+    NoNormals,
+}
+
+/// ε0 relative to D for a noise of `noise_rel` × D: the paper's 0.005, or
+/// [`NOISE_ERROR_FACTOR`] × the noise when that is larger.
+pub fn error_threshold_for_noise(noise_rel: f64) -> f64 {
+    (NOISE_ERROR_FACTOR * noise_rel).max(PAPER_ERROR_REL)
+}
+
+/// Prepares `points` (shape: N, world units; unit normals, or all zero when `normals_given` is
+/// false) for the MPU, as `params` say, in this order: outliers removed; normals estimated and
+/// oriented (toward `params.viewpoint`, else by propagation) when there are none, else checked
+/// for consistency and, with `params.orient_given_normals`, reoriented; the noise estimated and
+/// the error threshold it suggests. Deterministic and independent of the thread count.
+///
+/// # Errors
+///
+/// [`PreprocessError::NoNormals`] when the points have no normals and estimation is off.
+///
+/// ```
+/// use psi_preprocess::{preprocess, PreprocessParams, NormalTreatment};
+/// use psi_shapes::AnalyticShape;
+///
+/// // A sphere's positions alone: normals estimated and oriented outward.
+/// let truth = AnalyticShape::Sphere { radius: 1.0 }.sample(5000, 1);
+/// let bare = truth.iter().map(|p| psi_octree::OrientedPoint { p: p.p, n: glam::DVec3::ZERO }).collect();
+/// let done = preprocess(bare, false, &PreprocessParams::scan()).unwrap();
+/// assert_eq!(done.report.normals, NormalTreatment::EstimatedPropagated);
+/// assert_eq!(done.report.outliers.unwrap().removed, 0);
+/// assert!(done.points.iter().zip(&truth).all(|(a, b)| a.n.dot(b.n) > 0.9));
+/// assert_eq!(done.report.error_rel, 0.005); // clean: the paper's threshold
+/// ```
+pub fn preprocess(
+    points: Vec<OrientedPoint>,
+    normals_given: bool,
+    params: &PreprocessParams,
+) -> Result<Preprocessed, PreprocessError> {
+    if !normals_given && !params.estimate_normals {
+        return Err(PreprocessError::NoNormals);
+    }
+    let _span = tracing::info_span!("preprocess", points = points.len()).entered();
+    let points_in = points.len();
+    let mut seconds = StepSeconds::default();
+    let mut points = points;
+
+    let mut outliers = None;
+    if params.remove_outliers {
+        let t = Instant::now();
+        let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+        let normals: Vec<DVec3> = points.iter().map(|p| p.n).collect();
+        let found = find_outliers(&positions, normals_given.then_some(&normals[..]));
+        if found.count() > 0 {
+            let mut keep = found.mask.iter().map(|m| !m);
+            points.retain(|_| keep.next().unwrap_or(true));
+        }
+        outliers = Some(OutlierReport {
+            removed: found.count(),
+            far: found.far,
+            off_surface: found.off_surface,
+        });
+        seconds.outliers = t.elapsed().as_secs_f64();
+    }
+
+    let t = Instant::now();
+    let mut consistency = None;
+    let mut normals_flipped = 0;
+    let normals = if normals_given {
+        let check = check_normal_consistency(&points, 20_000);
+        consistency = Some(check);
+        if params.orient_given_normals {
+            normals_flipped = orient_normals(&mut points);
+            NormalTreatment::GivenReoriented
+        } else {
+            NormalTreatment::Given
+        }
+    } else {
+        let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+        for (p, n) in points.iter_mut().zip(estimate_normals(&positions)) {
+            p.n = n;
+        }
+        // A point whose neighbourhood gave no plane is dropped: it has no normal to fit with.
+        points.retain(|p| p.n != DVec3::ZERO);
+        match params.viewpoint {
+            Some(v) => {
+                normals_flipped = orient_toward(&mut points, v);
+                NormalTreatment::EstimatedTowardViewpoint
+            }
+            None => {
+                normals_flipped = orient_normals(&mut points);
+                NormalTreatment::EstimatedPropagated
+            }
+        }
+    };
+    seconds.normals = t.elapsed().as_secs_f64();
+
+    let mut noise = None;
+    let mut noise_rel = None;
+    let mut error_rel = PAPER_ERROR_REL;
+    if params.estimate_noise {
+        let t = Instant::now();
+        let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+        let estimate = estimate_noise(&positions);
+        let diagonal = Aabb::from_points(positions.iter().copied()).map_or(0.0, |b| b.diagonal());
+        if diagonal > 0.0 {
+            let rel = estimate.sigma / diagonal;
+            noise_rel = Some(rel);
+            error_rel = error_threshold_for_noise(rel);
+        }
+        noise = Some(estimate);
+        seconds.noise = t.elapsed().as_secs_f64();
+    }
+
+    Ok(Preprocessed {
+        report: PreprocessReport {
+            points_in,
+            points_out: points.len(),
+            outliers,
+            normals,
+            normals_flipped,
+            consistency,
+            noise,
+            noise_rel,
+            error_rel,
+            seconds,
+        },
+        points,
+    })
+}

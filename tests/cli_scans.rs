@@ -1,0 +1,300 @@
+//! The `psi` binary on scan-like inputs (generated shapes, so the truth is analytic): positions
+//! without normals, stray points, noise, a single view with its sensor; and the error paths
+//! that came with them (each cause printed once, an output naming the input refused).
+
+mod common;
+use common::{psi, scratch};
+
+use psi::{AnalyticShape, DVec3};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+
+/// Writes `positions` as an XYZ file of three columns.
+fn write_positions(path: &std::path::Path, positions: &[DVec3]) {
+    let text: String = positions
+        .iter()
+        .map(|p| format!("{} {} {}\n", p.x, p.y, p.z))
+        .collect();
+    std::fs::write(path, text).unwrap();
+}
+
+/// Runs `psi sample` on `input` with `extra` flags; returns the report and the particles.
+fn sample(input: &std::path::Path, extra: &[&str]) -> (serde_json::Value, Vec<psi::OrientedPoint>) {
+    let dir = input.parent().unwrap();
+    let stem = input.file_stem().unwrap().to_string_lossy().into_owned();
+    let out = dir.join(format!("{stem}-particles.ply"));
+    let json = dir.join(format!("{stem}-report.json"));
+    let mut args = vec![
+        "sample",
+        input.to_str().unwrap(),
+        "--iterations",
+        "5",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let run = psi(&args);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let report = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let particles = psi::load_points(&out, &psi::ReadOptions::paper())
+        .unwrap()
+        .points;
+    (report, particles)
+}
+
+/// A standard normal deviate (Box–Muller).
+fn gauss(rng: &mut Pcg64Mcg) -> f64 {
+    let u: f64 = rng.random::<f64>().max(1e-300);
+    let v: f64 = rng.random();
+    (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+}
+
+#[test]
+fn positions_alone_are_accepted_and_the_particles_face_outward() {
+    let dir = scratch("scan-xyz");
+    let sphere = AnalyticShape::Sphere { radius: 1.0 };
+    let mut positions: Vec<DVec3> = sphere.sample(6000, 3).iter().map(|p| p.p).collect();
+    // Shuffled, as a scanner's order carries no meaning.
+    let mut rng = Pcg64Mcg::seed_from_u64(4);
+    for i in (1..positions.len()).rev() {
+        positions.swap(i, rng.random_range(0..=i));
+    }
+    let input = dir.join("sphere.xyz");
+    write_positions(&input, &positions);
+    let (report, particles) = sample(&input, &[]);
+    assert_eq!(report["input"]["normals"]["source"], "estimated");
+    assert_eq!(report["input"]["points"], 6000);
+    assert!(!particles.is_empty());
+    for p in &particles {
+        assert!(sphere.signed_distance(p.p).abs() < 2e-3, "{:?}", p.p);
+        assert!(
+            p.n.dot(p.p.normalize()) > 0.95,
+            "normal {:?} at {:?}",
+            p.n,
+            p.p
+        );
+    }
+    // With estimation refused, the file is refused, naming it.
+    let out = psi(&["info", input.to_str().unwrap(), "--no-normal-estimation"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("sphere.xyz"));
+}
+
+#[test]
+fn a_single_view_with_its_sensor_keeps_to_the_data() {
+    let dir = scratch("scan-view");
+    let sphere = AnalyticShape::Sphere { radius: 1.0 };
+    let sensor = DVec3::new(0.0, 0.0, 4.0);
+    // What the sensor sees: the cap facing it.
+    let seen: Vec<DVec3> = sphere
+        .sample(12_000, 5)
+        .iter()
+        .filter(|p| p.n.dot(sensor - p.p) > 0.0)
+        .map(|p| p.p)
+        .collect();
+    let input = dir.join("view.xyz");
+    write_positions(&input, &seen);
+    let (report, particles) = sample(&input, &["--viewpoint", "0,0,4"]);
+    assert_eq!(
+        report["input"]["normals"]["treatment"],
+        "estimated_toward_viewpoint"
+    );
+    for p in &particles {
+        assert!(sphere.signed_distance(p.p).abs() < 2e-3 * 2.0 * 3f64.sqrt());
+        // On the seen cap (its rim is where the sphere turns away from the sensor, z ≈ 0.25),
+        // facing the sensor.
+        assert!(p.p.z > 0.2, "particle off the data at {:?}", p.p);
+        // (Along the rim the surface turns away from the sensor: a grazing normal may lean
+        // a little past it.)
+        assert!(
+            p.n.dot((sensor - p.p).normalize()) > -0.2,
+            "normal {:?} at {:?}",
+            p.n,
+            p.p
+        );
+    }
+}
+
+#[test]
+fn stray_points_are_left_out_and_reported() {
+    let dir = scratch("scan-outliers");
+    let torus = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.35,
+    };
+    let mut points = torus.sample(20_000, 7);
+    let mut rng = Pcg64Mcg::seed_from_u64(8);
+    for _ in 0..200 {
+        let p = DVec3::new(
+            rng.random_range(-1.4..1.4),
+            rng.random_range(-1.4..1.4),
+            rng.random_range(-0.4..0.4),
+        );
+        let n = DVec3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng)).normalize();
+        points.push(psi::OrientedPoint { p, n });
+    }
+    let input = dir.join("torus.xyz");
+    let text: String = points
+        .iter()
+        .map(|p| {
+            format!(
+                "{} {} {} {} {} {}\n",
+                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
+            )
+        })
+        .collect();
+    std::fs::write(&input, text).unwrap();
+    // The criteria, in sample spacings (the bunny's 2e-3 and 1e-2 D are about 0.55
+    // and 2.8 of its spacings): at most 1 % of the particles farther than 0.55 spacing from
+    // the true surface, none farther than 2.8.
+    let spacing = (torus.area() / 20_000.0).sqrt();
+    let beyond = |particles: &[psi::OrientedPoint], spacings: f64| {
+        particles
+            .iter()
+            .filter(|p| torus.signed_distance(p.p).abs() > spacings * spacing)
+            .count()
+    };
+    let (report, particles) = sample(&input, &[]);
+    let removed = report["input"]["outliers"]["removed"].as_u64().unwrap();
+    assert!(removed >= 150, "removed {removed}");
+    assert_eq!(beyond(&particles, 2.8), 0, "particles on stray points");
+    assert!(100 * beyond(&particles, 0.55) <= particles.len());
+    // Kept on request: then they are fitted, and particles sit on them.
+    let (kept, particles) = sample(&input, &["--keep-outliers"]);
+    assert!(kept["input"]["outliers"].is_null());
+    assert!(
+        beyond(&particles, 2.8) > 0,
+        "the test's stray points do matter"
+    );
+}
+
+#[test]
+fn noise_raises_the_error_threshold_and_the_user_wins() {
+    let dir = scratch("scan-noise");
+    let sphere = AnalyticShape::Sphere { radius: 1.0 };
+    let clean = sphere.sample(20_000, 9);
+    let input = dir.join("clean.xyz");
+    let write = |path: &std::path::Path, points: &[psi::OrientedPoint]| {
+        let text: String = points
+            .iter()
+            .map(|p| {
+                format!(
+                    "{} {} {} {} {} {}\n",
+                    p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
+                )
+            })
+            .collect();
+        std::fs::write(path, text).unwrap();
+    };
+    write(&input, &clean);
+    let (report, _) = sample(&input, &[]);
+    assert_eq!(report["mpu"]["error_threshold"]["source"], "paper");
+    assert_eq!(report["mpu"]["error_threshold"]["relative"], 0.005);
+    // Noise of 0.5 % of D on every coordinate.
+    let d = 2.0 * 3f64.sqrt();
+    let sigma = 0.005 * d;
+    let mut rng = Pcg64Mcg::seed_from_u64(10);
+    let noisy: Vec<psi::OrientedPoint> = clean
+        .iter()
+        .map(|p| psi::OrientedPoint {
+            p: p.p + sigma * DVec3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng)),
+            n: p.n,
+        })
+        .collect();
+    let noisy_input = dir.join("noisy.xyz");
+    write(&noisy_input, &noisy);
+    let (report, particles) = sample(&noisy_input, &[]);
+    let estimate = report["input"]["noise_estimate"]["relative"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        (estimate / 0.005 - 1.0).abs() < 0.15,
+        "noise estimate {estimate}"
+    );
+    assert_eq!(report["mpu"]["error_threshold"]["source"], "noise");
+    let threshold = report["mpu"]["error_threshold"]["relative"]
+        .as_f64()
+        .unwrap();
+    assert!(threshold > 0.015, "threshold {threshold}");
+    // The particles are nearer the true sphere than the noise.
+    let mean = particles
+        .iter()
+        .map(|p| sphere.signed_distance(p.p).abs())
+        .sum::<f64>()
+        / particles.len() as f64;
+    assert!(
+        mean < 0.5 * sigma,
+        "mean distance {mean} against noise {sigma}"
+    );
+    let (user, _) = sample(&noisy_input, &["--mpu-error", "0.008"]);
+    assert_eq!(user["mpu"]["error_threshold"]["source"], "user");
+    assert_eq!(user["mpu"]["error_threshold"]["relative"], 0.008);
+}
+
+#[test]
+fn an_error_names_its_cause_once_and_outputs_never_replace_the_input() {
+    let dir = scratch("scan-errors");
+    let bad = dir.join("bad.xyz");
+    std::fs::write(&bad, "0 0 0 0 0 1\n1 0 nan 0 0 1\n").unwrap();
+    let out = psi(&["sample", bad.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2));
+    let cause = "NaN or infinite position";
+    assert_eq!(err.matches(cause).count(), 1, "{err}");
+    assert_eq!(err.matches("bad.xyz").count(), 1, "{err}");
+
+    let input = dir.join("sphere.xyz");
+    let points = AnalyticShape::Sphere { radius: 1.0 }.sample(500, 1);
+    let text: String = points
+        .iter()
+        .map(|p| {
+            format!(
+                "{} {} {} {} {} {}\n",
+                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
+            )
+        })
+        .collect();
+    std::fs::write(&input, &text).unwrap();
+    // The same file by another name.
+    let other = dir.join(".").join("sphere.xyz");
+    for args in [
+        vec![
+            "sample",
+            input.to_str().unwrap(),
+            "-o",
+            other.to_str().unwrap(),
+        ],
+        vec![
+            "sample",
+            input.to_str().unwrap(),
+            "--json",
+            input.to_str().unwrap(),
+        ],
+        vec![
+            "mesh",
+            input.to_str().unwrap(),
+            "-o",
+            input.to_str().unwrap(),
+        ],
+        vec![
+            "render",
+            input.to_str().unwrap(),
+            "-o",
+            input.to_str().unwrap(),
+        ],
+    ] {
+        let out = psi(&args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("names the input file"),
+            "{args:?}"
+        );
+        assert_eq!(std::fs::read_to_string(&input).unwrap(), text, "{args:?}");
+    }
+}
