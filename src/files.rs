@@ -205,6 +205,17 @@ pub fn save_particles(path: &Path, particles: &psi_particles::Particles) -> Resu
     })
 }
 
+/// Writes oriented points as binary little-endian PLY: x y z nx ny nz (doubles), through a
+/// temporary file renamed into place.
+pub fn save_points(path: &Path, points: &[psi_octree::OrientedPoint]) -> Result<(), PsiError> {
+    let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+    let normals: Vec<DVec3> = points.iter().map(|p| p.n).collect();
+    write_atomically(path, |w| {
+        let mut w = w;
+        psi_io::write_points_ply(&mut w, &positions, &normals, &[]).map_err(to_io)
+    })
+}
+
 /// Writes a triangle mesh as binary little-endian PLY.
 pub fn save_mesh(path: &Path, mesh: &psi_mpu::TriangleSoup) -> Result<(), PsiError> {
     let mesh = TriangleMesh {

@@ -38,7 +38,7 @@ pub use psi_shapes as shapes;
 pub use error::PsiError;
 pub use files::{
     ParticleColumns, load_mesh, load_particles, load_points, same_file, save_json, save_mesh,
-    save_particles, write_atomically,
+    save_particles, save_points, write_atomically,
 };
 pub use glam::DVec3;
 pub use psi_io::{MeshSampling, PointCloudFile, ReadOptions, TriangleMesh};

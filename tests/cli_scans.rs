@@ -209,6 +209,14 @@ fn noise_raises_the_error_threshold_and_the_user_wins() {
         .collect();
     let noisy_input = dir.join("noisy.xyz");
     write(&noisy_input, &noisy);
+    let mean_distance = |particles: &[psi::OrientedPoint]| {
+        particles
+            .iter()
+            .map(|p| sphere.signed_distance(p.p).abs())
+            .sum::<f64>()
+            / particles.len() as f64
+    };
+    // By default the noise is taken out of the points, and what is left sets the threshold.
     let (report, particles) = sample(&noisy_input, &[]);
     let estimate = report["input"]["noise_estimate"]["relative"]
         .as_f64()
@@ -217,17 +225,25 @@ fn noise_raises_the_error_threshold_and_the_user_wins() {
         (estimate / 0.005 - 1.0).abs() < 0.15,
         "noise estimate {estimate}"
     );
+    let left = report["input"]["noise_estimate"]["relative_after_denoising"]
+        .as_f64()
+        .unwrap();
+    assert!(left < 0.3 * estimate, "noise left {left}");
+    assert!(report["input"]["denoised"]["moved"].as_u64().unwrap() > 19_000);
+    let mean = mean_distance(&particles);
+    assert!(
+        mean < 0.2 * sigma,
+        "mean distance {mean} against noise {sigma}"
+    );
+    // Without denoising, the noise sets the threshold: 4σ.
+    let (report, particles) = sample(&noisy_input, &["--no-denoise"]);
     assert_eq!(report["mpu"]["error_threshold"]["source"], "noise");
     let threshold = report["mpu"]["error_threshold"]["relative"]
         .as_f64()
         .unwrap();
     assert!(threshold > 0.015, "threshold {threshold}");
-    // The particles are nearer the true sphere than the noise.
-    let mean = particles
-        .iter()
-        .map(|p| sphere.signed_distance(p.p).abs())
-        .sum::<f64>()
-        / particles.len() as f64;
+    assert!(report["input"]["denoised"].is_null());
+    let mean = mean_distance(&particles);
     assert!(
         mean < 0.5 * sigma,
         "mean distance {mean} against noise {sigma}"

@@ -10,6 +10,9 @@
 //!   `psi sample`, reporting time and peak memory.
 //! * `figures [--models DIR]`: regenerates the README's pictures in `docs/images/` (built-in
 //!   model and bunny coloured by octree depth, a brush edit, uniform beside adaptive).
+//! * `scans [--models DIR] [--only a,b] [--seed S] [--json FILE]`: psi on scan-like variants
+//!   of the shared models (noise, stray points, positions alone, one view, a coarse mesh),
+//!   checked against the clean meshes (`scans.rs`).
 //! * `bench <program> [args]`: timing and tuning programs of the library (`bench.rs`), run
 //!   from a release build.
 
@@ -25,6 +28,7 @@ mod host;
 mod memory;
 mod paper;
 mod reference;
+mod scans;
 mod tables;
 mod tidy;
 
@@ -34,6 +38,7 @@ pub(crate) struct Flags {
     pub(crate) only: Option<Vec<String>>,
     pub(crate) iterations: usize,
     pub(crate) json: Option<PathBuf>,
+    pub(crate) seed: Option<u64>,
 }
 
 fn parse(args: &[String]) -> Result<Flags> {
@@ -42,6 +47,7 @@ fn parse(args: &[String]) -> Result<Flags> {
         only: None,
         iterations: 20,
         json: None,
+        seed: None,
     };
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -55,6 +61,7 @@ fn parse(args: &[String]) -> Result<Flags> {
                     .context("--iterations takes a whole number")?
             }
             "--json" => flags.json = Some(PathBuf::from(value()?)),
+            "--seed" => flags.seed = Some(value()?.parse().context("--seed takes a whole number")?),
             other => bail!("unknown flag {other}"),
         }
     }
@@ -92,6 +99,7 @@ fn main() -> std::process::ExitCode {
         Some("reproduce-tables") => parse(&args[1..]).and_then(|f| tables::run(&f)),
         Some("check-reference") => parse(&args[1..]).and_then(|f| check_reference::run(&f)),
         Some("figures") => parse(&args[1..]).and_then(|f| figures::run(&f)),
+        Some("scans") => parse(&args[1..]).and_then(|f| scans::run(&f)),
         Some("bench") => bench::run(&args[1..]),
         Some("memory") => {
             let points = match args.get(1).map(String::as_str) {
@@ -105,7 +113,7 @@ fn main() -> std::process::ExitCode {
         }
         _ => {
             eprintln!(
-                "usage: cargo xtask reproduce-tables|check-reference|figures [--models DIR] [--only a,b] [--iterations N] [--json FILE]\n       cargo xtask memory [--points N]\n       cargo xtask bench relax|eval|edit|tune|tune-shapes|level-cv [args]"
+                "usage: cargo xtask reproduce-tables|check-reference|figures|scans [--models DIR] [--only a,b] [--iterations N] [--seed S] [--json FILE]\n       cargo xtask memory [--points N]\n       cargo xtask bench relax|eval|edit|tune|tune-shapes|level-cv [args]"
             );
             return std::process::ExitCode::from(2);
         }

@@ -26,8 +26,9 @@ const LOCAL_DENSITY: f64 = 1.5;
 const GLOBAL_DENSITY: f64 = 3.0;
 
 /// Neighbours lie on a surface when their residual standard deviation about their quadric is
-/// below this share of their reach (a cloud scattered through a volume gives about 0.4).
-const SURFACE_LIKE: f64 = 0.2;
+/// below this share of their reach (a cloud scattered through a volume gives 0.1–0.2, a
+/// sparsely sampled surface far less).
+const SURFACE_LIKE: f64 = 0.05;
 
 /// A point sparser than its neighbours is kept without the second stage when its
 /// 16th-neighbour distance is at most this multiple of theirs, and they lie on a surface within
@@ -115,7 +116,7 @@ fn off_surface(fit: &QuadricFit, p: DVec3, spacing: f64) -> bool {
 /// `normals` (shape: N, unit, either sign), unless it lies within a quarter of a spacing of that
 /// quadric, has a normal within 60° of (either sign of) at least a quarter of theirs; and, when
 /// d(p) > 3 × the median of d over all points, has neighbours that lie on a surface (residual
-/// deviation below 0.2 d(p)). A point that passes the quadric test and is sparser than its
+/// deviation below 0.05 d(p)). A point that passes the quadric test and is sparser than its
 /// neighbours (d(p) up to 2.5 × theirs) but among them (its offset from their centroid in their
 /// plane at most 0.6 d(p)), on a quadric that fits them within a spacing, is kept. Any other
 /// point is an outlier when its nearest core point is farther than 3 spacings of the core

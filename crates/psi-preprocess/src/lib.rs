@@ -10,7 +10,8 @@
 //!   [`orient_toward`] (a range scan's sensor position) give normals a consistent side;
 //!   [`check_normal_consistency`] counts the neighbours whose normals oppose;
 //! * [`estimate_noise`]: the noise level of the positions, from quadric fits, and
-//!   [`error_threshold_for_noise`], the MPU error threshold it suggests;
+//!   [`error_threshold_for_noise`], the MPU error threshold it suggests; [`denoise`] takes it
+//!   out of the positions (moving least squares with quadrics);
 //! * [`preprocess`]: all of it in order, each step on or off ([`PreprocessParams`]), with a
 //!   [`PreprocessReport`].
 //!
@@ -28,6 +29,7 @@
 //! assert_eq!(points, truth);
 //! ```
 
+mod denoise;
 mod estimate_noise;
 mod estimate_normals;
 mod find_outliers;
@@ -35,6 +37,7 @@ mod local_fit;
 mod orient_normals;
 mod preprocess;
 
+pub use denoise::{DenoiseReport, denoise};
 pub use estimate_noise::{NoiseEstimate, estimate_noise};
 pub use estimate_normals::estimate_normals;
 pub use find_outliers::{Outliers, find_outliers};

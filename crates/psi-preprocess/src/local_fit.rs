@@ -124,39 +124,81 @@ pub(crate) struct QuadricFit {
     pub(crate) count: usize,
 }
 
+/// The normal equations of a quadratic height field over a given plane, filled point by point,
+/// so that growing neighbourhoods are fitted without starting over.
+#[derive(Clone, Debug)]
+pub(crate) struct QuadricSums {
+    frame: QuadricFit,
+    ata: SMatrix<f64, 6, 6>,
+    atb: SVector<f64, 6>,
+    btb: f64,
+}
+
+impl QuadricSums {
+    /// Empty sums over `plane`, lengths in units of `scale` (world units). `None` for a scale
+    /// that is not positive.
+    pub(crate) fn over(plane: PlaneFit, scale: f64) -> Option<Self> {
+        if scale.is_nan() || scale <= 0.0 {
+            return None;
+        }
+        let tangent = plane.normal.any_orthonormal_vector();
+        let bitangent = plane.normal.cross(tangent);
+        Some(Self {
+            frame: QuadricFit {
+                plane,
+                tangent,
+                bitangent,
+                scale,
+                coef: [0.0; 6],
+                rss: 0.0,
+                count: 0,
+            },
+            ata: SMatrix::zeros(),
+            atb: SVector::zeros(),
+            btb: 0.0,
+        })
+    }
+
+    /// Adds a point.
+    pub(crate) fn add(&mut self, p: DVec3) {
+        let (row, h) = self.frame.row(p);
+        for i in 0..6 {
+            self.atb[i] += row[i] * h;
+            for j in 0..6 {
+                self.ata[(i, j)] += row[i] * row[j];
+            }
+        }
+        self.btb += h * h;
+        self.frame.count += 1;
+    }
+
+    /// The fit of the points added so far (its `rss` from the normal equations); `None` for
+    /// fewer than 7 points or a singular system.
+    pub(crate) fn fit(&self) -> Option<QuadricFit> {
+        if self.frame.count < 7 {
+            return None;
+        }
+        let coef = self.ata.cholesky()?.solve(&self.atb);
+        let mut fit = self.frame;
+        fit.coef = [coef[0], coef[1], coef[2], coef[3], coef[4], coef[5]];
+        let scale2 = fit.scale * fit.scale;
+        fit.rss = ((self.btb - coef.dot(&self.atb)) * scale2).max(0.0);
+        (fit.rss.is_finite() && coef.iter().all(|c| c.is_finite())).then_some(fit)
+    }
+}
+
 impl QuadricFit {
     /// The quadric height field of `points` over their least-squares plane, with lengths in
     /// units of `scale` (world units; about the neighbourhood's radius). `None` for fewer than
     /// 7 points, a degenerate plane or a singular system.
     pub(crate) fn of(points: &[DVec3], scale: f64) -> Option<Self> {
-        if points.len() < 7 || scale.is_nan() || scale <= 0.0 {
-            return None;
-        }
         let plane = fit_plane(points.iter().copied())?;
-        let tangent = plane.normal.any_orthonormal_vector();
-        let bitangent = plane.normal.cross(tangent);
-        let mut fit = Self {
-            plane,
-            tangent,
-            bitangent,
-            scale,
-            coef: [0.0; 6],
-            rss: 0.0,
-            count: points.len(),
-        };
-        let mut ata = SMatrix::<f64, 6, 6>::zeros();
-        let mut atb = SVector::<f64, 6>::zeros();
+        let mut sums = QuadricSums::over(plane, scale)?;
         for p in points {
-            let (row, h) = fit.row(*p);
-            for i in 0..6 {
-                atb[i] += row[i] * h;
-                for j in 0..6 {
-                    ata[(i, j)] += row[i] * row[j];
-                }
-            }
+            sums.add(*p);
         }
-        let coef = ata.cholesky()?.solve(&atb);
-        fit.coef = [coef[0], coef[1], coef[2], coef[3], coef[4], coef[5]];
+        let mut fit = sums.fit()?;
+        // The residual summed directly (the normal equations' identity loses digits).
         fit.rss = points.iter().map(|p| fit.height(*p).powi(2)).sum();
         fit.rss.is_finite().then_some(fit)
     }
@@ -178,6 +220,58 @@ impl QuadricFit {
         let (row, h) = self.row(p);
         let fit: f64 = row.iter().zip(&self.coef).map(|(m, c)| m * c).sum();
         (h - fit) * self.scale
+    }
+
+    /// The height of `p` over this fit, corrected by the fit's error near `p`: the residuals of
+    /// `near` (points around `p`, world units) are fitted by a plane over (u, v), whose value
+    /// at `p` is subtracted. The curvature comes from this fit (of more points), the offset and
+    /// tilt near `p` from `near`: its intercept varies as σ²/|near| rather than the full
+    /// quadric's several times that. Falls back to [`QuadricFit::height`] for fewer than 3
+    /// points or a singular system.
+    pub(crate) fn refined_height(&self, p: DVec3, near: &[DVec3]) -> f64 {
+        let height = self.height(p);
+        if near.len() < 3 {
+            return height;
+        }
+        let mut ata = nalgebra::Matrix3::<f64>::zeros();
+        let mut atb = nalgebra::Vector3::<f64>::zeros();
+        for q in near {
+            let (row, _) = self.row(*q);
+            let r = self.height(*q) / self.scale;
+            let m = [1.0, row[1], row[2]];
+            for i in 0..3 {
+                atb[i] += m[i] * r;
+                for j in 0..3 {
+                    ata[(i, j)] += m[i] * m[j];
+                }
+            }
+        }
+        let Some(c) = ata.cholesky().map(|ch| ch.solve(&atb)) else {
+            return height;
+        };
+        let (row, _) = self.row(p);
+        let correction = (c[0] + c[1] * row[1] + c[2] * row[2]) * self.scale;
+        if correction.is_finite() {
+            height - correction
+        } else {
+            height
+        }
+    }
+
+    /// The plane's unit normal (the direction of heights).
+    pub(crate) fn normal(&self) -> DVec3 {
+        self.plane.normal
+    }
+
+    /// The height field's unit normal at `p`'s place over the plane, on the side of the plane's
+    /// normal.
+    pub(crate) fn normal_at(&self, p: DVec3) -> DVec3 {
+        let (row, _) = self.row(p);
+        let (u, v) = (row[1], row[2]);
+        let c = &self.coef;
+        let du = c[1] + 2.0 * c[3] * u + c[4] * v;
+        let dv = c[2] + c[4] * u + 2.0 * c[5] * v;
+        (self.plane.normal - du * self.tangent - dv * self.bitangent).normalize_or_zero()
     }
 
     /// The distance from `p`'s projection onto the plane to the fitted points' centroid, world

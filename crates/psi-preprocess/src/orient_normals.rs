@@ -100,13 +100,9 @@ impl PartialOrd for Candidate {
     }
 }
 
-/// Reorients normals consistently: per connected component of the neighbour graph, the point
-/// with the largest x gets a normal with positive x (it is on the convex hull, so outward is +x
-/// there), then a maximum-|n_i·n_j| spanning tree (Prim) carries the orientation. Returns the
-/// number of normals flipped. Deterministic.
-pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
+/// The symmetric same-sheet neighbour graph of `points` (each point's neighbours, sorted).
+fn neighbour_graph(points: &[OrientedPoint]) -> Vec<Vec<u32>> {
     let graph = same_sheet_pairs(points, 1);
-    // Symmetrise the graph.
     let mut adj: Vec<Vec<u32>> = graph
         .iter()
         .map(|e| e.iter().map(|&(j, _)| j).collect())
@@ -120,6 +116,53 @@ pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
         a.sort_unstable();
         a.dedup();
     }
+    adj
+}
+
+/// Carries the orientation of `seeds` (points already `done`) to the points not yet done that
+/// they reach over `adj`, by a maximum-|n_i·n_j| spanning tree (Prim, grown from all seeds at
+/// once): each point reached takes the side of the point it was reached from, and is marked
+/// done. Returns the number flipped.
+fn propagate(
+    points: &mut [OrientedPoint],
+    adj: &[Vec<u32>],
+    done: &mut [bool],
+    seeds: &[u32],
+) -> usize {
+    let mut heap = BinaryHeap::new();
+    let push =
+        |heap: &mut BinaryHeap<Candidate>, from: u32, points: &[OrientedPoint], done: &[bool]| {
+            for &to in &adj[from as usize] {
+                if !done[to as usize] {
+                    let weight = points[from as usize].n.dot(points[to as usize].n).abs();
+                    heap.push(Candidate { weight, to, from });
+                }
+            }
+        };
+    for &i in seeds {
+        push(&mut heap, i, points, done);
+    }
+    let mut flips = 0;
+    while let Some(Candidate { to, from, .. }) = heap.pop() {
+        if done[to as usize] {
+            continue;
+        }
+        done[to as usize] = true;
+        if points[to as usize].n.dot(points[from as usize].n) < 0.0 {
+            points[to as usize].n = -points[to as usize].n;
+            flips += 1;
+        }
+        push(&mut heap, to, points, done);
+    }
+    flips
+}
+
+/// Reorients normals consistently: per connected component of the neighbour graph, the point
+/// with the largest x gets a normal with positive x (it is on the convex hull, so outward is +x
+/// there), then a maximum-|n_i·n_j| spanning tree (Prim) carries the orientation. Returns the
+/// number of normals flipped. Deterministic.
+pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
+    let adj = neighbour_graph(points);
     let n = points.len();
     let mut done = vec![false; n];
     let mut order: Vec<u32> = (0..n as u32).collect();
@@ -140,36 +183,22 @@ pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
             flips += 1;
         }
         done[seed as usize] = true;
-        let mut heap = BinaryHeap::new();
-        let push = |heap: &mut BinaryHeap<Candidate>,
-                    from: u32,
-                    points: &[OrientedPoint],
-                    done: &[bool]| {
-            for &to in &adj[from as usize] {
-                if !done[to as usize] {
-                    let weight = points[from as usize].n.dot(points[to as usize].n).abs();
-                    heap.push(Candidate { weight, to, from });
-                }
-            }
-        };
-        push(&mut heap, seed, points, &done);
-        while let Some(Candidate { to, from, .. }) = heap.pop() {
-            if done[to as usize] {
-                continue;
-            }
-            done[to as usize] = true;
-            if points[to as usize].n.dot(points[from as usize].n) < 0.0 {
-                points[to as usize].n = -points[to as usize].n;
-                flips += 1;
-            }
-            push(&mut heap, to, points, &done);
-        }
+        flips += propagate(points, &adj, &mut done, &[seed]);
     }
     flips
 }
 
-/// Orients every normal toward `viewpoint` (world units), the sensor of a single range scan:
-/// n ← −n where n·(viewpoint − p) < 0. Returns the number flipped.
+/// A normal whose angle to the sensor's direction has a cosine at least this is oriented by the
+/// sensor; nearer the silhouette, where a small error in the normal flips that test, by
+/// propagation from such points.
+const FACING: f64 = 0.3;
+
+/// Orients normals toward `viewpoint` (world units), the sensor of a single range scan: every
+/// point that faces it clearly (|cos| ≥ 0.3 between its normal and the direction to the sensor)
+/// gets the side facing it, n·(viewpoint − p) > 0; the others, nearer the view's silhouette,
+/// take their side from those by propagation over the neighbour graph (as
+/// [`orient_normals`]), or the sensor's when no such neighbour reaches them. Returns the number
+/// flipped. Deterministic.
 ///
 /// ```
 /// use glam::DVec3;
@@ -181,14 +210,29 @@ pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
 /// assert_eq!(points[0].n, DVec3::Z);
 /// ```
 pub fn orient_toward(points: &mut [OrientedPoint], viewpoint: glam::DVec3) -> usize {
-    let mut flipped = 0;
-    for p in points {
-        if p.n.dot(viewpoint - p.p) < 0.0 {
+    let facing = |p: &OrientedPoint| p.n.dot((viewpoint - p.p).normalize_or_zero());
+    let mut flips = 0;
+    let mut done: Vec<bool> = points.iter().map(|p| facing(p).abs() >= FACING).collect();
+    for (p, d) in points.iter_mut().zip(&done) {
+        if *d && facing(p) < 0.0 {
             p.n = -p.n;
-            flipped += 1;
+            flips += 1;
         }
     }
-    flipped
+    if done.iter().any(|d| !d) {
+        let adj = neighbour_graph(points);
+        let seeds: Vec<u32> = (0..points.len() as u32)
+            .filter(|&i| done[i as usize])
+            .collect();
+        flips += propagate(points, &adj, &mut done, &seeds);
+    }
+    for (p, d) in points.iter_mut().zip(&done) {
+        if !*d && facing(p) < 0.0 {
+            p.n = -p.n;
+            flips += 1;
+        }
+    }
+    flips
 }
 
 #[cfg(test)]

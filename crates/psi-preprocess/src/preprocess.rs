@@ -8,8 +8,8 @@ use psi_octree::{Aabb, OrientedPoint};
 use serde::{Deserialize, Serialize};
 
 use crate::{
-    NoiseEstimate, NormalConsistency, check_normal_consistency, estimate_noise, estimate_normals,
-    find_outliers, orient_normals, orient_toward,
+    DenoiseReport, NoiseEstimate, NormalConsistency, check_normal_consistency, denoise,
+    estimate_noise, estimate_normals, find_outliers, orient_normals, orient_toward,
 };
 
 /// Ohtake's error threshold ε0 relative to the bounding-box diagonal D (algorithms.md §1.1):
@@ -38,6 +38,9 @@ pub struct PreprocessParams {
     pub orient_given_normals: bool,
     /// Estimate the positions' noise and suggest ε0 from it ([`crate::estimate_noise`]).
     pub estimate_noise: bool,
+    /// Where the noise would raise ε0 above the paper's, take it out of the positions first
+    /// ([`crate::denoise`]; needs `estimate_noise`).
+    pub denoise: bool,
 }
 
 impl PreprocessParams {
@@ -50,6 +53,7 @@ impl PreprocessParams {
             viewpoint: None,
             orient_given_normals: false,
             estimate_noise: true,
+            denoise: true,
         }
     }
 
@@ -61,6 +65,7 @@ impl PreprocessParams {
             viewpoint: None,
             orient_given_normals: false,
             estimate_noise: false,
+            denoise: false,
         }
     }
 }
@@ -110,8 +115,12 @@ pub struct PreprocessReport {
     pub noise: Option<NoiseEstimate>,
     /// The noise relative to the bounding-box diagonal D of the points passed on.
     pub noise_rel: Option<f64>,
+    /// The denoising step, when the noise called for it.
+    pub denoised: Option<DenoiseReport>,
+    /// The noise left after denoising, relative to D.
+    pub noise_rel_after: Option<f64>,
     /// The MPU error threshold ε0 relative to D that the data suggest: the paper's 0.005, or
-    /// [`NOISE_ERROR_FACTOR`] × the noise when that is larger.
+    /// [`NOISE_ERROR_FACTOR`] × the noise (left after denoising) when that is larger.
     pub error_rel: f64,
     /// Seconds of each step that ran: outliers, normals, noise.
     pub seconds: StepSeconds,
@@ -124,8 +133,10 @@ pub struct StepSeconds {
     pub outliers: f64,
     /// Estimating, checking and orienting normals.
     pub normals: f64,
-    /// Estimating the noise.
+    /// Estimating the noise (before and after denoising).
     pub noise: f64,
+    /// Denoising.
+    pub denoise: f64,
 }
 
 /// The points after preprocessing and the report.
@@ -162,8 +173,9 @@ pub fn error_threshold_for_noise(noise_rel: f64) -> f64 {
 /// Prepares `points` (shape: N, world units; unit normals, or all zero when `normals_given` is
 /// false) for the MPU, as `params` say, in this order: outliers removed; normals estimated and
 /// oriented (toward `params.viewpoint`, else by propagation) when there are none, else checked
-/// for consistency and, with `params.orient_given_normals`, reoriented; the noise estimated and
-/// the error threshold it suggests. Deterministic and independent of the thread count.
+/// for consistency and, with `params.orient_given_normals`, reoriented; the noise estimated;
+/// where it would raise the error threshold above the paper's, the points denoised and the
+/// noise estimated again; the error threshold the noise left suggests. Deterministic and independent of the thread count.
 ///
 /// # Errors
 ///
@@ -247,6 +259,8 @@ pub fn preprocess(
 
     let mut noise = None;
     let mut noise_rel = None;
+    let mut denoised = None;
+    let mut noise_rel_after = None;
     let mut error_rel = PAPER_ERROR_REL;
     if params.estimate_noise {
         let t = Instant::now();
@@ -260,6 +274,17 @@ pub fn preprocess(
         }
         noise = Some(estimate);
         seconds.noise = t.elapsed().as_secs_f64();
+        if params.denoise && error_rel > PAPER_ERROR_REL {
+            let t = Instant::now();
+            denoised = Some(denoise(&mut points, estimate.sigma));
+            seconds.denoise = t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+            let rel = estimate_noise(&positions).sigma / diagonal;
+            noise_rel_after = Some(rel);
+            error_rel = error_threshold_for_noise(rel);
+            seconds.noise += t.elapsed().as_secs_f64();
+        }
     }
 
     Ok(Preprocessed {
@@ -272,6 +297,8 @@ pub fn preprocess(
             consistency,
             noise,
             noise_rel,
+            denoised,
+            noise_rel_after,
             error_rel,
             seconds,
         },

@@ -86,17 +86,22 @@ impl Loaded {
                 "sigma": n.sigma,
                 "relative": p.noise_rel,
                 "samples": n.samples,
+                "relative_after_denoising": p.noise_rel_after,
             })),
+            "denoised": p.denoised,
             "preprocess_seconds": p.seconds,
         })
     }
 
     /// The MPU error threshold ε0/D to use and where it comes from: the user's `--mpu-error`,
-    /// else the one the noise suggests ("noise", when above the paper's), else the paper's.
+    /// else the one the noise suggests ("noise", when above the paper's, for a point cloud),
+    /// else the paper's.
     pub(crate) fn error_threshold(&self, user: Option<f64>) -> (f64, &'static str) {
         match user {
             Some(e) => (e, "user"),
-            None if self.prep.error_rel > psi::preprocess::PAPER_ERROR_REL => {
+            None if self.file.faces == 0
+                && self.prep.error_rel > psi::preprocess::PAPER_ERROR_REL =>
+            {
                 (self.prep.error_rel, "noise")
             }
             None => (psi::preprocess::PAPER_ERROR_REL, "paper"),
@@ -104,8 +109,10 @@ impl Loaded {
     }
 }
 
-/// The preprocessing steps the flags ask for, for `file`: outliers are looked for in point
-/// clouds only (a mesh's points sample its triangles, which its connectivity supports).
+/// The preprocessing steps the flags ask for, for `file`. A mesh's triangles are taken as the
+/// surface: its points are not searched for outliers (its connectivity supports them) nor
+/// denoised (the quadric residuals of a coarse mesh's points measure its coarseness, not
+/// noise).
 fn preprocess_params(args: &InputArgs, file: &PointCloudFile) -> PreprocessParams {
     PreprocessParams {
         remove_outliers: !args.keep_outliers && file.faces == 0,
@@ -113,6 +120,7 @@ fn preprocess_params(args: &InputArgs, file: &PointCloudFile) -> PreprocessParam
         viewpoint: args.viewpoint.map(|v| psi::DVec3::from_array(v.0)),
         orient_given_normals: args.orient_normals,
         estimate_noise: !args.no_noise_estimate,
+        denoise: !args.no_denoise && file.faces == 0,
     }
 }
 
@@ -181,6 +189,7 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
     ui.timing("outliers", prep.seconds.outliers);
     ui.timing("normals", prep.seconds.normals);
     ui.timing("noise estimate", prep.seconds.noise);
+    ui.timing("denoising", prep.seconds.denoise);
     if ui.verbose {
         if let Some(o) = prep.outliers {
             eprintln!(
@@ -199,11 +208,18 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
             prep.normals_flipped
         );
         if let (Some(n), Some(rel)) = (prep.noise, prep.noise_rel) {
+            eprintln!("psi: noise estimate: {:.3e} ({rel:.2e} D)", n.sigma);
+        }
+        if let (Some(d), Some(rel)) = (prep.denoised, prep.noise_rel_after) {
             eprintln!(
-                "psi: noise estimate: {:.3e} ({:.2e} D), suggesting an MPU error threshold of {:.4} D",
-                n.sigma, rel, prep.error_rel
+                "psi: denoised: {} points moved by {:.2e} (RMS) onto quadrics of {} neighbours; noise left {rel:.2e} D",
+                d.moved, d.rms_move, d.neighbours
             );
         }
+        eprintln!(
+            "psi: suggested MPU error threshold: {:.4} D",
+            prep.error_rel
+        );
     }
     Ok(Loaded {
         name,

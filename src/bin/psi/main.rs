@@ -63,6 +63,10 @@ pub(crate) struct InputArgs {
     /// --mpu-error is given).
     #[arg(long)]
     pub(crate) no_noise_estimate: bool,
+    /// Keep the positions' noise (default: where it would raise the MPU error threshold, the
+    /// points are moved onto local quadric fits first).
+    #[arg(long)]
+    pub(crate) no_denoise: bool,
 }
 
 /// A point `x,y,z` of the command line (world units).

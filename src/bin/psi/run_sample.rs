@@ -40,6 +40,10 @@ pub(crate) struct SampleArgs {
     /// Also write a picture of the particles coloured by octree depth (PNG).
     #[arg(long)]
     png: Option<PathBuf>,
+    /// Also write the points the MPU was built from, after preprocessing (binary PLY:
+    /// x y z nx ny nz).
+    #[arg(long)]
+    points_out: Option<PathBuf>,
     /// Also time one value_and_gradient per particle and report the simulation's cost against
     /// that floor (`particles.value_and_gradient_seconds`, `particles.evaluation_floor_ratio`).
     #[arg(long)]
@@ -64,6 +68,7 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         (&args.output, "-o"),
         (&args.json, "--json"),
         (&args.png, "--png"),
+        (&args.points_out, "--points-out"),
     ] {
         if let Some(path) = path {
             loaded.check_output(path, flag)?;
@@ -87,6 +92,9 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     let run = crate::ui::sample(ui, &mpu, &params);
     if let Some(out) = &args.output {
         psi::save_particles(out, &run.particles)?;
+    }
+    if let Some(path) = &args.points_out {
+        psi::save_points(path, loaded.points())?;
     }
     if let Some(png) = &args.png {
         psi::render_particles_png(png, &run.particles, &psi::render::RenderParams::particles())?;

@@ -1,0 +1,432 @@
+//! `cargo xtask scans`: psi on what a scanner gives instead of a clean mesh — noisy positions
+//! and normals, stray points, positions without normals, a single open view, a coarse mesh —
+//! each made from a shared model with a seeded generator, run through the release `psi sample`
+//! and checked against the clean reference mesh.
+//!
+//! Per model (default bunny, horse and igea; `--only` to choose): the clean run; Gaussian noise
+//! of 0.25 % and 0.5 % of D on every coordinate with normals tilted by about 9°; 1 % of the
+//! points added uniformly in the bounding box with random normals; the positions alone,
+//! shuffled; and the points a sensor sees from one side. Then `cow_original_5804.ply`, a coarse
+//! mesh, against itself (`--only cow-coarse` for that case alone).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{Context, Result, bail};
+use parry3d_f64::query::{Ray, RayCast};
+use parry3d_f64::shape::TriMesh;
+use psi::octree::PointIndex;
+use psi::{DVec3, OrientedPoint};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use rayon::prelude::*;
+use serde_json::{Value, json};
+
+use crate::reference::{Reference, distance_stats};
+use crate::{Flags, host, models_dir, project_root, tables::build_release};
+
+/// Models tried by default.
+const MODELS: [&str; 3] = ["bunny", "horse", "igea"];
+
+/// Runs of `psi sample` per case whose MPU build seconds the report gives the median of.
+const TIMED_RUNS: usize = 3;
+
+/// The standard deviation of the normal's tilt: n + s·g (g a standard normal 3-vector),
+/// normalised, tilts it by s·√(π/2) rad on average for small s — 9° for s = 0.125.
+const NORMAL_TILT: f64 = 0.125;
+
+/// A standard normal deviate (Box–Muller).
+fn gauss(rng: &mut Pcg64Mcg) -> f64 {
+    let u: f64 = rng.random::<f64>().max(1e-300);
+    let v: f64 = rng.random();
+    (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+}
+
+fn gauss3(rng: &mut Pcg64Mcg) -> DVec3 {
+    DVec3::new(gauss(rng), gauss(rng), gauss(rng))
+}
+
+/// Writes oriented points (`with_normals`) or positions as an XYZ file.
+fn write_xyz(path: &Path, points: &[OrientedPoint], with_normals: bool) -> Result<()> {
+    let mut text = String::with_capacity(points.len() * 80);
+    for p in points {
+        if with_normals {
+            text.push_str(&format!(
+                "{} {} {} {} {} {}\n",
+                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
+            ));
+        } else {
+            text.push_str(&format!("{} {} {}\n", p.p.x, p.p.y, p.p.z));
+        }
+    }
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
+
+/// One variant of a model: how it was made and what psi is given.
+struct Case {
+    name: String,
+    input: PathBuf,
+    extra: Vec<String>,
+    /// What the variant is, for the table.
+    about: String,
+}
+
+/// The result of `psi sample` on a case: its first report, the particles, the points the
+/// MPU was built from, and the median MPU build seconds.
+struct Outcome {
+    report: Value,
+    particles: Vec<OrientedPoint>,
+    points: Vec<OrientedPoint>,
+    build_seconds: f64,
+}
+
+fn run_case(psi: &Path, case: &Case, out: &Path) -> Result<Outcome> {
+    let mut builds = Vec::new();
+    let mut first = None;
+    for k in 0..TIMED_RUNS {
+        let particles = out.join(format!("{}-particles.ply", case.name));
+        let points = out.join(format!("{}-points.ply", case.name));
+        let json = out.join(format!("{}-report.json", case.name));
+        let run = Command::new(psi)
+            .arg("sample")
+            .arg(&case.input)
+            .args(&case.extra)
+            .arg("-o")
+            .arg(&particles)
+            .arg("--points-out")
+            .arg(&points)
+            .arg("--json")
+            .arg(&json)
+            .arg("-q")
+            .output()
+            .context("running psi")?;
+        if !run.status.success() {
+            bail!(
+                "psi sample on {} failed: {}",
+                case.name,
+                String::from_utf8_lossy(&run.stderr)
+            );
+        }
+        let report: Value = serde_json::from_slice(&std::fs::read(&json)?)?;
+        builds.push(report["mpu"]["build_seconds"].as_f64().unwrap_or(0.0));
+        if k == 0 {
+            let read = |p: &Path| -> Result<Vec<OrientedPoint>> {
+                Ok(psi::load_points(p, &psi::ReadOptions::paper())?.points)
+            };
+            first = Some((report, read(&particles)?, read(&points)?));
+        }
+    }
+    builds.sort_by(f64::total_cmp);
+    let (report, particles, points) = first.context("no run")?;
+    Ok(Outcome {
+        report,
+        particles,
+        points,
+        build_seconds: builds[builds.len() / 2],
+    })
+}
+
+/// The points a sensor at `sensor` sees of `points` (facing it, and first along the ray
+/// from the sensor: not hidden by `mesh`).
+fn visible(points: &[OrientedPoint], mesh: &TriMesh, sensor: DVec3) -> Vec<OrientedPoint> {
+    points
+        .par_iter()
+        .filter(|p| {
+            let to = p.p - sensor;
+            let d = to.length();
+            if p.n.dot(-to) <= 0.0 || d == 0.0 {
+                return false;
+            }
+            let ray = Ray::new(sensor, to / d);
+            mesh.cast_local_ray(&ray, d, false)
+                .is_none_or(|t| t >= d * (1.0 - 1e-6) - 1e-9)
+        })
+        .copied()
+        .collect()
+}
+
+/// The variants of `model`'s clean points `clean` (face centroids with face normals) written
+/// to `out`, seeded by `seed`.
+fn cases(
+    model: &str,
+    path: &Path,
+    clean: &[OrientedPoint],
+    mesh: &TriMesh,
+    diag: f64,
+    seed: u64,
+    out: &Path,
+) -> Result<Vec<Case>> {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let mut cases = vec![Case {
+        name: format!("{model}-clean"),
+        input: path.to_path_buf(),
+        extra: Vec::new(),
+        about: "the mesh, one point per triangle".into(),
+    }];
+    for percent in [0.25, 0.5] {
+        let sigma = percent / 100.0 * diag;
+        let noisy: Vec<OrientedPoint> = clean
+            .iter()
+            .map(|p| OrientedPoint {
+                p: p.p + sigma * gauss3(&mut rng),
+                n: (p.n + NORMAL_TILT * gauss3(&mut rng)).normalize(),
+            })
+            .collect();
+        let name = format!("{model}-noise-{percent}");
+        let input = out.join(format!("{name}.xyz"));
+        write_xyz(&input, &noisy, true)?;
+        cases.push(Case {
+            name,
+            input,
+            extra: Vec::new(),
+            about: format!("σ = {percent} % D on positions, normals tilted ~9°"),
+        });
+    }
+    let bounds = psi::Aabb::from_points(clean.iter().map(|p| p.p)).context("empty model")?;
+    let mut stray = clean.to_vec();
+    for _ in 0..clean.len() / 100 {
+        let t = DVec3::new(rng.random(), rng.random(), rng.random());
+        stray.push(OrientedPoint {
+            p: bounds.min + t * bounds.extent(),
+            n: gauss3(&mut rng).normalize(),
+        });
+    }
+    let name = format!("{model}-outliers-1");
+    let input = out.join(format!("{name}.xyz"));
+    write_xyz(&input, &stray, true)?;
+    cases.push(Case {
+        name,
+        input,
+        extra: Vec::new(),
+        about: "+1 % uniform in the box, random normals".into(),
+    });
+    let mut shuffled = clean.to_vec();
+    for i in (1..shuffled.len()).rev() {
+        shuffled.swap(i, rng.random_range(0..=i));
+    }
+    let name = format!("{model}-xyz");
+    let input = out.join(format!("{name}.xyz"));
+    write_xyz(&input, &shuffled, false)?;
+    cases.push(Case {
+        name,
+        input,
+        extra: Vec::new(),
+        about: "x y z only, shuffled".into(),
+    });
+    // One view, from the front (+z) at two diagonals from the centre, a little from above.
+    let sensor = bounds.center() + 2.0 * diag * DVec3::new(0.3, 0.4, 1.0).normalize();
+    let seen = visible(clean, mesh, sensor);
+    let name = format!("{model}-view");
+    let input = out.join(format!("{name}.xyz"));
+    write_xyz(&input, &seen, false)?;
+    cases.push(Case {
+        name,
+        input,
+        extra: vec![
+            "--viewpoint".into(),
+            format!("{},{},{}", sensor.x, sensor.y, sensor.z),
+        ],
+        about: format!(
+            "one view from the sensor, x y z only ({} of {} points)",
+            seen.len(),
+            clean.len()
+        ),
+    });
+    Ok(cases)
+}
+
+/// Share of `estimated` normals within 30° of the truth: each estimated point is matched to
+/// the clean point at the same position.
+fn normals_within_30(estimated: &[OrientedPoint], clean: &[OrientedPoint]) -> f64 {
+    let positions: Vec<DVec3> = clean.iter().map(|p| p.p).collect();
+    let index = PointIndex::new(&positions);
+    let good = estimated
+        .par_iter()
+        .filter(|p| {
+            index
+                .nearest_one(p.p)
+                .is_some_and(|(k, _)| p.n.dot(clean[k as usize].n) >= 30f64.to_radians().cos())
+        })
+        .count();
+    good as f64 / estimated.len().max(1) as f64
+}
+
+/// For a single view: the largest distance from a particle to the nearest point of the view, in
+/// units of the view's local sample spacing there (d₈·√(π/8), d₈ the distance from that point to
+/// its 8th neighbour: the spacing the footprint test uses).
+fn farthest_from_view(particles: &[OrientedPoint], view: &[OrientedPoint]) -> f64 {
+    let positions: Vec<DVec3> = view.iter().map(|p| p.p).collect();
+    let index = PointIndex::new(&positions);
+    particles
+        .par_iter()
+        .map(|p| {
+            let Some((q, d2)) = index.nearest_one(p.p) else {
+                return f64::INFINITY;
+            };
+            let d8 = index
+                .nearest(positions[q as usize], 9)
+                .last()
+                .map_or(0.0, |n| n.1.sqrt());
+            d2.sqrt() / (d8 * (std::f64::consts::PI / 8.0).sqrt()).max(f64::MIN_POSITIVE)
+        })
+        .reduce(|| 0.0, f64::max)
+}
+
+pub(crate) fn run(flags: &Flags) -> Result<()> {
+    let dir = models_dir(flags)?;
+    let psi = build_release()?;
+    let out = project_root().join("target/xtask/scans");
+    std::fs::create_dir_all(&out)?;
+    let seed = flags.seed.unwrap_or(1);
+    let models: Vec<String> = match &flags.only {
+        Some(only) => only
+            .iter()
+            .filter(|m| *m != "cow-coarse")
+            .cloned()
+            .collect(),
+        None => MODELS.iter().map(|m| m.to_string()).collect(),
+    };
+    let mut md = format!(
+        "## Scans made from the shared models (seed {seed})\n\nEach case through `psi sample` with its defaults (20 iterations); distances of the particles to the clean reference mesh, over its D; MPU build seconds are medians of {TIMED_RUNS} runs; counts against the clean run's.\n\n| case | what psi is given | points to MPU (their mean distance, D) | outliers removed | noise estimate (D) | ε0 (D) | leaves | MPU build s (× clean) | particles (× clean) | mean / p99 / max distance (D) | within 2e-3 D | beyond 1e-2 D | other |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+    );
+    let mut rows = Vec::new();
+    for model in &models {
+        let path = dir.join(format!("{model}.ply"));
+        if !path.is_file() {
+            eprintln!("skipping {model}: {} not found", path.display());
+            continue;
+        }
+        eprintln!("{model} ...");
+        let mesh = psi::load_mesh(&path)?;
+        let shape = TriMesh::new(mesh.vertices.clone(), mesh.faces.clone())
+            .map_err(|e| anyhow::anyhow!("{model}: {e:?}"))?;
+        let reference = Reference::new(mesh)?;
+        let clean = psi::load_points(&path, &psi::ReadOptions::paper())?.points;
+        let diag = psi::Aabb::from_points(clean.iter().map(|p| p.p))
+            .context("empty model")?
+            .diagonal();
+        let mut clean_outcome: Option<(usize, f64)> = None;
+        for case in cases(model, &path, &clean, &shape, diag, seed, &out)? {
+            eprintln!("  {} ...", case.name);
+            let o = run_case(&psi, &case, &out)?;
+            let positions: Vec<DVec3> = o.particles.iter().map(|p| p.p).collect();
+            let d = distance_stats(&reference.distances(&positions), diag);
+            let fitted: Vec<DVec3> = o.points.iter().map(|p| p.p).collect();
+            let dp = distance_stats(&reference.distances(&fitted), diag);
+            let count = o.particles.len();
+            let (clean_count, clean_build) = *clean_outcome.get_or_insert((count, o.build_seconds));
+            let other = if case.name.ends_with("-xyz") {
+                json!({ "normals_within_30_degrees": normals_within_30(&o.points, &clean) })
+            } else if case.name.ends_with("-view") {
+                json!({
+                    "normals_within_30_degrees": normals_within_30(&o.points, &clean),
+                    "farthest_particle_from_the_view_in_spacings": farthest_from_view(
+                        &o.particles,
+                        &psi::load_points(&case.input, &psi::ReadOptions::paper())?.points,
+                    ),
+                })
+            } else {
+                json!({})
+            };
+            let r = &o.report;
+            let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+            let mut other_text = Vec::new();
+            if let Some(share) = other["normals_within_30_degrees"].as_f64() {
+                other_text.push(format!("normals within 30°: {:.2} %", 100.0 * share));
+            }
+            if let Some(far) = other["farthest_particle_from_the_view_in_spacings"].as_f64() {
+                other_text.push(format!(
+                    "farthest particle from the view: {far:.2} local spacings"
+                ));
+            }
+            let other_text = other_text.join("; ");
+            md.push_str(&format!(
+                "| {} | {} | {} ({:.1e}) | {} | {} | {:.4} | {} | {:.3} ({:.2}×) | {} ({:.2}×) | {:.1e} / {:.1e} / {:.1e} | {:.2} % | {} | {} |\n",
+                case.name,
+                case.about,
+                r["input"]["points"],
+                f(&dp["mean"]),
+                r["input"]["outliers"]["removed"].as_u64().map_or("—".to_owned(), |v| v.to_string()),
+                r["input"]["noise_estimate"]["relative"].as_f64().map_or("—".to_owned(), |v| format!("{v:.1e}")),
+                f(&r["mpu"]["error_threshold"]["relative"]),
+                r["mpu"]["leaves"],
+                o.build_seconds,
+                o.build_seconds / clean_build,
+                count,
+                count as f64 / clean_count as f64,
+                f(&d["mean"]),
+                f(&d["p99"]),
+                f(&d["max"]),
+                100.0 * f(&d["within_2e-3"]),
+                d["beyond_1e-2"],
+                other_text,
+            ));
+            rows.push(json!({
+                "case": case.name,
+                "about": case.about,
+                "input": r["input"],
+                "mpu": { "error_threshold": r["mpu"]["error_threshold"], "leaves": r["mpu"]["leaves"], "build_seconds_median": o.build_seconds },
+                "particles": count,
+                "count_ratio": count as f64 / clean_count as f64,
+                "build_ratio": o.build_seconds / clean_build,
+                "distance_to_reference": d,
+                "points_distance_to_reference": dp,
+                "other": other,
+            }));
+        }
+    }
+    // A coarse mesh against itself.
+    let coarse = dir.join("cow_original_5804.ply");
+    let coarse_wanted = flags
+        .only
+        .as_ref()
+        .is_none_or(|o| o.iter().any(|m| m == "cow-coarse"));
+    if coarse_wanted && coarse.is_file() {
+        eprintln!("cow_original_5804 ...");
+        let case = Case {
+            name: "cow-coarse".into(),
+            input: coarse.clone(),
+            extra: Vec::new(),
+            about: "the 5 804-triangle cow mesh".into(),
+        };
+        let o = run_case(&psi, &case, &out)?;
+        let reference = Reference::new(psi::load_mesh(&coarse)?)?;
+        let diag = o.report["input"]["bbox_diagonal"].as_f64().unwrap_or(1.0);
+        let positions: Vec<DVec3> = o.particles.iter().map(|p| p.p).collect();
+        let d = distance_stats(&reference.distances(&positions), diag);
+        let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+        md.push_str(&format!(
+            "| {} | {} | {} | — | — | {:.4} | {} | {:.3} | {} | {:.1e} / {:.1e} / {:.1e} | {:.2} % | {} | against this mesh |\n",
+            case.name,
+            case.about,
+            o.report["input"]["points"],
+            f(&o.report["mpu"]["error_threshold"]["relative"]),
+            o.report["mpu"]["leaves"],
+            o.build_seconds,
+            o.particles.len(),
+            f(&d["mean"]),
+            f(&d["p99"]),
+            f(&d["max"]),
+            100.0 * f(&d["within_2e-3"]),
+            d["beyond_1e-2"],
+        ));
+        rows.push(json!({
+            "case": case.name,
+            "input": o.report["input"],
+            "particles": o.particles.len(),
+            "distance_to_reference": d,
+        }));
+    }
+    print!("{md}");
+    if let Some(path) = &flags.json {
+        let root = project_root();
+        let value = json!({
+            "host": host::host(),
+            "revision": host::revision(&root),
+            "seed": seed,
+            "rows": rows,
+        });
+        std::fs::write(path, serde_json::to_string_pretty(&value)? + "\n")?;
+    }
+    Ok(())
+}
