@@ -314,3 +314,82 @@ fn an_error_names_its_cause_once_and_outputs_never_replace_the_input() {
         assert_eq!(std::fs::read_to_string(&input).unwrap(), text, "{args:?}");
     }
 }
+
+/// A torus as a triangle mesh of `nu` × `nv` quads (two triangles each), written as ASCII PLY;
+/// returns the vertices and faces.
+fn torus_mesh(path: &std::path::Path, nu: usize, nv: usize) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    let (major, minor) = (1.0, 0.4);
+    let mut v = Vec::new();
+    for i in 0..nu {
+        for j in 0..nv {
+            let (a, b) = (
+                std::f64::consts::TAU * i as f64 / nu as f64,
+                std::f64::consts::TAU * j as f64 / nv as f64,
+            );
+            let r = major + minor * b.cos();
+            v.push(DVec3::new(r * a.cos(), r * a.sin(), minor * b.sin()));
+        }
+    }
+    let id = |i: usize, j: usize| ((i % nu) * nv + (j % nv)) as u32;
+    let mut f = Vec::new();
+    for i in 0..nu {
+        for j in 0..nv {
+            f.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            f.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    let mut text = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        v.len(),
+        f.len()
+    );
+    for p in &v {
+        text.push_str(&format!("{} {} {}\n", p.x, p.y, p.z));
+    }
+    for t in &f {
+        text.push_str(&format!("3 {} {} {}\n", t[0], t[1], t[2]));
+    }
+    std::fs::write(path, text).unwrap();
+    (v, f)
+}
+
+#[test]
+fn a_coarse_mesh_is_followed_and_a_fine_one_kept_as_it_is() {
+    use parry3d_f64::query::PointQuery;
+    let dir = scratch("scan-mesh");
+    let coarse = dir.join("coarse.ply");
+    let (v, f) = torus_mesh(&coarse, 24, 10);
+    let (report, particles) = sample(&coarse, &[]);
+    let added = report["input"]["mesh_points_added"].as_u64().unwrap();
+    assert!(added > 2000, "added {added}");
+    assert_eq!(report["input"]["points"], 480 + added);
+    let mesh = parry3d_f64::shape::TriMesh::new(v, f).unwrap();
+    let d = report["input"]["bbox_diagonal"].as_f64().unwrap();
+    let near = particles
+        .iter()
+        .filter(|p| mesh.distance_to_local_point(p.p, false) <= 2e-3 * d)
+        .count();
+    assert!(
+        near as f64 >= 0.995 * particles.len() as f64,
+        "{near} of {} within 2e-3 D of the mesh",
+        particles.len()
+    );
+    // Without the added points the implicit bulges between the coarse triangles' centroids.
+    let (_, plain) = sample(&coarse, &["--no-densify"]);
+    let near = plain
+        .iter()
+        .filter(|p| mesh.distance_to_local_point(p.p, false) <= 2e-3 * d)
+        .count();
+    assert!(
+        (near as f64) < 0.9 * plain.len() as f64,
+        "{near} of {}",
+        plain.len()
+    );
+    // A fine mesh of the same torus keeps one point per triangle.
+    let fine = dir.join("fine.ply");
+    torus_mesh(&fine, 240, 100);
+    let out = psi(&["info", fine.to_str().unwrap(), "--json"]);
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(j["points"], 48_000);
+    assert_eq!(j["mesh_points_added"], 0);
+}

@@ -3,6 +3,8 @@
 //! What happens to a point set between reading it and fitting the MPU: the repairs a real scan
 //! needs. Each step is a function on borrowed slices, usable on its own.
 //!
+//! * [`mesh_coarseness`], [`densify_mesh`]: whether a mesh's triangles are large against the
+//!   implicit's tolerance, and more points on them when they are;
 //! * [`find_outliers`]: stray points that no surface supports;
 //! * [`estimate_normals`]: normals for a cloud of positions only, from plane fits over an
 //!   adaptive neighbourhood;
@@ -30,6 +32,7 @@
 //! ```
 
 mod denoise;
+mod densify_mesh;
 mod estimate_noise;
 mod estimate_normals;
 mod find_outliers;
@@ -38,6 +41,7 @@ mod orient_normals;
 mod preprocess;
 
 pub use denoise::{DenoiseReport, denoise};
+pub use densify_mesh::{MeshCoarseness, densify_mesh, mesh_coarseness};
 pub use estimate_noise::{NoiseEstimate, estimate_noise};
 pub use estimate_normals::estimate_normals;
 pub use find_outliers::{Outliers, find_outliers};

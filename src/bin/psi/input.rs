@@ -22,6 +22,10 @@ pub(crate) fn peak_memory_bytes() -> Option<u64> {
 /// What was loaded and how it was prepared.
 pub(crate) struct Loaded {
     pub(crate) name: String,
+    /// How coarse the mesh was, when the input was one (and densification was on).
+    pub(crate) coarseness: Option<psi::preprocess::MeshCoarseness>,
+    /// Points added on a coarse mesh's large triangles.
+    pub(crate) added: usize,
     /// The input file (`None` for the built-in model).
     pub(crate) path: Option<PathBuf>,
     /// What the file held (its points as read).
@@ -70,6 +74,8 @@ impl Loaded {
             "vertices": self.file.vertices,
             "faces": self.file.faces,
             "degenerate_faces": self.file.degenerate_faces,
+            "mesh_coarseness": self.coarseness,
+            "mesh_points_added": self.added,
             "dropped_points": self.file.dropped_points,
             "bbox_min": bbox.map(|b| b.min.to_array()),
             "bbox_max": bbox.map(|b| b.max.to_array()),
@@ -155,6 +161,35 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
             (path.display().to_string(), file)
         }
     };
+    let mut file = file;
+    let mut coarseness = None;
+    let mut added = 0;
+    if let Some(mesh) = &file.mesh
+        && !args.no_densify
+        && !args.per_vertex
+    {
+        let t = std::time::Instant::now();
+        coarseness = psi::preprocess::mesh_coarseness(&mesh.vertices, &mesh.faces);
+        if let Some(max_area) = coarseness.and_then(|c| c.max_area) {
+            let extra = psi::preprocess::densify_mesh(&mesh.vertices, &mesh.faces, max_area);
+            added = extra.len();
+            file.points.extend(extra);
+        }
+        ui.timing("mesh densification", t.elapsed().as_secs_f64());
+        if ui.verbose
+            && let Some(c) = coarseness
+        {
+            eprintln!(
+                "psi: mesh: median vertex standoff {:.1e} D ({}); {added} points added on large triangles",
+                c.median_standoff,
+                if c.max_area.is_some() {
+                    "coarse"
+                } else {
+                    "fine"
+                }
+            );
+        }
+    }
     let missing = file.normals == NormalSource::Missing;
     if missing && !args.no_normal_estimation {
         ui.notice(&format!(
@@ -223,6 +258,8 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
     }
     Ok(Loaded {
         name,
+        coarseness,
+        added,
         path: args.input.clone(),
         file,
         points: prepared.points,

@@ -67,6 +67,10 @@ pub(crate) struct InputArgs {
     /// points are moved onto local quadric fits first).
     #[arg(long)]
     pub(crate) no_denoise: bool,
+    /// Keep one point per triangle of a coarse mesh (default: its large triangles get more, so
+    /// that the implicit follows the mesh).
+    #[arg(long)]
+    pub(crate) no_densify: bool,
 }
 
 /// A point `x,y,z` of the command line (world units).
