@@ -25,6 +25,7 @@
 
 mod error;
 mod files;
+mod prepare;
 pub mod render;
 
 pub use psi_io as io;
@@ -41,6 +42,7 @@ pub use files::{
     save_particles, save_points, write_atomically,
 };
 pub use glam::DVec3;
+pub use prepare::prepare_points;
 pub use psi_io::{MeshSampling, PointCloudFile, ReadOptions, TriangleMesh};
 pub use psi_mpu::{
     BuildReport, Mpu, MpuError, MpuParams, PolygonizeParams, TriangleSoup, polygonize,

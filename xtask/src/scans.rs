@@ -272,6 +272,13 @@ fn farthest_from_view(particles: &[OrientedPoint], view: &[OrientedPoint]) -> f6
         .reduce(|| 0.0, f64::max)
 }
 
+/// The seconds of all preprocessing steps in a report of `psi sample`.
+fn preprocess_seconds(report: &Value) -> f64 {
+    report["input"]["preprocess_seconds"]
+        .as_object()
+        .map_or(0.0, |steps| steps.values().filter_map(Value::as_f64).sum())
+}
+
 pub(crate) fn run(flags: &Flags) -> Result<()> {
     let dir = models_dir(flags)?;
     let psi = build_release()?;
@@ -287,7 +294,7 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
         None => MODELS.iter().map(|m| m.to_string()).collect(),
     };
     let mut md = format!(
-        "## Scans made from the shared models (seed {seed})\n\nEach case through `psi sample` with its defaults (20 iterations); distances of the particles to the clean reference mesh, over its D; MPU build seconds are medians of {TIMED_RUNS} runs; counts against the clean run's.\n\n| case | what psi is given | points to MPU (their mean distance, D) | outliers removed | noise estimate (D) | ε0 (D) | leaves | MPU build s (× clean) | particles (× clean) | mean / p99 / max distance (D) | within 2e-3 D | beyond 1e-2 D | other |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+        "## Scans made from the shared models (seed {seed})\n\nEach case through `psi sample` with its defaults (20 iterations); distances of the particles to the clean reference mesh, over its D; MPU build seconds are medians of {TIMED_RUNS} runs; counts against the clean run's.\n\n| case | what psi is given | points to MPU (their mean distance, D) | outliers removed | noise estimate (D) | ε0 (D) | leaves | preprocessing s | MPU build s (× clean) | particles (× clean) | mean / p99 / max distance (D) | within 2e-3 D | beyond 1e-2 D | other |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
     let mut rows = Vec::new();
     for model in &models {
@@ -341,7 +348,7 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
             }
             let other_text = other_text.join("; ");
             md.push_str(&format!(
-                "| {} | {} | {} ({:.1e}) | {} | {} | {:.4} | {} | {:.3} ({:.2}×) | {} ({:.2}×) | {:.1e} / {:.1e} / {:.1e} | {:.2} % | {} | {} |\n",
+                "| {} | {} | {} ({:.1e}) | {} | {} | {:.4} | {} | {:.3} | {:.3} ({:.2}×) | {} ({:.2}×) | {:.1e} / {:.1e} / {:.1e} | {:.2} % | {} | {} |\n",
                 case.name,
                 case.about,
                 r["input"]["points"],
@@ -350,6 +357,7 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
                 r["input"]["noise_estimate"]["relative"].as_f64().map_or("—".to_owned(), |v| format!("{v:.1e}")),
                 f(&r["mpu"]["error_threshold"]["relative"]),
                 r["mpu"]["leaves"],
+                preprocess_seconds(r),
                 o.build_seconds,
                 o.build_seconds / clean_build,
                 count,
@@ -396,12 +404,13 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
         let d = distance_stats(&reference.distances(&positions), diag);
         let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
         md.push_str(&format!(
-            "| {} | {} | {} | — | — | {:.4} | {} | {:.3} | {} | {:.1e} / {:.1e} / {:.1e} | {:.2} % | {} | against this mesh |\n",
+            "| {} | {} | {} | — | — | {:.4} | {} | {:.3} | {:.3} | {} | {:.1e} / {:.1e} / {:.1e} | {:.2} % | {} | against this mesh |\n",
             case.name,
             case.about,
             o.report["input"]["points"],
             f(&o.report["mpu"]["error_threshold"]["relative"]),
             o.report["mpu"]["leaves"],
+            preprocess_seconds(&o.report),
             o.build_seconds,
             o.particles.len(),
             f(&d["mean"]),

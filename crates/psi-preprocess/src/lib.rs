@@ -49,7 +49,7 @@ pub use orient_normals::{
     NormalConsistency, check_normal_consistency, orient_normals, orient_toward,
 };
 pub use preprocess::{
-    NOISE_ERROR_FACTOR, NormalTreatment, OutlierReport, PAPER_ERROR_REL, PreprocessError,
-    PreprocessParams, PreprocessReport, Preprocessed, StepSeconds, error_threshold_for_noise,
-    preprocess,
+    ErrorThreshold, MeshRef, MeshReport, NOISE_ERROR_FACTOR, NormalTreatment, OutlierReport,
+    PAPER_ERROR_REL, PreprocessError, PreprocessParams, PreprocessReport, Preprocessed, ScanInput,
+    StepSeconds, ThresholdSource, error_threshold_for_noise, preprocess,
 };

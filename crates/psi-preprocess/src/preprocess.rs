@@ -8,8 +8,9 @@ use psi_octree::{Aabb, OrientedPoint};
 use serde::{Deserialize, Serialize};
 
 use crate::{
-    DenoiseReport, NoiseEstimate, NormalConsistency, check_normal_consistency, denoise,
-    estimate_noise, estimate_normals, find_outliers, orient_normals, orient_toward,
+    DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, check_normal_consistency,
+    denoise, densify_mesh, estimate_noise, estimate_normals, find_outliers, mesh_coarseness,
+    orient_normals, orient_toward,
 };
 
 /// Ohtake's error threshold ε0 relative to the bounding-box diagonal D (algorithms.md §1.1):
@@ -41,6 +42,8 @@ pub struct PreprocessParams {
     /// Where the noise would raise ε0 above the paper's, take it out of the positions first
     /// ([`crate::denoise`]; needs `estimate_noise`).
     pub denoise: bool,
+    /// Add points on a coarse mesh's large triangles ([`crate::densify_mesh`]).
+    pub densify_meshes: bool,
 }
 
 impl PreprocessParams {
@@ -54,6 +57,7 @@ impl PreprocessParams {
             orient_given_normals: false,
             estimate_noise: true,
             denoise: true,
+            densify_meshes: true,
         }
     }
 
@@ -66,6 +70,7 @@ impl PreprocessParams {
             orient_given_normals: false,
             estimate_noise: false,
             denoise: false,
+            densify_meshes: false,
         }
     }
 }
@@ -95,6 +100,61 @@ pub struct OutlierReport {
     pub off_surface: usize,
 }
 
+/// A triangle mesh the points were taken from, one per triangle at its centroid with the face
+/// normal, borrowed.
+#[derive(Clone, Copy, Debug)]
+pub struct MeshRef<'a> {
+    /// Vertex positions (shape: V), world units.
+    pub vertices: &'a [DVec3],
+    /// Triangles (shape: F), indices into `vertices`, counter-clockwise seen from outside.
+    pub faces: &'a [[u32; 3]],
+}
+
+/// What [`preprocess`] works on.
+#[derive(Clone, Debug)]
+pub struct ScanInput<'a> {
+    /// The points (shape: N, world units): unit normals, or all zero when `normals_given` is
+    /// false.
+    pub points: Vec<OrientedPoint>,
+    /// Whether the points carry normals.
+    pub normals_given: bool,
+    /// The mesh the points are the triangles' centroids of, when they come from one. Its
+    /// triangles are taken as the surface: the points are then not searched for outliers (the
+    /// mesh's connectivity supports them), nor denoised, nor is ε0 raised for noise (a coarse
+    /// mesh's quadric residuals measure its coarseness); a coarse mesh gets more points.
+    pub mesh: Option<MeshRef<'a>>,
+}
+
+/// The mesh step's result.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeshReport {
+    /// How coarse the mesh is.
+    pub coarseness: MeshCoarseness,
+    /// Points added on its large triangles.
+    pub points_added: usize,
+}
+
+/// Where an MPU error threshold comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ThresholdSource {
+    /// Given by the user.
+    User,
+    /// Set from the noise estimate ([`NOISE_ERROR_FACTOR`] × σ).
+    Noise,
+    /// The paper's 0.005.
+    Paper,
+}
+
+/// An MPU error threshold ε0 relative to D and where it comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ErrorThreshold {
+    /// ε0 / D.
+    pub relative: f64,
+    /// Where it comes from.
+    pub source: ThresholdSource,
+}
+
 /// What [`preprocess`] did, step by step.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PreprocessReport {
@@ -102,6 +162,8 @@ pub struct PreprocessReport {
     pub points_in: usize,
     /// Points passed on (to the MPU).
     pub points_out: usize,
+    /// The mesh step, when the points came from a mesh and the step ran.
+    pub mesh: Option<MeshReport>,
     /// The outlier step, when it ran.
     pub outliers: Option<OutlierReport>,
     /// What happened to the normals.
@@ -129,6 +191,8 @@ pub struct PreprocessReport {
 /// Seconds per step (0 for a step that did not run).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StepSeconds {
+    /// Judging a mesh's coarseness and adding points.
+    pub mesh: f64,
     /// Finding outliers.
     pub outliers: f64,
     /// Estimating, checking and orienting normals.
@@ -155,13 +219,44 @@ pub enum PreprocessError {
     ///
     /// ```
     /// use psi_octree::OrientedPoint;
-    /// use psi_preprocess::{preprocess, PreprocessError, PreprocessParams};
+    /// use psi_preprocess::{preprocess, PreprocessError, PreprocessParams, ScanInput};
     /// let points = vec![OrientedPoint { p: glam::DVec3::ZERO, n: glam::DVec3::ZERO }; 20];
-    /// let err = preprocess(points, false, &PreprocessParams::none()).unwrap_err();
+    /// let input = ScanInput { points, normals_given: false, mesh: None };
+    /// let err = preprocess(input, &PreprocessParams::none()).unwrap_err();
     /// assert_eq!(err, PreprocessError::NoNormals);
     /// ```
     #[error("the points have no normals and normal estimation is off")]
     NoNormals,
+}
+
+impl PreprocessReport {
+    /// The MPU error threshold to use: `user`'s when given, else the one the noise suggests
+    /// when it is above the paper's, else the paper's.
+    ///
+    /// ```
+    /// use psi_preprocess::{preprocess, PreprocessParams, ScanInput, ThresholdSource};
+    /// let points = psi_shapes::AnalyticShape::Sphere { radius: 1.0 }.sample(2000, 1);
+    /// let input = ScanInput { points, normals_given: true, mesh: None };
+    /// let done = preprocess(input, &PreprocessParams::scan()).unwrap();
+    /// assert_eq!(done.report.error_threshold(None).source, ThresholdSource::Paper);
+    /// assert_eq!(done.report.error_threshold(Some(0.01)).relative, 0.01);
+    /// ```
+    pub fn error_threshold(&self, user: Option<f64>) -> ErrorThreshold {
+        match user {
+            Some(relative) => ErrorThreshold {
+                relative,
+                source: ThresholdSource::User,
+            },
+            None if self.error_rel > PAPER_ERROR_REL => ErrorThreshold {
+                relative: self.error_rel,
+                source: ThresholdSource::Noise,
+            },
+            None => ErrorThreshold {
+                relative: PAPER_ERROR_REL,
+                source: ThresholdSource::Paper,
+            },
+        }
+    }
 }
 
 /// ε0 relative to D for a noise of `noise_rel` × D: the paper's 0.005, or
@@ -170,45 +265,69 @@ pub fn error_threshold_for_noise(noise_rel: f64) -> f64 {
     (NOISE_ERROR_FACTOR * noise_rel).max(PAPER_ERROR_REL)
 }
 
-/// Prepares `points` (shape: N, world units; unit normals, or all zero when `normals_given` is
-/// false) for the MPU, as `params` say, in this order: outliers removed; normals estimated and
+/// Prepares `input`'s points for the MPU, as `params` say, in this order: a coarse mesh's
+/// large triangles given more points; outliers removed (not for a mesh); normals estimated and
 /// oriented (toward `params.viewpoint`, else by propagation) when there are none, else checked
 /// for consistency and, with `params.orient_given_normals`, reoriented; the noise estimated;
 /// where it would raise the error threshold above the paper's, the points denoised and the
-/// noise estimated again; the error threshold the noise left suggests. Deterministic and independent of the thread count.
+/// noise estimated again (not for a mesh); the error threshold the noise left suggests (the
+/// paper's for a mesh). Deterministic and independent of the thread count.
 ///
 /// # Errors
 ///
 /// [`PreprocessError::NoNormals`] when the points have no normals and estimation is off.
 ///
 /// ```
-/// use psi_preprocess::{preprocess, PreprocessParams, NormalTreatment};
+/// use psi_preprocess::{preprocess, PreprocessParams, NormalTreatment, ScanInput};
 /// use psi_shapes::AnalyticShape;
 ///
 /// // A sphere's positions alone: normals estimated and oriented outward.
 /// let truth = AnalyticShape::Sphere { radius: 1.0 }.sample(5000, 1);
 /// let bare = truth.iter().map(|p| psi_octree::OrientedPoint { p: p.p, n: glam::DVec3::ZERO }).collect();
-/// let done = preprocess(bare, false, &PreprocessParams::scan()).unwrap();
+/// let input = ScanInput { points: bare, normals_given: false, mesh: None };
+/// let done = preprocess(input, &PreprocessParams::scan()).unwrap();
 /// assert_eq!(done.report.normals, NormalTreatment::EstimatedPropagated);
 /// assert_eq!(done.report.outliers.unwrap().removed, 0);
 /// assert!(done.points.iter().zip(&truth).all(|(a, b)| a.n.dot(b.n) > 0.9));
 /// assert_eq!(done.report.error_rel, 0.005); // clean: the paper's threshold
 /// ```
 pub fn preprocess(
-    points: Vec<OrientedPoint>,
-    normals_given: bool,
+    input: ScanInput<'_>,
     params: &PreprocessParams,
 ) -> Result<Preprocessed, PreprocessError> {
+    let ScanInput {
+        mut points,
+        normals_given,
+        mesh,
+    } = input;
     if !normals_given && !params.estimate_normals {
         return Err(PreprocessError::NoNormals);
     }
     let _span = tracing::info_span!("preprocess", points = points.len()).entered();
     let points_in = points.len();
     let mut seconds = StepSeconds::default();
-    let mut points = points;
+
+    let mut mesh_report = None;
+    if let Some(m) = mesh
+        && params.densify_meshes
+    {
+        let t = Instant::now();
+        if let Some(coarseness) = mesh_coarseness(m.vertices, m.faces) {
+            let extra = coarseness
+                .max_area
+                .map(|a| densify_mesh(m.vertices, m.faces, a))
+                .unwrap_or_default();
+            mesh_report = Some(MeshReport {
+                coarseness,
+                points_added: extra.len(),
+            });
+            points.extend(extra);
+        }
+        seconds.mesh = t.elapsed().as_secs_f64();
+    }
 
     let mut outliers = None;
-    if params.remove_outliers {
+    if params.remove_outliers && mesh.is_none() {
         let t = Instant::now();
         let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
         let normals: Vec<DVec3> = points.iter().map(|p| p.n).collect();
@@ -274,7 +393,10 @@ pub fn preprocess(
         }
         noise = Some(estimate);
         seconds.noise = t.elapsed().as_secs_f64();
-        if params.denoise && error_rel > PAPER_ERROR_REL {
+        if mesh.is_some() {
+            // The triangles are the surface: their residuals are no noise to fit around.
+            error_rel = PAPER_ERROR_REL;
+        } else if params.denoise && error_rel > PAPER_ERROR_REL {
             let t = Instant::now();
             denoised = Some(denoise(&mut points, estimate.sigma));
             seconds.denoise = t.elapsed().as_secs_f64();
@@ -291,6 +413,7 @@ pub fn preprocess(
         report: PreprocessReport {
             points_in,
             points_out: points.len(),
+            mesh: mesh_report,
             outliers,
             normals,
             normals_flipped,

@@ -22,10 +22,6 @@ pub(crate) fn peak_memory_bytes() -> Option<u64> {
 /// What was loaded and how it was prepared.
 pub(crate) struct Loaded {
     pub(crate) name: String,
-    /// How coarse the mesh was, when the input was one (and densification was on).
-    pub(crate) coarseness: Option<psi::preprocess::MeshCoarseness>,
-    /// Points added on a coarse mesh's large triangles.
-    pub(crate) added: usize,
     /// The input file (`None` for the built-in model).
     pub(crate) path: Option<PathBuf>,
     /// What the file held (its points as read).
@@ -74,8 +70,8 @@ impl Loaded {
             "vertices": self.file.vertices,
             "faces": self.file.faces,
             "degenerate_faces": self.file.degenerate_faces,
-            "mesh_coarseness": self.coarseness,
-            "mesh_points_added": self.added,
+            "mesh_coarseness": p.mesh.map(|m| m.coarseness),
+            "mesh_points_added": p.mesh.map_or(0, |m| m.points_added),
             "dropped_points": self.file.dropped_points,
             "bbox_min": bbox.map(|b| b.min.to_array()),
             "bbox_max": bbox.map(|b| b.max.to_array()),
@@ -99,34 +95,22 @@ impl Loaded {
         })
     }
 
-    /// The MPU error threshold ε0/D to use and where it comes from: the user's `--mpu-error`,
-    /// else the one the noise suggests ("noise", when above the paper's, for a point cloud),
-    /// else the paper's.
-    pub(crate) fn error_threshold(&self, user: Option<f64>) -> (f64, &'static str) {
-        match user {
-            Some(e) => (e, "user"),
-            None if self.file.faces == 0
-                && self.prep.error_rel > psi::preprocess::PAPER_ERROR_REL =>
-            {
-                (self.prep.error_rel, "noise")
-            }
-            None => (psi::preprocess::PAPER_ERROR_REL, "paper"),
-        }
+    /// The MPU error threshold to use ([`psi::preprocess::PreprocessReport::error_threshold`]).
+    pub(crate) fn error_threshold(&self, user: Option<f64>) -> psi::preprocess::ErrorThreshold {
+        self.prep.error_threshold(user)
     }
 }
 
-/// The preprocessing steps the flags ask for, for `file`. A mesh's triangles are taken as the
-/// surface: its points are not searched for outliers (its connectivity supports them) nor
-/// denoised (the quadric residuals of a coarse mesh's points measure its coarseness, not
-/// noise).
-fn preprocess_params(args: &InputArgs, file: &PointCloudFile) -> PreprocessParams {
+/// The preprocessing steps the flags ask for.
+fn preprocess_params(args: &InputArgs) -> PreprocessParams {
     PreprocessParams {
-        remove_outliers: !args.keep_outliers && file.faces == 0,
+        remove_outliers: !args.keep_outliers,
         estimate_normals: !args.no_normal_estimation,
         viewpoint: args.viewpoint.map(|v| psi::DVec3::from_array(v.0)),
         orient_given_normals: args.orient_normals,
         estimate_noise: !args.no_noise_estimate,
-        denoise: !args.no_denoise && file.faces == 0,
+        denoise: !args.no_denoise,
+        densify_meshes: !args.no_densify,
     }
 }
 
@@ -161,35 +145,6 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
             (path.display().to_string(), file)
         }
     };
-    let mut file = file;
-    let mut coarseness = None;
-    let mut added = 0;
-    if let Some(mesh) = &file.mesh
-        && !args.no_densify
-        && !args.per_vertex
-    {
-        let t = std::time::Instant::now();
-        coarseness = psi::preprocess::mesh_coarseness(&mesh.vertices, &mesh.faces);
-        if let Some(max_area) = coarseness.and_then(|c| c.max_area) {
-            let extra = psi::preprocess::densify_mesh(&mesh.vertices, &mesh.faces, max_area);
-            added = extra.len();
-            file.points.extend(extra);
-        }
-        ui.timing("mesh densification", t.elapsed().as_secs_f64());
-        if ui.verbose
-            && let Some(c) = coarseness
-        {
-            eprintln!(
-                "psi: mesh: median vertex standoff {:.1e} D ({}); {added} points added on large triangles",
-                c.median_standoff,
-                if c.max_area.is_some() {
-                    "coarse"
-                } else {
-                    "fine"
-                }
-            );
-        }
-    }
     let missing = file.normals == NormalSource::Missing;
     if missing && !args.no_normal_estimation {
         ui.notice(&format!(
@@ -201,16 +156,11 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
             }
         ));
     }
-    let params = preprocess_params(args, &file);
-    let prepared =
-        psi::preprocess::preprocess(file.points.clone(), !missing, &params).map_err(|e| {
-            Failure {
-                error: anyhow::anyhow!(
-                    "{name}: {e}; drop --no-normal-estimation or give oriented points"
-                ),
-                code: 2,
-            }
-        })?;
+    let params = preprocess_params(args);
+    let prepared = psi::prepare_points(&file, &params).map_err(|e| Failure {
+        error: anyhow::anyhow!("{name}: {e}; drop --no-normal-estimation or give oriented points"),
+        code: 2,
+    })?;
     let prep = prepared.report;
     if let Some(c) = prep.consistency
         && !args.orient_normals
@@ -221,11 +171,24 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
             100.0 * c.opposed_fraction()
         );
     }
+    ui.timing("mesh densification", prep.seconds.mesh);
     ui.timing("outliers", prep.seconds.outliers);
     ui.timing("normals", prep.seconds.normals);
     ui.timing("noise estimate", prep.seconds.noise);
     ui.timing("denoising", prep.seconds.denoise);
     if ui.verbose {
+        if let Some(m) = prep.mesh {
+            eprintln!(
+                "psi: mesh: median vertex standoff {:.1e} D ({}); {} points added on large triangles",
+                m.coarseness.median_standoff,
+                if m.coarseness.max_area.is_some() {
+                    "coarse"
+                } else {
+                    "fine"
+                },
+                m.points_added
+            );
+        }
         if let Some(o) = prep.outliers {
             eprintln!(
                 "psi: outliers: {} removed ({} far from the surface, {} off it)",
@@ -258,8 +221,6 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
     }
     Ok(Loaded {
         name,
-        coarseness,
-        added,
         path: args.input.clone(),
         file,
         points: prepared.points,

@@ -89,7 +89,7 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         iterations: args.iterations,
         ..ParticleParams::paper()
     };
-    let (error_rel, _) = loaded.error_threshold(args.mpu.mpu_error);
+    let error_rel = loaded.error_threshold(args.mpu.mpu_error).relative;
     let mpu_params = args.mpu.params(error_rel);
     let (mut scene, _) = Scene::new(loaded.points().to_vec(), &mpu_params, &params)
         .with_context(|| format!("{}: building the scene", loaded.name))?;

@@ -26,7 +26,7 @@ pub(crate) struct MeshArgs {
 pub(crate) fn run(args: &MeshArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     let loaded = load(&args.input, ui)?;
     loaded.check_output(&args.output, "-o")?;
-    let (error_rel, _) = loaded.error_threshold(args.mpu.mpu_error);
+    let error_rel = loaded.error_threshold(args.mpu.mpu_error).relative;
     let mpu = crate::ui::build_mpu(ui, loaded.points(), &args.mpu.params(error_rel))
         .with_context(|| format!("{}: building the MPU implicit", loaded.name))?;
     let t = std::time::Instant::now();

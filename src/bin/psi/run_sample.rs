@@ -74,7 +74,8 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
             loaded.check_output(path, flag)?;
         }
     }
-    let (error_rel, error_source) = loaded.error_threshold(args.mpu.mpu_error);
+    let threshold = loaded.error_threshold(args.mpu.mpu_error);
+    let error_rel = threshold.relative;
     let mpu = crate::ui::build_mpu(ui, loaded.points(), &args.mpu.params(error_rel))
         .with_context(|| format!("{}: building the MPU implicit", loaded.name))?;
     let params = ParticleParams {
@@ -121,7 +122,7 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
             "error_threshold": {
                 "relative": error_rel,
                 "world": r.eps0,
-                "source": error_source,
+                "source": threshold.source,
             },
             "report": r,
             "params": mpu.params(),

@@ -1,0 +1,38 @@
+//! Wiring a file's points to the preprocessing stage: `psi-io`'s [`PointCloudFile`] to
+//! `psi-preprocess`'s [`ScanInput`]. No algorithm here.
+
+use psi_io::{NormalSource, PointCloudFile};
+use psi_preprocess::{MeshRef, PreprocessError, PreprocessParams, Preprocessed, ScanInput};
+
+/// Prepares the points of `file` for the MPU with [`psi_preprocess::preprocess`]: its normals
+/// count as given unless the file had none, and its mesh is passed on when the points are its
+/// triangles' centroids (not per-vertex points).
+///
+/// ```
+/// let file = psi_io::read_points(b"0 0 0\n1 0 0\n", psi_io::Format::Xyz, &psi::ReadOptions::paper()).unwrap();
+/// let params = psi::preprocess::PreprocessParams::none();
+/// // Positions without normals, estimation off: refused.
+/// assert!(psi::prepare_points(&file, &params).is_err());
+/// ```
+///
+/// # Errors
+///
+/// [`PreprocessError::NoNormals`] for a file without normals when estimation is off.
+pub fn prepare_points(
+    file: &PointCloudFile,
+    params: &PreprocessParams,
+) -> Result<Preprocessed, PreprocessError> {
+    let mesh = match (&file.mesh, file.normals) {
+        (Some(m), NormalSource::Faces) => Some(MeshRef {
+            vertices: &m.vertices,
+            faces: &m.faces,
+        }),
+        _ => None,
+    };
+    let input = ScanInput {
+        points: file.points.clone(),
+        normals_given: file.normals != NormalSource::Missing,
+        mesh,
+    };
+    psi_preprocess::preprocess(input, params)
+}
