@@ -11,6 +11,7 @@ use psi_octree::PointIndex;
 use rayon::prelude::*;
 
 use crate::local_fit::Moments;
+use crate::spatial_order::SpatialOrder;
 
 /// The neighbourhood sizes tried, ascending.
 const SIZES: [usize; 5] = [12, 16, 24, 32, 48];
@@ -33,6 +34,12 @@ const SIZES: [usize; 5] = [12, 16, 24, 32, 48];
 /// }
 /// ```
 pub fn estimate_normals(positions: &[DVec3]) -> Vec<DVec3> {
+    let order = SpatialOrder::new(positions);
+    order.scatter(&normals_in_order(&order.gather(positions)))
+}
+
+/// [`estimate_normals`] of points already in a spatially coherent order.
+fn normals_in_order(positions: &[DVec3]) -> Vec<DVec3> {
     let index = PointIndex::new(positions);
     let largest = SIZES[SIZES.len() - 1];
     positions

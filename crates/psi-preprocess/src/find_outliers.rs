@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::local_fit::QuadricFit;
+use crate::spatial_order::SpatialOrder;
 
 /// Neighbours per point (itself excluded).
 const NEIGHBOURS: usize = 16;
@@ -138,8 +139,20 @@ fn off_surface(fit: &QuadricFit, p: DVec3, spacing: f64) -> bool {
 /// assert!(found.mask[900] && !found.mask[901]);
 /// ```
 pub fn find_outliers(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers {
+    let normals = normals.filter(|v| v.len() == positions.len());
+    let order = SpatialOrder::new(positions);
+    let sorted = order.gather(positions);
+    let sorted_normals = normals.map(|v| order.gather(v));
+    let found = outliers_in_order(&sorted, sorted_normals.as_deref());
+    Outliers {
+        mask: order.scatter(&found.mask),
+        ..found
+    }
+}
+
+/// [`find_outliers`] on points already in a spatially coherent order.
+fn outliers_in_order(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers {
     let n = positions.len();
-    let normals = normals.filter(|v| v.len() == n);
     // Whether a point's given normal lies along the normals of at least a quarter of `near`
     // (either sign: orientation is repaired later), as a point of a surface's does.
     let normal_fits = |i: usize, near: &mut dyn Iterator<Item = usize>| {
@@ -161,18 +174,17 @@ pub fn find_outliers(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers
     }
     let index = PointIndex::new(positions);
     // Each point's neighbours, itself excluded (a coincident twin counts as a neighbour).
-    let neighbours: Vec<Vec<u32>> = (0..n as u32)
+    let neighbours: Vec<[u32; NEIGHBOURS]> = (0..n as u32)
         .into_par_iter()
         .map(|i| {
-            let mut near: Vec<u32> = index
-                .nearest(positions[i as usize], NEIGHBOURS + 1)
-                .into_iter()
-                .map(|(j, _)| j)
-                .collect();
-            match near.iter().position(|&j| j == i) {
-                Some(k) => near.remove(k),
-                None => near.pop().unwrap_or_default(),
-            };
+            let mut near = [0u32; NEIGHBOURS];
+            let mut k = 0;
+            for (j, _) in index.nearest(positions[i as usize], NEIGHBOURS + 1) {
+                if j != i && k < NEIGHBOURS {
+                    near[k] = j;
+                    k += 1;
+                }
+            }
             near
         })
         .collect();
@@ -190,9 +202,18 @@ pub fn find_outliers(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers
         .into_par_iter()
         .map(|i| {
             let near = &neighbours[i];
-            let mut around: Vec<f64> = near.iter().map(|&j| reach[j as usize]).collect();
+            let mut around = near.map(|j| reach[j as usize]);
             let local = median(&mut around);
-            let pts: Vec<DVec3> = near.iter().map(|&j| positions[j as usize]).collect();
+            let pts = near.map(|j| positions[j as usize]);
+            // Most points of a surface sit among their neighbours, within a fraction of a
+            // spacing of their centroid: no fit can find them off it.
+            let centroid = pts.iter().sum::<DVec3>() / NEIGHBOURS as f64;
+            if reach[i] <= LOCAL_DENSITY * local
+                && reach[i] <= GLOBAL_DENSITY * typical
+                && (positions[i] - centroid).length() <= LIFTED_SPACINGS * spacing_of(local)
+            {
+                return Status::Core;
+            }
             let Some(fit) = QuadricFit::of(&pts, reach[i]) else {
                 return Status::Unsure;
             };

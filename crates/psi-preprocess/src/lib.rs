@@ -39,6 +39,7 @@ mod find_outliers;
 mod local_fit;
 mod orient_normals;
 mod preprocess;
+mod spatial_order;
 
 pub use denoise::{DenoiseReport, denoise};
 pub use densify_mesh::{MeshCoarseness, densify_mesh, mesh_coarseness};

@@ -222,16 +222,14 @@ impl QuadricFit {
         (h - fit) * self.scale
     }
 
-    /// The height of `p` over this fit, corrected by the fit's error near `p`: the residuals of
-    /// `near` (points around `p`, world units) are fitted by a plane over (u, v), whose value
-    /// at `p` is subtracted. The curvature comes from this fit (of more points), the offset and
-    /// tilt near `p` from `near`: its intercept varies as σ²/|near| rather than the full
-    /// quadric's several times that. Falls back to [`QuadricFit::height`] for fewer than 3
-    /// points or a singular system.
-    pub(crate) fn refined_height(&self, p: DVec3, near: &[DVec3]) -> f64 {
-        let height = self.height(p);
+    /// This fit corrected near `near` (points around a place, world units): the residuals of
+    /// `near` are fitted by a plane over (u, v) and added to the fit's offset and slopes. The
+    /// curvature comes from this fit (of more points), the offset and tilt there from `near`:
+    /// its offset varies as σ²/|near| rather than a full quadric's several times that. Unchanged
+    /// for fewer than 3 points or a singular system.
+    pub(crate) fn refined(&self, near: &[DVec3]) -> QuadricFit {
         if near.len() < 3 {
-            return height;
+            return *self;
         }
         let mut ata = nalgebra::Matrix3::<f64>::zeros();
         let mut atb = nalgebra::Vector3::<f64>::zeros();
@@ -247,15 +245,16 @@ impl QuadricFit {
             }
         }
         let Some(c) = ata.cholesky().map(|ch| ch.solve(&atb)) else {
-            return height;
+            return *self;
         };
-        let (row, _) = self.row(p);
-        let correction = (c[0] + c[1] * row[1] + c[2] * row[2]) * self.scale;
-        if correction.is_finite() {
-            height - correction
-        } else {
-            height
+        if !c.iter().all(|v| v.is_finite()) {
+            return *self;
         }
+        let mut refined = *self;
+        for i in 0..3 {
+            refined.coef[i] += c[i];
+        }
+        refined
     }
 
     /// The plane's unit normal (the direction of heights).
