@@ -4,22 +4,23 @@
 use psi_io::{NormalSource, PointCloudFile};
 use psi_preprocess::{MeshRef, PreprocessError, PreprocessParams, Preprocessed, ScanInput};
 
-/// Prepares the points of `file` for the MPU with [`psi_preprocess::preprocess`]: its normals
-/// count as given unless the file had none, and its mesh is passed on when the points are its
+/// Prepares the points of `file` for the MPU with [`psi_preprocess::preprocess`], moving them
+/// out of it (`file.points` is left empty; the rest of `file` stays): its normals count as
+/// given unless the file had none, and its mesh is passed on when the points are its
 /// triangles' centroids (not per-vertex points).
 ///
 /// ```
-/// let file = psi_io::read_points(b"0 0 0\n1 0 0\n", psi_io::Format::Xyz, &psi::ReadOptions::paper()).unwrap();
+/// let mut file = psi_io::read_points(b"0 0 0\n1 0 0\n", psi_io::Format::Xyz, &psi::ReadOptions::paper()).unwrap();
 /// let params = psi::preprocess::PreprocessParams::none();
 /// // Positions without normals, estimation off: refused.
-/// assert!(psi::prepare_points(&file, &params).is_err());
+/// assert!(psi::prepare_points(&mut file, &params).is_err());
 /// ```
 ///
 /// # Errors
 ///
 /// [`PreprocessError::NoNormals`] for a file without normals when estimation is off.
 pub fn prepare_points(
-    file: &PointCloudFile,
+    file: &mut PointCloudFile,
     params: &PreprocessParams,
 ) -> Result<Preprocessed, PreprocessError> {
     let mesh = match (&file.mesh, file.normals) {
@@ -30,7 +31,7 @@ pub fn prepare_points(
         _ => None,
     };
     let input = ScanInput {
-        points: file.points.clone(),
+        points: std::mem::take(&mut file.points),
         normals_given: file.normals != NormalSource::Missing,
         mesh,
     };

@@ -8,7 +8,7 @@
 //! against the surface rather than against itself.
 
 use glam::DVec3;
-use psi_octree::PointIndex;
+use psi_octree::{OrientedPoint, PointIndex};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -150,6 +150,24 @@ pub fn find_outliers(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers
     }
 }
 
+/// [`find_outliers`] of `points` (their positions, and their normals when `normals_given`),
+/// without copying them first.
+pub(crate) fn find_outliers_of(points: &[OrientedPoint], normals_given: bool) -> Outliers {
+    let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+    let order = SpatialOrder::new(&positions);
+    drop(positions);
+    let sorted_points = order.gather(points);
+    let sorted: Vec<DVec3> = sorted_points.iter().map(|p| p.p).collect();
+    let sorted_normals: Option<Vec<DVec3>> =
+        normals_given.then(|| sorted_points.iter().map(|p| p.n).collect());
+    drop(sorted_points);
+    let found = outliers_in_order(&sorted, sorted_normals.as_deref());
+    Outliers {
+        mask: order.scatter(&found.mask),
+        ..found
+    }
+}
+
 /// [`find_outliers`] on points already in a spatially coherent order.
 fn outliers_in_order(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers {
     let n = positions.len();
@@ -236,9 +254,17 @@ fn outliers_in_order(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers
             }
         })
         .collect();
-    let core: Vec<bool> = status.iter().map(|s| *s == Status::Core).collect();
+    drop(neighbours);
+    if !status.contains(&Status::Unsure) {
+        return Outliers {
+            mask: vec![false; n],
+            ..Outliers::default()
+        };
+    }
     // The other points, judged against the core points near them.
-    let core_ids: Vec<u32> = (0..n as u32).filter(|&i| core[i as usize]).collect();
+    let core_ids: Vec<u32> = (0..n as u32)
+        .filter(|&i| status[i as usize] == Status::Core)
+        .collect();
     let core_positions: Vec<DVec3> = core_ids.iter().map(|&i| positions[i as usize]).collect();
     let core_index = PointIndex::new(&core_positions);
     // 0: inlier, 1: far, 2: off the surface.

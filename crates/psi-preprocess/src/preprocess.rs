@@ -7,10 +7,12 @@ use glam::DVec3;
 use psi_octree::{Aabb, OrientedPoint};
 use serde::{Deserialize, Serialize};
 
+use crate::find_outliers::find_outliers_of;
+
 use crate::{
     DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, check_normal_consistency,
-    denoise, densify_mesh, estimate_noise, estimate_normals, find_outliers, mesh_coarseness,
-    orient_normals, orient_toward,
+    denoise, densify_mesh, estimate_noise, estimate_normals, mesh_coarseness, orient_normals,
+    orient_toward,
 };
 
 /// Ohtake's error threshold ε0 relative to the bounding-box diagonal D (algorithms.md §1.1):
@@ -329,9 +331,7 @@ pub fn preprocess(
     let mut outliers = None;
     if params.remove_outliers && mesh.is_none() {
         let t = Instant::now();
-        let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
-        let normals: Vec<DVec3> = points.iter().map(|p| p.n).collect();
-        let found = find_outliers(&positions, normals_given.then_some(&normals[..]));
+        let found = find_outliers_of(&points, normals_given);
         if found.count() > 0 {
             let mut keep = found.mask.iter().map(|m| !m);
             points.retain(|_| keep.next().unwrap_or(true));

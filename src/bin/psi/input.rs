@@ -24,8 +24,10 @@ pub(crate) struct Loaded {
     pub(crate) name: String,
     /// The input file (`None` for the built-in model).
     pub(crate) path: Option<PathBuf>,
-    /// What the file held (its points as read).
+    /// What the file held (its points moved to `points`).
     pub(crate) file: PointCloudFile,
+    /// Points read from the file.
+    pub(crate) points_read: usize,
     /// The points for the MPU, after preprocessing.
     pub(crate) points: Vec<OrientedPoint>,
     /// What preprocessing did.
@@ -66,7 +68,7 @@ impl Loaded {
         json!({
             "source": self.name,
             "points": self.points.len(),
-            "points_read": self.file.points.len(),
+            "points_read": self.points_read,
             "vertices": self.file.vertices,
             "faces": self.file.faces,
             "degenerate_faces": self.file.degenerate_faces,
@@ -157,7 +159,9 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
         ));
     }
     let params = preprocess_params(args);
-    let prepared = psi::prepare_points(&file, &params).map_err(|e| Failure {
+    let points_read = file.points.len();
+    let mut file = file;
+    let prepared = psi::prepare_points(&mut file, &params).map_err(|e| Failure {
         error: anyhow::anyhow!("{name}: {e}; drop --no-normal-estimation or give oriented points"),
         code: 2,
     })?;
@@ -221,6 +225,7 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
     }
     Ok(Loaded {
         name,
+        points_read,
         path: args.input.clone(),
         file,
         points: prepared.points,

@@ -14,7 +14,7 @@ pub(crate) fn run(args: &InputArgs, json: bool, ui: crate::ui::Ui) -> Result<(),
         println!("faces          {}", loaded.file.faces);
         println!(
             "points         {} read, {} kept",
-            loaded.file.points.len(),
+            loaded.points_read,
             loaded.points.len()
         );
         if loaded.file.degenerate_faces > 0 {
