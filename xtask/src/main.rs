@@ -13,6 +13,8 @@
 //! * `scans [--models DIR] [--only a,b] [--seed S] [--json FILE]`: psi on scan-like variants
 //!   of the shared models (noise, stray points, positions alone, one view, a coarse mesh),
 //!   checked against the clean meshes (`scans.rs`).
+//! * `session [--models DIR] [--json FILE]`: an editing session on the bunny (20 strokes
+//!   through `psi edit --strokes`), per-edit times, locality and accuracy (`session.rs`).
 //! * `bench <program> [args]`: timing and tuning programs of the library (`bench.rs`), run
 //!   from a release build.
 
@@ -29,6 +31,7 @@ mod memory;
 mod paper;
 mod reference;
 mod scans;
+mod session;
 mod tables;
 mod tidy;
 
@@ -100,6 +103,7 @@ fn main() -> std::process::ExitCode {
         Some("check-reference") => parse(&args[1..]).and_then(|f| check_reference::run(&f)),
         Some("figures") => parse(&args[1..]).and_then(|f| figures::run(&f)),
         Some("scans") => parse(&args[1..]).and_then(|f| scans::run(&f)),
+        Some("session") => parse(&args[1..]).and_then(|f| session::run(&f)),
         Some("bench") => bench::run(&args[1..]),
         Some("memory") => {
             let points = match args.get(1).map(String::as_str) {
@@ -113,7 +117,7 @@ fn main() -> std::process::ExitCode {
         }
         _ => {
             eprintln!(
-                "usage: cargo xtask reproduce-tables|check-reference|figures|scans [--models DIR] [--only a,b] [--iterations N] [--seed S] [--json FILE]\n       cargo xtask memory [--points N]\n       cargo xtask bench relax|eval|edit|tune|tune-shapes|level-cv [args]"
+                "usage: cargo xtask reproduce-tables|check-reference|figures|scans|session [--models DIR] [--only a,b] [--iterations N] [--seed S] [--json FILE]\n       cargo xtask memory [--points N]\n       cargo xtask bench relax|eval|edit|tune|tune-shapes|level-cv [args]"
             );
             return std::process::ExitCode::from(2);
         }

@@ -14,6 +14,7 @@ mod run_info;
 mod run_mesh;
 mod run_render;
 mod run_sample;
+mod strokes;
 mod ui;
 
 /// Point-set implicits: an MPU surface from oriented points, and adaptive particles on it.
@@ -176,7 +177,7 @@ enum Command {
     Sample(run_sample::SampleArgs),
     /// Build and sample, apply shape edits locally, write the particles before and after.
     #[command(
-        after_help = "Example:\n  psi edit bunny.ply --brush=-0.02,0.1,0.05,0.02,0,0.005,0 --before before.ply -o after.ply --json edit.json"
+        after_help = "Examples:\n  psi edit bunny.ply --brush=-0.02,0.1,0.05,0.02,0,0.005,0 --before before.ply -o after.ply --json edit.json\n  psi edit bunny.ply --strokes drag.json -o after.ply --points-after points.ply --json session.json"
     )]
     Edit(run_edit::EditArgs),
     /// Draw particles (coloured by octree depth, σ or normal) or a mesh into a PNG picture.

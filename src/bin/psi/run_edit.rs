@@ -18,12 +18,20 @@ pub(crate) struct EditArgs {
     input: InputArgs,
     #[command(flatten)]
     mpu: crate::MpuArgs,
+    /// A session of edits applied in order: a JSON list of `{"brush": {"centre": [x,y,z],
+    /// "radius": r, "displacement": [dx,dy,dz]}}`, `{"remove": {"centre": [x,y,z], "radius": r}}`
+    /// and `{"insert": {"points": [[x,y,z],…], "normals": [[nx,ny,nz],…]}}`.
+    #[arg(long, value_name = "FILE.json", conflicts_with_all = ["brush", "remove"])]
+    strokes: Option<PathBuf>,
     /// A brush: centre, radius and displacement, `cx,cy,cz,r,dx,dy,dz` (repeatable, in order).
     #[arg(long, value_name = "CX,CY,CZ,R,DX,DY,DZ")]
     brush: Vec<String>,
     /// Remove the points in a ball: `cx,cy,cz,r` (repeatable; applied after the brushes).
     #[arg(long, value_name = "CX,CY,CZ,R")]
     remove: Vec<String>,
+    /// Write the edited oriented points here (binary PLY: x y z nx ny nz).
+    #[arg(long)]
+    points_after: Option<PathBuf>,
     /// Write the particles before the edits here.
     #[arg(long)]
     before: Option<PathBuf>,
@@ -52,6 +60,9 @@ fn numbers(text: &str, n: usize, what: &str) -> anyhow::Result<Vec<f64>> {
 
 fn edits(args: &EditArgs) -> Result<Vec<Edit>, Failure> {
     let usage = |e: anyhow::Error| Failure { error: e, code: 2 };
+    if let Some(path) = &args.strokes {
+        return crate::strokes::read_strokes(path).map_err(usage);
+    }
     let mut out = Vec::new();
     for b in &args.brush {
         let v = numbers(b, 7, "brush").map_err(usage)?;
@@ -70,17 +81,22 @@ fn edits(args: &EditArgs) -> Result<Vec<Edit>, Failure> {
     }
     if out.is_empty() {
         return Err(usage(anyhow::anyhow!(
-            "give at least one --brush or --remove"
+            "give --strokes FILE.json, or at least one --brush or --remove"
         )));
     }
     Ok(out)
 }
 
 pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
+    // Edits are checked before any work is done.
     let edits = edits(args)?;
     let loaded = load(&args.input, ui)?;
     loaded.check_output(&args.output, "-o")?;
-    for (path, flag) in [(&args.before, "--before"), (&args.json, "--json")] {
+    for (path, flag) in [
+        (&args.before, "--before"),
+        (&args.json, "--json"),
+        (&args.points_after, "--points-after"),
+    ] {
         if let Some(path) = path {
             loaded.check_output(path, flag)?;
         }
@@ -93,18 +109,31 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     let mpu_params = args.mpu.params(error_rel);
     let (mut scene, _) = Scene::new(loaded.points().to_vec(), &mpu_params, &params)
         .with_context(|| format!("{}: building the scene", loaded.name))?;
-    if let Some(path) = &args.before {
-        psi::save_particles(path, scene.particles())?;
-    }
+    let before = args.before.as_ref().map(|_| scene.particles().clone());
     let mut reports = Vec::new();
-    for e in &edits {
+    for (i, e) in edits.iter().enumerate() {
         let r = scene.apply(e).map_err(|e| Failure {
-            error: anyhow::Error::new(e).context("applying an edit"),
+            error: anyhow::Error::new(e).context(format!("applying edit {i}")),
             code: 2,
         })?;
+        if ui.verbose {
+            eprintln!(
+                "psi: edit {i}: {:.2} ms, {} cells marked, {} particles regenerated",
+                1e3 * r.seconds,
+                r.marked_cells,
+                r.particles_regenerated
+            );
+        }
         reports.push(r);
     }
+    // Written only once every edit has succeeded.
+    if let (Some(path), Some(before)) = (&args.before, &before) {
+        psi::save_particles(path, before)?;
+    }
     psi::save_particles(&args.output, scene.particles())?;
+    if let Some(path) = &args.points_after {
+        psi::save_points(path, scene.points())?;
+    }
     // The comparison: a full rebuild and sampling of the edited points.
     let t = Instant::now();
     let (full, _) =
@@ -116,6 +145,9 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         "full": { "seconds": full_seconds, "particles": full.particles().len() },
         "local": {
             "seconds": local_seconds,
+            "seconds_per_edit": reports.iter().map(|r| r.seconds).collect::<Vec<_>>(),
+            "marked_cells_per_edit": reports.iter().map(|r| r.marked_cells).collect::<Vec<_>>(),
+            "particles_regenerated_per_edit": reports.iter().map(|r| r.particles_regenerated).collect::<Vec<_>>(),
             "marked_cells": reports.iter().map(|r| r.marked_cells).sum::<usize>(),
             "refit_cells": reports.iter().map(|r| r.refit_cells).sum::<usize>(),
             "particles_regenerated": reports.iter().map(|r| r.particles_regenerated).sum::<usize>(),

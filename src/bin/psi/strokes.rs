@@ -1,0 +1,203 @@
+//! The strokes file of `psi edit --strokes`: a JSON list of edits, each checked before any work
+//! is done, its errors naming the file, the edit's index and what is wrong.
+//!
+//! ```json
+//! [
+//!   {"brush": {"centre": [x, y, z], "radius": r, "displacement": [dx, dy, dz]}},
+//!   {"remove": {"centre": [x, y, z], "radius": r}},
+//!   {"insert": {"points": [[x, y, z], …], "normals": [[nx, ny, nz], …]}}
+//! ]
+//! ```
+
+use std::path::Path;
+
+use anyhow::{Context, Result, anyhow, bail};
+use psi::regen::Edit;
+use psi::{DVec3, OrientedPoint};
+use serde_json::{Map, Value};
+
+/// A finite 3-vector from `value` (a JSON array of three numbers).
+fn vector(value: Option<&Value>, what: &str) -> Result<DVec3> {
+    let v = value.ok_or_else(|| anyhow!("`{what}` is missing"))?;
+    let items = v
+        .as_array()
+        .filter(|a| a.len() == 3)
+        .ok_or_else(|| anyhow!("`{what}` must be an array of three numbers, not {v}"))?;
+    let mut out = [0.0; 3];
+    for (o, item) in out.iter_mut().zip(items) {
+        *o = item
+            .as_f64()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| anyhow!("`{what}` must hold three finite numbers, not {v}"))?;
+    }
+    Ok(DVec3::from_array(out))
+}
+
+/// A finite number from `value`.
+fn number(value: Option<&Value>, what: &str) -> Result<f64> {
+    let v = value.ok_or_else(|| anyhow!("`{what}` is missing"))?;
+    v.as_f64()
+        .filter(|x| x.is_finite())
+        .ok_or_else(|| anyhow!("`{what}` must be a finite number, not {v}"))
+}
+
+/// Refuses keys of `fields` that are not among `known`.
+fn only(fields: &Map<String, Value>, known: &[&str], kind: &str) -> Result<()> {
+    if let Some(k) = fields.keys().find(|k| !known.contains(&k.as_str())) {
+        bail!(
+            "unknown field `{k}` of a {kind} (it takes {})",
+            known.join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// One edit from its JSON object.
+fn edit(value: &Value) -> Result<Edit> {
+    let object = value
+        .as_object()
+        .filter(|o| o.len() == 1)
+        .ok_or_else(|| anyhow!("an edit is an object with one key: brush, remove or insert"))?;
+    let (kind, fields) = object.iter().next().expect("one key");
+    let fields = fields
+        .as_object()
+        .ok_or_else(|| anyhow!("the {kind}'s fields must be an object"))?;
+    match kind.as_str() {
+        "brush" => {
+            only(fields, &["centre", "radius", "displacement"], "brush")?;
+            let radius = number(fields.get("radius"), "radius")?;
+            if radius <= 0.0 {
+                bail!("a brush's radius must be positive, not {radius}");
+            }
+            Ok(Edit::Brush {
+                center: vector(fields.get("centre"), "centre")?,
+                radius,
+                displacement: vector(fields.get("displacement"), "displacement")?,
+            })
+        }
+        "remove" => {
+            only(fields, &["centre", "radius"], "remove")?;
+            let radius = number(fields.get("radius"), "radius")?;
+            if radius < 0.0 {
+                bail!("a removal's radius must not be negative, not {radius}");
+            }
+            Ok(Edit::Remove {
+                center: vector(fields.get("centre"), "centre")?,
+                radius,
+            })
+        }
+        "insert" => {
+            only(fields, &["points", "normals"], "insert")?;
+            let list = |what: &str| -> Result<Vec<DVec3>> {
+                let items = fields
+                    .get(what)
+                    .ok_or_else(|| anyhow!("`{what}` is missing"))?
+                    .as_array()
+                    .ok_or_else(|| anyhow!("`{what}` must be an array of [x, y, z]"))?;
+                items
+                    .iter()
+                    .enumerate()
+                    .map(|(i, v)| vector(Some(v), &format!("{what}[{i}]")))
+                    .collect()
+            };
+            let (points, normals) = (list("points")?, list("normals")?);
+            if points.len() != normals.len() {
+                bail!(
+                    "an insertion needs one normal per point: {} points, {} normals",
+                    points.len(),
+                    normals.len()
+                );
+            }
+            let points = points
+                .into_iter()
+                .zip(normals)
+                .enumerate()
+                .map(|(i, (p, n))| {
+                    OrientedPoint::new_normalized(p, n)
+                        .ok_or_else(|| anyhow!("normals[{i}] is zero"))
+                })
+                .collect::<Result<_>>()?;
+            Ok(Edit::Insert { points })
+        }
+        other => bail!("unknown edit `{other}` (brush, remove or insert)"),
+    }
+}
+
+/// The edits of the strokes file at `path`, in order; every error names the file and, for an
+/// edit, its index.
+pub(crate) fn read_strokes(path: &Path) -> Result<Vec<Edit>> {
+    let name = path.display();
+    let text = std::fs::read(path).with_context(|| format!("{name}: cannot read"))?;
+    let value: Value =
+        serde_json::from_slice(&text).with_context(|| format!("{name}: not valid JSON"))?;
+    let list = value
+        .as_array()
+        .ok_or_else(|| anyhow!("{name}: a strokes file is a JSON array of edits"))?;
+    if list.is_empty() {
+        bail!("{name}: no edits");
+    }
+    list.iter()
+        .enumerate()
+        .map(|(i, v)| edit(v).map_err(|e| anyhow!("{name}: edit {i}: {e}")))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_kind_is_read_and_every_fault_named() {
+        let ok = serde_json::json!([
+            {"brush": {"centre": [0, 0, 1], "radius": 0.5, "displacement": [0, 0, 0.1]}},
+            {"remove": {"centre": [1, 0, 0], "radius": 0}},
+            {"insert": {"points": [[0, 0, 2]], "normals": [[0, 0, 3]]}}
+        ]);
+        let edits: Vec<Edit> = ok
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|e| edit(e).unwrap())
+            .collect();
+        assert_eq!(edits.len(), 3);
+        match &edits[2] {
+            Edit::Insert { points } => assert_eq!(points[0].n, DVec3::Z),
+            e => panic!("{e:?}"),
+        }
+        let faults = [
+            (
+                serde_json::json!({"brush": {"centre": [0, 0], "radius": 1, "displacement": [0, 0, 0]}}),
+                "three numbers",
+            ),
+            (
+                serde_json::json!({"brush": {"centre": [0, 0, 0], "radius": -1, "displacement": [0, 0, 0]}}),
+                "positive",
+            ),
+            (
+                serde_json::json!({"remove": {"centre": [0, 0, 0], "radius": -1}}),
+                "negative",
+            ),
+            (serde_json::json!({"smudge": {}}), "unknown edit"),
+            (
+                serde_json::json!({"brush": {"centre": [0, 0, 0], "radius": 1, "displacement": [0, 0, 0], "speed": 2}}),
+                "unknown field",
+            ),
+            (
+                serde_json::json!({"insert": {"points": [[0, 0, 0]], "normals": []}}),
+                "one normal per point",
+            ),
+            (
+                serde_json::json!({"insert": {"points": [[0, 0, 0]], "normals": [[0, 0, 0]]}}),
+                "is zero",
+            ),
+            (
+                serde_json::json!({"remove": {"centre": [0, 0, 0]}}),
+                "missing",
+            ),
+        ];
+        for (value, expected) in faults {
+            let err = edit(&value).unwrap_err().to_string();
+            assert!(err.contains(expected), "{value}: {err}");
+        }
+    }
+}
