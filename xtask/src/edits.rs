@@ -1,6 +1,7 @@
-//! The local-edit section of `reproduce-tables` (issue #5): `psi edit` on the bunny with a brush
-//! covering about 1 % and one covering about 5 % of the surface, several runs each (the first
-//! edit of a process, as the CLI reports it), beside a full rebuild and sampling.
+//! The local-edit section of `reproduce-tables`: `psi edit` on the bunny with a brush covering
+//! about 1 % and one covering about 5 % of the surface, several runs each (the first edit of a
+//! process, as the CLI reports it: no edit before it has warmed anything), beside a full rebuild
+//! and sampling. The editing session (`session.rs`) follows it.
 
 use std::path::Path;
 use std::process::Command;
@@ -12,8 +13,8 @@ use serde_json::{Value, json};
 use crate::reference::Reference;
 
 /// The brushes: a name, then centre, radius and displacement (world units, as `--brush`).
-/// The first is the example of `docs/ARCHITECTURE.md` (its centre 8 mm off the surface); the
-/// second is centred on the surface with the radius that covers 5 % of it.
+/// The first is the brush of the issue "Local regeneration" (its centre 8 mm off the surface);
+/// the second is centred on the surface with the radius that covers 5 % of it.
 const BRUSHES: [(&str, [f64; 7]); 2] = [
     ("small", [-0.016, 0.11, 0.05, 0.015, 0.0, 0.0, 0.004]),
     (

@@ -315,7 +315,9 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
         eprintln!("bunny edits ...");
         let (section, rows) = crate::edits::local_edits(&psi, &dir.join("bunny.ply"), &out_dir)?;
         md.push_str(&section);
-        edits = rows;
+        let (section, session) = crate::session::session(&psi, &dir.join("bunny.ply"), &out_dir)?;
+        md.push_str(&section);
+        edits = json!({ "brushes": rows, "session": session });
     }
     // Table 2: 10 iterations on the bunny and the David stand-in.
     let mut table2 = Vec::new();

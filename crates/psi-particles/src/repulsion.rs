@@ -65,8 +65,9 @@ pub(crate) struct Movers<'a> {
     pub(crate) fixed_coarse: &'a [u32],
 }
 
-/// Fills `out` with the repulsion sums of `movers.active` (positions, normals and σ from
-/// `state`, neighbours from `index`, which holds every particle). Neighbours whose normals
+/// Fills `out`'s entries of `movers.active` with their repulsion sums (positions, normals and σ
+/// from `state`, neighbours from `index`, which holds every particle); the other entries are
+/// left as they were. Neighbours whose normals
 /// oppose are ignored (thin sheets).
 pub(crate) fn repulsion_into(
     out: &mut Repulsion,
@@ -75,13 +76,14 @@ pub(crate) fn repulsion_into(
     movers: &Movers<'_>,
     params: &ParticleParams,
 ) {
+    // Only the moving particles' entries are written (and read by the caller): a local
+    // relaxation moves a few of many, so the rest is not cleared every iteration.
     let n = state.len();
-    out.push.clear();
-    out.push.resize(n, DVec3::ZERO);
-    out.energy.clear();
-    out.energy.resize(n, 0.0);
-    out.de_dlnc.clear();
-    out.de_dlnc.resize(n, 0.0);
+    if out.push.len() != n {
+        out.push = vec![DVec3::ZERO; n];
+        out.energy = vec![0.0; n];
+        out.de_dlnc = vec![0.0; n];
+    }
     let moves = |j: usize| movers.movable.is_none_or(|m| m[j]);
     let own: Vec<(Vec<Sums>, Vec<Share>)> = movers
         .active

@@ -1,7 +1,8 @@
-//! `bench edit`: the cost of one local regeneration (`Scene::apply`) on a model, the brush of
-//! issue #5 applied forth and back many times (for profiling with `perf record`).
+//! `bench edit`: the cost of one local regeneration (`Scene::apply`) on a model, a brush applied
+//! forth and back many times (for profiling with `perf record`): the small brush of the issue
+//! "Local regeneration" (about 1 % of the bunny), or with `big` the one covering 5 % of it.
 //!
-//! `cargo xtask bench edit ../shared/models/bunny.ply 40`
+//! `cargo xtask bench edit ../shared/models/bunny.ply 40 [big]`
 
 use std::time::Instant;
 
@@ -16,10 +17,21 @@ pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
     let rounds: usize = args.next().map_or(Ok(20), |a| a.parse())?;
     let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
     let (mut scene, _) = Scene::new(points, &MpuParams::paper(), &ParticleParams::paper())?;
-    let brush = |sign: f64| Edit::Brush {
-        center: DVec3::new(-0.016, 0.11, 0.05),
-        radius: 0.015,
-        displacement: DVec3::new(0.0, 0.0, 0.004 * sign),
+    let big = args.next().is_some_and(|a| a == "big");
+    let brush = |sign: f64| {
+        if big {
+            Edit::Brush {
+                center: DVec3::new(-0.01416, 0.10815, 0.0427),
+                radius: 0.029,
+                displacement: DVec3::new(-0.0006, 0.0012, 0.0038) * sign,
+            }
+        } else {
+            Edit::Brush {
+                center: DVec3::new(-0.016, 0.11, 0.05),
+                radius: 0.015,
+                displacement: DVec3::new(0.0, 0.0, 0.004 * sign),
+            }
+        }
     };
     let mut times = Vec::new();
     let mut particle_times = Vec::new();

@@ -1,0 +1,161 @@
+//! `psi edit --strokes` end to end: a session of edits from a file, its per-edit report, the
+//! edited points written, and a malformed strokes file refused before any work.
+
+mod common;
+use common::{psi, scratch};
+
+use psi::{AnalyticShape, DVec3};
+
+#[test]
+fn a_strokes_session_edits_in_order_and_reports_every_edit() {
+    let dir = scratch("strokes");
+    let points = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.4,
+    }
+    .sample(6000, 2);
+    let input = dir.join("torus.xyz");
+    let text: String = points
+        .iter()
+        .map(|p| {
+            format!(
+                "{} {} {} {} {} {}\n",
+                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
+            )
+        })
+        .collect();
+    std::fs::write(&input, text).unwrap();
+    let top = points
+        .iter()
+        .max_by(|a, b| a.p.z.total_cmp(&b.p.z))
+        .unwrap();
+    let strokes = serde_json::json!([
+        {"brush": {"centre": top.p.to_array(), "radius": 0.3, "displacement": [0.0, 0.0, 0.05]}},
+        {"brush": {"centre": (top.p + DVec3::X * 0.1).to_array(), "radius": 0.3, "displacement": [0.0, 0.0, 0.05]}},
+        {"remove": {"centre": [-1.4, 0.0, 0.0], "radius": 0.1}},
+        {"insert": {"points": [[1.0, 0.0, 0.45], [1.02, 0.0, 0.45]], "normals": [[0, 0, 1], [0, 0, 2]]}}
+    ]);
+    let strokes_path = dir.join("strokes.json");
+    std::fs::write(&strokes_path, strokes.to_string()).unwrap();
+    let (after, report, edited) = (
+        dir.join("after.ply"),
+        dir.join("r.json"),
+        dir.join("points.ply"),
+    );
+    let out = psi(&[
+        "edit",
+        input.to_str().unwrap(),
+        "--strokes",
+        strokes_path.to_str().unwrap(),
+        "--iterations",
+        "3",
+        "-o",
+        after.to_str().unwrap(),
+        "--points-after",
+        edited.to_str().unwrap(),
+        "--json",
+        report.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    let local = &j["local"];
+    let per_edit = local["seconds_per_edit"].as_array().unwrap();
+    assert_eq!(per_edit.len(), 4);
+    assert_eq!(local["marked_cells_per_edit"].as_array().unwrap().len(), 4);
+    assert_eq!(
+        local["particles_regenerated_per_edit"]
+            .as_array()
+            .unwrap()
+            .len(),
+        4
+    );
+    let sum: f64 = per_edit.iter().map(|v| v.as_f64().unwrap()).sum();
+    psi::shapes::assert_near!(local["seconds"].as_f64().unwrap(), sum, 1e-12);
+    // The edited points: the removed ball gone, the two inserted points there, the brush's
+    // top raised.
+    let edited = psi::load_points(&edited, &psi::ReadOptions::paper())
+        .unwrap()
+        .points;
+    assert!(
+        edited
+            .iter()
+            .all(|p| (p.p - DVec3::new(-1.4, 0.0, 0.0)).length() > 0.1)
+    );
+    assert!(
+        edited
+            .iter()
+            .any(|p| (p.p - DVec3::new(1.02, 0.0, 0.45)).length() < 1e-12 && p.n == DVec3::Z)
+    );
+    let highest = edited.iter().map(|p| p.p.z).fold(f64::MIN, f64::max);
+    assert!(highest > top.p.z + 0.04, "{highest} vs {}", top.p.z);
+    let removed = points
+        .iter()
+        .filter(|p| (p.p - DVec3::new(-1.4, 0.0, 0.0)).length() <= 0.1)
+        .count();
+    assert_eq!(edited.len(), points.len() - removed + 2);
+}
+
+#[test]
+fn a_malformed_strokes_file_is_refused_before_any_work() {
+    let dir = scratch("strokes-bad");
+    let keep = dir.join("keep.ply");
+    std::fs::write(&keep, b"precious").unwrap();
+    let cases = [
+        ("not json", "not valid JSON", None),
+        ("{\"brush\": {}}", "JSON array", None),
+        (
+            "[{\"brush\": {\"centre\": [0,0,0], \"radius\": 1, \"displacement\": [0,0,0]}}, {\"smudge\": {}}]",
+            "unknown edit",
+            Some(1),
+        ),
+        (
+            "[{\"remove\": {\"centre\": [0,0,0], \"radius\": -2}}]",
+            "negative",
+            Some(0),
+        ),
+        (
+            "[{\"brush\": {\"centre\": [0,0,1e999], \"radius\": 1, \"displacement\": [0,0,0]}}]",
+            "not valid JSON",
+            None,
+        ),
+        (
+            "[{\"brush\": {\"centre\": [0,0,0], \"radius\": 1, \"displacement\": [0,0]}}]",
+            "three numbers",
+            Some(0),
+        ),
+        (
+            "[{\"insert\": {\"points\": [[0,0,0],[1,0,0]], \"normals\": [[0,0,1]]}}]",
+            "one normal per point",
+            Some(0),
+        ),
+    ];
+    for (k, (text, expected, index)) in cases.iter().enumerate() {
+        let path = dir.join(format!("bad{k}.json"));
+        std::fs::write(&path, text).unwrap();
+        // A missing input file too: the strokes are checked first.
+        let out = psi(&[
+            "edit",
+            dir.join("no-such-model.ply").to_str().unwrap(),
+            "--strokes",
+            path.to_str().unwrap(),
+            "-o",
+            keep.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{text}: {err}");
+        assert!(err.contains(&format!("bad{k}.json")), "{text}: {err}");
+        assert!(err.contains(expected), "{text}: {err}");
+        if let Some(i) = index {
+            assert!(err.contains(&format!("edit {i}:")), "{text}: {err}");
+        }
+        assert!(
+            !err.contains("no-such-model"),
+            "the input was touched: {err}"
+        );
+        assert_eq!(std::fs::read(&keep).unwrap(), b"precious");
+    }
+}
