@@ -1,17 +1,13 @@
 //! The `psi` binary end to end: real data, malformed input, exit codes, atomic outputs.
 
 mod common;
-use common::{assert_rejected, models, psi, scratch};
+use common::{assert_rejected, assert_success, models, psi, scratch, write_xyz};
 
 #[test]
 fn info_reports_the_bunny_dataset_count() {
     let Some(models) = models() else { return };
     let out = psi(&["info", models.join("bunny.ply").to_str().unwrap(), "--json"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(j["points"], 69451);
     assert_eq!(j["faces"], 69451);
@@ -73,17 +69,8 @@ fn sample_writes_a_readable_particle_file_and_report() {
     let dir = scratch("ok");
     // A small sphere as XYZ.
     let pts = psi::AnalyticShape::Sphere { radius: 2.0 }.sample(3000, 4);
-    let text: String = pts
-        .iter()
-        .map(|p| {
-            format!(
-                "{} {} {} {} {} {}\n",
-                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
-            )
-        })
-        .collect();
     let input = dir.join("sphere.xyz");
-    std::fs::write(&input, text).unwrap();
+    write_xyz(&input, &pts);
     let out_ply = dir.join("p.ply");
     let report = dir.join("r.json");
     let out = psi(&[
@@ -94,11 +81,7 @@ fn sample_writes_a_readable_particle_file_and_report() {
         "--json",
         report.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
     for key in [
         "input.points",

@@ -2,7 +2,7 @@
 //! edited points written, and a malformed strokes file refused before any work.
 
 mod common;
-use common::{psi, scratch};
+use common::{assert_success, psi, scratch, write_xyz};
 
 use psi::{AnalyticShape, DVec3};
 
@@ -15,16 +15,7 @@ fn a_strokes_session_edits_in_order_and_reports_every_edit() {
     }
     .sample(6000, 2);
     let input = dir.join("torus.xyz");
-    let text: String = points
-        .iter()
-        .map(|p| {
-            format!(
-                "{} {} {} {} {} {}\n",
-                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
-            )
-        })
-        .collect();
-    std::fs::write(&input, text).unwrap();
+    write_xyz(&input, &points);
     let top = points
         .iter()
         .max_by(|a, b| a.p.z.total_cmp(&b.p.z))
@@ -56,11 +47,7 @@ fn a_strokes_session_edits_in_order_and_reports_every_edit() {
         "--json",
         report.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
     let local = &j["local"];
     let per_edit = local["seconds_per_edit"].as_array().unwrap();

@@ -1,10 +1,8 @@
 //! `psi render` end to end: particle files (with and without depth and σ), meshes, and bad
 //! input (exit code 2, one line naming the file, the existing output untouched).
 
-use std::process::Output;
-
 mod common;
-use common::{assert_rejected, psi, scratch};
+use common::{assert_rejected, assert_success, psi, scratch, write_xyz};
 
 use psi::DVec3;
 
@@ -36,14 +34,6 @@ fn particle_file(path: &std::path::Path) {
     std::fs::write(path, bytes).unwrap();
 }
 
-fn ok(out: &Output) {
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
 #[test]
 fn render_draws_particles_in_every_colouring_and_view() {
     let dir = scratch("particles");
@@ -63,7 +53,7 @@ fn render_draws_particles_in_every_colouring_and_view() {
             "--view",
             view,
         ]);
-        ok(&out);
+        assert_success(&out);
         assert_eq!(png_size(&std::fs::read(&png).unwrap()), (160, 160));
         assert!(String::from_utf8_lossy(&out.stdout).contains("1500 particles"));
     }
@@ -78,10 +68,10 @@ fn render_draws_particles_in_every_colouring_and_view() {
         "disks",
         "--no-legend",
     ];
-    ok(&psi(&disks));
+    assert_success(&psi(&disks));
     // Same input, same picture.
     let first = std::fs::read(&png).unwrap();
-    ok(&psi(&disks));
+    assert_success(&psi(&disks));
     assert_eq!(first, std::fs::read(&png).unwrap());
 }
 
@@ -107,24 +97,17 @@ fn render_draws_a_mesh_and_plain_points() {
         "--view",
         "iso",
     ]);
-    ok(&out);
+    assert_success(&out);
     assert!(String::from_utf8_lossy(&out.stdout).contains("4 triangles"));
     assert_eq!(png_size(&std::fs::read(&png).unwrap()), (120, 120));
 
     // Oriented points without depth: colour by normal works, by depth is refused.
     let xyz = dir.join("points.xyz");
-    let text: String = psi::AnalyticShape::Sphere { radius: 1.0 }
-        .sample(500, 1)
-        .iter()
-        .map(|p| {
-            format!(
-                "{} {} {} {} {} {}\n",
-                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
-            )
-        })
-        .collect();
-    std::fs::write(&xyz, text).unwrap();
-    ok(&psi(&[
+    write_xyz(
+        &xyz,
+        &psi::AnalyticShape::Sphere { radius: 1.0 }.sample(500, 1),
+    );
+    assert_success(&psi(&[
         "render",
         xyz.to_str().unwrap(),
         "-o",

@@ -3,8 +3,9 @@
 //! that came with them (each cause printed once, an output naming the input refused).
 
 mod common;
-use common::{psi, scratch};
+use common::{assert_success, psi, scratch, write_xyz, xyz_text};
 
+use psi::shapes::gaussian_vector;
 use psi::{AnalyticShape, DVec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -36,23 +37,12 @@ fn sample(input: &std::path::Path, extra: &[&str]) -> (serde_json::Value, Vec<ps
     ];
     args.extend_from_slice(extra);
     let run = psi(&args);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    assert_success(&run);
     let report = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     let particles = psi::load_points(&out, &psi::ReadOptions::paper())
         .unwrap()
         .points;
     (report, particles)
-}
-
-/// A standard normal deviate (Box–Muller).
-fn gauss(rng: &mut Pcg64Mcg) -> f64 {
-    let u: f64 = rng.random::<f64>().max(1e-300);
-    let v: f64 = rng.random();
-    (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
 }
 
 #[test]
@@ -136,20 +126,11 @@ fn stray_points_are_left_out_and_reported() {
             rng.random_range(-1.4..1.4),
             rng.random_range(-0.4..0.4),
         );
-        let n = DVec3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng)).normalize();
+        let n = gaussian_vector(&mut rng).normalize();
         points.push(psi::OrientedPoint { p, n });
     }
     let input = dir.join("torus.xyz");
-    let text: String = points
-        .iter()
-        .map(|p| {
-            format!(
-                "{} {} {} {} {} {}\n",
-                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
-            )
-        })
-        .collect();
-    std::fs::write(&input, text).unwrap();
+    write_xyz(&input, &points);
     // The criteria, in sample spacings (the bunny's 2e-3 and 1e-2 D are about 0.55
     // and 2.8 of its spacings): at most 1 % of the particles farther than 0.55 spacing from
     // the true surface, none farther than 2.8.
@@ -180,19 +161,7 @@ fn noise_raises_the_error_threshold_and_the_user_wins() {
     let sphere = AnalyticShape::Sphere { radius: 1.0 };
     let clean = sphere.sample(20_000, 9);
     let input = dir.join("clean.xyz");
-    let write = |path: &std::path::Path, points: &[psi::OrientedPoint]| {
-        let text: String = points
-            .iter()
-            .map(|p| {
-                format!(
-                    "{} {} {} {} {} {}\n",
-                    p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
-                )
-            })
-            .collect();
-        std::fs::write(path, text).unwrap();
-    };
-    write(&input, &clean);
+    write_xyz(&input, &clean);
     let (report, _) = sample(&input, &[]);
     assert_eq!(report["mpu"]["error_threshold"]["source"], "paper");
     assert_eq!(report["mpu"]["error_threshold"]["relative"], 0.005);
@@ -203,12 +172,12 @@ fn noise_raises_the_error_threshold_and_the_user_wins() {
     let noisy: Vec<psi::OrientedPoint> = clean
         .iter()
         .map(|p| psi::OrientedPoint {
-            p: p.p + sigma * DVec3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng)),
+            p: p.p + sigma * gaussian_vector(&mut rng),
             n: p.n,
         })
         .collect();
     let noisy_input = dir.join("noisy.xyz");
-    write(&noisy_input, &noisy);
+    write_xyz(&noisy_input, &noisy);
     let mean_distance = |particles: &[psi::OrientedPoint]| {
         particles
             .iter()
@@ -267,15 +236,7 @@ fn an_error_names_its_cause_once_and_outputs_never_replace_the_input() {
 
     let input = dir.join("sphere.xyz");
     let points = AnalyticShape::Sphere { radius: 1.0 }.sample(500, 1);
-    let text: String = points
-        .iter()
-        .map(|p| {
-            format!(
-                "{} {} {} {} {} {}\n",
-                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
-            )
-        })
-        .collect();
+    let text = xyz_text(&points);
     std::fs::write(&input, &text).unwrap();
     // The same file by another name.
     let other = dir.join(".").join("sphere.xyz");

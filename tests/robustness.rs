@@ -5,19 +5,7 @@
 use std::time::{Duration, Instant};
 
 mod common;
-use common::{assert_rejected, model, psi, psi_env, scratch};
-
-fn xyz(points: &[psi::OrientedPoint]) -> String {
-    points
-        .iter()
-        .map(|p| {
-            format!(
-                "{:e} {:e} {:e} {:e} {:e} {:e}\n",
-                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
-            )
-        })
-        .collect()
-}
+use common::{assert_rejected, assert_success, model, psi, psi_env, scratch, xyz_text};
 
 fn binary_ply(
     big_endian: bool,
@@ -101,7 +89,7 @@ fn hostile_inputs_fail_cleanly_in_every_command() {
         ("inf.xyz", b"0 0 inf 0 0 1\n".to_vec()),
         ("zero_normals.xyz", "0 0 0 0 0 0\n".repeat(40).into_bytes()),
         ("identical.xyz", "1 1 1 0 0 1\n".repeat(40).into_bytes()),
-        ("collinear.xyz", xyz(&line).into_bytes()),
+        ("collinear.xyz", xyz_text(&line).into_bytes()),
     ];
     let keep = dir.join("keep.out");
     std::fs::write(&keep, b"precious").unwrap();
@@ -166,11 +154,13 @@ fn outputs_are_identical_for_one_and_two_threads_and_across_runs() {
     let input = dir.join("torus.xyz");
     std::fs::write(
         &input,
-        xyz(&psi::AnalyticShape::Torus {
-            major: 1.0,
-            minor: 0.35,
-        }
-        .sample(15_000, 9)),
+        xyz_text(
+            &psi::AnalyticShape::Torus {
+                major: 1.0,
+                minor: 0.35,
+            }
+            .sample(15_000, 9),
+        ),
     )
     .unwrap();
     let run = |threads: &str, name: &str| {
@@ -264,7 +254,7 @@ fn flipped_normals_are_reported_and_repaired_on_request() {
         p.n = -p.n;
     }
     let input = dir.join("flipped.xyz");
-    std::fs::write(&input, xyz(&points)).unwrap();
+    std::fs::write(&input, xyz_text(&points)).unwrap();
     let out = psi(&["info", input.to_str().unwrap(), "--json"]);
     assert!(out.status.success());
     assert!(
@@ -281,11 +271,7 @@ fn flipped_normals_are_reported_and_repaired_on_request() {
         "-o",
         particles.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let back = psi::load_points(&particles, &psi::ReadOptions::paper()).unwrap();
     let d = 2.0 * 3f64.sqrt() * 1.35;
     for p in &back.points {

@@ -70,3 +70,31 @@ pub(crate) fn model(name: &str) -> Option<PathBuf> {
         None
     })
 }
+
+/// `points` as XYZ text: one `x y z nx ny nz` line per point, each number written so that
+/// it reads back exactly.
+pub(crate) fn xyz_text(points: &[psi::OrientedPoint]) -> String {
+    points
+        .iter()
+        .map(|p| {
+            format!(
+                "{} {} {} {} {} {}\n",
+                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
+            )
+        })
+        .collect()
+}
+
+/// Writes `points` to `path` as XYZ text (see [`xyz_text`]).
+pub(crate) fn write_xyz(path: &Path, points: &[psi::OrientedPoint]) {
+    std::fs::write(path, xyz_text(points)).unwrap();
+}
+
+/// Asserts that the run `out` exited successfully, showing its stderr when it did not.
+pub(crate) fn assert_success(out: &Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

@@ -10,7 +10,8 @@
 //! * `level-cv [MODEL] [p,q ...]`: the per-level nearest-neighbour CV split into a level's
 //!   inside and its boundaries.
 //!
-//! MODEL defaults to `../shared/models/bunny.ply`.
+//! MODEL (a path relative to the workspace root, or absolute) defaults to
+//! `../shared/models/bunny.ply`.
 
 use anyhow::{Context, Result, bail};
 
@@ -20,6 +21,18 @@ mod level_cv;
 mod relax;
 mod tune;
 mod tune_shapes;
+
+/// The points of the model file `path` (relative to the workspace root, where the release
+/// rerun works), or of the shared bunny when `None`; read as the paper reads meshes.
+fn load_model(path: Option<&String>) -> Result<Vec<psi::OrientedPoint>> {
+    let path = match path {
+        Some(p) => crate::project_root().join(p),
+        None => crate::project_root().join("../shared/models/bunny.ply"),
+    };
+    let file = psi::load_points(&path, &psi::ReadOptions::paper())
+        .with_context(|| format!("reading {}", path.display()))?;
+    Ok(file.points)
+}
 
 pub(crate) fn run(args: &[String]) -> Result<()> {
     if cfg!(debug_assertions) {

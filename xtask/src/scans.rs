@@ -16,6 +16,7 @@ use anyhow::{Context, Result, bail};
 use parry3d_f64::query::{Ray, RayCast};
 use parry3d_f64::shape::TriMesh;
 use psi::octree::PointIndex;
+use psi::shapes::gaussian_vector;
 use psi::{DVec3, OrientedPoint};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -34,17 +35,6 @@ const TIMED_RUNS: usize = 3;
 /// The standard deviation of the normal's tilt: n + s·g (g a standard normal 3-vector),
 /// normalised, tilts it by s·√(π/2) rad on average for small s — 9° for s = 0.125.
 const NORMAL_TILT: f64 = 0.125;
-
-/// A standard normal deviate (Box–Muller).
-fn gauss(rng: &mut Pcg64Mcg) -> f64 {
-    let u: f64 = rng.random::<f64>().max(1e-300);
-    let v: f64 = rng.random();
-    (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-}
-
-fn gauss3(rng: &mut Pcg64Mcg) -> DVec3 {
-    DVec3::new(gauss(rng), gauss(rng), gauss(rng))
-}
 
 /// Writes oriented points (`with_normals`) or positions as an XYZ file.
 fn write_xyz(path: &Path, points: &[OrientedPoint], with_normals: bool) -> Result<()> {
@@ -168,8 +158,8 @@ fn cases(
         let noisy: Vec<OrientedPoint> = clean
             .iter()
             .map(|p| OrientedPoint {
-                p: p.p + sigma * gauss3(&mut rng),
-                n: (p.n + NORMAL_TILT * gauss3(&mut rng)).normalize(),
+                p: p.p + sigma * gaussian_vector(&mut rng),
+                n: (p.n + NORMAL_TILT * gaussian_vector(&mut rng)).normalize(),
             })
             .collect();
         let name = format!("{model}-noise-{percent}");
@@ -188,7 +178,7 @@ fn cases(
         let t = DVec3::new(rng.random(), rng.random(), rng.random());
         stray.push(OrientedPoint {
             p: bounds.min + t * bounds.extent(),
-            n: gauss3(&mut rng).normalize(),
+            n: gaussian_vector(&mut rng).normalize(),
         });
     }
     let name = format!("{model}-outliers-1");

@@ -198,16 +198,9 @@ fn denoise_in_order(points: &mut [OrientedPoint], sigma: f64) -> DenoiseReport {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use psi_shapes::AnalyticShape;
-    use rand::{RngExt, SeedableRng};
+    use psi_shapes::{AnalyticShape, gaussian_vector};
+    use rand::SeedableRng;
     use rand_pcg::Pcg64Mcg;
-
-    /// A standard normal deviate (Box–Muller).
-    fn gauss(rng: &mut Pcg64Mcg) -> f64 {
-        let u: f64 = rng.random::<f64>().max(1e-300);
-        let v: f64 = rng.random();
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
 
     /// A noisy torus comes out several times closer to the true surface, its normals closer to
     /// the true ones; a thin slab keeps both faces.
@@ -224,7 +217,7 @@ mod tests {
         let mut points: Vec<OrientedPoint> = truth
             .iter()
             .map(|p| OrientedPoint {
-                p: p.p + sigma * DVec3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng)),
+                p: p.p + sigma * gaussian_vector(&mut rng),
                 n: p.n,
             })
             .collect();

@@ -127,16 +127,9 @@ fn median_residual(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use psi_shapes::AnalyticShape;
+    use psi_shapes::{AnalyticShape, gaussian_vector};
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg64Mcg;
-
-    /// A standard normal deviate (Box–Muller).
-    fn gauss(rng: &mut Pcg64Mcg) -> f64 {
-        let u: f64 = rng.random::<f64>().max(1e-300);
-        let v: f64 = rng.random();
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
 
     /// A plane with known isotropic Gaussian noise gives back that noise, from a tenth to one
     /// and a half of the sample spacing.
@@ -149,8 +142,7 @@ mod tests {
             let sigma = relative * spacing;
             let points: Vec<DVec3> = (0..n)
                 .map(|_| {
-                    DVec3::new(rng.random(), rng.random(), 0.0)
-                        + sigma * DVec3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng))
+                    DVec3::new(rng.random(), rng.random(), 0.0) + sigma * gaussian_vector(&mut rng)
                 })
                 .collect();
             let got = estimate_noise(&points).sigma;
@@ -176,7 +168,7 @@ mod tests {
         let sigma = 0.5 * spacing;
         let noisy: Vec<DVec3> = clean
             .iter()
-            .map(|p| *p + sigma * DVec3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng)))
+            .map(|p| *p + sigma * gaussian_vector(&mut rng))
             .collect();
         let got = estimate_noise(&noisy).sigma;
         assert!(

@@ -8,6 +8,7 @@
 //!   (or first-order) signed distances — the tests' independent oracle;
 //! * [`builtin_model`], [`sample_builtin`]: the built-in procedural model (a bumpy,
 //!   rounded-square torus with a thin neck), deterministic, no file involved;
+//! * [`gaussian`], [`gaussian_vector`]: seeded Gaussian noise for making samples noisy;
 //! * [`tolerance`]: named tolerances and [`assert_near!`], [`assert_rel_near!`].
 //!
 //! Every random choice comes from a seeded `rand_pcg` generator: the same seed gives the same
@@ -27,7 +28,9 @@
 
 mod analytic_shapes;
 mod builtin_model;
+mod gaussian_noise;
 pub mod tolerance;
 
 pub use analytic_shapes::AnalyticShape;
 pub use builtin_model::{BUILTIN_MODEL_POINTS, BUILTIN_MODEL_SEED, builtin_model, sample_builtin};
+pub use gaussian_noise::{gaussian, gaussian_vector};

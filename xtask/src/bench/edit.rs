@@ -11,11 +11,8 @@ use psi::{DVec3, MpuParams, ParticleParams};
 
 pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
     let mut args = args.iter().cloned();
-    let path = args
-        .next()
-        .unwrap_or_else(|| "../shared/models/bunny.ply".into());
+    let points = super::load_model(args.next().as_ref())?;
     let rounds: usize = args.next().map_or(Ok(20), |a| a.parse())?;
-    let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
     let (mut scene, _) = Scene::new(points, &MpuParams::paper(), &ParticleParams::paper())?;
     let big = args.next().is_some_and(|a| a == "big");
     let brush = |sign: f64| {

@@ -8,11 +8,8 @@ use std::time::Instant;
 use psi::{Mpu, MpuParams};
 
 pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
-    let path = args
-        .first()
-        .cloned()
-        .unwrap_or_else(|| "../shared/models/bunny.ply".into());
-    let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
+    let points = super::load_model(args.first())?;
+    let name = args.first().map_or("bunny.ply", String::as_str);
     let mpu = Mpu::build(&points, &MpuParams::paper())?;
     let d = mpu.diagonal();
     let queries: Vec<_> = points
@@ -36,7 +33,7 @@ pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
         }
         let per = t.elapsed().as_secs_f64() / queries.len() as f64;
         println!(
-            "{path}: {:.0} ns per value_and_gradient; {:.1} cells in support, {:.1} leaves",
+            "{name}: {:.0} ns per value_and_gradient; {:.1} cells in support, {:.1} leaves",
             per * 1e9,
             visited as f64 / queries.len() as f64,
             leaves as f64 / queries.len() as f64

@@ -54,10 +54,7 @@ fn levels(p: &Particles) -> String {
 
 pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
     let mut args = args.iter().cloned();
-    let path = args
-        .next()
-        .unwrap_or_else(|| "../shared/models/bunny.ply".into());
-    let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
+    let points = super::load_model(args.next().as_ref())?;
     let mpu = Mpu::build(&points, &MpuParams::paper())?;
     let paper = ParticleParams::paper();
     let mut runs = vec![("paper".to_owned(), paper)];

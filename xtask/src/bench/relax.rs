@@ -12,9 +12,7 @@ use psi::{Mpu, MpuParams, ParticleParams};
 
 pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
     let mut args = args.iter().cloned();
-    let path = args
-        .next()
-        .unwrap_or_else(|| "../shared/models/bunny.ply".into());
+    let points = super::load_model(args.next().as_ref())?;
     let rounds: usize = args.next().map_or(Ok(9), |s| s.parse())?;
     let mode = args.next().unwrap_or_default();
     anyhow::ensure!(
@@ -23,7 +21,6 @@ pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
     );
     let warm = mode == "warm";
     let prefill = mode == "prefill";
-    let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
     let params = ParticleParams::paper();
     let mut times = Vec::new();
     // CPU seconds of each sampling (both threads; measured apart from the host's steal time,

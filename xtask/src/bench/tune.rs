@@ -9,11 +9,7 @@ use psi::particles::NeighbourSearch;
 use psi::{Mpu, MpuParams, ParticleParams};
 
 pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
-    let path = args
-        .first()
-        .cloned()
-        .unwrap_or_else(|| "../shared/models/bunny.ply".into());
-    let points = psi::load_points(std::path::Path::new(&path), &psi::ReadOptions::paper())?.points;
+    let points = super::load_model(args.first())?;
     let mpu = Mpu::build(&points, &MpuParams::paper())?;
     let base = ParticleParams::paper();
     let settings = [
