@@ -2,12 +2,14 @@
 //! `psi-preprocess`'s [`ScanInput`]. No algorithm here.
 
 use psi_io::{NormalSource, PointCloudFile};
-use psi_preprocess::{MeshRef, PreprocessError, PreprocessParams, Preprocessed, ScanInput};
+use psi_preprocess::{
+    MeshRef, PointOrigin, PreprocessError, PreprocessParams, Preprocessed, ScanInput,
+};
 
 /// Prepares the points of `file` for the MPU with [`psi_preprocess::preprocess`], moving them
 /// out of it (`file.points` is left empty; the rest of `file` stays): its normals count as
-/// given unless the file had none, and its mesh is passed on when the points are its
-/// triangles' centroids (not per-vertex points).
+/// given unless the file had none, and points read from a mesh are marked as such (with the
+/// mesh itself when they are its triangles' centroids, for densification).
 ///
 /// ```
 /// let mut file = psi_io::read_points(b"0 0 0\n1 0 0\n", psi_io::Format::Xyz, &psi::ReadOptions::paper()).unwrap();
@@ -23,17 +25,18 @@ pub fn prepare_points(
     file: &mut PointCloudFile,
     params: &PreprocessParams,
 ) -> Result<Preprocessed, PreprocessError> {
-    let mesh = match (&file.mesh, file.normals) {
-        (Some(m), NormalSource::Faces) => Some(MeshRef {
+    let origin = match (&file.mesh, file.normals) {
+        (Some(m), NormalSource::Faces) => PointOrigin::MeshCentroids(MeshRef {
             vertices: &m.vertices,
             faces: &m.faces,
         }),
-        _ => None,
+        (Some(_), _) => PointOrigin::MeshVertices,
+        (None, _) => PointOrigin::Scan,
     };
     let input = ScanInput {
         points: std::mem::take(&mut file.points),
         normals_given: file.normals != NormalSource::Missing,
-        mesh,
+        origin,
     };
     psi_preprocess::preprocess(input, params)
 }

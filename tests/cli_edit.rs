@@ -2,7 +2,7 @@
 //! edited points written, and a malformed strokes file refused before any work.
 
 mod common;
-use common::{assert_success, psi, scratch, write_xyz};
+use common::{assert_rejected, assert_success, psi, scratch, write_xyz};
 
 use psi::{AnalyticShape, DVec3};
 
@@ -60,8 +60,18 @@ fn a_strokes_session_edits_in_order_and_reports_every_edit() {
             .len(),
         4
     );
-    let sum: f64 = per_edit.iter().map(|v| v.as_f64().unwrap()).sum();
-    psi::shapes::assert_near!(local["seconds"].as_f64().unwrap(), sum, 1e-12);
+    // Every edit changed points, so every one marked cells; the brushes moved particles.
+    for (i, cells) in local["marked_cells_per_edit"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+    {
+        assert!(cells.as_u64().unwrap() > 0, "edit {i} marked no cell");
+    }
+    for i in 0..2 {
+        assert!(local["particles_regenerated_per_edit"][i].as_u64().unwrap() > 0);
+    }
     // The edited points: the removed ball gone, the two inserted points there, the brush's
     // top raised.
     let edited = psi::load_points(&edited, &psi::ReadOptions::paper())
@@ -145,4 +155,37 @@ fn a_malformed_strokes_file_is_refused_before_any_work() {
         );
         assert_eq!(std::fs::read(&keep).unwrap(), b"precious");
     }
+}
+
+/// A strokes file that parses but whose second edit cannot be applied (a brush that folds the
+/// surface over): the error names the strokes file and the edit, and no output is written.
+#[test]
+fn an_edit_failing_midway_names_the_strokes_file_and_writes_nothing() {
+    let dir = scratch("strokes-fold");
+    let input = dir.join("sphere.xyz");
+    write_xyz(
+        &input,
+        &AnalyticShape::Sphere { radius: 1.0 }.sample(3000, 3),
+    );
+    let strokes = serde_json::json!([
+        {"brush": {"centre": [0, 0, 1], "radius": 0.3, "displacement": [0, 0, 0.02]}},
+        {"brush": {"centre": [0, 0, 1], "radius": 0.1, "displacement": [0, 0, 1.0]}}
+    ]);
+    let strokes_path = dir.join("fold.json");
+    std::fs::write(&strokes_path, strokes.to_string()).unwrap();
+    let keep = dir.join("keep.ply");
+    std::fs::write(&keep, "precious").unwrap();
+    let out = psi(&[
+        "edit",
+        input.to_str().unwrap(),
+        "--strokes",
+        strokes_path.to_str().unwrap(),
+        "--iterations",
+        "2",
+        "-o",
+        keep.to_str().unwrap(),
+    ]);
+    assert_rejected(&out, "fold.json", &keep, "folding brush");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("edit 1") && err.contains("folds"), "{err}");
 }

@@ -7,7 +7,8 @@ use anyhow::{Context, Result, bail};
 
 use crate::paper::TABLE1;
 use crate::reference::Reference;
-use crate::tables::{build_release, sample};
+use crate::release_binary::build_release;
+use crate::tables::sample;
 use crate::{Flags, models_dir, project_root};
 
 const SCRIPT: &str = r#"

@@ -16,7 +16,7 @@ use psi::render::{
     side_by_side,
 };
 
-use crate::tables::build_release;
+use crate::release_binary::build_release;
 use crate::{Flags, models_dir, project_root};
 
 /// Side of a single picture, pixels.

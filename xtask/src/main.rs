@@ -30,6 +30,7 @@ mod host;
 mod memory;
 mod paper;
 mod reference;
+mod release_binary;
 mod scans;
 mod session;
 mod tables;

@@ -6,7 +6,7 @@ use std::process::Command;
 use anyhow::{Context, Result, bail};
 
 use crate::project_root;
-use crate::tables::build_release;
+use crate::release_binary::build_release;
 
 pub(crate) fn run(points: usize) -> Result<()> {
     let psi = build_release()?;

@@ -24,7 +24,8 @@ use rayon::prelude::*;
 use serde_json::{Value, json};
 
 use crate::reference::{Reference, distance_stats};
-use crate::{Flags, host, models_dir, project_root, tables::build_release};
+use crate::release_binary::build_release;
+use crate::{Flags, host, models_dir, project_root};
 
 /// Models tried by default.
 const MODELS: [&str; 3] = ["bunny", "horse", "igea"];
@@ -425,7 +426,7 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
             "seed": seed,
             "rows": rows,
         });
-        std::fs::write(path, serde_json::to_string_pretty(&value)? + "\n")?;
+        psi::save_json(path, &value).with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(())
 }

@@ -11,7 +11,8 @@ use anyhow::{Context, Result, bail};
 use psi::{DVec3, Mpu, MpuParams, OrientedPoint};
 use serde_json::{Value, json};
 
-use crate::{Flags, models_dir, project_root, tables::build_release};
+use crate::release_binary::build_release;
+use crate::{Flags, models_dir, project_root};
 
 /// Strokes in the drag.
 const STROKES: usize = 20;
@@ -184,7 +185,7 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
     let (md, value) = session(&psi, &model, &out_dir)?;
     print!("{md}");
     if let Some(path) = &flags.json {
-        std::fs::write(path, serde_json::to_string_pretty(&value)? + "\n")?;
+        psi::save_json(path, &value).with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(())
 }

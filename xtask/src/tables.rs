@@ -11,25 +11,12 @@ use crate::paper::{LEVET, TABLE1, TABLE2};
 use crate::reference::{
     METRO_SAMPLES, Reference, area, coverage, distance_stats, metro_stats, worst_gap,
 };
+use crate::release_binary::build_release;
 use crate::{Flags, host, models_dir, project_root};
 
 /// Depth levels with fewer particles than this show their count beside their CV (a
 /// coefficient of variation from a handful of distances is mostly noise).
 const FEW_PARTICLES: u64 = 30;
-
-/// Builds the release `psi` binary and returns its path.
-pub(crate) fn build_release() -> Result<PathBuf> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(cargo)
-        .args(["build", "--release", "--bin", "psi"])
-        .current_dir(project_root())
-        .status()
-        .context("running cargo build --release")?;
-    if !status.success() {
-        bail!("cargo build --release --bin psi failed");
-    }
-    Ok(project_root().join("target/release/psi"))
-}
 
 /// Runs `psi sample` on one model; returns the report and the particle file.
 pub(crate) fn sample(

@@ -30,7 +30,8 @@ fn rust_files(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
-/// The workspace's source folders: each crate's `src`, the facade's and xtask's.
+/// The workspace's source folders: each crate's `src`, the facade's, xtask's and the Python
+/// extension's, with their subfolders (a binary's, a module's submodules).
 fn source_dirs() -> Vec<PathBuf> {
     let root = project_root();
     let mut dirs: Vec<PathBuf> = std::fs::read_dir(root.join("crates"))
@@ -44,15 +45,27 @@ fn source_dirs() -> Vec<PathBuf> {
     if root.join("python/src").is_dir() {
         dirs.push(root.join("python/src"));
     }
-    dirs.sort();
-    dirs
+    let mut all = Vec::new();
+    for dir in dirs {
+        let mut folders: BTreeSet<PathBuf> = rust_files(&dir)
+            .iter()
+            .filter_map(|f| f.parent().map(Path::to_path_buf))
+            .collect();
+        folders.insert(dir);
+        all.extend(folders);
+    }
+    all.sort();
+    all
 }
 
 #[test]
 fn every_source_file_opens_with_a_doc_line_and_stays_short() {
     let mut bad = Vec::new();
     for dir in source_dirs() {
-        for f in rust_files(&dir) {
+        for f in rust_files(&dir)
+            .into_iter()
+            .filter(|f| f.parent() == Some(&dir))
+        {
             let text = std::fs::read_to_string(&f).unwrap();
             if !text.starts_with("//!") {
                 bad.push(format!("{}: no `//!` first line", f.display()));
@@ -67,8 +80,8 @@ fn every_source_file_opens_with_a_doc_line_and_stays_short() {
 }
 
 /// The names a file's code (not its comments, not its `#[cfg(test)]` tail) takes from
-/// `crate::`.
-fn crate_names(text: &str) -> BTreeSet<String> {
+/// `prefix` (`crate::` in a crate's root folder, `super::` among a module's submodules).
+fn crate_names(text: &str, prefix: &str) -> BTreeSet<String> {
     let code: String = text
         .split("#[cfg(test)]")
         .next()
@@ -83,8 +96,8 @@ fn crate_names(text: &str) -> BTreeSet<String> {
             .take_while(|c| c.is_alphanumeric() || *c == '_')
             .collect::<String>()
     };
-    for (i, _) in code.match_indices("crate::") {
-        let rest = &code[i + "crate::".len()..];
+    for (i, _) in code.match_indices(prefix) {
+        let rest = &code[i + prefix.len()..];
         if let Some(list) = rest.strip_prefix('{') {
             let end = list.find('}').unwrap_or(list.len());
             for item in list[..end].split(',') {
@@ -100,7 +113,8 @@ fn crate_names(text: &str) -> BTreeSet<String> {
     names
 }
 
-/// Per module of the crate at `src`: the modules it takes names from.
+/// Per module file in the folder `src`: the modules of that folder it takes names from (a
+/// folder holding `lib.rs` or `main.rs` is a crate root, any other one a module's submodules).
 fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
     let files: BTreeMap<String, String> = std::fs::read_dir(src)
         .unwrap()
@@ -115,6 +129,8 @@ fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
     // Which module owns a name: the root's `pub use module::{…}` re-exports, then the items
     // each file defines.
     let mut owner: BTreeMap<String, String> = BTreeMap::new();
+    let is_root = files.contains_key("lib") || files.contains_key("main");
+    let prefix = if is_root { "crate::" } else { "super::" };
     let root = files
         .get("lib")
         .or_else(|| files.get("main"))
@@ -157,7 +173,7 @@ fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
         .iter()
         .filter(|(m, _)| *m != "lib" && *m != "main")
         .map(|(module, text)| {
-            let deps = crate_names(text)
+            let deps = crate_names(text, prefix)
                 .into_iter()
                 .filter_map(|n| {
                     if files.contains_key(&n) {
@@ -193,10 +209,10 @@ fn no_two_files_import_each_other() {
 fn the_import_check_sees_a_cycle() {
     let a = "//! a\nuse crate::b::B;\npub(crate) struct A;\n";
     let b = "//! b\n/// [`crate::a::A`] only in a comment\npub(crate) struct B;\n";
-    assert!(crate_names(a).contains("b"));
-    assert!(crate_names(b).is_empty());
+    assert!(crate_names(a, "crate::").contains("b"));
+    assert!(crate_names(b, "crate::").is_empty());
     let c = "//! c\nuse crate::{a, Thing};\nfn f() { crate::d::g() }\n#[cfg(test)]\nuse crate::e;";
-    let names = crate_names(c);
+    let names = crate_names(c, "crate::");
     assert_eq!(
         names.into_iter().collect::<Vec<_>>(),
         ["Thing", "a", "d"].map(String::from)

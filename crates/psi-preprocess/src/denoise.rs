@@ -156,8 +156,8 @@ fn denoise_in_order(points: &mut [OrientedPoint], sigma: f64) -> DenoiseReport {
         let (ball, near) = nearest(p.p, wide, radius);
         let (pts, reach) = same_side(&near, p.n);
         let fit = QuadricFit::of(&pts, reach)?;
-        let close = nearest_among(&ball, p.p, radius, p.p, k.min(ball.len()))
-            .unwrap_or_else(|| index.nearest(p.p, k));
+        let close =
+            nearest_among(&ball, p.p, radius, p.p, k).unwrap_or_else(|| index.nearest(p.p, k));
         Some((fit.refined(&same_side(&close, p.n).0), fit))
     };
     let moved: Vec<Option<OrientedPoint>> = points

@@ -10,13 +10,18 @@ use serde::{Deserialize, Serialize};
 
 /// A mesh is coarse when the median standoff of its vertices from the plane of their triangles'
 /// centroids reaches this share of its bounding-box diagonal D: a tenth of the paper's ε0 of
-/// 0.005 D. (A fine mesh's standoff is its roughness: 0.2–1.4e-4 D on the paper's models, 2.2e-4
-/// on a 86 000-triangle Armadillo; 8.9e-4 D on the 5 804-triangle cow.)
+/// 0.005 D, so that a fine mesh's standoff (its roughness) stays below it (the measured
+/// standoffs of the shared models: docs/notes/2026-11-24-real-scans.md).
 const COARSE_STANDOFF: f64 = 5e-4;
 
 /// A coarse mesh's triangles are cut down to about the area at which the median standoff would
 /// be this share of D (the standoff grows with a triangle's area).
 const TARGET_STANDOFF: f64 = COARSE_STANDOFF / 3.0;
+
+/// Densification adds at most about twice this many points per triangle on average, whatever
+/// the spread of areas: a single huge triangle (a filled hole, a ground plane) must not ask
+/// for billions of points.
+const MAX_PIECES_PER_FACE: f64 = 64.0;
 
 /// How coarse a mesh is against the implicit's tolerance ([`mesh_coarseness`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -28,7 +33,8 @@ pub struct MeshCoarseness {
     /// The median triangle area over D².
     pub median_area: f64,
     /// For a coarse mesh, the largest triangle area (world units²) [`densify_mesh`] should
-    /// leave uncut; `None` for a fine mesh.
+    /// leave uncut, never below the total area over 64 × the triangle count; `None` for a fine
+    /// mesh.
     pub max_area: Option<f64>,
 }
 
@@ -36,7 +42,9 @@ pub struct MeshCoarseness {
 /// standoff of its vertices from the plane of their triangles' centroids, over D; the mesh is
 /// coarse when that reaches 5e-4 (a tenth of the paper's ε0), and its triangles should then be
 /// cut to the median area × (5e-4/3) / standoff — the standoff grows about as the area, so that
-/// brings it to a third of the limit. `None` for a mesh without usable triangles.
+/// brings it to a third of the limit, but never below the total area over 64 × the triangle
+/// count, so that [`densify_mesh`] adds at most about 130 points per triangle on average
+/// (Σ⌈√(A/a)⌉² ≤ 2ΣA/a + 2F). `None` for a mesh without usable triangles.
 ///
 /// ```
 /// use glam::DVec3;
@@ -84,12 +92,15 @@ pub fn mesh_coarseness(vertices: &[DVec3], faces: &[[u32; 3]]) -> Option<MeshCoa
         let mid = v.len() / 2;
         *v.select_nth_unstable_by(mid, f64::total_cmp).1
     };
+    let total_area: f64 = areas.iter().sum();
+    let floor = total_area / (MAX_PIECES_PER_FACE * areas.len() as f64);
     let standoff = median(&mut standoffs) / diagonal;
     let area = median(&mut areas);
     Some(MeshCoarseness {
         median_standoff: standoff,
         median_area: area / (diagonal * diagonal),
-        max_area: (standoff >= COARSE_STANDOFF).then(|| area * TARGET_STANDOFF / standoff),
+        max_area: (standoff >= COARSE_STANDOFF)
+            .then(|| (area * TARGET_STANDOFF / standoff).max(floor)),
     })
 }
 
@@ -183,5 +194,53 @@ mod tests {
                 assert!((p.n - n).length() < 1e-12);
             }
         }
+    }
+
+    /// A crumpled grid of tiny triangles (coarse: its vertices stand far off their
+    /// neighbours' plane) beside one large triangle: cutting the large one to the tiny ones'
+    /// scale would give millions of points; the cap keeps the total near 64 per triangle.
+    #[test]
+    fn one_huge_triangle_does_not_explode_the_point_count() {
+        let n = 30u32;
+        let mut v: Vec<DVec3> = (0..n * n)
+            .map(|k| {
+                let (i, j) = (k % n, k / n);
+                let z = if (i + j) % 2 == 0 { 4e-3 } else { 0.0 };
+                DVec3::new(f64::from(i) * 1e-3, f64::from(j) * 1e-3, z)
+            })
+            .collect();
+        let mut f = Vec::new();
+        for j in 0..n - 1 {
+            for i in 0..n - 1 {
+                let k = j * n + i;
+                f.push([k, k + 1, k + n + 1]);
+                f.push([k, k + n + 1, k + n]);
+            }
+        }
+        let base = v.len() as u32;
+        v.extend([
+            DVec3::new(0.0, 0.0, -0.5),
+            DVec3::new(1.0, 0.0, -0.5),
+            DVec3::new(0.0, 1.0, -0.5),
+        ]);
+        f.push([base, base + 1, base + 2]);
+        let c = mesh_coarseness(&v, &f).unwrap();
+        let max_area = c.max_area.expect("coarse");
+        // Without the floor, the median rule would cut the large triangle (area 0.5) into
+        // over a million pieces the size of the tiny ones.
+        let d2 = Aabb::from_points(v.iter().copied())
+            .unwrap()
+            .diagonal()
+            .powi(2);
+        let uncapped = c.median_area * d2 * TARGET_STANDOFF / c.median_standoff;
+        assert!(0.5 / uncapped > 1e6, "{c:?}");
+        let extra = densify_mesh(&v, &f, max_area);
+        assert!(!extra.is_empty());
+        assert!(
+            extra.len() <= 130 * f.len(),
+            "{} points for {} triangles",
+            extra.len(),
+            f.len()
+        );
     }
 }

@@ -134,7 +134,20 @@ mod tests {
     fn tiny_and_degenerate_inputs_do_not_panic() {
         assert!(estimate_normals(&[]).is_empty());
         assert_eq!(estimate_normals(&[DVec3::ZERO; 2]), vec![DVec3::ZERO; 2]);
-        let line: Vec<DVec3> = (0..20).map(|i| DVec3::X * i as f64).collect();
-        assert_eq!(estimate_normals(&line).len(), 20);
+        // Coincident points and a (slightly noisy) line have no plane: zero normals, not an
+        // arbitrary direction.
+        assert_eq!(estimate_normals(&[DVec3::ONE; 5]), vec![DVec3::ZERO; 5]);
+        let line: Vec<DVec3> = (0..20)
+            .map(|i| DVec3::new(i as f64, 1e-4 * (i % 3) as f64, 0.0))
+            .collect();
+        assert_eq!(estimate_normals(&line), vec![DVec3::ZERO; 20]);
+        // A plane sampled along rows far apart still gets its normal once the neighbourhood
+        // reaches across rows.
+        let rows: Vec<DVec3> = (0..400)
+            .map(|i| DVec3::new(0.01 * (i % 100) as f64, (i / 100) as f64 * 0.2, 0.0))
+            .collect();
+        for n in estimate_normals(&rows) {
+            assert!(n.z.abs() > 0.999_999, "{n}");
+        }
     }
 }

@@ -50,7 +50,8 @@ pub use orient_normals::{
     NormalConsistency, check_normal_consistency, orient_normals, orient_toward,
 };
 pub use preprocess::{
-    ErrorThreshold, MeshRef, MeshReport, NOISE_ERROR_FACTOR, NormalTreatment, OutlierReport,
-    PAPER_ERROR_REL, PreprocessError, PreprocessParams, PreprocessReport, Preprocessed, ScanInput,
-    StepSeconds, ThresholdSource, error_threshold_for_noise, preprocess,
+    ErrorThreshold, INCONSISTENT_NORMALS, MeshRef, MeshReport, NOISE_ERROR_FACTOR, NormalTreatment,
+    OutlierReport, PAPER_ERROR_REL, PointOrigin, PreprocessError, PreprocessParams,
+    PreprocessReport, Preprocessed, ScanInput, StepSeconds, ThresholdSource,
+    error_threshold_for_noise, preprocess,
 };

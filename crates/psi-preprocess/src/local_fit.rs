@@ -4,6 +4,12 @@
 use glam::DVec3;
 use nalgebra::{Matrix3, SMatrix, SVector};
 
+/// A set is flat enough to have a plane when its middle covariance eigenvalue exceeds this
+/// share of the total variance: a spread across the main direction of at least about 3 % of
+/// the spread along it. Coincident points, a scan line, or any neighbourhood thinner than that
+/// has no plane (its least-variance direction is arbitrary in the plane across the line).
+const FLAT_SPREAD: f64 = 1e-3;
+
 /// The least-squares plane of a point set: its centroid, unit normal (the direction of least
 /// variance; sign arbitrary) and the covariance's eigenvalues, ascending (world units²: the
 /// mean squared distance to the plane is `eigenvalues[0]`).
@@ -65,7 +71,9 @@ impl Moments {
         self.count
     }
 
-    /// The plane of the points added so far; `None` for fewer than 3 points or a non-finite fit.
+    /// The plane of the points added so far; `None` for fewer than 3 points, a set without
+    /// spread in two directions (coincident or on a line: the middle eigenvalue at most
+    /// [`FLAT_SPREAD`] of the total variance) or a non-finite fit.
     pub(crate) fn plane(&self) -> Option<PlaneFit> {
         if self.count < 3 {
             return None;
@@ -90,7 +98,9 @@ impl Moments {
         let v = eig.eigenvectors.column(order[0]);
         let normal = DVec3::new(v[0], v[1], v[2]).normalize_or_zero();
         let eigenvalues = order.map(|k| eig.eigenvalues[k].max(0.0));
-        (normal != DVec3::ZERO && eigenvalues.iter().all(|e| e.is_finite())).then_some(PlaneFit {
+        let spread = eigenvalues[1] > FLAT_SPREAD * eigenvalues.iter().sum::<f64>();
+        let finite = eigenvalues.iter().all(|e| e.is_finite());
+        (normal != DVec3::ZERO && spread && finite).then_some(PlaneFit {
             centroid: self.origin + m,
             normal,
             eigenvalues,
@@ -98,7 +108,8 @@ impl Moments {
     }
 }
 
-/// The least-squares plane of `points`; `None` for fewer than 3 points or a degenerate set.
+/// The least-squares plane of `points`; `None` for fewer than 3 points or a set without spread
+/// in two directions (see [`Moments::plane`]).
 pub(crate) fn fit_plane(points: impl IntoIterator<Item = DVec3>) -> Option<PlaneFit> {
     let mut points = points.into_iter().peekable();
     let mut m = Moments::around(*points.peek()?);

@@ -25,6 +25,11 @@ pub const PAPER_ERROR_REL: f64 = 0.005;
 /// threshold below that splits cells on the noise alone.
 pub const NOISE_ERROR_FACTOR: f64 = 4.0;
 
+/// Given normals are inconsistent when more than this share of neighbouring pairs on a sheet
+/// point to opposite sides ([`NormalConsistency::opposed_fraction`]). Such points are not
+/// denoised unless reoriented first: denoising fits each point to the neighbours on its side.
+pub const INCONSISTENT_NORMALS: f64 = 0.01;
+
 /// Which steps run ([`PreprocessParams::scan`]: all of them).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PreprocessParams {
@@ -102,8 +107,7 @@ pub struct OutlierReport {
     pub off_surface: usize,
 }
 
-/// A triangle mesh the points were taken from, one per triangle at its centroid with the face
-/// normal, borrowed.
+/// A triangle mesh the points were taken from, borrowed.
 #[derive(Clone, Copy, Debug)]
 pub struct MeshRef<'a> {
     /// Vertex positions (shape: V), world units.
@@ -120,11 +124,29 @@ pub struct ScanInput<'a> {
     pub points: Vec<OrientedPoint>,
     /// Whether the points carry normals.
     pub normals_given: bool,
-    /// The mesh the points are the triangles' centroids of, when they come from one. Its
-    /// triangles are taken as the surface: the points are then not searched for outliers (the
-    /// mesh's connectivity supports them), nor denoised, nor is ε0 raised for noise (a coarse
-    /// mesh's quadric residuals measure its coarseness); a coarse mesh gets more points.
-    pub mesh: Option<MeshRef<'a>>,
+    /// Where the points come from.
+    pub origin: PointOrigin<'a>,
+}
+
+/// Where the points of a [`ScanInput`] come from. A mesh's triangles are taken as the surface:
+/// its points are not searched for outliers (the connectivity supports them), nor denoised,
+/// nor is ε0 raised for noise (a coarse mesh's quadric residuals measure its coarseness).
+#[derive(Clone, Copy, Debug)]
+pub enum PointOrigin<'a> {
+    /// A scan or any point cloud: every step applies.
+    Scan,
+    /// A mesh's vertices (with per-vertex normals).
+    MeshVertices,
+    /// A mesh's triangles, one point per triangle at its centroid with the face normal; a
+    /// coarse mesh gets more points on its large triangles.
+    MeshCentroids(MeshRef<'a>),
+}
+
+impl PointOrigin<'_> {
+    /// Whether the points come from a triangle mesh.
+    pub fn is_mesh(&self) -> bool {
+        !matches!(self, PointOrigin::Scan)
+    }
 }
 
 /// The mesh step's result.
@@ -186,7 +208,7 @@ pub struct PreprocessReport {
     /// The MPU error threshold ε0 relative to D that the data suggest: the paper's 0.005, or
     /// [`NOISE_ERROR_FACTOR`] × the noise (left after denoising) when that is larger.
     pub error_rel: f64,
-    /// Seconds of each step that ran: outliers, normals, noise.
+    /// Seconds of each step that ran (zero for a step that did not).
     pub seconds: StepSeconds,
 }
 
@@ -208,7 +230,9 @@ pub struct StepSeconds {
 /// The points after preprocessing and the report.
 #[derive(Clone, Debug)]
 pub struct Preprocessed {
-    /// The points for the MPU (shape: M ≤ N, world units, unit normals).
+    /// The points for the MPU (shape: M, world units, unit normals): fewer than the input's
+    /// where outliers or points without a normal were dropped, more where a coarse mesh was
+    /// densified.
     pub points: Vec<OrientedPoint>,
     /// What each step did.
     pub report: PreprocessReport,
@@ -221,9 +245,9 @@ pub enum PreprocessError {
     ///
     /// ```
     /// use psi_octree::OrientedPoint;
-    /// use psi_preprocess::{preprocess, PreprocessError, PreprocessParams, ScanInput};
+    /// use psi_preprocess::{preprocess, PointOrigin, PreprocessError, PreprocessParams, ScanInput};
     /// let points = vec![OrientedPoint { p: glam::DVec3::ZERO, n: glam::DVec3::ZERO }; 20];
-    /// let input = ScanInput { points, normals_given: false, mesh: None };
+    /// let input = ScanInput { points, normals_given: false, origin: PointOrigin::Scan };
     /// let err = preprocess(input, &PreprocessParams::none()).unwrap_err();
     /// assert_eq!(err, PreprocessError::NoNormals);
     /// ```
@@ -236,9 +260,9 @@ impl PreprocessReport {
     /// when it is above the paper's, else the paper's.
     ///
     /// ```
-    /// use psi_preprocess::{preprocess, PreprocessParams, ScanInput, ThresholdSource};
+    /// use psi_preprocess::{preprocess, PointOrigin, PreprocessParams, ScanInput, ThresholdSource};
     /// let points = psi_shapes::AnalyticShape::Sphere { radius: 1.0 }.sample(2000, 1);
-    /// let input = ScanInput { points, normals_given: true, mesh: None };
+    /// let input = ScanInput { points, normals_given: true, origin: PointOrigin::Scan };
     /// let done = preprocess(input, &PreprocessParams::scan()).unwrap();
     /// assert_eq!(done.report.error_threshold(None).source, ThresholdSource::Paper);
     /// assert_eq!(done.report.error_threshold(Some(0.01)).relative, 0.01);
@@ -272,7 +296,8 @@ pub fn error_threshold_for_noise(noise_rel: f64) -> f64 {
 /// oriented (toward `params.viewpoint`, else by propagation) when there are none, else checked
 /// for consistency and, with `params.orient_given_normals`, reoriented; the noise estimated;
 /// where it would raise the error threshold above the paper's, the points denoised and the
-/// noise estimated again (not for a mesh); the error threshold the noise left suggests (the
+/// noise estimated again (not for a mesh, nor for given normals found inconsistent — more
+/// than [`INCONSISTENT_NORMALS`] opposed — and not reoriented); the error threshold the noise left suggests (the
 /// paper's for a mesh). Deterministic and independent of the thread count.
 ///
 /// # Errors
@@ -280,13 +305,13 @@ pub fn error_threshold_for_noise(noise_rel: f64) -> f64 {
 /// [`PreprocessError::NoNormals`] when the points have no normals and estimation is off.
 ///
 /// ```
-/// use psi_preprocess::{preprocess, PreprocessParams, NormalTreatment, ScanInput};
+/// use psi_preprocess::{preprocess, PointOrigin, PreprocessParams, NormalTreatment, ScanInput};
 /// use psi_shapes::AnalyticShape;
 ///
 /// // A sphere's positions alone: normals estimated and oriented outward.
 /// let truth = AnalyticShape::Sphere { radius: 1.0 }.sample(5000, 1);
 /// let bare = truth.iter().map(|p| psi_octree::OrientedPoint { p: p.p, n: glam::DVec3::ZERO }).collect();
-/// let input = ScanInput { points: bare, normals_given: false, mesh: None };
+/// let input = ScanInput { points: bare, normals_given: false, origin: PointOrigin::Scan };
 /// let done = preprocess(input, &PreprocessParams::scan()).unwrap();
 /// assert_eq!(done.report.normals, NormalTreatment::EstimatedPropagated);
 /// assert_eq!(done.report.outliers.unwrap().removed, 0);
@@ -300,7 +325,7 @@ pub fn preprocess(
     let ScanInput {
         mut points,
         normals_given,
-        mesh,
+        origin,
     } = input;
     if !normals_given && !params.estimate_normals {
         return Err(PreprocessError::NoNormals);
@@ -310,7 +335,7 @@ pub fn preprocess(
     let mut seconds = StepSeconds::default();
 
     let mut mesh_report = None;
-    if let Some(m) = mesh
+    if let PointOrigin::MeshCentroids(m) = origin
         && params.densify_meshes
     {
         let t = Instant::now();
@@ -329,7 +354,7 @@ pub fn preprocess(
     }
 
     let mut outliers = None;
-    if params.remove_outliers && mesh.is_none() {
+    if params.remove_outliers && !origin.is_mesh() {
         let t = Instant::now();
         let found = find_outliers_of(&points, normals_given);
         if found.count() > 0 {
@@ -393,10 +418,13 @@ pub fn preprocess(
         }
         noise = Some(estimate);
         seconds.noise = t.elapsed().as_secs_f64();
-        if mesh.is_some() {
+        // Given normals pointing every way would leave each point few neighbours on its side.
+        let inconsistent = consistency.is_some_and(|c| c.opposed_fraction() > INCONSISTENT_NORMALS)
+            && normals == NormalTreatment::Given;
+        if origin.is_mesh() {
             // The triangles are the surface: their residuals are no noise to fit around.
             error_rel = PAPER_ERROR_REL;
-        } else if params.denoise && error_rel > PAPER_ERROR_REL {
+        } else if params.denoise && error_rel > PAPER_ERROR_REL && !inconsistent {
             let t = Instant::now();
             denoised = Some(denoise(&mut points, estimate.sigma));
             seconds.denoise = t.elapsed().as_secs_f64();
@@ -427,4 +455,91 @@ pub fn preprocess(
         },
         points,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use psi_shapes::{AnalyticShape, gaussian_vector};
+    use rand::SeedableRng;
+    use rand_pcg::Pcg64Mcg;
+
+    /// A sphere of 20 000 points with noise of 0.6 sample spacings (enough to raise ε0 and to
+    /// call for denoising) and 50 points strewn around it.
+    fn noisy_sphere_with_strays() -> Vec<OrientedPoint> {
+        let sphere = AnalyticShape::Sphere { radius: 1.0 };
+        let spacing = (sphere.area() / 20_000.0).sqrt();
+        let mut rng = Pcg64Mcg::seed_from_u64(5);
+        let mut points: Vec<OrientedPoint> = sphere
+            .sample(20_000, 4)
+            .into_iter()
+            .map(|p| OrientedPoint {
+                p: p.p + 0.6 * spacing * gaussian_vector(&mut rng),
+                n: p.n,
+            })
+            .collect();
+        for i in 0..50 {
+            let d = gaussian_vector(&mut rng).normalize();
+            let r = if i % 2 == 0 { 0.5 } else { 1.5 };
+            points.push(OrientedPoint { p: r * d, n: d });
+        }
+        points
+    }
+
+    /// The same points as a scan lose their strays and are denoised; as a mesh's vertices they
+    /// are kept as they are, with the paper's threshold.
+    #[test]
+    fn a_meshs_points_are_neither_pruned_nor_denoised() {
+        let points = noisy_sphere_with_strays();
+        let n = points.len();
+        let run = |origin| {
+            let input = ScanInput {
+                points: points.clone(),
+                normals_given: true,
+                origin,
+            };
+            preprocess(input, &PreprocessParams::scan()).unwrap()
+        };
+        let scan = run(PointOrigin::Scan);
+        assert!(
+            scan.report.outliers.unwrap().removed >= 40,
+            "{:?}",
+            scan.report
+        );
+        assert!(scan.report.denoised.is_some());
+        let mesh = run(PointOrigin::MeshVertices);
+        assert_eq!(mesh.report.outliers, None);
+        assert_eq!(mesh.report.denoised, None);
+        assert_eq!(mesh.report.error_rel, PAPER_ERROR_REL);
+        assert_eq!(mesh.points, points);
+        assert_eq!(mesh.points.len(), n);
+    }
+
+    /// Given normals of which a third point inward are not denoised as they are (each point
+    /// would see few neighbours on its side); reoriented first, they are.
+    #[test]
+    fn inconsistent_given_normals_are_denoised_only_once_reoriented() {
+        let mut points = noisy_sphere_with_strays();
+        for p in points.iter_mut().step_by(3) {
+            p.n = -p.n;
+        }
+        let run = |orient_given_normals| {
+            let input = ScanInput {
+                points: points.clone(),
+                normals_given: true,
+                origin: PointOrigin::Scan,
+            };
+            let params = PreprocessParams {
+                orient_given_normals,
+                ..PreprocessParams::scan()
+            };
+            preprocess(input, &params).unwrap().report
+        };
+        let as_given = run(false);
+        assert!(as_given.consistency.unwrap().opposed_fraction() > INCONSISTENT_NORMALS);
+        assert_eq!(as_given.denoised, None);
+        assert!(as_given.error_rel > PAPER_ERROR_REL);
+        let reoriented = run(true);
+        assert!(reoriented.denoised.is_some());
+    }
 }

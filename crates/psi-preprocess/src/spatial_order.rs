@@ -1,6 +1,7 @@
 //! A spatially coherent order of points (Morton, or Z-order, on a 2²¹ grid over their bounding
 //! box): nearest-neighbour queries made in this order, over points stored in it, find their
-//! data in cache — about twice as fast as in a scanner's or a random order.
+//! data in cache, where a scanner's or a random order scatters them (measured in
+//! docs/notes/2026-11-24-real-scans.md).
 
 use glam::DVec3;
 use psi_octree::Aabb;

@@ -168,7 +168,7 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
     let prep = prepared.report;
     if let Some(c) = prep.consistency
         && !args.orient_normals
-        && c.opposed_fraction() > 0.01
+        && c.opposed_fraction() > psi::preprocess::INCONSISTENT_NORMALS
     {
         eprintln!(
             "psi: warning: {name}: {:.1} % of neighbouring normals point to opposite sides; try --orient-normals",

@@ -113,7 +113,10 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     let mut reports = Vec::new();
     for (i, e) in edits.iter().enumerate() {
         let r = scene.apply(e).map_err(|e| Failure {
-            error: anyhow::Error::new(e).context(format!("applying edit {i}")),
+            error: anyhow::Error::new(e).context(match &args.strokes {
+                Some(path) => format!("{}: applying edit {i}", path.display()),
+                None => format!("applying edit {i}"),
+            }),
             code: 2,
         })?;
         if ui.verbose {

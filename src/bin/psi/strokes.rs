@@ -114,7 +114,7 @@ fn edit(value: &Value) -> Result<Edit> {
                 .enumerate()
                 .map(|(i, (p, n))| {
                     OrientedPoint::new_normalized(p, n)
-                        .ok_or_else(|| anyhow!("normals[{i}] is zero"))
+                        .ok_or_else(|| anyhow!("normals[{i}] is zero or too large to normalise"))
                 })
                 .collect::<Result<_>>()?;
             Ok(Edit::Insert { points })
