@@ -113,9 +113,12 @@ impl<'py> Queries<'py> {
     /// else copied once; a `ValueError` naming the first point with a NaN or infinite
     /// coordinate.
     pub(crate) fn coordinates(&self, name: &str) -> PyResult<Cow<'_, [f64]>> {
+        // `as_slice` also takes a Fortran-ordered array (in memory order): only C order is
+        // row order.
+        let in_rows = self.array.is_c_contiguous();
         let flat = match self.array.as_slice() {
-            Ok(slice) => Cow::Borrowed(slice),
-            Err(_) => Cow::Owned(self.array.as_array().iter().copied().collect()),
+            Ok(slice) if in_rows => Cow::Borrowed(slice),
+            _ => Cow::Owned(self.array.as_array().iter().copied().collect()),
         };
         if let Some(i) = flat.iter().position(|v| !v.is_finite()) {
             return Err(value_error(format!(

@@ -16,14 +16,9 @@ pub(crate) fn value_error(message: impl Into<String>) -> PyErr {
 }
 
 /// An `OSError` (the subclass for the error's kind: `FileNotFoundError`, `PermissionError`,
-/// `IsADirectoryError`) whose text is `message` and whose `errno` and `filename` are set when
-/// known.
-pub(crate) fn os_error(
-    py: Python<'_>,
-    message: String,
-    reason: &std::io::Error,
-    path: &std::path::Path,
-) -> PyErr {
+/// `IsADirectoryError`) whose text is `message` and whose `errno` is set when known (not its
+/// `filename`, which would replace the text by `[Errno n] strerror: filename`).
+pub(crate) fn os_error(py: Python<'_>, message: String, reason: &std::io::Error) -> PyErr {
     use std::io::ErrorKind;
     let err = match reason.kind() {
         ErrorKind::NotFound => PyFileNotFoundError::new_err(message),
@@ -31,12 +26,10 @@ pub(crate) fn os_error(
         ErrorKind::IsADirectory => PyIsADirectoryError::new_err(message),
         _ => PyOSError::new_err(message),
     };
-    let value = err.value(py);
-    // Best effort: the message is what matters, these attributes are extras.
     if let Some(code) = reason.raw_os_error() {
-        let _ = value.setattr("errno", code);
+        // Best effort: the message is what matters, the number is an extra.
+        let _ = err.value(py).setattr("errno", code);
     }
-    let _ = value.setattr("filename", path.to_string_lossy().into_owned());
     err
 }
 
@@ -48,8 +41,8 @@ pub(crate) fn psi_error(py: Python<'_>, error: psi::PsiError, context: Option<&s
         None => error.to_string(),
     };
     match &error {
-        psi::PsiError::Open { path, reason } | psi::PsiError::Write { path, reason } => {
-            os_error(py, message, reason, path)
+        psi::PsiError::Open { reason, .. } | psi::PsiError::Write { reason, .. } => {
+            os_error(py, message, reason)
         }
         psi::PsiError::Read { .. } | psi::PsiError::Render { .. } => value_error(message),
     }
@@ -69,16 +62,14 @@ pub(crate) fn detached<T: Send>(py: Python<'_>, work: impl FnOnce() -> T + Send)
         })
 }
 
-/// `value` when it lies in `lo..=hi`, else a `ValueError` `name: value is not in lo..=hi` (the
-/// CLI's bound check for the same option).
-pub(crate) fn bounded<T: PartialOrd + std::fmt::Display>(
-    name: &str,
-    value: T,
-    lo: T,
-    hi: T,
-) -> PyResult<T> {
-    if value >= lo && value <= hi {
-        Ok(value)
+/// The whole number `value` as a `T` when it lies in `lo..=hi`, else a `ValueError` `name:
+/// value is not in lo..=hi` (the CLI's bound check for the same option).
+pub(crate) fn bounded<T>(name: &str, value: i128, lo: T, hi: T) -> PyResult<T>
+where
+    T: Copy + Into<i128> + TryFrom<i128> + std::fmt::Display,
+{
+    if value >= lo.into() && value <= hi.into() {
+        T::try_from(value).map_err(|_| value_error(format!("{name}: {value} is out of range")))
     } else {
         Err(value_error(format!(
             "{name}: {value} is not in {lo}..={hi}"

@@ -34,5 +34,13 @@ fn psi_python(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(render::render_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(mpu::_rust_loop_seconds, m)?)?;
+    m.add_function(wrap_pyfunction!(_panic_for_tests, m)?)?;
     Ok(())
+}
+
+/// Test hook (not API): panics inside the guard every call into Rust goes through, so the tests
+/// can check that a panic becomes a `RuntimeError` and the interpreter carries on.
+#[pyfunction]
+fn _panic_for_tests(py: Python<'_>) -> PyResult<()> {
+    errors::detached(py, || panic!("a deliberate panic"))
 }

@@ -18,7 +18,7 @@ use crate::points::{Input, input_of};
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct MpuOptions {
     pub(crate) error: Option<f64>,
-    pub(crate) max_depth: u8,
+    pub(crate) max_depth: i128,
     pub(crate) smooth: bool,
     pub(crate) scale_invariant: bool,
 }
@@ -32,11 +32,11 @@ impl MpuOptions {
         {
             return Err(value_error(format!("error: {e} is not in (0, 1]")));
         }
-        bounded("max_depth", self.max_depth, 0, 16)?;
+        let max_depth: u8 = bounded("max_depth", self.max_depth, 0, 16)?;
         let threshold = input.prep.error_threshold(self.error);
         let params = MpuParams {
             error_rel: threshold.relative,
-            max_depth: self.max_depth,
+            max_depth,
             sharp: !self.smooth,
             fit_unit: if self.scale_invariant {
                 None
@@ -100,7 +100,7 @@ impl Mpu {
         points: &Bound<'_, PyAny>,
         normals: Option<&Bound<'_, PyAny>>,
         error: Option<f64>,
-        max_depth: u8,
+        max_depth: i128,
         smooth: bool,
         scale_invariant: bool,
         preprocess: bool,
@@ -168,12 +168,8 @@ impl Mpu {
     /// (V, 3) float64, world units; faces (F, 3) uint32, counter-clockwise seen from outside)`.
     /// `resolution`: grid cells across the root cube (2 to 2048).
     #[pyo3(signature = (resolution=256))]
-    fn mesh<'py>(
-        &self,
-        py: Python<'py>,
-        resolution: u32,
-    ) -> PyResult<Mesh<'py>> {
-        let resolution = bounded("resolution", resolution, 2, 2048)?;
+    fn mesh<'py>(&self, py: Python<'py>, resolution: i128) -> PyResult<Mesh<'py>> {
+        let resolution: u32 = bounded("resolution", resolution, 2, 2048)?;
         let mpu = &*self.mpu;
         let soup = detached(py, || {
             psi::polygonize(

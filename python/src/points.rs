@@ -325,13 +325,9 @@ pub(crate) fn load_points(
 /// `points` says otherwise), prepared as `psi sample` without an input does.
 #[pyfunction]
 #[pyo3(signature = (points=None))]
-pub(crate) fn builtin_model(py: Python<'_>, points: Option<usize>) -> PyResult<PointSet> {
-    let n = bounded(
-        "points",
-        points.unwrap_or(psi::shapes::BUILTIN_MODEL_POINTS),
-        1,
-        50_000_000,
-    )?;
+pub(crate) fn builtin_model(py: Python<'_>, points: Option<i128>) -> PyResult<PointSet> {
+    let default = psi::shapes::BUILTIN_MODEL_POINTS as i128;
+    let n = bounded::<u32>("points", points.unwrap_or(default), 1, 50_000_000)? as usize;
     let points = detached(py, || {
         psi::shapes::sample_builtin(n, psi::shapes::BUILTIN_MODEL_SEED)
     })?;

@@ -30,8 +30,8 @@ fn view(name: &str) -> PyResult<View> {
 
 /// `psi render`'s parameters: `RenderParams::particles()` with the size, view, style and splat
 /// scale asked for.
-fn params(size: u32, view_name: &str, style: &str, splat_scale: f64) -> PyResult<RenderParams> {
-    let size = bounded("size", size, 16, 8192)?;
+fn params(size: i128, view_name: &str, style: &str, splat_scale: f64) -> PyResult<RenderParams> {
+    let size: u32 = bounded("size", size, 16, 8192)?;
     if !(splat_scale.is_finite() && splat_scale > 0.0) {
         return Err(value_error("splat_scale must be a positive number"));
     }
@@ -91,7 +91,7 @@ pub(crate) fn render<'py>(
     py: Python<'py>,
     particles: &Particles,
     path: Option<PathBuf>,
-    size: u32,
+    size: i128,
     view: &str,
     color: &str,
     style: &str,
@@ -137,7 +137,7 @@ pub(crate) fn render_mesh<'py>(
     vertices: &Bound<'py, PyAny>,
     faces: &Bound<'py, PyAny>,
     path: Option<PathBuf>,
-    size: u32,
+    size: i128,
     view: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let params = params(size, view, "dots", 1.0)?;

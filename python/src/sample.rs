@@ -17,24 +17,23 @@ use crate::points::Input;
 /// The sampling options of `psi sample` (`--iterations`, `--k`, `--count`, `--uniform`,
 /// `--seed`) as `ParticleParams`, with the CLI's bounds.
 pub(crate) fn particle_params(
-    iterations: usize,
-    k: usize,
-    count: Option<usize>,
+    iterations: i128,
+    k: i128,
+    count: Option<i128>,
     uniform: bool,
-    seed: u64,
+    seed: i128,
 ) -> PyResult<ParticleParams> {
+    let exact = |c| bounded::<u32>("count", c, 1, 50_000_000).map(|c| c as usize);
     Ok(ParticleParams {
-        k: bounded("k", k, 1, 64)?,
-        count: count
-            .map(|c| bounded("count", c, 1, 50_000_000))
-            .transpose()?,
-        iterations: bounded("iterations", iterations, 0, 100_000)?,
+        k: bounded::<u8>("k", k, 1, 64)?.into(),
+        count: count.map(exact).transpose()?,
+        iterations: bounded::<u32>("iterations", iterations, 0, 100_000)? as usize,
         density: if uniform {
             DensityMode::Uniform
         } else {
             DensityMode::Adaptive
         },
-        seed,
+        seed: bounded("seed", seed, 0, u64::MAX)?,
         ..ParticleParams::paper()
     })
 }
@@ -144,11 +143,11 @@ impl Particles {
 pub(crate) fn sample(
     py: Python<'_>,
     mpu: &Mpu,
-    iterations: usize,
-    k: usize,
-    count: Option<usize>,
+    iterations: i128,
+    k: i128,
+    count: Option<i128>,
     uniform: bool,
-    seed: u64,
+    seed: i128,
 ) -> PyResult<Particles> {
     let params = particle_params(iterations, k, count, uniform, seed)?;
     let shared = mpu.mpu.clone();
