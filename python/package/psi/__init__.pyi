@@ -9,17 +9,31 @@ raises ``OSError`` (``FileNotFoundError``, ``PermissionError``, ...); messages a
 """
 
 from os import PathLike
-from typing import Any, Literal, Optional, Tuple, Union, overload
+from typing import Any, Literal, Optional, Tuple, Union, final, overload
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
+__all__ = [
+    "Mpu",
+    "Particles",
+    "PointSet",
+    "Scene",
+    "__version__",
+    "builtin_model",
+    "load_points",
+    "render",
+    "render_mesh",
+    "sample",
+    "save_particles",
+]
 
 _Path = Union[str, "PathLike[str]"]
 _Points = npt.ArrayLike
 _F64 = npt.NDArray[np.float64]
 
+@final
 class PointSet:
     """Oriented points prepared for the MPU, as ``psi sample`` prepares its input.
 
@@ -33,8 +47,8 @@ class PointSet:
     (``denoise``), a coarse mesh given more points (``densify``).
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         points: _Points,
         normals: Optional[_Points] = None,
         *,
@@ -46,7 +60,7 @@ class PointSet:
         estimate_noise: bool = True,
         denoise: bool = True,
         densify: bool = True,
-    ) -> None: ...
+    ) -> PointSet: ...
     @property
     def points(self) -> _F64:
         """Positions after preprocessing, (N, 3) float64, world units."""
@@ -91,6 +105,7 @@ def builtin_model(points: Optional[int] = None) -> PointSet:
     """The built-in model (80 000 points unless ``points``, 1 to 50 000 000), prepared as
     ``psi sample`` without an input does."""
 
+@final
 class Mpu:
     """The MPU implicit f of oriented points (Ohtake et al. 2003): f > 0 outside, f < 0
     inside, about the signed distance (world units) near the surface.
@@ -103,8 +118,8 @@ class Mpu:
     ``ValueError`` for too few (fewer than 16) or unusable points.
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         points: Union[PointSet, _Points],
         normals: Optional[_Points] = None,
         *,
@@ -113,7 +128,7 @@ class Mpu:
         smooth: bool = False,
         scale_invariant: bool = False,
         preprocess: bool = True,
-    ) -> None: ...
+    ) -> Mpu: ...
     @overload
     def value_and_gradient(self, x: Tuple[float, float, float]) -> Tuple[float, _F64]: ...
     @overload
@@ -165,6 +180,7 @@ class Mpu:
     def normals(self) -> _F64:
         """Their unit normals, (N, 3) float64."""
 
+@final
 class Particles:
     """Particles on an MPU surface; arrays are new copies on each access."""
 
@@ -204,6 +220,7 @@ def save_particles(path: _Path, particles: Particles) -> None:
     """Writes binary PLY ``x y z nx ny nz depth sigma`` (float64), as ``psi sample -o``;
     ``OSError`` when it cannot (an existing file is then untouched)."""
 
+@final
 class Scene:
     """Points, their MPU and particles, updated locally by edits (``psi edit``).
 
@@ -214,8 +231,8 @@ class Scene:
     and leaves the scene unchanged. Particles outside the refitted cells stay bitwise equal.
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         points: Union[PointSet, _Points],
         normals: Optional[_Points] = None,
         *,
@@ -229,7 +246,7 @@ class Scene:
         count: Optional[int] = None,
         uniform: bool = False,
         seed: int = 2007,
-    ) -> None: ...
+    ) -> Scene: ...
     def brush(
         self, centre: _Points, radius: float, displacement: _Points
     ) -> dict[str, Any]:
