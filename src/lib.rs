@@ -27,6 +27,7 @@ mod error;
 mod files;
 mod prepare;
 pub mod render;
+pub mod report;
 
 pub use psi_io as io;
 pub use psi_mpu as mpu;

@@ -106,6 +106,57 @@ pub fn read_points(
     mesh_to_points::to_point_cloud(parse(bytes, format)?, opts)
 }
 
+/// The oriented points of columns given in memory (a caller's arrays, not a file), read as an
+/// XYZ file of them would be: `positions` (shape: N, world units) with `normals` (shape: N,
+/// normalised here, zero ones skipped and counted) or without ([`NormalSource::Missing`]).
+///
+/// # Errors
+///
+/// [`ReadError::NonFinite`] for the first point (`point i`) with a NaN or infinite position or
+/// normal, [`ReadError::Record`] when the columns differ in length, [`ReadError::NoPoints`] when
+/// no usable point remains.
+///
+/// ```
+/// use glam::DVec3;
+/// let file = psi_io::points_from_columns(vec![DVec3::ZERO, DVec3::X], Some(vec![DVec3::Z * 2.0, DVec3::ZERO])).unwrap();
+/// assert_eq!((file.points.len(), file.dropped_points, file.points[0].n), (1, 1, DVec3::Z));
+/// let err = psi_io::points_from_columns(vec![DVec3::NAN], None).unwrap_err();
+/// assert_eq!(err.to_string(), "point 0 has a NaN or infinite position");
+/// ```
+pub fn points_from_columns(
+    positions: Vec<glam::DVec3>,
+    normals: Option<Vec<glam::DVec3>>,
+) -> Result<PointCloudFile, ReadError> {
+    if let Some(n) = &normals
+        && n.len() != positions.len()
+    {
+        return Err(ReadError::Record {
+            element: "point".to_owned(),
+            index: n.len().min(positions.len()),
+            reason: format!("{} positions but {} normals", positions.len(), n.len()),
+        });
+    }
+    for (index, p) in positions.iter().enumerate() {
+        let normal = normals.as_ref().map(|n| n[index]);
+        for (what, v) in [("position", Some(*p)), ("normal", normal)] {
+            if v.is_some_and(|v| !v.is_finite()) {
+                return Err(ReadError::NonFinite {
+                    element: "point",
+                    index,
+                    what,
+                    line: None,
+                });
+            }
+        }
+    }
+    let parsed = Parsed {
+        vertices: positions,
+        normals,
+        faces: Vec::new(),
+    };
+    mesh_to_points::to_point_cloud(parsed, &ReadOptions::paper())
+}
+
 /// Reads the triangle mesh of a file's content: all vertices (shape: V, world units) and all
 /// triangles (shape: F, polygons split into fans, degenerate triangles kept).
 ///

@@ -7,17 +7,8 @@ use anyhow::Context;
 use psi::io::NormalSource;
 use psi::preprocess::{NormalTreatment, PreprocessParams, PreprocessReport};
 use psi::{MeshSampling, OrientedPoint, PointCloudFile, ReadOptions};
-use serde_json::json;
 
 use crate::{Failure, InputArgs};
-
-/// Peak resident memory of this process so far (Linux `VmHWM`), bytes; `None` elsewhere.
-pub(crate) fn peak_memory_bytes() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
 
 /// What was loaded and how it was prepared.
 pub(crate) struct Loaded {
@@ -55,45 +46,14 @@ impl Loaded {
         Ok(())
     }
 
-    /// The report's `input` object.
+    /// The report's `input` object ([`psi::report::input_json`]).
     pub(crate) fn json(&self) -> serde_json::Value {
-        let bbox = psi::Aabb::from_points(self.points.iter().map(|p| p.p));
-        let p = &self.prep;
-        let source = match self.file.normals {
-            NormalSource::File => "file",
-            NormalSource::Faces => "faces",
-            NormalSource::Vertices => "vertices",
-            NormalSource::Missing => "estimated",
-        };
-        json!({
-            "source": self.name,
-            "points": self.points.len(),
-            "points_read": self.points_read,
-            "vertices": self.file.vertices,
-            "faces": self.file.faces,
-            "degenerate_faces": self.file.degenerate_faces,
-            "mesh_coarseness": p.mesh.map(|m| m.coarseness),
-            "mesh_points_added": p.mesh.map_or(0, |m| m.points_added),
-            "dropped_points": self.file.dropped_points,
-            "bbox_min": bbox.map(|b| b.min.to_array()),
-            "bbox_max": bbox.map(|b| b.max.to_array()),
-            "bbox_diagonal": bbox.map_or(0.0, |b| b.diagonal()),
-            "normals": {
-                "source": source,
-                "treatment": p.normals,
-                "pairs_checked": p.consistency.map(|c| c.pairs),
-                "opposed_fraction": p.consistency.map(|c| c.opposed_fraction()),
-                "flipped": p.normals_flipped,
-            },
-            "outliers": p.outliers,
-            "noise_estimate": p.noise.map(|n| json!({
-                "sigma": n.sigma,
-                "relative": p.noise_rel,
-                "samples": n.samples,
-                "relative_after_denoising": p.noise_rel_after,
-            })),
-            "denoised": p.denoised,
-            "preprocess_seconds": p.seconds,
+        psi::report::input_json(&psi::report::InputFacts {
+            name: &self.name,
+            file: &self.file,
+            points_read: self.points_read,
+            points: &self.points,
+            prep: &self.prep,
         })
     }
 

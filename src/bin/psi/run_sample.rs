@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use psi::{DensityMode, ParticleParams};
-use serde_json::json;
 
 use crate::input::load;
 use crate::{Failure, InputArgs};
@@ -75,8 +74,7 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         }
     }
     let threshold = loaded.error_threshold(args.mpu.mpu_error);
-    let error_rel = threshold.relative;
-    let mpu = crate::ui::build_mpu(ui, loaded.points(), &args.mpu.params(error_rel))
+    let mpu = crate::ui::build_mpu(ui, loaded.points(), &args.mpu.params(threshold.relative))
         .with_context(|| format!("{}: building the MPU implicit", loaded.name))?;
     let params = ParticleParams {
         k: args.k,
@@ -102,7 +100,6 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     }
     let r = mpu.report();
     let s = &run.report;
-    let evals = (s.count * s.iterations.max(1)) as f64;
     // The evaluation floor, when asked: one value_and_gradient per particle, timed on the final
     // particles; the simulation against N × iterations such evaluations.
     let floor = args.evaluation_floor.then(|| {
@@ -112,40 +109,16 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         }
         t.elapsed().as_secs_f64() / run.particles.len().max(1) as f64
     });
-    let report = json!({
-        "input": loaded.json(),
-        "mpu": {
-            "build_seconds": r.seconds,
-            "leaves": r.leaves,
-            "surface_leaves": r.surface_leaves,
-            "max_depth": r.max_depth,
-            "error_threshold": {
-                "relative": error_rel,
-                "world": r.eps0,
-                "source": threshold.source,
-            },
-            "report": r,
-            "params": mpu.params(),
-        },
-        "particles": {
-            "count": s.count,
-            "init_seconds": s.init_seconds,
-            "simulate_seconds": s.simulate_seconds,
-            "simulate_seconds_per_particle_iteration": s.simulate_seconds / evals,
-            "value_and_gradient_seconds": floor,
-            "evaluation_floor_ratio": floor.map(|e| s.simulate_seconds / evals / e.max(1e-12)),
-            "iterations": s.iterations,
-            "density": s.density,
-            "before": s.before,
-            "after": s.after,
-            "separation": s.separation,
-            "params": params,
-        },
-        "peak_memory_bytes": crate::input::peak_memory_bytes(),
-    });
     if let Some(path) = &args.json {
-        let mut report = report;
-        report["mpu"]["data_coverage"] = json!(psi::mpu::data_coverage(&mpu));
+        let report = psi::report::sample_json(&psi::report::SampleFacts {
+            input: &loaded.json(),
+            mpu: &mpu,
+            threshold,
+            sampling: s,
+            params: &params,
+            evaluation_floor: floor,
+            peak_memory_bytes: psi::report::peak_memory_bytes(),
+        });
         psi::save_json(path, &report)?;
     }
     ui.summary(&format!(

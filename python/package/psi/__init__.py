@@ -1,0 +1,35 @@
+"""psi — point-set implicits: an MPU surface from oriented points, adaptive particles on it.
+
+Read and prepare points (``load_points``, ``PointSet``, ``builtin_model``), build the MPU
+implicit (``Mpu``), sample particles (``sample``), edit locally (``Scene``), save and draw
+(``save_particles``, ``render``, ``render_mesh``). NumPy arrays in and out; every result equals
+the ``psi`` command line's for the same input and options. See ``help(psi.Mpu)`` and the others.
+"""
+
+from ._psi import (
+    Mpu,
+    Particles,
+    PointSet,
+    Scene,
+    __version__,
+    builtin_model,
+    load_points,
+    render,
+    render_mesh,
+    sample,
+    save_particles,
+)
+
+__all__ = [
+    "Mpu",
+    "Particles",
+    "PointSet",
+    "Scene",
+    "__version__",
+    "builtin_model",
+    "load_points",
+    "render",
+    "render_mesh",
+    "sample",
+    "save_particles",
+]

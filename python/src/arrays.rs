@@ -1,0 +1,169 @@
+//! NumPy arrays in and out: inputs of any real dtype and any layout read without per-point
+//! Python work (a float64 C-ordered array is borrowed, anything else converted once by NumPy),
+//! outputs made from Rust vectors without a further copy where the layout allows.
+
+use std::borrow::Cow;
+
+use numpy::ndarray::{Array2, Array3};
+use numpy::{
+    AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDescrMethods,
+    PyArrayLikeDyn, PyUntypedArray, PyUntypedArrayMethods,
+};
+use psi::DVec3;
+use pyo3::prelude::*;
+
+use crate::errors::value_error;
+
+/// `obj` as a float64 array: the array itself when it already is one, else NumPy's
+/// conversion of it (integers, float16/32, lists, other layouts). Complex, boolean and object
+/// arrays are refused.
+fn float_array<'py>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+) -> PyResult<PyArrayLikeDyn<'py, f64, AllowTypeChange>> {
+    if let Ok(array) = obj.cast::<PyUntypedArray>() {
+        let kind = array.dtype().kind();
+        if !matches!(kind, b'f' | b'i' | b'u') {
+            return Err(value_error(format!(
+                "{name} must hold real numbers, not dtype {}",
+                array.dtype()
+            )));
+        }
+    }
+    obj.extract()
+        .map_err(|e: PyErr| value_error(format!("{name} is not an array of numbers: {e}")))
+}
+
+fn shape_text(shape: &[usize]) -> String {
+    match shape {
+        [n] => format!("({n},)"),
+        _ => format!(
+            "({})",
+            shape
+                .iter()
+                .map(|s| s.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+/// The rows of an (N, 3) array as vectors (one copy, in row order whatever the layout).
+pub(crate) fn vectors(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<DVec3>> {
+    let array = float_array(obj, name)?;
+    let view = array.as_array();
+    if view.ndim() != 2 || view.shape()[1] != 3 {
+        return Err(value_error(format!(
+            "{name} must have shape (N, 3), got {}",
+            shape_text(view.shape())
+        )));
+    }
+    if let Some(flat) = view.as_slice() {
+        return Ok(flat
+            .chunks_exact(3)
+            .map(|c| DVec3::new(c[0], c[1], c[2]))
+            .collect());
+    }
+    Ok(view
+        .rows()
+        .into_iter()
+        .map(|r| DVec3::new(r[0], r[1], r[2]))
+        .collect())
+}
+
+/// One finite point or vector of shape (3,).
+pub(crate) fn vector3(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<DVec3> {
+    let array = float_array(obj, name)?;
+    let view = array.as_array();
+    if view.shape() != [3] {
+        return Err(value_error(format!(
+            "{name} must have shape (3,), got {}",
+            shape_text(view.shape())
+        )));
+    }
+    Ok(DVec3::new(view[[0]], view[[1]], view[[2]]))
+}
+
+/// Query points of shape (3,) or (M, 3), kept alive while their coordinates are read.
+pub(crate) struct Queries<'py> {
+    array: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    /// Whether the input was one point of shape (3,).
+    pub(crate) single: bool,
+}
+
+impl<'py> Queries<'py> {
+    /// Reads `obj` (any real dtype, any layout), refusing other shapes.
+    pub(crate) fn new(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Self> {
+        let array = float_array(obj, name)?;
+        let shape = array.as_array().shape().to_vec();
+        let single = match shape[..] {
+            [3] => true,
+            [_, 3] => false,
+            _ => {
+                return Err(value_error(format!(
+                    "{name} must have shape (3,) or (M, 3), got {}",
+                    shape_text(&shape)
+                )));
+            }
+        };
+        Ok(Queries { array, single })
+    }
+
+    /// The coordinates x0 y0 z0 x1 … in row order: borrowed from a float64 C-ordered array,
+    /// else copied once; a `ValueError` naming the first point with a NaN or infinite
+    /// coordinate.
+    pub(crate) fn coordinates(&self, name: &str) -> PyResult<Cow<'_, [f64]>> {
+        // `as_slice` also takes a Fortran-ordered array (in memory order): only C order is
+        // row order.
+        let in_rows = self.array.is_c_contiguous();
+        let flat = match self.array.as_slice() {
+            Ok(slice) if in_rows => Cow::Borrowed(slice),
+            _ => Cow::Owned(self.array.as_array().iter().copied().collect()),
+        };
+        if let Some(i) = flat.iter().position(|v| !v.is_finite()) {
+            return Err(value_error(format!(
+                "{name}: point {} has a NaN or infinite coordinate",
+                i / 3
+            )));
+        }
+        Ok(flat)
+    }
+}
+
+/// An (N, 3) float64 array of `v` (one copy).
+pub(crate) fn vec3_array<'py>(py: Python<'py>, v: &[DVec3]) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = v.iter().flat_map(|p| p.to_array()).collect();
+    flat_rows(py, flat, 3)
+}
+
+/// An (N, `columns`) array of the row-major `flat` (no copy).
+pub(crate) fn flat_rows<'py, T: numpy::Element>(
+    py: Python<'py>,
+    flat: Vec<T>,
+    columns: usize,
+) -> Bound<'py, PyArray2<T>> {
+    let rows = flat.len() / columns;
+    Array2::from_shape_vec((rows, columns), flat)
+        .expect("the length is rows × columns")
+        .into_pyarray(py)
+}
+
+/// A one-dimensional array of `v` (no copy).
+pub(crate) fn vector<'py, T: numpy::Element>(
+    py: Python<'py>,
+    v: Vec<T>,
+) -> Bound<'py, PyArray1<T>> {
+    PyArray1::from_vec(py, v)
+}
+
+/// An (H, W, 4) uint8 array of straight (not premultiplied) RGBA pixels.
+pub(crate) fn image_array<'py>(
+    py: Python<'py>,
+    height: usize,
+    width: usize,
+    rgba: Vec<u8>,
+) -> Bound<'py, PyArray3<u8>> {
+    Array3::from_shape_vec((height, width, 4), rgba)
+        .expect("the length is height × width × 4")
+        .into_pyarray(py)
+}

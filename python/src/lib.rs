@@ -1,0 +1,46 @@
+//! # psi for Python
+//!
+//! The extension module `psi._psi` behind `import psi`: the facade's pipeline — read and
+//! prepare points, build the MPU implicit, sample particles, edit locally, render — with NumPy
+//! arrays in and out. Wiring only: every algorithm is the facade's (`psi`), and every result
+//! equals the CLI's for the same input and options. Heavy work runs with the interpreter
+//! released; bad input raises `ValueError` or `OSError` with the CLI's message; a panic
+//! becomes a `RuntimeError`.
+
+use pyo3::prelude::*;
+
+mod arrays;
+mod errors;
+mod json;
+mod mpu;
+mod points;
+mod render;
+mod sample;
+mod scene;
+
+/// Point-set implicits: an MPU surface from oriented points, and adaptive particles on it.
+#[pymodule]
+#[pyo3(name = "_psi")]
+fn psi_python(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<points::PointSet>()?;
+    m.add_class::<mpu::Mpu>()?;
+    m.add_class::<sample::Particles>()?;
+    m.add_class::<scene::Scene>()?;
+    m.add_function(wrap_pyfunction!(points::load_points, m)?)?;
+    m.add_function(wrap_pyfunction!(points::builtin_model, m)?)?;
+    m.add_function(wrap_pyfunction!(sample::sample, m)?)?;
+    m.add_function(wrap_pyfunction!(sample::save_particles, m)?)?;
+    m.add_function(wrap_pyfunction!(render::render, m)?)?;
+    m.add_function(wrap_pyfunction!(render::render_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(mpu::_rust_loop_seconds, m)?)?;
+    m.add_function(wrap_pyfunction!(_panic_for_tests, m)?)?;
+    Ok(())
+}
+
+/// Test hook (not API): panics inside the guard every call into Rust goes through, so the tests
+/// can check that a panic becomes a `RuntimeError` and the interpreter carries on.
+#[pyfunction]
+fn _panic_for_tests(py: Python<'_>) -> PyResult<()> {
+    errors::detached(py, || panic!("a deliberate panic"))
+}

@@ -1,0 +1,347 @@
+//! `psi.PointSet`, `psi.load_points` and `psi.builtin_model`: points read (from a file, arrays
+//! or the built-in model) and prepared for the MPU exactly as the CLI's `input.rs` does —
+//! `psi::load_points`, then `psi::prepare_points` with the CLI's preprocessing flags.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use psi::io::NormalSource;
+use psi::preprocess::{PreprocessParams, PreprocessReport};
+use psi::{MeshSampling, OrientedPoint, PointCloudFile, ReadOptions};
+use pyo3::exceptions::PyUserWarning;
+use pyo3::prelude::*;
+
+use crate::arrays::{vec3_array, vector3, vectors};
+use crate::errors::{bounded, detached, psi_error, value_error};
+
+/// What was read and how it was prepared (the CLI's `Loaded`).
+#[derive(Debug)]
+pub(crate) struct Input {
+    /// The file as given, `builtin`, or `points` for arrays.
+    pub(crate) name: String,
+    pub(crate) points_read: usize,
+    /// The points for the MPU, after preprocessing.
+    pub(crate) points: Vec<OrientedPoint>,
+    pub(crate) prep: PreprocessReport,
+    /// The report's `input` object.
+    pub(crate) json: serde_json::Value,
+}
+
+/// The preprocessing steps, as the CLI's flags choose them (all on by default).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Steps {
+    pub(crate) preprocess: bool,
+    pub(crate) keep_outliers: bool,
+    pub(crate) estimate_normals: bool,
+    pub(crate) orient_normals: bool,
+    pub(crate) viewpoint: Option<psi::DVec3>,
+    pub(crate) estimate_noise: bool,
+    pub(crate) denoise: bool,
+    pub(crate) densify: bool,
+}
+
+impl Steps {
+    /// Every step on, as the CLI without flags.
+    pub(crate) fn cli_defaults() -> Self {
+        Steps {
+            preprocess: true,
+            keep_outliers: false,
+            estimate_normals: true,
+            orient_normals: false,
+            viewpoint: None,
+            estimate_noise: true,
+            denoise: true,
+            densify: true,
+        }
+    }
+
+    fn params(&self) -> PreprocessParams {
+        if !self.preprocess {
+            return PreprocessParams::none();
+        }
+        PreprocessParams {
+            remove_outliers: !self.keep_outliers,
+            estimate_normals: self.estimate_normals,
+            viewpoint: self.viewpoint,
+            orient_given_normals: self.orient_normals,
+            estimate_noise: self.estimate_noise,
+            denoise: self.denoise,
+            densify_meshes: self.densify,
+        }
+    }
+}
+
+impl Input {
+    /// Prepares the points of `file` (named `name`) for the MPU, the interpreter released.
+    pub(crate) fn prepare(
+        py: Python<'_>,
+        name: String,
+        mut file: PointCloudFile,
+        steps: &Steps,
+    ) -> PyResult<Input> {
+        let params = steps.params();
+        let points_read = file.points.len();
+        let prepared = detached(py, || psi::prepare_points(&mut file, &params))?.map_err(|e| {
+            value_error(format!(
+                "{name}: {e}; give normals or let psi estimate them (estimate_normals=True, preprocess=True)"
+            ))
+        })?;
+        if let Some(c) = prepared.report.consistency
+            && !steps.orient_normals
+            && c.opposed_fraction() > 0.01
+        {
+            let message = format!(
+                "psi: {name}: {:.1} % of neighbouring normals point to opposite sides; try orient_normals=True",
+                100.0 * c.opposed_fraction()
+            );
+            let message = std::ffi::CString::new(message).unwrap_or_default();
+            PyErr::warn(py, &py.get_type::<PyUserWarning>(), &message, 1)?;
+        }
+        let json = psi::report::input_json(&psi::report::InputFacts {
+            name: &name,
+            file: &file,
+            points_read,
+            points: &prepared.points,
+            prep: &prepared.report,
+        });
+        Ok(Input {
+            name,
+            points_read,
+            points: prepared.points,
+            prep: prepared.report,
+            json,
+        })
+    }
+
+    /// Arrays `points` (N, 3) and optional `normals` (N, 3), read as an XYZ file of them.
+    pub(crate) fn from_arrays(
+        py: Python<'_>,
+        points: &Bound<'_, PyAny>,
+        normals: Option<&Bound<'_, PyAny>>,
+        steps: &Steps,
+    ) -> PyResult<Input> {
+        let positions = vectors(points, "points")?;
+        let normals = normals.map(|n| vectors(n, "normals")).transpose()?;
+        if let Some(n) = &normals
+            && n.len() != positions.len()
+        {
+            return Err(value_error(format!(
+                "normals must have the shape of points, ({}, 3), got ({}, 3)",
+                positions.len(),
+                n.len()
+            )));
+        }
+        let file = psi::io::points_from_columns(positions, normals)
+            .map_err(|e| value_error(format!("points: {e}")))?;
+        Input::prepare(py, "points".to_owned(), file, steps)
+    }
+}
+
+/// The input of [`crate::mpu`] and [`crate::scene`]: a `PointSet`, or arrays (then prepared
+/// with every step on, or none with `preprocess=False`).
+pub(crate) fn input_of(
+    py: Python<'_>,
+    points: &Bound<'_, PyAny>,
+    normals: Option<&Bound<'_, PyAny>>,
+    preprocess: bool,
+) -> PyResult<Arc<Input>> {
+    if let Ok(set) = points.cast::<PointSet>() {
+        if normals.is_some() {
+            return Err(value_error(
+                "normals: a PointSet carries its normals; give normals only with arrays",
+            ));
+        }
+        return Ok(set.get().input.clone());
+    }
+    let steps = Steps {
+        preprocess,
+        ..Steps::cli_defaults()
+    };
+    Ok(Arc::new(Input::from_arrays(py, points, normals, &steps)?))
+}
+
+/// Oriented points prepared for the MPU: as read (from a file, arrays or the built-in model),
+/// then, as the CLI does, stray points left out, missing normals estimated and oriented, the
+/// noise estimated and, where it would matter, taken out, a coarse mesh given more points.
+///
+/// `PointSet(points, normals=None, *, preprocess=True, keep_outliers=False,
+/// estimate_normals=True, orient_normals=False, viewpoint=None, estimate_noise=True,
+/// denoise=True, densify=True)` reads arrays: `points` (N, 3) positions in world units and
+/// `normals` (N, 3) (normalised; rows with a zero normal dropped) or `None` (estimated), any
+/// real dtype and layout, as an XYZ file of them would be read. `preprocess=False` turns every
+/// step off (normals are then required); otherwise each flag is the CLI's flag of that name.
+#[pyclass(frozen, module = "psi", name = "PointSet")]
+pub(crate) struct PointSet {
+    pub(crate) input: Arc<Input>,
+}
+
+#[pymethods]
+impl PointSet {
+    #[new]
+    #[pyo3(signature = (points, normals=None, *, preprocess=true, keep_outliers=false,
+        estimate_normals=true, orient_normals=false, viewpoint=None, estimate_noise=true,
+        denoise=true, densify=true))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        points: &Bound<'_, PyAny>,
+        normals: Option<&Bound<'_, PyAny>>,
+        preprocess: bool,
+        keep_outliers: bool,
+        estimate_normals: bool,
+        orient_normals: bool,
+        viewpoint: Option<&Bound<'_, PyAny>>,
+        estimate_noise: bool,
+        denoise: bool,
+        densify: bool,
+    ) -> PyResult<Self> {
+        let steps = Steps {
+            preprocess,
+            keep_outliers,
+            estimate_normals,
+            orient_normals,
+            viewpoint: viewpoint.map(|v| vector3(v, "viewpoint")).transpose()?,
+            estimate_noise,
+            denoise,
+            densify,
+        };
+        check_viewpoint(&steps)?;
+        let input = Input::from_arrays(py, points, normals, &steps)?;
+        Ok(PointSet {
+            input: Arc::new(input),
+        })
+    }
+
+    /// Positions after preprocessing, shape (N, 3), float64, world units (a new array each
+    /// access).
+    #[getter]
+    fn points<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
+        let p: Vec<_> = self.input.points.iter().map(|p| p.p).collect();
+        vec3_array(py, &p)
+    }
+
+    /// Unit normals after preprocessing, shape (N, 3), float64 (a new array each access).
+    #[getter]
+    fn normals<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
+        let n: Vec<_> = self.input.points.iter().map(|p| p.n).collect();
+        vec3_array(py, &n)
+    }
+
+    /// Points read, before preprocessing.
+    #[getter]
+    fn points_read(&self) -> usize {
+        self.input.points_read
+    }
+
+    /// The MPU error threshold ε0/D the data suggest: the paper's 0.005, or 4× the noise left
+    /// when that is larger (what `Mpu(point_set)` uses unless `error` is given).
+    #[getter]
+    fn error(&self) -> f64 {
+        self.input.prep.error_threshold(None).relative
+    }
+
+    /// The input's name: the file as given, `builtin` or `points` (arrays).
+    #[getter]
+    fn name(&self) -> &str {
+        &self.input.name
+    }
+
+    /// What was read and what preprocessing did: the `input` object of the CLI's JSON report
+    /// (`psi info --json`), as a dict.
+    #[getter]
+    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        crate::json::to_python(py, &self.input.json)
+    }
+
+    fn __len__(&self) -> usize {
+        self.input.points.len()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "PointSet({:?}: {} points, {} read)",
+            self.input.name,
+            self.input.points.len(),
+            self.input.points_read
+        )
+    }
+}
+
+fn check_viewpoint(steps: &Steps) -> PyResult<()> {
+    if steps.viewpoint.is_some_and(|v| !v.is_finite()) {
+        return Err(value_error("viewpoint must be three finite numbers"));
+    }
+    Ok(())
+}
+
+/// Reads oriented points from a PLY, OBJ or XYZ file (format from the extension, else from
+/// the content) and prepares them as `psi sample FILE` does (see `PointSet`). A mesh gives
+/// one point per triangle (centroid, face normal), or per vertex with area-weighted normals
+/// when `per_vertex=True`. Raises `OSError` when the file cannot be read and `ValueError` when
+/// it is malformed, with the CLI's message.
+#[pyfunction]
+#[pyo3(signature = (path, per_vertex=false, *, preprocess=true, keep_outliers=false,
+    estimate_normals=true, orient_normals=false, viewpoint=None, estimate_noise=true,
+    denoise=true, densify=true))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn load_points(
+    py: Python<'_>,
+    path: PathBuf,
+    per_vertex: bool,
+    preprocess: bool,
+    keep_outliers: bool,
+    estimate_normals: bool,
+    orient_normals: bool,
+    viewpoint: Option<&Bound<'_, PyAny>>,
+    estimate_noise: bool,
+    denoise: bool,
+    densify: bool,
+) -> PyResult<PointSet> {
+    let steps = Steps {
+        preprocess,
+        keep_outliers,
+        estimate_normals,
+        orient_normals,
+        viewpoint: viewpoint.map(|v| vector3(v, "viewpoint")).transpose()?,
+        estimate_noise,
+        denoise,
+        densify,
+    };
+    check_viewpoint(&steps)?;
+    let sampling = if per_vertex {
+        MeshSampling::VertexNormals
+    } else {
+        MeshSampling::FaceCentroids
+    };
+    let file = detached(py, || psi::load_points(&path, &ReadOptions { sampling }))?
+        .map_err(|e| psi_error(py, e, Some("reading the input")))?;
+    let input = Input::prepare(py, path.display().to_string(), file, &steps)?;
+    Ok(PointSet {
+        input: Arc::new(input),
+    })
+}
+
+/// The built-in model (a bumpy, rounded-square torus with a thin neck; 80 000 points unless
+/// `points` says otherwise), prepared as `psi sample` without an input does.
+#[pyfunction]
+#[pyo3(signature = (points=None))]
+pub(crate) fn builtin_model(py: Python<'_>, points: Option<i128>) -> PyResult<PointSet> {
+    let default = psi::shapes::BUILTIN_MODEL_POINTS as i128;
+    let n = bounded::<u32>("points", points.unwrap_or(default), 1, 50_000_000)? as usize;
+    let points = detached(py, || {
+        psi::shapes::sample_builtin(n, psi::shapes::BUILTIN_MODEL_SEED)
+    })?;
+    let file = PointCloudFile {
+        points,
+        normals: NormalSource::File,
+        vertices: n,
+        faces: 0,
+        degenerate_faces: 0,
+        dropped_points: 0,
+        mesh: None,
+    };
+    let input = Input::prepare(py, "builtin".to_owned(), file, &Steps::cli_defaults())?;
+    Ok(PointSet {
+        input: Arc::new(input),
+    })
+}
