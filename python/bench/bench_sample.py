@@ -1,18 +1,19 @@
 """What the Python package costs over the Rust it calls (a benchmark, not a test).
 
-1. ``psi.sample`` on the bunny against ``psi sample`` (the release CLI) doing the same work:
+1. ``psi.sample`` on a model (default: the bunny) against ``psi sample`` (the release CLI)
+   doing the same work:
    end to end (the same file in, the same PLY and JSON report out: the CLI's process against
    ``load_points``, ``Mpu``, ``sample``, ``save_particles`` and the report), and the sampling
    stage alone (the sampler's own clocks, seeding + relaxation, in both; and ``psi.sample``'s
    wall time, which adds the quality measurement and the binding).
-2. ``Mpu.value_and_gradient`` on 1 M points near the bunny's surface against a plain Rust loop
+2. ``Mpu.value_and_gradient`` on 1 M points near that model's surface against a plain Rust loop
    over the same points in the same extension (``psi._psi._rust_loop_seconds``: the same rayon
    map, and one thread), the points already in Rust.
 
 Runs are interleaved and repeated (the machine may be shared); medians and minima are printed
 as a Markdown table, the raw numbers written as JSON with ``--out``.
 
-    python python/bench/bench_sample.py [--rounds 9] [--out docs/results/.../raw.json]
+    python python/bench/bench_sample.py [--model PLY] [--rounds 9] [--out docs/results/.../raw.json]
 """
 
 import argparse
@@ -45,10 +46,10 @@ def cli_binary():
     return str(Path(json.loads(meta.stdout)["target_directory"]) / "release" / "psi")
 
 
-def run_cli(cli, out_dir):
+def run_cli(cli, model, out_dir):
     ply, report = out_dir / "cli.ply", out_dir / "cli.json"
     t = time.perf_counter()
-    subprocess.run([cli, "sample", str(BUNNY), "-q", "-o", str(ply), "--json", str(report)],
+    subprocess.run([cli, "sample", str(model), "-q", "-o", str(ply), "--json", str(report)],
                    check=True)
     wall = time.perf_counter() - t
     r = json.loads(report.read_text())
@@ -60,10 +61,10 @@ def run_cli(cli, out_dir):
     }
 
 
-def run_python(out_dir):
+def run_python(model, out_dir):
     ply, report = out_dir / "py.ply", out_dir / "py.json"
     t0 = time.perf_counter()
-    mpu = psi.Mpu(psi.load_points(BUNNY))
+    mpu = psi.Mpu(psi.load_points(model))
     t1 = time.perf_counter()
     particles = psi.sample(mpu)
     t2 = time.perf_counter()
@@ -81,7 +82,7 @@ def run_python(out_dir):
 
 
 def query_points(mpu, n, seed=1):
-    """``n`` points within 1 % of D of the bunny's input points, along their normals."""
+    """``n`` points within 1 % of D of the model's input points, along their normals."""
     rng = np.random.default_rng(seed)
     pick = rng.integers(0, len(mpu.points), n)
     offset = rng.uniform(-0.01, 0.01, n) * mpu.diagonal
@@ -106,21 +107,23 @@ def main():
     parser.add_argument("--rounds", type=int, default=9)
     parser.add_argument("--points", type=int, default=1_000_000)
     parser.add_argument("--out", type=Path)
+    parser.add_argument("--model", type=Path, default=BUNNY)
     args = parser.parse_args()
-    if not BUNNY.is_file():
-        raise SystemExit(f"{BUNNY} is absent (the paper's models live in ../shared/models)")
+    model, name = args.model, args.model.stem
+    if not model.is_file():
+        raise SystemExit(f"{model} is absent (the paper's models live in ../shared/models)")
     cli = cli_binary()
 
     cli_runs, py_runs = [], []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        run_cli(cli, tmp), run_python(tmp)  # warm the file cache and the allocator
+        run_cli(cli, model, tmp), run_python(model, tmp)  # warm the file cache and the allocator
         for _ in range(args.rounds):
-            cli_runs.append(run_cli(cli, tmp))
-            py_runs.append(run_python(tmp))
+            cli_runs.append(run_cli(cli, model, tmp))
+            py_runs.append(run_python(model, tmp))
         same = (tmp / "cli.ply").read_bytes() == (tmp / "py.ply").read_bytes()
 
-    mpu = psi.Mpu(psi.load_points(BUNNY))
+    mpu = psi.Mpu(psi.load_points(model))
     x = query_points(mpu, args.points)
     batch, rust_par, rust_one, batch_f32 = [], [], [], []
     x32 = x.astype(np.float32)
@@ -134,8 +137,8 @@ def main():
     raw = {
         "machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
                     "python": platform.python_version(), "psi": psi.__version__},
-        "bunny": {
-            "particles": py_runs[0]["count"], "same_ply_as_cli": same,
+        "model": {
+            "name": name, "path": str(model), "particles": py_runs[0]["count"], "same_ply_as_cli": same,
             "cli_wall": pick(cli_runs, "wall"), "python_wall": pick(py_runs, "wall"),
             "cli_stage": pick(cli_runs, "stage"), "python_stage": pick(py_runs, "stage"),
             "python_sample_call": pick(py_runs, "sample_call"),
@@ -153,15 +156,15 @@ def main():
         "sampling_stage": paired([r["stage"] for r in py_runs], [r["stage"] for r in cli_runs]),
         "value_and_gradient": paired(batch, rust_par),
     }
-    b, v = raw["bunny"], raw["value_and_gradient"]
+    b, v = raw["model"], raw["value_and_gradient"]
     med = lambda d: d["median"]  # noqa: E731
     rows = [
-        ("bunny end to end (read, prepare, build, sample, write PLY + JSON)",
+        (f"{name} end to end (read, prepare, build, sample, write PLY + JSON)",
          med(b["cli_wall"]), med(b["python_wall"])),
-        ("bunny MPU build (its own clock)", med(b["cli_build"]), med(b["python_build"])),
-        ("bunny sampling, seeding + relaxation (the sampler's clock)",
+        (f"{name} MPU build (its own clock)", med(b["cli_build"]), med(b["python_build"])),
+        (f"{name} sampling, seeding + relaxation (the sampler's clock)",
          med(b["cli_stage"]), med(b["python_stage"])),
-        ("bunny `psi.sample` call vs its own sampler's clock (adds the quality measurement, "
+        (f"{name} `psi.sample` call vs its own sampler's clock (adds the quality measurement, "
          "which the CLI does too, and the binding)",
          med(b["python_stage"]), med(b["python_sample_call"])),
         (f"value_and_gradient, {args.points} points: Rust loop (same rayon map) vs Python",
