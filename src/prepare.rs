@@ -1,5 +1,6 @@
 //! Wiring a file's points to the preprocessing stage: `psi-io`'s [`PointCloudFile`] to
-//! `psi-preprocess`'s [`ScanInput`]. No algorithm here.
+//! `psi-preprocess`'s [`ScanInput`], and the built-in model dressed as such a file. No algorithm
+//! here.
 
 use psi_io::{NormalSource, PointCloudFile};
 use psi_preprocess::{
@@ -39,4 +40,24 @@ pub fn prepare_points(
         origin,
     };
     psi_preprocess::preprocess(input, params)
+}
+
+/// The built-in model (`psi_shapes::sample_builtin` with its fixed seed) as a file of `n`
+/// oriented points would give it: normals from the file, no mesh. This is what every command
+/// reads when it is given no input.
+///
+/// ```
+/// let file = psi::builtin_file(1000);
+/// assert_eq!((file.points.len(), file.vertices, file.faces), (1000, 1000, 0));
+/// ```
+pub fn builtin_file(n: usize) -> PointCloudFile {
+    PointCloudFile {
+        points: psi_shapes::sample_builtin(n, psi_shapes::BUILTIN_MODEL_SEED),
+        normals: NormalSource::File,
+        vertices: n,
+        faces: 0,
+        degenerate_faces: 0,
+        dropped_points: 0,
+        mesh: None,
+    }
 }

@@ -9,7 +9,7 @@ use numpy::{
     AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDescrMethods,
     PyArrayLikeDyn, PyUntypedArray, PyUntypedArrayMethods,
 };
-use psi::DVec3;
+use psi::{DVec3, OrientedPoint};
 use pyo3::prelude::*;
 
 use crate::errors::value_error;
@@ -133,6 +133,20 @@ impl<'py> Queries<'py> {
 /// An (N, 3) float64 array of `v` (one copy).
 pub(crate) fn vec3_array<'py>(py: Python<'py>, v: &[DVec3]) -> Bound<'py, PyArray2<f64>> {
     let flat: Vec<f64> = v.iter().flat_map(|p| p.to_array()).collect();
+    flat_rows(py, flat, 3)
+}
+
+/// The positions (`normals == false`) or the unit normals of `points` as an (N, 3) float64
+/// array (one copy).
+pub(crate) fn oriented_array<'py>(
+    py: Python<'py>,
+    points: &[OrientedPoint],
+    normals: bool,
+) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = points
+        .iter()
+        .flat_map(|p| if normals { p.n } else { p.p }.to_array())
+        .collect();
     flat_rows(py, flat, 3)
 }
 

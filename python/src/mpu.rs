@@ -9,7 +9,7 @@ use psi::{DVec3, MpuParams, PolygonizeParams};
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
-use crate::arrays::{Queries, flat_rows, vec3_array, vector};
+use crate::arrays::{Queries, flat_rows, oriented_array, vec3_array, vector};
 use crate::errors::{bounded, detached, value_error};
 use crate::points::{Input, input_of};
 
@@ -243,15 +243,13 @@ impl Mpu {
     /// The points the MPU was built from, shape (N, 3), float64 (a new array each access).
     #[getter]
     fn points<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let p: Vec<_> = self.mpu.points().iter().map(|p| p.p).collect();
-        vec3_array(py, &p)
+        oriented_array(py, self.mpu.points(), false)
     }
 
     /// Their unit normals, shape (N, 3), float64 (a new array each access).
     #[getter]
     fn normals<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let n: Vec<_> = self.mpu.points().iter().map(|p| p.n).collect();
-        vec3_array(py, &n)
+        oriented_array(py, self.mpu.points(), true)
     }
 
     fn __repr__(&self) -> String {

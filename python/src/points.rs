@@ -5,13 +5,12 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use psi::io::NormalSource;
 use psi::preprocess::{PreprocessParams, PreprocessReport};
 use psi::{MeshSampling, OrientedPoint, PointCloudFile, ReadOptions};
 use pyo3::exceptions::PyUserWarning;
 use pyo3::prelude::*;
 
-use crate::arrays::{vec3_array, vector3, vectors};
+use crate::arrays::{oriented_array, vector3, vectors};
 use crate::errors::{bounded, detached, psi_error, value_error};
 
 /// What was read and how it was prepared (the CLI's `Loaded`).
@@ -216,15 +215,13 @@ impl PointSet {
     /// access).
     #[getter]
     fn points<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
-        let p: Vec<_> = self.input.points.iter().map(|p| p.p).collect();
-        vec3_array(py, &p)
+        oriented_array(py, &self.input.points, false)
     }
 
     /// Unit normals after preprocessing, shape (N, 3), float64 (a new array each access).
     #[getter]
     fn normals<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
-        let n: Vec<_> = self.input.points.iter().map(|p| p.n).collect();
-        vec3_array(py, &n)
+        oriented_array(py, &self.input.points, true)
     }
 
     /// Points read, before preprocessing.
@@ -328,18 +325,7 @@ pub(crate) fn load_points(
 pub(crate) fn builtin_model(py: Python<'_>, points: Option<i128>) -> PyResult<PointSet> {
     let default = psi::shapes::BUILTIN_MODEL_POINTS as i128;
     let n = bounded::<u32>("points", points.unwrap_or(default), 1, 50_000_000)? as usize;
-    let points = detached(py, || {
-        psi::shapes::sample_builtin(n, psi::shapes::BUILTIN_MODEL_SEED)
-    })?;
-    let file = PointCloudFile {
-        points,
-        normals: NormalSource::File,
-        vertices: n,
-        faces: 0,
-        degenerate_faces: 0,
-        dropped_points: 0,
-        mesh: None,
-    };
+    let file = detached(py, || psi::builtin_file(n))?;
     let input = Input::prepare(py, "builtin".to_owned(), file, &Steps::cli_defaults())?;
     Ok(PointSet {
         input: Arc::new(input),

@@ -8,7 +8,7 @@ use psi::OrientedPoint;
 use psi::regen::{Edit, RegenError};
 use pyo3::prelude::*;
 
-use crate::arrays::{vec3_array, vector3, vectors};
+use crate::arrays::{oriented_array, vector3, vectors};
 use crate::errors::{detached, value_error};
 use crate::mpu::MpuOptions;
 use crate::points::{Input, input_of};
@@ -145,15 +145,13 @@ impl Scene {
     /// The current control points, shape (N, 3), float64, world units.
     #[getter]
     fn points<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let p: Vec<_> = self.scene.points().iter().map(|p| p.p).collect();
-        vec3_array(py, &p)
+        oriented_array(py, self.scene.points(), false)
     }
 
     /// Their unit normals, shape (N, 3), float64.
     #[getter]
     fn normals<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let n: Vec<_> = self.scene.points().iter().map(|p| p.n).collect();
-        vec3_array(py, &n)
+        oriented_array(py, self.scene.points(), true)
     }
 
     /// The first sampling's report (`SampleReport`: count, seconds, density, spacing quality

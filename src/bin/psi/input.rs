@@ -82,19 +82,7 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
             let n = args
                 .builtin_points
                 .unwrap_or(psi::shapes::BUILTIN_MODEL_POINTS);
-            let points = psi::shapes::sample_builtin(n, psi::shapes::BUILTIN_MODEL_SEED);
-            (
-                "builtin".to_owned(),
-                PointCloudFile {
-                    points,
-                    normals: NormalSource::File,
-                    vertices: n,
-                    faces: 0,
-                    degenerate_faces: 0,
-                    dropped_points: 0,
-                    mesh: None,
-                },
-            )
+            ("builtin".to_owned(), psi::builtin_file(n))
         }
         Some(path) => {
             let sampling = if args.per_vertex {
