@@ -3,9 +3,62 @@
 //! here.
 
 use psi_io::{NormalSource, PointCloudFile};
+use psi_octree::OrientedPoint;
 use psi_preprocess::{
-    MeshRef, PointOrigin, PreprocessError, PreprocessParams, Preprocessed, ScanInput,
+    MeshRef, PointOrigin, PreprocessError, PreprocessParams, PreprocessReport, Preprocessed,
+    ScanInput,
 };
+
+/// A point set read and prepared for the MPU: what the CLI and the Python package build an
+/// MPU or a scene from.
+#[derive(Clone, Debug)]
+pub struct PreparedInput {
+    /// The input's name: the file as given, `builtin`, or the caller's name for arrays.
+    pub name: String,
+    /// Points read, before preprocessing.
+    pub points_read: usize,
+    /// The points for the MPU (shape M, world units, unit normals).
+    pub points: Vec<OrientedPoint>,
+    /// What preprocessing did.
+    pub report: PreprocessReport,
+    /// The reports' `input` object ([`crate::report::input_json`]).
+    pub json: serde_json::Value,
+}
+
+/// Prepares the points of `file`, named `name`, for the MPU ([`prepare_points`]) and
+/// describes them for reports; the file's mesh, if any, is dropped once used.
+///
+/// ```
+/// let file = psi::builtin_file(2000);
+/// let input = psi::prepare_input("builtin".into(), file, &psi::preprocess::PreprocessParams::scan()).unwrap();
+/// assert_eq!((input.points_read, input.json["points_read"].as_u64()), (2000, Some(2000)));
+/// ```
+///
+/// # Errors
+///
+/// As [`prepare_points`].
+pub fn prepare_input(
+    name: String,
+    mut file: PointCloudFile,
+    params: &PreprocessParams,
+) -> Result<PreparedInput, PreprocessError> {
+    let points_read = file.points.len();
+    let prepared = prepare_points(&mut file, params)?;
+    let json = crate::report::input_json(&crate::report::InputFacts {
+        name: &name,
+        file: &file,
+        points_read,
+        points: &prepared.points,
+        prep: &prepared.report,
+    });
+    Ok(PreparedInput {
+        name,
+        points_read,
+        points: prepared.points,
+        report: prepared.report,
+        json,
+    })
+}
 
 /// Prepares the points of `file` for the MPU with [`psi_preprocess::preprocess`], moving them
 /// out of it (`file.points` is left empty; the rest of `file` stays): its normals count as

@@ -7,8 +7,9 @@
    stage alone (the sampler's own clocks, seeding + relaxation, in both; and ``psi.sample``'s
    wall time, which adds the quality measurement and the binding).
 2. ``Mpu.value_and_gradient`` on 1 M points near that model's surface against a plain Rust loop
-   over the same points in the same extension (``psi._psi._rust_loop_seconds``: the same rayon
-   map, and one thread), the points already in Rust.
+   over the same points in the same extension (``psi._psi._rust_loop_seconds``: a rayon map
+   collected into a Vec, as a Rust caller would write it, and one thread), the points already
+   in Rust.
 
 Runs are interleaved and repeated (the machine may be shared); medians and minima are printed
 as a Markdown table, the raw numbers written as JSON with ``--out``.
@@ -117,7 +118,8 @@ def main():
     cli_runs, py_runs = [], []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        run_cli(cli, model, tmp), run_python(model, tmp)  # warm the file cache and the allocator
+        run_cli(cli, model, tmp)  # warm the file cache and the allocator
+        run_python(model, tmp)
         for _ in range(args.rounds):
             cli_runs.append(run_cli(cli, model, tmp))
             py_runs.append(run_python(model, tmp))
@@ -167,11 +169,11 @@ def main():
         (f"{name} `psi.sample` call vs its own sampler's clock (adds the quality measurement, "
          "which the CLI does too, and the binding)",
          med(b["python_stage"]), med(b["python_sample_call"])),
-        (f"value_and_gradient, {args.points} points: Rust loop (same rayon map) vs Python",
+        (f"value_and_gradient, {args.points} points: Rust loop (rayon map) vs Python",
          med(v["rust_loop_parallel"]), med(v["python_batch"])),
         ("… Rust loop on one thread vs Python", med(v["rust_loop_one_thread"]),
          med(v["python_batch"])),
-        ("… Rust loop (same rayon map) vs Python from float32", med(v["rust_loop_parallel"]),
+        ("… Rust loop (rayon map) vs Python from float32", med(v["rust_loop_parallel"]),
          med(v["python_batch_float32"])),
     ]
     print(f"{b['particles']} particles; Python's PLY equals the CLI's: {same}\n")

@@ -33,7 +33,7 @@ impl MpuOptions {
             return Err(value_error(format!("error: {e} is not in (0, 1]")));
         }
         let max_depth: u8 = bounded("max_depth", self.max_depth, 0, 16)?;
-        let threshold = input.prep.error_threshold(self.error);
+        let threshold = input.report.error_threshold(self.error);
         let params = MpuParams {
             error_rel: threshold.relative,
             max_depth,
@@ -66,7 +66,9 @@ type Mesh<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<u32>>);
 #[pyclass(frozen, module = "psi", name = "Mpu")]
 pub(crate) struct Mpu {
     pub(crate) mpu: Arc<psi::Mpu>,
-    pub(crate) input: Arc<Input>,
+    /// The input's name and its report object (the points live in `mpu`).
+    pub(crate) name: String,
+    pub(crate) input_json: Arc<serde_json::Value>,
     pub(crate) threshold: ErrorThreshold,
 }
 
@@ -117,7 +119,8 @@ impl Mpu {
             .map_err(|e| value_error(format!("{}: building the MPU implicit: {e}", input.name)))?;
         Ok(Mpu {
             mpu: Arc::new(mpu),
-            input,
+            name: input.name.clone(),
+            input_json: Arc::new(input.json.clone()),
             threshold,
         })
     }
@@ -256,15 +259,15 @@ impl Mpu {
         let r = self.mpu.report();
         format!(
             "Mpu({:?}: {} points, {} leaves, depth {})",
-            self.input.name, r.points, r.leaves, r.max_depth
+            self.name, r.points, r.leaves, r.max_depth
         )
     }
 }
 
 /// Benchmark helper (not API): seconds of a plain Rust loop computing f and ∇f at the rows of
-/// `x` (M, 3) — `parallel`: the same rayon map over the points that `value_and_gradient` runs,
-/// else one thread — after copying them out of the array, so that the Python call's cost can be
-/// compared with the Rust work alone.
+/// `x` (M, 3) — `parallel`: a rayon map over the points collected into a `Vec` (what a Rust
+/// caller would write), else one thread — after copying them out of the array, so that the
+/// Python call's cost can be compared with the Rust work alone.
 #[pyfunction]
 #[pyo3(signature = (mpu, x, parallel=true))]
 pub(crate) fn _rust_loop_seconds(

@@ -5,135 +5,104 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use psi::preprocess::{PreprocessParams, PreprocessReport};
-use psi::{MeshSampling, OrientedPoint, PointCloudFile, ReadOptions};
+use psi::preprocess::PreprocessParams;
+use psi::{MeshSampling, PointCloudFile, PreparedInput, ReadOptions};
 use pyo3::exceptions::PyUserWarning;
 use pyo3::prelude::*;
 
 use crate::arrays::{oriented_array, vector3, vectors};
 use crate::errors::{bounded, detached, psi_error, value_error};
 
-/// What was read and how it was prepared (the CLI's `Loaded`).
-#[derive(Debug)]
-pub(crate) struct Input {
-    /// The file as given, `builtin`, or `points` for arrays.
-    pub(crate) name: String,
-    pub(crate) points_read: usize,
-    /// The points for the MPU, after preprocessing.
-    pub(crate) points: Vec<OrientedPoint>,
-    pub(crate) prep: PreprocessReport,
-    /// The report's `input` object.
-    pub(crate) json: serde_json::Value,
+/// What was read and how it was prepared (the CLI's input, from the facade).
+pub(crate) type Input = PreparedInput;
+
+/// The preprocessing steps the keyword arguments choose (the CLI's flags of those names):
+/// [`PreprocessParams::scan`] changed where asked, or [`PreprocessParams::none`] with
+/// `preprocess=False`.
+#[allow(clippy::too_many_arguments)]
+fn preprocess_params(
+    preprocess: bool,
+    keep_outliers: bool,
+    estimate_normals: bool,
+    orient_normals: bool,
+    viewpoint: Option<&Bound<'_, PyAny>>,
+    estimate_noise: bool,
+    denoise: bool,
+    densify: bool,
+) -> PyResult<PreprocessParams> {
+    let viewpoint = viewpoint.map(|v| vector3(v, "viewpoint")).transpose()?;
+    if viewpoint.is_some_and(|v| !v.is_finite()) {
+        return Err(value_error("viewpoint must be three finite numbers"));
+    }
+    if !preprocess {
+        return Ok(PreprocessParams::none());
+    }
+    Ok(PreprocessParams {
+        remove_outliers: !keep_outliers,
+        estimate_normals,
+        viewpoint,
+        orient_given_normals: orient_normals,
+        estimate_noise,
+        denoise,
+        densify_meshes: densify,
+    })
 }
 
-/// The preprocessing steps, as the CLI's flags choose them (all on by default).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Steps {
-    pub(crate) preprocess: bool,
-    pub(crate) keep_outliers: bool,
-    pub(crate) estimate_normals: bool,
-    pub(crate) orient_normals: bool,
-    pub(crate) viewpoint: Option<psi::DVec3>,
-    pub(crate) estimate_noise: bool,
-    pub(crate) denoise: bool,
-    pub(crate) densify: bool,
+/// Prepares the points of `file` (named `name`) for the MPU, the interpreter released;
+/// warns, as the CLI does, when given normals disagree.
+fn prepare(
+    py: Python<'_>,
+    name: String,
+    file: PointCloudFile,
+    params: &PreprocessParams,
+) -> PyResult<Input> {
+    let what = name.clone();
+    let input = detached(py, || psi::prepare_input(name, file, params))?.map_err(|e| {
+        value_error(format!(
+            "{what}: {e}; give normals or let psi estimate them (estimate_normals=True, preprocess=True)"
+        ))
+    })?;
+    if let Some(opposed) = input.report.inconsistent_normals() {
+        let message = format!(
+            "psi: {what}: {:.1} % of neighbouring normals point to opposite sides; try orient_normals=True",
+            100.0 * opposed
+        );
+        let message = std::ffi::CString::new(message).unwrap_or_default();
+        PyErr::warn(py, &py.get_type::<PyUserWarning>(), &message, 1)?;
+    }
+    Ok(input)
 }
 
-impl Steps {
-    /// Every step on, as the CLI without flags.
-    pub(crate) fn cli_defaults() -> Self {
-        Steps {
-            preprocess: true,
-            keep_outliers: false,
-            estimate_normals: true,
-            orient_normals: false,
-            viewpoint: None,
-            estimate_noise: true,
-            denoise: true,
-            densify: true,
-        }
-    }
-
-    fn params(&self) -> PreprocessParams {
-        if !self.preprocess {
-            return PreprocessParams::none();
-        }
-        PreprocessParams {
-            remove_outliers: !self.keep_outliers,
-            estimate_normals: self.estimate_normals,
-            viewpoint: self.viewpoint,
-            orient_given_normals: self.orient_normals,
-            estimate_noise: self.estimate_noise,
-            denoise: self.denoise,
-            densify_meshes: self.densify,
-        }
-    }
+/// Arrays `points` (N, 3) and optional `normals` (N, 3), read as an XYZ file of them.
+fn from_arrays(
+    py: Python<'_>,
+    points: &Bound<'_, PyAny>,
+    normals: Option<&Bound<'_, PyAny>>,
+    params: &PreprocessParams,
+) -> PyResult<Input> {
+    let file = columns(points, normals)?;
+    prepare(py, "points".to_owned(), file, params)
 }
 
-impl Input {
-    /// Prepares the points of `file` (named `name`) for the MPU, the interpreter released.
-    pub(crate) fn prepare(
-        py: Python<'_>,
-        name: String,
-        mut file: PointCloudFile,
-        steps: &Steps,
-    ) -> PyResult<Input> {
-        let params = steps.params();
-        let points_read = file.points.len();
-        let prepared = detached(py, || psi::prepare_points(&mut file, &params))?.map_err(|e| {
-            value_error(format!(
-                "{name}: {e}; give normals or let psi estimate them (estimate_normals=True, preprocess=True)"
-            ))
-        })?;
-        if let Some(c) = prepared.report.consistency
-            && !steps.orient_normals
-            && c.opposed_fraction() > 0.01
-        {
-            let message = format!(
-                "psi: {name}: {:.1} % of neighbouring normals point to opposite sides; try orient_normals=True",
-                100.0 * c.opposed_fraction()
-            );
-            let message = std::ffi::CString::new(message).unwrap_or_default();
-            PyErr::warn(py, &py.get_type::<PyUserWarning>(), &message, 1)?;
-        }
-        let json = psi::report::input_json(&psi::report::InputFacts {
-            name: &name,
-            file: &file,
-            points_read,
-            points: &prepared.points,
-            prep: &prepared.report,
-        });
-        Ok(Input {
-            name,
-            points_read,
-            points: prepared.points,
-            prep: prepared.report,
-            json,
-        })
+/// Arrays `points` (N, 3) and optional `normals` (N, 3) as `psi_io` reads an XYZ file of
+/// them (zero normals dropped); a `ValueError` when the shapes differ or a value is not finite.
+pub(crate) fn columns(
+    points: &Bound<'_, PyAny>,
+    normals: Option<&Bound<'_, PyAny>>,
+) -> PyResult<PointCloudFile> {
+    let positions = vectors(points, "points")?;
+    let normals = normals.map(|n| vectors(n, "normals")).transpose()?;
+    if let Some(n) = &normals
+        && n.len() != positions.len()
+    {
+        return Err(value_error(format!(
+            "normals must have the shape of points, ({}, 3), got ({}, 3)",
+            positions.len(),
+            n.len()
+        )));
     }
-
-    /// Arrays `points` (N, 3) and optional `normals` (N, 3), read as an XYZ file of them.
-    pub(crate) fn from_arrays(
-        py: Python<'_>,
-        points: &Bound<'_, PyAny>,
-        normals: Option<&Bound<'_, PyAny>>,
-        steps: &Steps,
-    ) -> PyResult<Input> {
-        let positions = vectors(points, "points")?;
-        let normals = normals.map(|n| vectors(n, "normals")).transpose()?;
-        if let Some(n) = &normals
-            && n.len() != positions.len()
-        {
-            return Err(value_error(format!(
-                "normals must have the shape of points, ({}, 3), got ({}, 3)",
-                positions.len(),
-                n.len()
-            )));
-        }
-        let file = psi::io::points_from_columns(positions, normals)
-            .map_err(|e| value_error(format!("points: {e}")))?;
-        Input::prepare(py, "points".to_owned(), file, steps)
-    }
+    psi::io::points_from_columns(positions, normals)
+        .map_err(|e| value_error(format!("points: {e}")))
 }
 
 /// The input of [`crate::mpu`] and [`crate::scene`]: a `PointSet`, or arrays (then prepared
@@ -152,11 +121,12 @@ pub(crate) fn input_of(
         }
         return Ok(set.get().input.clone());
     }
-    let steps = Steps {
-        preprocess,
-        ..Steps::cli_defaults()
+    let params = if preprocess {
+        PreprocessParams::scan()
+    } else {
+        PreprocessParams::none()
     };
-    Ok(Arc::new(Input::from_arrays(py, points, normals, &steps)?))
+    Ok(Arc::new(from_arrays(py, points, normals, &params)?))
 }
 
 /// Oriented points prepared for the MPU: as read (from a file, arrays or the built-in model),
@@ -194,18 +164,17 @@ impl PointSet {
         denoise: bool,
         densify: bool,
     ) -> PyResult<Self> {
-        let steps = Steps {
+        let params = preprocess_params(
             preprocess,
             keep_outliers,
             estimate_normals,
             orient_normals,
-            viewpoint: viewpoint.map(|v| vector3(v, "viewpoint")).transpose()?,
+            viewpoint,
             estimate_noise,
             denoise,
             densify,
-        };
-        check_viewpoint(&steps)?;
-        let input = Input::from_arrays(py, points, normals, &steps)?;
+        )?;
+        let input = from_arrays(py, points, normals, &params)?;
         Ok(PointSet {
             input: Arc::new(input),
         })
@@ -234,7 +203,7 @@ impl PointSet {
     /// when that is larger (what `Mpu(point_set)` uses unless `error` is given).
     #[getter]
     fn error(&self) -> f64 {
-        self.input.prep.error_threshold(None).relative
+        self.input.report.error_threshold(None).relative
     }
 
     /// The input's name: the file as given, `builtin` or `points` (arrays).
@@ -264,13 +233,6 @@ impl PointSet {
     }
 }
 
-fn check_viewpoint(steps: &Steps) -> PyResult<()> {
-    if steps.viewpoint.is_some_and(|v| !v.is_finite()) {
-        return Err(value_error("viewpoint must be three finite numbers"));
-    }
-    Ok(())
-}
-
 /// Reads oriented points from a PLY, OBJ or XYZ file (format from the extension, else from
 /// the content) and prepares them as `psi sample FILE` does (see `PointSet`). A mesh gives
 /// one point per triangle (centroid, face normal), or per vertex with area-weighted normals
@@ -294,17 +256,16 @@ pub(crate) fn load_points(
     denoise: bool,
     densify: bool,
 ) -> PyResult<PointSet> {
-    let steps = Steps {
+    let params = preprocess_params(
         preprocess,
         keep_outliers,
         estimate_normals,
         orient_normals,
-        viewpoint: viewpoint.map(|v| vector3(v, "viewpoint")).transpose()?,
+        viewpoint,
         estimate_noise,
         denoise,
         densify,
-    };
-    check_viewpoint(&steps)?;
+    )?;
     let sampling = if per_vertex {
         MeshSampling::VertexNormals
     } else {
@@ -312,7 +273,7 @@ pub(crate) fn load_points(
     };
     let file = detached(py, || psi::load_points(&path, &ReadOptions { sampling }))?
         .map_err(|e| psi_error(py, e, Some("reading the input")))?;
-    let input = Input::prepare(py, path.display().to_string(), file, &steps)?;
+    let input = prepare(py, path.display().to_string(), file, &params)?;
     Ok(PointSet {
         input: Arc::new(input),
     })
@@ -326,7 +287,7 @@ pub(crate) fn builtin_model(py: Python<'_>, points: Option<i128>) -> PyResult<Po
     let default = psi::shapes::BUILTIN_MODEL_POINTS as i128;
     let n = bounded::<u32>("points", points.unwrap_or(default), 1, 50_000_000)? as usize;
     let file = detached(py, || psi::builtin_file(n))?;
-    let input = Input::prepare(py, "builtin".to_owned(), file, &Steps::cli_defaults())?;
+    let input = prepare(py, "builtin".to_owned(), file, &PreprocessParams::scan())?;
     Ok(PointSet {
         input: Arc::new(input),
     })

@@ -12,7 +12,6 @@ use pyo3::prelude::*;
 use crate::arrays::{vec3_array, vector};
 use crate::errors::{bounded, detached, psi_error};
 use crate::mpu::Mpu;
-use crate::points::Input;
 
 /// The sampling options of `psi sample` (`--iterations`, `--k`, `--count`, `--uniform`,
 /// `--seed`) as `ParticleParams`, with the CLI's bounds.
@@ -41,7 +40,7 @@ pub(crate) fn particle_params(
 /// What the report of a sampling run is made from, kept until it is first asked for.
 struct ReportSource {
     mpu: Arc<psi::Mpu>,
-    input: Arc<Input>,
+    input_json: Arc<serde_json::Value>,
     threshold: ErrorThreshold,
     sampling: SampleReport,
     params: ParticleParams,
@@ -110,7 +109,7 @@ impl Particles {
             report
                 .get_or_init(|| {
                     psi::report::sample_json(&psi::report::SampleFacts {
-                        input: &s.input.json,
+                        input: &s.input_json,
                         mpu: &s.mpu,
                         threshold: s.threshold,
                         sampling: &s.sampling,
@@ -156,7 +155,7 @@ pub(crate) fn sample(
         particles: run.particles,
         source: Some(ReportSource {
             mpu: shared,
-            input: mpu.input.clone(),
+            input_json: mpu.input_json.clone(),
             threshold: mpu.threshold,
             sampling: run.report,
             params,

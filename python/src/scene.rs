@@ -4,14 +4,13 @@
 use std::sync::Arc;
 
 use numpy::PyArray2;
-use psi::OrientedPoint;
 use psi::regen::{Edit, RegenError};
 use pyo3::prelude::*;
 
-use crate::arrays::{oriented_array, vector3, vectors};
+use crate::arrays::{oriented_array, vector3};
 use crate::errors::{detached, value_error};
 use crate::mpu::MpuOptions;
-use crate::points::{Input, input_of};
+use crate::points::input_of;
 use crate::sample::{Particles, particle_params};
 
 /// Points, their MPU and their particles, updated locally by edits (paper §6): only the cells
@@ -29,7 +28,8 @@ use crate::sample::{Particles, particle_params};
 #[pyclass(module = "psi", name = "Scene")]
 pub(crate) struct Scene {
     scene: psi::regen::Scene,
-    input: Arc<Input>,
+    /// The input's name.
+    name: String,
     report: psi::SampleReport,
 }
 
@@ -76,13 +76,17 @@ impl Scene {
         let params = particle_params(iterations, k, count, uniform, seed)?;
         let input = input_of(py, points, normals, preprocess)?;
         let (mpu_params, _) = options.params(&input)?;
-        let points = input.points.clone();
+        // The points move into the scene unless a `PointSet` still holds them.
+        let (name, points) = match Arc::try_unwrap(input) {
+            Ok(input) => (input.name, input.points),
+            Err(shared) => (shared.name.clone(), shared.points.clone()),
+        };
         let (scene, report) =
             detached(py, || psi::regen::Scene::new(points, &mpu_params, &params))?
-                .map_err(|e| value_error(format!("{}: building the scene: {e}", input.name)))?;
+                .map_err(|e| value_error(format!("{name}: building the scene: {e}")))?;
         Ok(Scene {
             scene,
-            input,
+            name,
             report,
         })
     }
@@ -127,12 +131,7 @@ impl Scene {
         points: &Bound<'py, PyAny>,
         normals: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let file = psi::io::points_from_columns(
-            vectors(points, "points")?,
-            Some(vectors(normals, "normals")?),
-        )
-        .map_err(|e| value_error(format!("points: {e}")))?;
-        let points: Vec<OrientedPoint> = file.points;
+        let points = crate::points::columns(points, Some(normals))?.points;
         self.apply(py, Edit::Insert { points })
     }
 
@@ -164,7 +163,7 @@ impl Scene {
     fn __repr__(&self) -> String {
         format!(
             "Scene({:?}: {} points, {} particles)",
-            self.input.name,
+            self.name,
             self.scene.points().len(),
             self.scene.particles().len()
         )

@@ -54,9 +54,9 @@ pub(crate) fn sample(
     Ok((value, ply))
 }
 
-/// Runs of `psi sample` per model whose times Table 1 gives the median of: one run on the
-/// shared 2-core VM varies by ±20 % (docs/results/*/SETUP.md); the particles are the same in
-/// every run.
+/// Runs of `psi sample` per model whose times Table 1 gives the median of: a single run on a
+/// shared VM varies with the host's load (docs/results/*/SETUP.md); the particles are the same
+/// in every run.
 const TIMED_RUNS: usize = 5;
 
 /// The seeding, simulation and MPU build seconds of `first` (a report of `psi sample` on

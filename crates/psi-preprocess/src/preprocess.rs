@@ -283,6 +283,23 @@ impl PreprocessReport {
             },
         }
     }
+    /// The share (0..1) of neighbouring pairs whose given normals point to opposite sides,
+    /// when it exceeds [`INCONSISTENT_NORMALS`] and the normals were kept as given (such
+    /// normals are not denoised; `orient_given_normals` repairs them); `None` otherwise.
+    pub fn inconsistent_normals(&self) -> Option<f64> {
+        opposed_beyond_limit(self.consistency, self.normals)
+    }
+}
+
+/// The share of opposed neighbouring normals when `consistency` exceeds
+/// [`INCONSISTENT_NORMALS`] and the normals were kept as given; `None` otherwise.
+fn opposed_beyond_limit(
+    consistency: Option<NormalConsistency>,
+    normals: NormalTreatment,
+) -> Option<f64> {
+    consistency
+        .map(|c| c.opposed_fraction())
+        .filter(|&f| f > INCONSISTENT_NORMALS && normals == NormalTreatment::Given)
 }
 
 /// ε0 relative to D for a noise of `noise_rel` × D: the paper's 0.005, or
@@ -419,8 +436,7 @@ pub fn preprocess(
         noise = Some(estimate);
         seconds.noise = t.elapsed().as_secs_f64();
         // Given normals pointing every way would leave each point few neighbours on its side.
-        let inconsistent = consistency.is_some_and(|c| c.opposed_fraction() > INCONSISTENT_NORMALS)
-            && normals == NormalTreatment::Given;
+        let inconsistent = opposed_beyond_limit(consistency, normals).is_some();
         if origin.is_mesh() {
             // The triangles are the surface: their residuals are no noise to fit around.
             error_rel = PAPER_ERROR_REL;
@@ -536,10 +552,13 @@ mod tests {
             preprocess(input, &params).unwrap().report
         };
         let as_given = run(false);
-        assert!(as_given.consistency.unwrap().opposed_fraction() > INCONSISTENT_NORMALS);
+        let opposed = as_given.consistency.unwrap().opposed_fraction();
+        assert!(opposed > INCONSISTENT_NORMALS);
+        assert_eq!(as_given.inconsistent_normals(), Some(opposed));
         assert_eq!(as_given.denoised, None);
         assert!(as_given.error_rel > PAPER_ERROR_REL);
         let reoriented = run(true);
         assert!(reoriented.denoised.is_some());
+        assert_eq!(reoriented.inconsistent_normals(), None);
     }
 }

@@ -5,62 +5,40 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use psi::io::NormalSource;
-use psi::preprocess::{NormalTreatment, PreprocessParams, PreprocessReport};
-use psi::{MeshSampling, OrientedPoint, PointCloudFile, ReadOptions};
+use psi::preprocess::{NormalTreatment, PreprocessParams};
+use psi::{MeshSampling, PreparedInput, ReadOptions};
 
 use crate::{Failure, InputArgs};
 
 /// What was loaded and how it was prepared.
 pub(crate) struct Loaded {
-    pub(crate) name: String,
     /// The input file (`None` for the built-in model).
     pub(crate) path: Option<PathBuf>,
-    /// What the file held (its points moved to `points`).
-    pub(crate) file: PointCloudFile,
-    /// Points read from the file.
-    pub(crate) points_read: usize,
-    /// The points for the MPU, after preprocessing.
-    pub(crate) points: Vec<OrientedPoint>,
-    /// What preprocessing did.
-    pub(crate) prep: PreprocessReport,
+    /// The prepared points, their name and their report.
+    pub(crate) input: PreparedInput,
 }
 
 impl Loaded {
-    pub(crate) fn points(&self) -> &[OrientedPoint] {
-        &self.points
-    }
-
     /// Refuses `output` when it names the input file (it would be overwritten).
     pub(crate) fn check_output(&self, output: &Path, flag: &str) -> Result<(), Failure> {
-        if let Some(input) = &self.path
-            && psi::same_file(input, output)
-        {
-            return Err(Failure {
-                error: anyhow::anyhow!(
-                    "{flag} {} names the input file; choose another output",
-                    output.display()
-                ),
-                code: 2,
-            });
-        }
-        Ok(())
+        check_output(self.path.as_deref(), output, flag)
     }
+}
 
-    /// The report's `input` object ([`psi::report::input_json`]).
-    pub(crate) fn json(&self) -> serde_json::Value {
-        psi::report::input_json(&psi::report::InputFacts {
-            name: &self.name,
-            file: &self.file,
-            points_read: self.points_read,
-            points: &self.points,
-            prep: &self.prep,
-        })
+/// Refuses `output` when it names `input` (it would be overwritten).
+pub(crate) fn check_output(input: Option<&Path>, output: &Path, flag: &str) -> Result<(), Failure> {
+    if let Some(input) = input
+        && psi::same_file(input, output)
+    {
+        return Err(Failure {
+            error: anyhow::anyhow!(
+                "{flag} {} names the input file; choose another output",
+                output.display()
+            ),
+            code: 2,
+        });
     }
-
-    /// The MPU error threshold to use ([`psi::preprocess::PreprocessReport::error_threshold`]).
-    pub(crate) fn error_threshold(&self, user: Option<f64>) -> psi::preprocess::ErrorThreshold {
-        self.prep.error_threshold(user)
-    }
+    Ok(())
 }
 
 /// The preprocessing steps the flags ask for.
@@ -107,20 +85,16 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
         ));
     }
     let params = preprocess_params(args);
-    let points_read = file.points.len();
-    let mut file = file;
-    let prepared = psi::prepare_points(&mut file, &params).map_err(|e| Failure {
+    let input = psi::prepare_input(name.clone(), file, &params).map_err(|e| Failure {
         error: anyhow::anyhow!("{name}: {e}; drop --no-normal-estimation or give oriented points"),
         code: 2,
     })?;
-    let prep = prepared.report;
-    if let Some(c) = prep.consistency
-        && !args.orient_normals
-        && c.opposed_fraction() > psi::preprocess::INCONSISTENT_NORMALS
-    {
+    let prep = &input.report;
+    if let Some(opposed) = prep.inconsistent_normals() {
         eprintln!(
-            "psi: warning: {name}: {:.1} % of neighbouring normals point to opposite sides; try --orient-normals",
-            100.0 * c.opposed_fraction()
+            "psi: warning: {}: {:.1} % of neighbouring normals point to opposite sides; try --orient-normals",
+            input.name,
+            100.0 * opposed
         );
     }
     ui.timing("mesh densification", prep.seconds.mesh);
@@ -172,11 +146,7 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
         );
     }
     Ok(Loaded {
-        name,
-        points_read,
         path: args.input.clone(),
-        file,
-        points: prepared.points,
-        prep,
+        input,
     })
 }

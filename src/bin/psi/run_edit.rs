@@ -105,10 +105,14 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         iterations: args.iterations,
         ..ParticleParams::paper()
     };
-    let error_rel = loaded.error_threshold(args.mpu.mpu_error).relative;
+    let error_rel = loaded
+        .input
+        .report
+        .error_threshold(args.mpu.mpu_error)
+        .relative;
     let mpu_params = args.mpu.params(error_rel);
-    let (mut scene, _) = Scene::new(loaded.points().to_vec(), &mpu_params, &params)
-        .with_context(|| format!("{}: building the scene", loaded.name))?;
+    let (mut scene, _) = Scene::new(loaded.input.points.clone(), &mpu_params, &params)
+        .with_context(|| format!("{}: building the scene", loaded.input.name))?;
     let before = args.before.as_ref().map(|_| scene.particles().clone());
     let mut reports = Vec::new();
     for (i, e) in edits.iter().enumerate() {
@@ -144,7 +148,7 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     let full_seconds = t.elapsed().as_secs_f64();
     let local_seconds: f64 = reports.iter().map(|r| r.seconds).sum();
     let report = json!({
-        "input": loaded.json(),
+        "input": &loaded.input.json,
         "full": { "seconds": full_seconds, "particles": full.particles().len() },
         "local": {
             "seconds": local_seconds,
@@ -166,7 +170,7 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     ui.timing("full rebuild and sampling", full_seconds);
     ui.summary(&format!(
         "{}: {} edit(s) regenerated {} particles in {:.4} s (full rebuild and sampling: {:.3} s); wrote {}",
-        loaded.name,
+        loaded.input.name,
         edits.len(),
         report["local"]["particles_regenerated"],
         local_seconds,

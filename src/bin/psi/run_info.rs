@@ -5,28 +5,25 @@ use crate::{Failure, InputArgs};
 
 pub(crate) fn run(args: &InputArgs, json: bool, ui: crate::ui::Ui) -> Result<(), Failure> {
     let loaded = load(args, ui)?;
-    let j = loaded.json();
+    let (input, j) = (&loaded.input, &loaded.input.json);
     if json {
-        println!("{}", serde_json::to_string_pretty(&j)?);
+        println!("{}", serde_json::to_string_pretty(j)?);
     } else {
-        println!("input          {}", loaded.name);
-        println!("vertices       {}", loaded.file.vertices);
-        println!("faces          {}", loaded.file.faces);
+        println!("input          {}", input.name);
+        println!("vertices       {}", j["vertices"]);
+        println!("faces          {}", j["faces"]);
         println!(
             "points         {} read, {} kept",
-            loaded.points_read,
-            loaded.points.len()
+            input.points_read,
+            input.points.len()
         );
-        if loaded.file.degenerate_faces > 0 {
-            println!(
-                "skipped        {} degenerate faces",
-                loaded.file.degenerate_faces
-            );
+        if j["degenerate_faces"].as_u64() > Some(0) {
+            println!("skipped        {} degenerate faces", j["degenerate_faces"]);
         }
         println!("bbox min       {}", j["bbox_min"]);
         println!("bbox max       {}", j["bbox_max"]);
         println!("bbox diagonal  {}", j["bbox_diagonal"]);
-        let p = &loaded.prep;
+        let p = &input.report;
         if let Some(c) = p.consistency {
             println!(
                 "normals        {:.2} % of neighbouring pairs opposed",

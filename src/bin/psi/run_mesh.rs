@@ -26,9 +26,13 @@ pub(crate) struct MeshArgs {
 pub(crate) fn run(args: &MeshArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     let loaded = load(&args.input, ui)?;
     loaded.check_output(&args.output, "-o")?;
-    let error_rel = loaded.error_threshold(args.mpu.mpu_error).relative;
-    let mpu = crate::ui::build_mpu(ui, loaded.points(), &args.mpu.params(error_rel))
-        .with_context(|| format!("{}: building the MPU implicit", loaded.name))?;
+    let error_rel = loaded
+        .input
+        .report
+        .error_threshold(args.mpu.mpu_error)
+        .relative;
+    let mpu = crate::ui::build_mpu(ui, &loaded.input.points, &args.mpu.params(error_rel))
+        .with_context(|| format!("{}: building the MPU implicit", loaded.input.name))?;
     let t = std::time::Instant::now();
     let mesh = psi::polygonize(
         &mpu,
@@ -43,7 +47,7 @@ pub(crate) fn run(args: &MeshArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     ui.timing("polygonization", secs);
     ui.summary(&format!(
         "{}: {} points -> MPU {} leaves (depth {}) in {:.3} s -> {} triangles in {:.3} s -> {}",
-        loaded.name,
+        loaded.input.name,
         r.points,
         r.leaves,
         r.max_depth,

@@ -95,15 +95,7 @@ pub(crate) fn run(args: &RenderArgs) -> Result<(), Failure> {
         ..base
     };
 
-    if psi::same_file(&args.input, &args.output) {
-        return Err(Failure {
-            error: anyhow::anyhow!(
-                "-o {} names the input file; choose another output",
-                args.output.display()
-            ),
-            code: 2,
-        });
-    }
+    crate::input::check_output(Some(&args.input), &args.output, "-o")?;
     let mesh = match psi::load_mesh(&args.input) {
         Ok(mesh) => Some(mesh),
         Err(psi::PsiError::Read {

@@ -50,18 +50,6 @@ pub(crate) struct SampleArgs {
 }
 
 pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
-    if args.k == 0 {
-        return Err(Failure {
-            error: anyhow::anyhow!("--k must be at least 1"),
-            code: 2,
-        });
-    }
-    if args.count == Some(0) {
-        return Err(Failure {
-            error: anyhow::anyhow!("--count must be at least 1"),
-            code: 2,
-        });
-    }
     let loaded = load(&args.input, ui)?;
     for (path, flag) in [
         (&args.output, "-o"),
@@ -73,9 +61,13 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
             loaded.check_output(path, flag)?;
         }
     }
-    let threshold = loaded.error_threshold(args.mpu.mpu_error);
-    let mpu = crate::ui::build_mpu(ui, loaded.points(), &args.mpu.params(threshold.relative))
-        .with_context(|| format!("{}: building the MPU implicit", loaded.name))?;
+    let threshold = loaded.input.report.error_threshold(args.mpu.mpu_error);
+    let mpu = crate::ui::build_mpu(
+        ui,
+        &loaded.input.points,
+        &args.mpu.params(threshold.relative),
+    )
+    .with_context(|| format!("{}: building the MPU implicit", loaded.input.name))?;
     let params = ParticleParams {
         k: args.k,
         count: args.count,
@@ -93,7 +85,7 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         psi::save_particles(out, &run.particles)?;
     }
     if let Some(path) = &args.points_out {
-        psi::save_points(path, loaded.points())?;
+        psi::save_points(path, &loaded.input.points)?;
     }
     if let Some(png) = &args.png {
         psi::render_particles_png(png, &run.particles, &psi::render::RenderParams::particles())?;
@@ -111,7 +103,7 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     });
     if let Some(path) = &args.json {
         let report = psi::report::sample_json(&psi::report::SampleFacts {
-            input: &loaded.json(),
+            input: &loaded.input.json,
             mpu: &mpu,
             threshold,
             sampling: s,
@@ -123,7 +115,7 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     }
     ui.summary(&format!(
         "{}: {} points, MPU {} leaves (depth {}) in {:.3} s; {} particles: seeding {:.3} s, {} iterations {:.3} s",
-        loaded.name,
+        loaded.input.name,
         r.points,
         r.leaves,
         r.max_depth,
