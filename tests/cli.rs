@@ -109,7 +109,7 @@ fn sample_writes_a_readable_particle_file_and_report() {
         "--json",
         floor_report.to_str().unwrap(),
     ]);
-    assert!(out.status.success());
+    assert_success(&out);
     let f: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&floor_report).unwrap()).unwrap();
     assert!(

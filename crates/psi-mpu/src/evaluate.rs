@@ -57,7 +57,7 @@ impl Mpu {
     /// computed on first use and cached. Below depth [`FILTER_FROM_DEPTH`] a cell's list is its
     /// parent's, filtered: a ball that meets the cell's cube meets the parent's, which holds it,
     /// so siblings (a surface leaf's often hold particles too) and their descendants share one
-    /// traversal (about half the cost of a traversal from the root). The result is the
+    /// traversal instead of one from the root each. The result is the
     /// traversal's own up to rounding on a cube's face, which can only add or drop a ball
     /// farther than R from every point of the cube (never visited: `d2 <= r2`;
     /// `candidates_are_the_traversals`).

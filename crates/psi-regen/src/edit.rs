@@ -68,15 +68,24 @@ impl Edit {
         self.apply_into(points, Vec::with_capacity(points.len()))
     }
 
-    /// [`Edit::apply`] writing the new points into `out` (emptied first; a buffer to reuse).
-    pub fn apply_into(
-        &self,
-        points: &[OrientedPoint],
-        mut out: Vec<OrientedPoint>,
-    ) -> Result<(Vec<OrientedPoint>, Vec<DVec3>), RegenError> {
-        out.clear();
-        let mut changed = Vec::new();
-        let finite = |v: DVec3| v.is_finite();
+    /// Checks the edit's own numbers, before any point is touched: a brush needs a finite
+    /// centre and displacement and a positive radius, a removal (or a replacement) a finite
+    /// centre and a non-negative radius, every inserted point a finite position and a normal
+    /// that normalises. (Whether a brush folds the surface depends on the points; only
+    /// [`Edit::apply`] can tell.)
+    ///
+    /// ```
+    /// use psi_regen::Edit;
+    /// use glam::DVec3;
+    /// assert!(Edit::Remove { center: DVec3::ZERO, radius: 0.0 }.validate().is_ok());
+    /// assert!(Edit::Remove { center: DVec3::ZERO, radius: -1.0 }.validate().is_err());
+    /// ```
+    ///
+    /// # Errors
+    ///
+    /// [`RegenError::BadEdit`] naming what is wrong.
+    pub fn validate(&self) -> Result<(), RegenError> {
+        let bad = |m: String| Err(RegenError::BadEdit(m));
         match self {
             Edit::Brush {
                 center,
@@ -85,13 +94,50 @@ impl Edit {
             } => {
                 if !(*radius > 0.0
                     && radius.is_finite()
-                    && finite(*center)
-                    && finite(*displacement))
+                    && center.is_finite()
+                    && displacement.is_finite())
                 {
-                    return Err(RegenError::BadEdit(
-                        "a brush needs a finite centre, displacement and a positive radius".into(),
+                    return bad(format!(
+                        "a brush needs a finite centre and displacement and a positive radius, not {radius}"
                     ));
                 }
+            }
+            Edit::Remove { center, radius } | Edit::Replace { center, radius, .. } => {
+                if !(radius.is_finite() && *radius >= 0.0 && center.is_finite()) {
+                    return bad(format!(
+                        "a removal needs a finite centre and a non-negative radius, not {radius}"
+                    ));
+                }
+            }
+            Edit::Insert { .. } => {}
+        }
+        if let Edit::Insert { points } | Edit::Replace { points, .. } = self
+            && let Some(i) = points
+                .iter()
+                .position(|p| OrientedPoint::new_normalized(p.p, p.n).is_none())
+        {
+            return bad(format!(
+                "inserted point {i} is not finite or has a zero normal"
+            ));
+        }
+        Ok(())
+    }
+
+    /// [`Edit::apply`] writing the new points into `out` (emptied first; a buffer to reuse).
+    pub fn apply_into(
+        &self,
+        points: &[OrientedPoint],
+        mut out: Vec<OrientedPoint>,
+    ) -> Result<(Vec<OrientedPoint>, Vec<DVec3>), RegenError> {
+        self.validate()?;
+        out.clear();
+        let mut changed = Vec::new();
+        match self {
+            Edit::Brush {
+                center,
+                radius,
+                displacement,
+            } => {
                 for p in points {
                     let (w, gw) = falloff(p.p - *center, *radius);
                     if w == 0.0 {
@@ -123,11 +169,6 @@ impl Edit {
                 Ok((out, changed))
             }
             Edit::Remove { center, radius } => {
-                if !(radius.is_finite() && *radius >= 0.0 && center.is_finite()) {
-                    return Err(RegenError::BadEdit(
-                        "a removal needs a finite centre and a non-negative radius".into(),
-                    ));
-                }
                 let r2 = radius * radius;
                 for p in points {
                     if (p.p - *center).length_squared() <= r2 {
@@ -157,13 +198,6 @@ impl Edit {
                 Ok((out, changed))
             }
             Edit::Insert { points: new } => {
-                for (i, p) in new.iter().enumerate() {
-                    if OrientedPoint::new_normalized(p.p, p.n).is_none() {
-                        return Err(RegenError::BadEdit(format!(
-                            "inserted point {i} is not finite or has a zero normal"
-                        )));
-                    }
-                }
                 out.extend_from_slice(points);
                 out.extend(
                     new.iter()

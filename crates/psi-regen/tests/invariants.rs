@@ -182,11 +182,6 @@ proptest! {
             Edit::Brush { center, radius, .. } | Edit::Remove { center, radius } => (*center, *radius),
             _ => unreachable!(),
         };
-        let reach = |mpu: &Mpu, x: DVec3| {
-            mpu.leaf_containing(x).map_or(f64::INFINITY, |l| {
-                3f64.sqrt() * mpu.octree().cell(l).half + mpu.fit_radius(l)
-            })
-        };
         let mut far = 0;
         for (i, x) in before.positions.iter().enumerate() {
             let d = (*x - center).length() - radius;
@@ -335,6 +330,14 @@ fn patch(points: &[OrientedPoint], i: usize, radius: f64, lift: f64) -> Vec<Orie
     out
 }
 
+/// How far from `x` (world units) a change can still alter the fit of the leaf holding `x`:
+/// the leaf cube's half-diagonal plus its fit radius (infinite outside the octree).
+fn reach(mpu: &Mpu, x: DVec3) -> f64 {
+    mpu.leaf_containing(x).map_or(f64::INFINITY, |l| {
+        3f64.sqrt() * mpu.octree().cell(l).half + mpu.fit_radius(l)
+    })
+}
+
 /// One edit of a session: a brush, a removal or an inserted patch, its place an index into the
 /// shape's points.
 fn session_edit() -> impl Strategy<Value = (u8, usize, f64, (f64, f64, f64))> {
@@ -383,23 +386,21 @@ proptest! {
             // Beyond reach: farther from every changed position than the old and new leaves'
             // cube and fit radius can reach.
             let (_, changed) = edit.apply(old.points()).unwrap();
-            let reach = |mpu: &Mpu, x: DVec3| {
-                mpu.leaf_containing(x).map_or(f64::INFINITY, |l| {
-                    3f64.sqrt() * mpu.octree().cell(l).half + mpu.fit_radius(l)
-                })
-            };
             let after: std::collections::HashSet<[u64; 3]> = scene
                 .particles()
                 .positions
                 .iter()
                 .map(|x| x.to_array().map(f64::to_bits))
                 .collect();
+            let mut far = 0;
             for x in &before.positions {
                 let d = changed.iter().map(|c| (*c - *x).length()).fold(f64::INFINITY, f64::min);
                 if d > reach(&old, *x) && d > reach(scene.mpu(), *x) {
                     prop_assert!(after.contains(&x.to_array().map(f64::to_bits)), "a far particle changed");
+                    far += 1;
                 }
             }
+            prop_assert!(far > before.len() / 4, "only {far} of {} particles out of reach", before.len());
         }
     }
 }

@@ -80,15 +80,23 @@ pub(crate) struct Point3(pub(crate) [f64; 3]);
 
 /// Parses `x,y,z` into three finite numbers.
 fn point3(text: &str) -> Result<Point3, String> {
+    let v = numbers(text, 3).map_err(|e| format!("{e} x,y,z"))?;
+    Ok(Point3([v[0], v[1], v[2]]))
+}
+
+/// Parses `n` finite numbers separated by commas.
+pub(crate) fn numbers(text: &str, n: usize) -> Result<Vec<f64>, String> {
     let v: Vec<f64> = text
         .split(',')
         .map(|t| t.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|_| format!("{text} is not three numbers x,y,z"))?;
-    match v[..] {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Point3([x, y, z])),
-        _ => Err(format!("{text} is not three finite numbers x,y,z")),
+        .map_err(|_| format!("{text} is not a list of numbers"))?;
+    if v.len() != n || v.iter().any(|x| !x.is_finite()) {
+        return Err(format!(
+            "{text}: expected {n} finite numbers separated by commas"
+        ));
     }
+    Ok(v)
 }
 
 /// MPU parameters a user may change (defaults: Ohtake et al.'s, `MpuParams::paper()`).

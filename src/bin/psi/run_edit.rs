@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use clap::Args;
 use psi::regen::{Edit, Scene};
 use psi::{DVec3, ParticleParams};
@@ -47,15 +47,7 @@ pub(crate) struct EditArgs {
 }
 
 fn numbers(text: &str, n: usize, what: &str) -> anyhow::Result<Vec<f64>> {
-    let v: Vec<f64> = text
-        .split(',')
-        .map(|t| t.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--{what} {text}: not a list of numbers"))?;
-    if v.len() != n || v.iter().any(|x| !x.is_finite()) {
-        bail!("--{what} {text}: expected {n} finite numbers separated by commas");
-    }
-    Ok(v)
+    crate::numbers(text, n).map_err(|e| anyhow::anyhow!("--{what} {e}"))
 }
 
 fn edits(args: &EditArgs) -> Result<Vec<Edit>, Failure> {
@@ -83,6 +75,9 @@ fn edits(args: &EditArgs) -> Result<Vec<Edit>, Failure> {
         return Err(usage(anyhow::anyhow!(
             "give --strokes FILE.json, or at least one --brush or --remove"
         )));
+    }
+    for e in &out {
+        e.validate().map_err(|e| usage(e.into()))?;
     }
     Ok(out)
 }

@@ -16,7 +16,7 @@ use psi::regen::Edit;
 use psi::{DVec3, OrientedPoint};
 use serde_json::{Map, Value};
 
-/// A finite 3-vector from `value` (a JSON array of three numbers).
+/// A 3-vector from `value` (a JSON array of three numbers; JSON has no infinities or NaN).
 fn vector(value: Option<&Value>, what: &str) -> Result<DVec3> {
     let v = value.ok_or_else(|| anyhow!("`{what}` is missing"))?;
     let items = v
@@ -27,18 +27,16 @@ fn vector(value: Option<&Value>, what: &str) -> Result<DVec3> {
     for (o, item) in out.iter_mut().zip(items) {
         *o = item
             .as_f64()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| anyhow!("`{what}` must hold three finite numbers, not {v}"))?;
+            .ok_or_else(|| anyhow!("`{what}` must hold three numbers, not {v}"))?;
     }
     Ok(DVec3::from_array(out))
 }
 
-/// A finite number from `value`.
+/// A number from `value`.
 fn number(value: Option<&Value>, what: &str) -> Result<f64> {
     let v = value.ok_or_else(|| anyhow!("`{what}` is missing"))?;
     v.as_f64()
-        .filter(|x| x.is_finite())
-        .ok_or_else(|| anyhow!("`{what}` must be a finite number, not {v}"))
+        .ok_or_else(|| anyhow!("`{what}` must be a number, not {v}"))
 }
 
 /// Refuses keys of `fields` that are not among `known`.
@@ -65,25 +63,17 @@ fn edit(value: &Value) -> Result<Edit> {
     match kind.as_str() {
         "brush" => {
             only(fields, &["centre", "radius", "displacement"], "brush")?;
-            let radius = number(fields.get("radius"), "radius")?;
-            if radius <= 0.0 {
-                bail!("a brush's radius must be positive, not {radius}");
-            }
             Ok(Edit::Brush {
                 center: vector(fields.get("centre"), "centre")?,
-                radius,
+                radius: number(fields.get("radius"), "radius")?,
                 displacement: vector(fields.get("displacement"), "displacement")?,
             })
         }
         "remove" => {
             only(fields, &["centre", "radius"], "remove")?;
-            let radius = number(fields.get("radius"), "radius")?;
-            if radius < 0.0 {
-                bail!("a removal's radius must not be negative, not {radius}");
-            }
             Ok(Edit::Remove {
                 center: vector(fields.get("centre"), "centre")?,
-                radius,
+                radius: number(fields.get("radius"), "radius")?,
             })
         }
         "insert" => {
@@ -123,6 +113,13 @@ fn edit(value: &Value) -> Result<Edit> {
     }
 }
 
+/// [`edit`], its numbers checked ([`Edit::validate`]).
+fn checked_edit(value: &Value) -> Result<Edit> {
+    let edit = edit(value)?;
+    edit.validate()?;
+    Ok(edit)
+}
+
 /// The edits of the strokes file at `path`, in order; every error names the file and, for an
 /// edit, its index.
 pub(crate) fn read_strokes(path: &Path) -> Result<Vec<Edit>> {
@@ -138,7 +135,7 @@ pub(crate) fn read_strokes(path: &Path) -> Result<Vec<Edit>> {
     }
     list.iter()
         .enumerate()
-        .map(|(i, v)| edit(v).map_err(|e| anyhow!("{name}: edit {i}: {e}")))
+        .map(|(i, v)| checked_edit(v).map_err(|e| anyhow!("{name}: edit {i}: {e}")))
         .collect()
 }
 
@@ -196,7 +193,7 @@ mod tests {
             ),
         ];
         for (value, expected) in faults {
-            let err = edit(&value).unwrap_err().to_string();
+            let err = checked_edit(&value).unwrap_err().to_string();
             assert!(err.contains(expected), "{value}: {err}");
         }
     }
