@@ -291,8 +291,8 @@ pub(crate) fn try_fit_cell(
     // fit — where world-unit cut-offs flatten the quadratic terms — also tries the
     // scale-invariant solve and keeps it when its exact error is smaller. The split decision is
     // unchanged either way: both errors are ≤ ε0. Sharp fits are kept as chosen: a lower error
-    // at the points can come with a worse extrapolation along the feature (on the thin slab of
-    // tests/analytic.rs the rim's worst distance rose from 2.7e-4 to 6.7e-4 D).
+    // at the points can come with a worse extrapolation along the feature (the thin slab of
+    // tests/analytic.rs; docs/notes/2026-11-24-mpu-fits.md).
     let smooth = matches!(
         chosen.fit.kind,
         FitKind::Bivariate | FitKind::GeneralQuadric | FitKind::Plane

@@ -5,7 +5,7 @@
 //! several times σ²/k (its curvature terms are estimated from the same points), so the
 //! curvature comes from three times as many points and only the offset and tilt from the k
 //! nearest. The normals become the quadric's normals there. The constants were chosen on the
-//! bunny with noise of 0.25 % and 0.5 % of D (`cargo xtask scans`; docs/notes).
+//! bunny with noise of 0.25 % and 0.5 % of D (`cargo xtask scans`; docs/notes/2026-11-24-real-scans.md).
 
 use glam::DVec3;
 use psi_octree::{OrientedPoint, PointIndex};
@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::local_fit::QuadricFit;
+use crate::median::median;
 use crate::spatial_order::SpatialOrder;
 
 /// The neighbourhood's radius in noise deviations.
@@ -91,8 +92,12 @@ fn median_reach(index: &PointIndex, positions: &[DVec3], count: usize) -> f64 {
                 .map_or(0.0, |l| l.1.sqrt())
         })
         .collect();
-    let mid = reaches.len() / 2;
-    *reaches.select_nth_unstable_by(mid, f64::total_cmp).1
+    median(&mut reaches)
+}
+
+/// Orders neighbours (index, squared distance) by distance, then index.
+fn by_distance(a: &(u32, f64), b: &(u32, f64)) -> std::cmp::Ordering {
+    a.1.total_cmp(&b.1).then(a.0.cmp(&b.0))
 }
 
 /// [`denoise`] of `points` already in a spatially coherent order.
@@ -112,32 +117,25 @@ fn denoise_in_order(points: &mut [OrientedPoint], sigma: f64) -> DenoiseReport {
         .min(n);
     let wide = (CURVATURE_SPAN * k).min(n);
     let wide_reach = median_reach(&index, &positions, wide);
-    // The `count` nearest points to `at` among `candidates` (index, squared distance), when
-    // they are provably the `count` nearest of all: the candidates are every point within
-    // `radius` of `centre`, and the farthest chosen lies within that ball.
-    let nearest_among =
-        |candidates: &[u32], centre: DVec3, radius: f64, at: DVec3, count: usize| {
-            if candidates.len() < count {
-                return None;
-            }
-            let mut d: Vec<(u32, f64)> = candidates
-                .iter()
-                .map(|&j| (j, (positions[j as usize] - at).length_squared()))
-                .collect();
-            d.select_nth_unstable_by(count - 1, |a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-            d.truncate(count);
-            let farthest = d.iter().map(|n| n.1).fold(0.0, f64::max).sqrt();
-            (farthest + (at - centre).length() <= radius).then_some(d)
-        };
-    // The `count` nearest points to `at`: from a ball that usually holds them (a ball query
-    // cut to the nearest is several times faster than a k-nearest query for such counts),
-    // else from the k-nearest query.
+    // The `count` nearest points to `at` (index, squared distance): from the ball of `radius`
+    // about `at` when it provably holds them (its `count` nearest lie inside it; a ball query
+    // cut to the nearest is cheaper than a k-nearest query for such counts, notes:
+    // 2026-11-24-real-scans.md), else from the k-nearest query.
     let nearest = |at: DVec3, count: usize, radius: f64| {
         let mut ball = Vec::new();
         index.within(at, radius, &mut ball);
-        let near =
-            nearest_among(&ball, at, radius, at, count).unwrap_or_else(|| index.nearest(at, count));
-        (ball, near)
+        if ball.len() >= count {
+            let mut d: Vec<(u32, f64)> = ball
+                .iter()
+                .map(|&j| (j, (positions[j as usize] - at).length_squared()))
+                .collect();
+            d.select_nth_unstable_by(count - 1, by_distance);
+            d.truncate(count);
+            if d.iter().all(|n| n.1 <= radius * radius) {
+                return d;
+            }
+        }
+        index.nearest(at, count)
     };
     // The positions of `near` on the side of `normal`, and the distance to the farthest of all.
     let same_side = |near: &[(u32, f64)], normal: DVec3| {
@@ -152,13 +150,15 @@ fn denoise_in_order(points: &mut [OrientedPoint], sigma: f64) -> DenoiseReport {
     // The quadric of a point's neighbourhood: curvature from its 3k nearest on its side, offset
     // and tilt from its k nearest (found among the former when they prove it).
     let local_fit = |p: &OrientedPoint| {
-        let radius = WIDE_BALL * wide_reach;
-        let (ball, near) = nearest(p.p, wide, radius);
+        let mut near = nearest(p.p, wide, WIDE_BALL * wide_reach);
         let (pts, reach) = same_side(&near, p.n);
         let fit = QuadricFit::of(&pts, reach)?;
-        let close =
-            nearest_among(&ball, p.p, radius, p.p, k).unwrap_or_else(|| index.nearest(p.p, k));
-        Some((fit.refined(&same_side(&close, p.n).0), fit))
+        // The k nearest are the k nearest of the wide neighbourhood (k ≤ wide).
+        if near.len() > k {
+            near.select_nth_unstable_by(k - 1, by_distance);
+            near.truncate(k);
+        }
+        Some((fit.refined(&same_side(&near, p.n).0), fit))
     };
     let moved: Vec<Option<OrientedPoint>> = points
         .par_iter()

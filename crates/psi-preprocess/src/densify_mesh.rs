@@ -8,6 +8,8 @@ use glam::DVec3;
 use psi_octree::{Aabb, OrientedPoint};
 use serde::{Deserialize, Serialize};
 
+use crate::median::median;
+
 /// A mesh is coarse when the median standoff of its vertices from the plane of their triangles'
 /// centroids reaches this share of its bounding-box diagonal D: a tenth of the paper's ε0 of
 /// 0.005 D, so that a fine mesh's standoff (its roughness) stays below it (the measured
@@ -88,10 +90,6 @@ pub fn mesh_coarseness(vertices: &[DVec3], faces: &[[u32; 3]]) -> Option<MeshCoa
     if standoffs.is_empty() || areas.is_empty() || diagonal <= 0.0 {
         return None;
     }
-    let median = |v: &mut [f64]| {
-        let mid = v.len() / 2;
-        *v.select_nth_unstable_by(mid, f64::total_cmp).1
-    };
     let total_area: f64 = areas.iter().sum();
     let floor = total_area / (MAX_PIECES_PER_FACE * areas.len() as f64);
     let standoff = median(&mut standoffs) / diagonal;

@@ -11,6 +11,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::local_fit::QuadricFit;
+use crate::median::median;
 
 /// Neighbours per fit.
 const NEIGHBOURS: usize = 32;
@@ -112,11 +113,10 @@ fn median_residual(
     if found.is_empty() {
         return None;
     }
-    let mid = found.len() / 2;
     let mut sigmas: Vec<f64> = found.iter().map(|f| f.0).collect();
     let mut reaches: Vec<f64> = found.iter().map(|f| f.1).collect();
-    let sigma = *sigmas.select_nth_unstable_by(mid, f64::total_cmp).1;
-    let reach = *reaches.select_nth_unstable_by(mid, f64::total_cmp).1;
+    let sigma = median(&mut sigmas);
+    let reach = median(&mut reaches);
     // The median of χ²_ν/ν for ν = k − 6 is about (1 − 2/(9ν))³ (Wilson–Hilferty): the median
     // of √(RSS/ν) is about its square root times σ.
     let nu = k.saturating_sub(6).max(1) as f64;

@@ -8,11 +8,12 @@
 //! against the surface rather than against itself.
 
 use glam::DVec3;
-use psi_octree::{OrientedPoint, PointIndex};
+use psi_octree::PointIndex;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::local_fit::QuadricFit;
+use crate::median::median;
 use crate::spatial_order::SpatialOrder;
 
 /// Neighbours per point (itself excluded).
@@ -94,15 +95,6 @@ fn spacing_of(reach: f64) -> f64 {
     reach * (std::f64::consts::PI / NEIGHBOURS as f64).sqrt()
 }
 
-/// The median of `v` (reordered); 0 for an empty slice.
-fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    let mid = v.len() / 2;
-    *v.select_nth_unstable_by(mid, f64::total_cmp).1
-}
-
 /// Whether `p` lies off `fit`, the quadric surface of its neighbours: farther from it than
 /// 4 × their residual standard deviation plus 1.5 × `spacing`, the sample spacing there.
 fn off_surface(fit: &QuadricFit, p: DVec3, spacing: f64) -> bool {
@@ -143,24 +135,6 @@ pub fn find_outliers(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers
     let order = SpatialOrder::new(positions);
     let sorted = order.gather(positions);
     let sorted_normals = normals.map(|v| order.gather(v));
-    let found = outliers_in_order(&sorted, sorted_normals.as_deref());
-    Outliers {
-        mask: order.scatter(&found.mask),
-        ..found
-    }
-}
-
-/// [`find_outliers`] of `points` (their positions, and their normals when `normals_given`),
-/// without copying them first.
-pub(crate) fn find_outliers_of(points: &[OrientedPoint], normals_given: bool) -> Outliers {
-    let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
-    let order = SpatialOrder::new(&positions);
-    drop(positions);
-    let sorted_points = order.gather(points);
-    let sorted: Vec<DVec3> = sorted_points.iter().map(|p| p.p).collect();
-    let sorted_normals: Option<Vec<DVec3>> =
-        normals_given.then(|| sorted_points.iter().map(|p| p.n).collect());
-    drop(sorted_points);
     let found = outliers_in_order(&sorted, sorted_normals.as_deref());
     Outliers {
         mask: order.scatter(&found.mask),

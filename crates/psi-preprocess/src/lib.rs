@@ -37,6 +37,7 @@ mod estimate_noise;
 mod estimate_normals;
 mod find_outliers;
 mod local_fit;
+mod median;
 mod orient_normals;
 mod preprocess;
 mod spatial_order;

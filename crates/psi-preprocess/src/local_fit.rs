@@ -135,83 +135,42 @@ pub(crate) struct QuadricFit {
     pub(crate) count: usize,
 }
 
-/// The normal equations of a quadratic height field over a given plane, filled point by point,
-/// so that growing neighbourhoods are fitted without starting over.
-#[derive(Clone, Debug)]
-pub(crate) struct QuadricSums {
-    frame: QuadricFit,
-    ata: SMatrix<f64, 6, 6>,
-    atb: SVector<f64, 6>,
-    btb: f64,
-}
-
-impl QuadricSums {
-    /// Empty sums over `plane`, lengths in units of `scale` (world units). `None` for a scale
-    /// that is not positive.
-    pub(crate) fn over(plane: PlaneFit, scale: f64) -> Option<Self> {
-        if scale.is_nan() || scale <= 0.0 {
-            return None;
-        }
-        let tangent = plane.normal.any_orthonormal_vector();
-        let bitangent = plane.normal.cross(tangent);
-        Some(Self {
-            frame: QuadricFit {
-                plane,
-                tangent,
-                bitangent,
-                scale,
-                coef: [0.0; 6],
-                rss: 0.0,
-                count: 0,
-            },
-            ata: SMatrix::zeros(),
-            atb: SVector::zeros(),
-            btb: 0.0,
-        })
-    }
-
-    /// Adds a point.
-    pub(crate) fn add(&mut self, p: DVec3) {
-        let (row, h) = self.frame.row(p);
-        for i in 0..6 {
-            self.atb[i] += row[i] * h;
-            for j in 0..6 {
-                self.ata[(i, j)] += row[i] * row[j];
-            }
-        }
-        self.btb += h * h;
-        self.frame.count += 1;
-    }
-
-    /// The fit of the points added so far (its `rss` from the normal equations); `None` for
-    /// fewer than 7 points or a singular system.
-    pub(crate) fn fit(&self) -> Option<QuadricFit> {
-        if self.frame.count < 7 {
-            return None;
-        }
-        let coef = self.ata.cholesky()?.solve(&self.atb);
-        let mut fit = self.frame;
-        fit.coef = [coef[0], coef[1], coef[2], coef[3], coef[4], coef[5]];
-        let scale2 = fit.scale * fit.scale;
-        fit.rss = ((self.btb - coef.dot(&self.atb)) * scale2).max(0.0);
-        (fit.rss.is_finite() && coef.iter().all(|c| c.is_finite())).then_some(fit)
-    }
-}
-
 impl QuadricFit {
     /// The quadric height field of `points` over their least-squares plane, with lengths in
     /// units of `scale` (world units; about the neighbourhood's radius). `None` for fewer than
     /// 7 points, a degenerate plane or a singular system.
     pub(crate) fn of(points: &[DVec3], scale: f64) -> Option<Self> {
-        let plane = fit_plane(points.iter().copied())?;
-        let mut sums = QuadricSums::over(plane, scale)?;
-        for p in points {
-            sums.add(*p);
+        if points.len() < 7 || scale.is_nan() || scale <= 0.0 {
+            return None;
         }
-        let mut fit = sums.fit()?;
+        let plane = fit_plane(points.iter().copied())?;
+        let tangent = plane.normal.any_orthonormal_vector();
+        let mut fit = QuadricFit {
+            plane,
+            tangent,
+            bitangent: plane.normal.cross(tangent),
+            scale,
+            coef: [0.0; 6],
+            rss: 0.0,
+            count: points.len(),
+        };
+        // The normal equations of the height field.
+        let mut ata = SMatrix::<f64, 6, 6>::zeros();
+        let mut atb = SVector::<f64, 6>::zeros();
+        for p in points {
+            let (row, h) = fit.row(*p);
+            for i in 0..6 {
+                atb[i] += row[i] * h;
+                for j in 0..6 {
+                    ata[(i, j)] += row[i] * row[j];
+                }
+            }
+        }
+        let coef = ata.cholesky()?.solve(&atb);
+        fit.coef = [coef[0], coef[1], coef[2], coef[3], coef[4], coef[5]];
         // The residual summed directly (the normal equations' identity loses digits).
         fit.rss = points.iter().map(|p| fit.height(*p).powi(2)).sum();
-        fit.rss.is_finite().then_some(fit)
+        (fit.rss.is_finite() && coef.iter().all(|c| c.is_finite())).then_some(fit)
     }
 
     /// The monomials (1, u, v, u², uv, v²) of `p` and its height over the plane, in units of
@@ -318,7 +277,8 @@ mod tests {
         assert_near!(fit.normal.dot(n).abs(), 1.0, 1e-12);
         assert_near!(fit.eigenvalues[0], 0.0, 1e-12);
         assert_near!(fit.variation(), 0.0, 1e-12);
-        // A gentle paraboloid is a quadratic height field over its own plane, to rounding.
+        // A gentle paraboloid is nearly a quadratic height field over its least-squares plane
+        // (tilted slightly from its own tangent plane, so not exactly: a small residual).
         let bowl: Vec<DVec3> = pts
             .iter()
             .map(|p| {
