@@ -3,6 +3,7 @@
 //! process, as the CLI reports it: no edit before it has warmed anything), beside a full rebuild
 //! and sampling. The editing session (`session.rs`) follows it.
 
+use crate::median::median;
 use std::path::Path;
 use std::process::Command;
 
@@ -15,7 +16,7 @@ use crate::reference::Reference;
 /// The brushes: a name, then centre, radius and displacement (world units, as `--brush`).
 /// The first is the brush of the issue "Local regeneration" (its centre 8 mm off the surface);
 /// the second is centred on the surface with the radius that covers 5 % of it.
-const BRUSHES: [(&str, [f64; 7]); 2] = [
+pub(crate) const BRUSHES: [(&str, [f64; 7]); 2] = [
     ("small", [-0.016, 0.11, 0.05, 0.015, 0.0, 0.0, 0.004]),
     (
         "5 % of the surface",
@@ -40,11 +41,6 @@ fn covered_fraction(reference: &Reference, center: DVec3, radius: f64) -> f64 {
         }
     }
     inside / total
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// Runs the brushes on `model` (the bunny) with the release binary `psi`, writing scratch files
@@ -85,7 +81,7 @@ pub(crate) fn local_edits(psi: &Path, model: &Path, out_dir: &Path) -> Result<(S
             last = report;
         }
         let covered = covered_fraction(&reference, DVec3::new(b[0], b[1], b[2]), b[3]);
-        let (local, full, ratio) = (median(local), median(full), median(ratio));
+        let (local, full, ratio) = (median(&local), median(&full), median(&ratio));
         let edit = &last["local"];
         md.push_str(&format!(
             "| {name} (`--brush={brush}`) | {:.1} % | {} | {} | {:.1} | {full:.3} | {:.1} % |\n",

@@ -27,6 +27,7 @@ mod check_reference;
 mod edits;
 mod figures;
 mod host;
+mod median;
 mod memory;
 mod paper;
 mod reference;

@@ -4,6 +4,7 @@
 //! session's locality and accuracy against a from-scratch build of the edited points.
 //! `cargo xtask session` runs it alone; `reproduce-tables` includes it.
 
+use crate::median::median;
 use std::path::Path;
 use std::process::Command;
 
@@ -49,11 +50,6 @@ fn strokes_json(drag: &[(DVec3, DVec3)]) -> Value {
             })
             .collect(),
     )
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
 /// Runs the session on `model` (the bunny) with the release binary `psi`, scratch files in
@@ -105,8 +101,8 @@ pub(crate) fn session(psi: &Path, model: &Path, out_dir: &Path) -> Result<(Strin
         }
     }
     // Each edit's median over the runs; the session's median and worst of those.
-    let edit_medians: Vec<f64> = per_edit.into_iter().map(median).collect();
-    let session_median = median(edit_medians.clone());
+    let edit_medians: Vec<f64> = per_edit.iter().map(|v| median(v)).collect();
+    let session_median = median(&edit_medians);
     let worst = edit_medians.iter().copied().fold(0.0, f64::max);
     let first = edit_medians[0];
     // Locality: particles farther than 4 radii from every stroke are bitwise unchanged.
@@ -146,15 +142,15 @@ pub(crate) fn session(psi: &Path, model: &Path, out_dir: &Path) -> Result<(Strin
         far_old.len(),
         100.0 * within as f64 / new.len().max(1) as f64,
         median(
-            marked
+            &marked
                 .as_array()
-                .map(|a| a.iter().filter_map(Value::as_f64).collect())
+                .map(|a| a.iter().filter_map(Value::as_f64).collect::<Vec<_>>())
                 .unwrap_or_default()
         ),
         median(
-            regenerated
+            &regenerated
                 .as_array()
-                .map(|a| a.iter().filter_map(Value::as_f64).collect())
+                .map(|a| a.iter().filter_map(Value::as_f64).collect::<Vec<_>>())
                 .unwrap_or_default()
         ),
     );

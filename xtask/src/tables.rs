@@ -1,6 +1,7 @@
 //! `cargo xtask reproduce-tables`: the paper's Tables 1 and 2 side by side with ours, on the
 //! shared models, timed with the release binary, checked against the reference meshes.
 
+use crate::median::median;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -86,11 +87,6 @@ fn timed_runs(
         v.sort_by(f64::total_cmp);
         v
     }))
-}
-
-/// The median of ascending `v` (its upper middle for an even length; 0 when empty).
-fn median(v: &[f64]) -> f64 {
-    v.get(v.len() / 2).copied().unwrap_or(0.0)
 }
 
 /// Distance and coverage checks of a particle file against its reference mesh.

@@ -14,21 +14,13 @@ pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
     let points = super::load_model(args.next().as_ref())?;
     let rounds: usize = args.next().map_or(Ok(20), |a| a.parse())?;
     let (mut scene, _) = Scene::new(points, &MpuParams::paper(), &ParticleParams::paper())?;
+    // The brushes of `cargo xtask reproduce-tables`: the small one, or with `big` the 5 % one.
     let big = args.next().is_some_and(|a| a == "big");
-    let brush = |sign: f64| {
-        if big {
-            Edit::Brush {
-                center: DVec3::new(-0.01416, 0.10815, 0.0427),
-                radius: 0.029,
-                displacement: DVec3::new(-0.0006, 0.0012, 0.0038) * sign,
-            }
-        } else {
-            Edit::Brush {
-                center: DVec3::new(-0.016, 0.11, 0.05),
-                radius: 0.015,
-                displacement: DVec3::new(0.0, 0.0, 0.004 * sign),
-            }
-        }
+    let b = crate::edits::BRUSHES[usize::from(big)].1;
+    let brush = |sign: f64| Edit::Brush {
+        center: DVec3::new(b[0], b[1], b[2]),
+        radius: b[3],
+        displacement: DVec3::new(b[4], b[5], b[6]) * sign,
     };
     let mut times = Vec::new();
     let mut particle_times = Vec::new();

@@ -27,17 +27,18 @@ pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
     // which moves the wall clock on a shared VM).
     let mut cpu = Vec::new();
     let mut last = None;
-    let shared = Mpu::build(&points, &MpuParams::paper())?;
+    let shared = warm
+        .then(|| Mpu::build(&points, &MpuParams::paper()))
+        .transpose()?;
     for _ in 0..rounds {
         // Unless warm, a fresh MPU each round: its lazily filled caches (input spacing,
         // interior points) start empty, as in one `psi sample` run (unless `prefill` fills the
         // footprint table below).
-        let fresh = if warm {
-            None
-        } else {
-            Some(Mpu::build(&points, &MpuParams::paper())?)
+        let fresh = match &shared {
+            Some(_) => None,
+            None => Some(Mpu::build(&points, &MpuParams::paper())?),
         };
-        let mpu = fresh.as_ref().unwrap_or(&shared);
+        let mpu = fresh.as_ref().or(shared.as_ref()).expect("one of the two");
         if prefill {
             use rayon::prelude::*;
             (0..mpu.points().len() as u32)
