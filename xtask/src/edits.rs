@@ -7,11 +7,12 @@ use crate::median::median;
 use std::path::Path;
 use std::process::Command;
 
-use anyhow::{Result, bail};
+use anyhow::Result;
 use psi::DVec3;
 use serde_json::{Value, json};
 
 use crate::reference::Reference;
+use crate::release_binary::run_psi_report;
 
 /// The brushes: a name, then centre, radius and displacement (world units, as `--brush`).
 /// The first is the brush of the issue "Local regeneration" (its centre 8 mm off the surface);
@@ -57,20 +58,18 @@ pub(crate) fn local_edits(psi: &Path, model: &Path, out_dir: &Path) -> Result<(S
         let (mut local, mut full, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
         let mut last = Value::Null;
         for _ in 0..RUNS {
-            let out = Command::new(psi)
-                .arg("edit")
-                .arg(model)
-                .arg(format!("--brush={brush}"))
-                .arg("-o")
-                .arg(out_dir.join("bunny-edit.ply"))
-                .arg("--json")
-                .arg(&json_path)
-                .arg("-q")
-                .output()?;
-            if !out.status.success() {
-                bail!("psi edit failed: {}", String::from_utf8_lossy(&out.stderr));
-            }
-            let report: Value = serde_json::from_slice(&std::fs::read(&json_path)?)?;
+            let report = run_psi_report(
+                Command::new(psi)
+                    .arg("edit")
+                    .arg(model)
+                    .arg(format!("--brush={brush}"))
+                    .arg("-o")
+                    .arg(out_dir.join("bunny-edit.ply"))
+                    .arg("--json")
+                    .arg(&json_path)
+                    .arg("-q"),
+                &json_path,
+            )?;
             let (l, f) = (
                 report["local"]["seconds"].as_f64().unwrap_or(f64::NAN),
                 report["full"]["seconds"].as_f64().unwrap_or(f64::NAN),

@@ -9,7 +9,7 @@ use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use psi::DVec3;
 use psi::render::{
     Legend, Pixmap, Ramp, RenderParams, View, append_legend, render_splats, scalar_colors,
@@ -35,17 +35,7 @@ const WHITE: [u8; 4] = [255; 4];
 
 /// Runs `psi` with `args`; fails with its error output.
 fn psi_run(psi: &Path, args: &[&str]) -> Result<()> {
-    let out = Command::new(psi)
-        .args(args)
-        .output()
-        .with_context(|| format!("running psi {}", args.join(" ")))?;
-    if !out.status.success() {
-        bail!(
-            "psi {} failed: {}",
-            args.join(" "),
-            String::from_utf8_lossy(&out.stderr)
-        );
-    }
+    let out = crate::release_binary::run_psi(Command::new(psi).args(args))?;
     print!("{}", String::from_utf8_lossy(&out.stdout));
     Ok(())
 }

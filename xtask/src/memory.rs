@@ -3,10 +3,10 @@
 
 use std::process::Command;
 
-use anyhow::{Context, Result, bail};
+use anyhow::Result;
 
 use crate::project_root;
-use crate::release_binary::build_release;
+use crate::release_binary::{build_release, run_psi_report};
 
 pub(crate) fn run(points: usize) -> Result<()> {
     let psi = build_release()?;
@@ -14,22 +14,19 @@ pub(crate) fn run(points: usize) -> Result<()> {
     std::fs::create_dir_all(&out_dir)?;
     let report = out_dir.join(format!("memory-{points}.json"));
     let t = std::time::Instant::now();
-    let out = Command::new(psi)
-        .args([
-            "sample",
-            "--builtin-points",
-            &points.to_string(),
-            "--iterations",
-            "5",
-            "--json",
-        ])
-        .arg(&report)
-        .output()
-        .context("running psi")?;
-    if !out.status.success() {
-        bail!("psi failed: {}", String::from_utf8_lossy(&out.stderr));
-    }
-    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&report)?)?;
+    let j = run_psi_report(
+        Command::new(psi)
+            .args([
+                "sample",
+                "--builtin-points",
+                &points.to_string(),
+                "--iterations",
+                "5",
+                "--json",
+            ])
+            .arg(&report),
+        &report,
+    )?;
     let peak = j["peak_memory_bytes"].as_f64().unwrap_or(f64::NAN) / (1u64 << 30) as f64;
     println!(
         "{points} points: MPU {:.2} s ({} leaves), {} particles, total {:.1} s, peak memory {peak:.2} GiB",

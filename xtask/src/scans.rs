@@ -12,7 +12,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use parry3d_f64::query::{Ray, RayCast};
 use parry3d_f64::shape::TriMesh;
 use psi::octree::PointIndex;
@@ -24,7 +24,7 @@ use rayon::prelude::*;
 use serde_json::{Value, json};
 
 use crate::reference::{Reference, distance_stats};
-use crate::release_binary::build_release;
+use crate::release_binary::{build_release, run_psi_report};
 use crate::{Flags, host, models_dir, project_root};
 
 /// Models tried by default.
@@ -78,27 +78,21 @@ fn run_case(psi: &Path, case: &Case, out: &Path) -> Result<Outcome> {
         let particles = out.join(format!("{}-particles.ply", case.name));
         let points = out.join(format!("{}-points.ply", case.name));
         let json = out.join(format!("{}-report.json", case.name));
-        let run = Command::new(psi)
-            .arg("sample")
-            .arg(&case.input)
-            .args(&case.extra)
-            .arg("-o")
-            .arg(&particles)
-            .arg("--points-out")
-            .arg(&points)
-            .arg("--json")
-            .arg(&json)
-            .arg("-q")
-            .output()
-            .context("running psi")?;
-        if !run.status.success() {
-            bail!(
-                "psi sample on {} failed: {}",
-                case.name,
-                String::from_utf8_lossy(&run.stderr)
-            );
-        }
-        let report: Value = serde_json::from_slice(&std::fs::read(&json)?)?;
+        let report = run_psi_report(
+            Command::new(psi)
+                .arg("sample")
+                .arg(&case.input)
+                .args(&case.extra)
+                .arg("-o")
+                .arg(&particles)
+                .arg("--points-out")
+                .arg(&points)
+                .arg("--json")
+                .arg(&json)
+                .arg("-q"),
+            &json,
+        )
+        .with_context(|| format!("case {}", case.name))?;
         builds.push(report["mpu"]["build_seconds"].as_f64().unwrap_or(0.0));
         if k == 0 {
             let read = |p: &Path| -> Result<Vec<OrientedPoint>> {

@@ -12,7 +12,7 @@ use anyhow::{Context, Result, bail};
 use psi::{DVec3, Mpu, MpuParams, OrientedPoint};
 use serde_json::{Value, json};
 
-use crate::release_binary::build_release;
+use crate::release_binary::{build_release, run_psi_report};
 use crate::{Flags, models_dir, project_root};
 
 /// Strokes in the drag.
@@ -71,28 +71,23 @@ pub(crate) fn session(psi: &Path, model: &Path, out_dir: &Path) -> Result<(Strin
     let mut per_edit: Vec<Vec<f64>> = vec![Vec::new(); STROKES];
     let mut last = Value::Null;
     for _ in 0..RUNS {
-        let out = Command::new(psi)
-            .arg("edit")
-            .arg(model)
-            .arg("--strokes")
-            .arg(&strokes)
-            .arg("--before")
-            .arg(&before)
-            .arg("-o")
-            .arg(&after)
-            .arg("--points-after")
-            .arg(&points_after)
-            .arg("--json")
-            .arg(&report)
-            .arg("-q")
-            .output()?;
-        if !out.status.success() {
-            bail!(
-                "psi edit --strokes failed: {}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-        }
-        last = serde_json::from_slice(&std::fs::read(&report)?)?;
+        last = run_psi_report(
+            Command::new(psi)
+                .arg("edit")
+                .arg(model)
+                .arg("--strokes")
+                .arg(&strokes)
+                .arg("--before")
+                .arg(&before)
+                .arg("-o")
+                .arg(&after)
+                .arg("--points-after")
+                .arg(&points_after)
+                .arg("--json")
+                .arg(&report)
+                .arg("-q"),
+            &report,
+        )?;
         let times = last["local"]["seconds_per_edit"]
             .as_array()
             .context("report without seconds_per_edit")?;

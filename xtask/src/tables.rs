@@ -5,14 +5,14 @@ use crate::median::median;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use serde_json::{Value, json};
 
 use crate::paper::{LEVET, TABLE1, TABLE2};
 use crate::reference::{
     METRO_SAMPLES, Reference, area, coverage, distance_stats, metro_stats, worst_gap,
 };
-use crate::release_binary::build_release;
+use crate::release_binary::{build_release, run_psi, run_psi_report};
 use crate::{Flags, host, models_dir, project_root};
 
 /// Depth levels with fewer particles than this show their count beside their CV (a
@@ -29,29 +29,21 @@ pub(crate) fn sample(
 ) -> Result<(Value, PathBuf)> {
     let ply = out_dir.join(format!("{tag}.ply"));
     let report = out_dir.join(format!("{tag}.json"));
-    let out = Command::new(psi)
-        .arg("sample")
-        .arg(model)
-        .args([
-            "--iterations",
-            &iterations.to_string(),
-            "--evaluation-floor",
-            "-o",
-        ])
-        .arg(&ply)
-        .arg("--json")
-        .arg(&report)
-        .output()
-        .with_context(|| format!("running psi on {}", model.display()))?;
-    if !out.status.success() {
-        bail!(
-            "psi sample {} failed: {}",
-            model.display(),
-            String::from_utf8_lossy(&out.stderr)
-        );
-    }
-    let value: Value =
-        serde_json::from_slice(&std::fs::read(&report)?).context("reading psi's report")?;
+    let value = run_psi_report(
+        Command::new(psi)
+            .arg("sample")
+            .arg(model)
+            .args([
+                "--iterations",
+                &iterations.to_string(),
+                "--evaluation-floor",
+                "-o",
+            ])
+            .arg(&ply)
+            .arg("--json")
+            .arg(&report),
+        &report,
+    )?;
     Ok((value, ply))
 }
 
@@ -221,17 +213,14 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
             ("scale-invariant", Some("--scale-invariant")),
         ] {
             let mesh_path = out_dir.join(format!("{}-{mode}-surface.ply", row.model));
-            let mut cmd = Command::new(&psi);
-            cmd.arg("mesh").arg(&path).arg("-o").arg(&mesh_path);
-            cmd.args(extra);
-            let out = cmd.output()?;
-            if !out.status.success() {
-                bail!(
-                    "psi mesh {} failed: {}",
-                    path.display(),
-                    String::from_utf8_lossy(&out.stderr)
-                );
-            }
+            run_psi(
+                Command::new(&psi)
+                    .arg("mesh")
+                    .arg(&path)
+                    .arg("-o")
+                    .arg(&mesh_path)
+                    .args(extra),
+            )?;
             let ours = Reference::new(psi::load_mesh(&mesh_path)?)?;
             let ours_samples = ours.surface_samples(n, seed);
             let to_reference = metro_stats(&ours_samples, &ours.mesh.vertices, &reference, diag);
@@ -259,21 +248,16 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
         let path = dir.join("bunny.ply");
         let ply = out_dir.join("bunny-uniform.ply");
         let json_path = out_dir.join("bunny-uniform.json");
-        let out = Command::new(&psi)
-            .arg("sample")
-            .arg(&path)
-            .args(["--uniform", "--count", "10000", "-o"])
-            .arg(&ply)
-            .arg("--json")
-            .arg(&json_path)
-            .output()?;
-        if !out.status.success() {
-            bail!(
-                "psi sample --uniform failed: {}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-        }
-        let report: Value = serde_json::from_slice(&std::fs::read(&json_path)?)?;
+        let report = run_psi_report(
+            Command::new(&psi)
+                .arg("sample")
+                .arg(&path)
+                .args(["--uniform", "--count", "10000", "-o"])
+                .arg(&ply)
+                .arg("--json")
+                .arg(&json_path),
+            &json_path,
+        )?;
         let reference = Reference::new(psi::load_mesh(&path)?)?;
         let points: Vec<_> = psi::load_points(&ply, &psi::ReadOptions::paper())?
             .points
