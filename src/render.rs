@@ -32,14 +32,17 @@ pub fn particles_image(
     params: &RenderParams,
 ) -> Result<Pixmap, RenderError> {
     let depth: Vec<f64> = particles.depth.iter().map(|&d| f64::from(d)).collect();
+    let (colors, legend) = Coloring::Depth
+        .colors(Some(&depth), None, &particles.normals)
+        .expect("depth given");
     let params = RenderParams {
-        legend: Some(Legend::depth(&depth)),
+        legend,
         ..params.clone()
     };
     render_splats(
         &particles.positions,
         &particles.normals,
-        &depth_colors(&depth),
+        &colors,
         &particles.sigma,
         &params,
     )

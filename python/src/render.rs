@@ -4,10 +4,7 @@
 use std::path::PathBuf;
 
 use psi::DVec3;
-use psi::render::{
-    Legend, Pixmap, RenderParams, SplatStyle, View, depth_colors, normal_colors, render_splats,
-    sigma_colors,
-};
+use psi::render::{Coloring, Pixmap, RenderParams, SplatStyle, View, render_splats};
 use pyo3::prelude::*;
 
 use crate::arrays::{image_array, vectors};
@@ -100,26 +97,16 @@ pub(crate) fn render<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let mut params = params(size, view, style, splat_scale)?;
     let p = &particles.particles;
+    let coloring = Coloring::from_name(color).ok_or_else(|| {
+        value_error(format!(
+            "color: {color:?} is not one of \"depth\", \"sigma\", \"normal\""
+        ))
+    })?;
     let depth: Vec<f64> = p.depth.iter().map(|&d| f64::from(d)).collect();
-    let colors = match color {
-        "depth" => {
-            params.legend = Some(Legend::depth(&depth));
-            depth_colors(&depth)
-        }
-        "sigma" => {
-            params.legend = Some(Legend::sigma(&p.sigma));
-            sigma_colors(&p.sigma)
-        }
-        "normal" => normal_colors(&p.normals),
-        _ => {
-            return Err(value_error(format!(
-                "color: {color:?} is not one of \"depth\", \"sigma\", \"normal\""
-            )));
-        }
-    };
-    if !legend {
-        params.legend = None;
-    }
+    let (colors, legend_bar) = coloring
+        .colors(Some(&depth), Some(&p.sigma), &p.normals)
+        .expect("particles carry every property");
+    params.legend = legend_bar.filter(|_| legend);
     let image = detached(py, || {
         render_splats(&p.positions, &p.normals, &colors, &p.sigma, &params)
     })?

@@ -13,7 +13,7 @@
 //!   margin, [`SplatStyle`], [`Backfaces`], a fixed framing box and an optional [`Legend`].
 //! * Colour maps: [`depth_colors`] (shallow green to deep red, as in the paper's Fig. 5),
 //!   [`sigma_colors`] (a sequential ramp), [`normal_colors`], and [`scalar_colors`] for any
-//!   [`Ramp`] and range.
+//!   [`Ramp`] and range; [`Coloring`] chooses one (depth, σ or normal) with its legend.
 //! * [`Legend`]: a colour bar with tick labels drawn in a built-in 5 × 7 bitmap font (capital
 //!   letters, digits, σ, `. , : - + = / ( ) %`; lower case is drawn as capitals).
 //! * [`side_by_side`] and [`append_legend`] compose panels for figures.
@@ -52,6 +52,7 @@
 
 mod camera;
 mod canvas;
+mod coloring;
 mod colormap;
 mod error;
 mod font;
@@ -66,6 +67,7 @@ mod splats;
 mod surface;
 
 pub use camera::Camera;
+pub use coloring::Coloring;
 pub use colormap::{MISSING, Ramp, depth_colors, normal_colors, scalar_colors, sigma_colors};
 pub use error::RenderError;
 pub use legend::{Legend, append_legend};

@@ -5,8 +5,7 @@ use std::path::PathBuf;
 use anyhow::anyhow;
 use clap::{Args, ValueEnum};
 use psi::render::{
-    Legend, RenderParams, SplatStyle, View, depth_colors, normal_colors, render_mesh,
-    render_splats, sigma_colors, uniform_radius,
+    Coloring, RenderParams, SplatStyle, View, render_mesh, render_splats, uniform_radius,
 };
 
 use crate::Failure;
@@ -114,22 +113,15 @@ pub(crate) fn run(args: &RenderArgs) -> Result<(), Failure> {
                 "{name}: no `{property}` property to colour by; try --color normal"
             ))
         };
-        let colors = match args.color {
-            ColorArg::Depth => {
-                let depth = p.depth.as_ref().ok_or_else(|| missing("depth"))?;
-                params.legend = Some(Legend::depth(depth));
-                depth_colors(depth)
-            }
-            ColorArg::Sigma => {
-                let sigma = p.sigma.as_ref().ok_or_else(|| missing("sigma"))?;
-                params.legend = Some(Legend::sigma(sigma));
-                sigma_colors(sigma)
-            }
-            ColorArg::Normal => normal_colors(&p.normals),
+        let coloring = match args.color {
+            ColorArg::Depth => Coloring::Depth,
+            ColorArg::Sigma => Coloring::Sigma,
+            ColorArg::Normal => Coloring::Normal,
         };
-        if args.no_legend {
-            params.legend = None;
-        }
+        let (colors, legend) = coloring
+            .colors(p.depth.as_deref(), p.sigma.as_deref(), &p.normals)
+            .ok_or_else(|| missing(coloring.name()))?;
+        params.legend = legend.filter(|_| !args.no_legend);
         let radius = match &p.sigma {
             Some(sigma) => sigma.clone(),
             // σ is half the spacing; the estimate covers the surface, so halve it to match.

@@ -1,0 +1,68 @@
+//! What particles are coloured by, and the colours and legend that choice gives: the one
+//! mapping the CLI's `--color` and the Python package's `color=` share.
+
+use glam::DVec3;
+
+use crate::{Legend, depth_colors, normal_colors, sigma_colors};
+
+/// What particles are coloured by.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coloring {
+    /// Their leaf's octree depth ([`depth_colors`], the paper's Fig. 5), with a depth legend.
+    Depth,
+    /// Their radius σ ([`sigma_colors`]), with a σ legend.
+    Sigma,
+    /// Their normal ([`normal_colors`]), without a legend.
+    Normal,
+}
+
+impl Coloring {
+    /// The colouring named `"depth"`, `"sigma"` or `"normal"`; `None` for any other name.
+    ///
+    /// ```
+    /// use psi_render::Coloring;
+    /// assert_eq!(Coloring::from_name("sigma"), Some(Coloring::Sigma));
+    /// assert_eq!(Coloring::from_name("red"), None);
+    /// ```
+    pub fn from_name(name: &str) -> Option<Coloring> {
+        match name {
+            "depth" => Some(Coloring::Depth),
+            "sigma" => Some(Coloring::Sigma),
+            "normal" => Some(Coloring::Normal),
+            _ => None,
+        }
+    }
+
+    /// The per-particle property this colouring reads (`"depth"`, `"sigma"` or `"normal"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Coloring::Depth => "depth",
+            Coloring::Sigma => "sigma",
+            Coloring::Normal => "normal",
+        }
+    }
+
+    /// The colours of N particles (shape N) and their legend (`None` for normals), from their
+    /// `depth` (shape N, levels), `sigma` (shape N, world units) or `normals` (shape N, unit),
+    /// whichever this colouring reads; `None` when that property is absent.
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use psi_render::Coloring;
+    /// let (colors, legend) = Coloring::Depth.colors(Some(&[5.0, 7.0]), None, &[DVec3::Z; 2]).unwrap();
+    /// assert_eq!((colors.len(), legend.unwrap().max), (2, 7.0));
+    /// assert!(Coloring::Sigma.colors(Some(&[5.0, 7.0]), None, &[DVec3::Z; 2]).is_none());
+    /// ```
+    pub fn colors(
+        self,
+        depth: Option<&[f64]>,
+        sigma: Option<&[f64]>,
+        normals: &[DVec3],
+    ) -> Option<(Vec<[u8; 3]>, Option<Legend>)> {
+        match self {
+            Coloring::Depth => depth.map(|d| (depth_colors(d), Some(Legend::depth(d)))),
+            Coloring::Sigma => sigma.map(|s| (sigma_colors(s), Some(Legend::sigma(s)))),
+            Coloring::Normal => Some((normal_colors(normals), None)),
+        }
+    }
+}
