@@ -106,15 +106,17 @@ fn off_surface(fit: &QuadricFit, p: DVec3, spacing: f64) -> bool {
 /// the distance from p to its 16th nearest other point and a spacing d·√(π/16), a core point
 /// has d(p) ≤ 1.5 × the median of d over those neighbours; lies within 4 residual standard
 /// deviations plus 1.5 spacings of the least-squares quadric of those neighbours; with
-/// `normals` (shape: N, unit, either sign), unless it lies within a quarter of a spacing of that
-/// quadric, has a normal within 60° of (either sign of) at least a quarter of theirs; and, when
-/// d(p) > 3 × the median of d over all points, has neighbours that lie on a surface (residual
-/// deviation below 0.05 d(p)). A point that passes the quadric test and is sparser than its
-/// neighbours (d(p) up to 2.5 × theirs) but among them (its offset from their centroid in their
-/// plane at most 0.6 d(p)), on a quadric that fits them within a spacing, is kept. Any other
-/// point is an outlier when its nearest core point is farther than 3 spacings of the core
-/// points there, or when it fails the quadric or normal test against its 16 nearest core
-/// points. Inputs of at most 16 points have no outliers. Deterministic and
+/// `normals` (shape: N, unit, either sign), unless it lies within a quarter of a spacing of
+/// that quadric, has a normal within 60° of (either sign of) at least a quarter of theirs; and,
+/// when d(p) > 3 × the median of d over all points, has neighbours that lie on a surface
+/// (residual deviation below 0.05 d(p)). A point within both density bounds and within a
+/// quarter of a spacing of its neighbours' centroid is a core point without a fit (a shortcut:
+/// such a point lies among them, where no fit finds it off). A point that passes the quadric
+/// test and is sparser than its neighbours (d(p) up to 2.5 × theirs) but among them (its offset
+/// from their centroid in their plane at most 0.6 d(p)), on a quadric that fits them within a
+/// spacing, is kept. Any other point is an outlier when its nearest core point is farther than
+/// 3 spacings of the core points there, or when it fails the quadric or normal test against its
+/// 16 nearest core points. Inputs of at most 16 points have no outliers. Deterministic and
 /// independent of the thread count.
 ///
 /// ```
