@@ -205,6 +205,23 @@ pub fn save_particles(path: &Path, particles: &psi_particles::Particles) -> Resu
     })
 }
 
+/// Writes particle columns as binary little-endian PLY: x y z nx ny nz, then `depth` and
+/// `sigma` (doubles) when present (particles from arrays or another tool may lack them).
+pub fn save_particle_columns(path: &Path, columns: &ParticleColumns) -> Result<(), PsiError> {
+    let mut extra: Vec<(&str, &[f64])> = Vec::new();
+    if let Some(d) = &columns.depth {
+        extra.push(("depth", d));
+    }
+    if let Some(s) = &columns.sigma {
+        extra.push(("sigma", s));
+    }
+    write_atomically(path, |w| {
+        let mut w = w;
+        psi_io::write_points_ply(&mut w, &columns.positions, &columns.normals, &extra)
+            .map_err(to_io)
+    })
+}
+
 /// Writes oriented points as binary little-endian PLY: x y z nx ny nz (doubles), through a
 /// temporary file renamed into place.
 pub fn save_points(path: &Path, points: &[psi_octree::OrientedPoint]) -> Result<(), PsiError> {

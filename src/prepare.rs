@@ -3,7 +3,7 @@
 //! here.
 
 use psi_io::{NormalSource, PointCloudFile};
-use psi_octree::OrientedPoint;
+use psi_octree::{Monitor, OrientedPoint};
 use psi_preprocess::{
     MeshRef, PointOrigin, PreprocessError, PreprocessParams, PreprocessReport, Preprocessed,
     ScanInput,
@@ -26,11 +26,14 @@ pub struct PreparedInput {
 }
 
 /// Prepares the points of `file`, named `name`, for the MPU ([`prepare_points`]) and
-/// describes them for reports; the file's mesh, if any, is dropped once used.
+/// describes them for reports; the file's mesh, if any, is dropped once used. `monitor` sees
+/// the preprocessing steps and may stop them ([`psi_preprocess::preprocess_with`]).
 ///
 /// ```
 /// let file = psi::builtin_file(2000);
-/// let input = psi::prepare_input("builtin".into(), file, &psi::preprocess::PreprocessParams::scan()).unwrap();
+/// let params = psi::preprocess::PreprocessParams::scan();
+/// let monitor = psi::octree::Monitor::silent();
+/// let input = psi::prepare_input("builtin".into(), file, &params, &monitor).unwrap();
 /// assert_eq!((input.points_read, input.json["points_read"].as_u64()), (2000, Some(2000)));
 /// ```
 ///
@@ -41,9 +44,10 @@ pub fn prepare_input(
     name: String,
     mut file: PointCloudFile,
     params: &PreprocessParams,
+    monitor: &Monitor<'_>,
 ) -> Result<PreparedInput, PreprocessError> {
     let points_read = file.points.len();
-    let prepared = prepare_points(&mut file, params)?;
+    let prepared = prepare_points(&mut file, params, monitor)?;
     let json = crate::report::input_json(&crate::report::InputFacts {
         name: &name,
         file: &file,
@@ -69,7 +73,7 @@ pub fn prepare_input(
 /// let mut file = psi_io::read_points(b"0 0 0\n1 0 0\n", psi_io::Format::Xyz, &psi::ReadOptions::paper()).unwrap();
 /// let params = psi::preprocess::PreprocessParams::none();
 /// // Positions without normals, estimation off: refused.
-/// assert!(psi::prepare_points(&mut file, &params).is_err());
+/// assert!(psi::prepare_points(&mut file, &params, &psi::octree::Monitor::silent()).is_err());
 /// ```
 ///
 /// # Errors
@@ -78,6 +82,7 @@ pub fn prepare_input(
 pub fn prepare_points(
     file: &mut PointCloudFile,
     params: &PreprocessParams,
+    monitor: &Monitor<'_>,
 ) -> Result<Preprocessed, PreprocessError> {
     let origin = match (&file.mesh, file.normals) {
         (Some(m), NormalSource::Faces) => PointOrigin::MeshCentroids(MeshRef {
@@ -92,7 +97,7 @@ pub fn prepare_points(
         normals_given: file.normals != NormalSource::Missing,
         origin,
     };
-    psi_preprocess::preprocess(input, params)
+    psi_preprocess::preprocess_with(input, params, monitor)
 }
 
 /// The built-in model (`psi_shapes::sample_builtin` with its fixed seed) as a file of `n`

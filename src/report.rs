@@ -57,6 +57,7 @@ pub fn input_json(input: &InputFacts<'_>) -> Value {
             "opposed_fraction": p.consistency.map(|c| c.opposed_fraction()),
             "flipped": p.normals_flipped,
         },
+        "inward_normals_flipped": p.inward_normals_flipped,
         "outliers": p.outliers,
         "noise_estimate": p.noise.map(|n| json!({
             "sigma": n.sigma,

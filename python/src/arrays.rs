@@ -11,6 +11,7 @@ use numpy::{
 };
 use psi::{DVec3, OrientedPoint};
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
 
 use crate::errors::value_error;
 
@@ -84,29 +85,55 @@ pub(crate) fn vector3(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<DVec3> {
     Ok(DVec3::new(view[[0]], view[[1]], view[[2]]))
 }
 
-/// Query points of shape (3,) or (M, 3), kept alive while their coordinates are read.
+/// Query points of shape (3,) or (..., 3), kept alive while their coordinates are read.
 pub(crate) struct Queries<'py> {
     array: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
-    /// Whether the input was one point of shape (3,).
-    pub(crate) single: bool,
+    /// The leading dimensions: empty for one point of shape (3,).
+    pub(crate) shape: Vec<usize>,
 }
 
 impl<'py> Queries<'py> {
-    /// Reads `obj` (any real dtype, any layout), refusing other shapes.
+    /// Reads `obj` (any real dtype, any layout), refusing shapes whose last dimension is not 3.
     pub(crate) fn new(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Self> {
         let array = float_array(obj, name)?;
-        let shape = array.as_array().shape().to_vec();
-        let single = match shape[..] {
-            [3] => true,
-            [_, 3] => false,
-            _ => {
-                return Err(value_error(format!(
-                    "{name} must have shape (3,) or (M, 3), got {}",
-                    shape_text(&shape)
-                )));
-            }
-        };
-        Ok(Queries { array, single })
+        let full = array.as_array().shape().to_vec();
+        match full.split_last() {
+            Some((3, leading)) => Ok(Queries {
+                array,
+                shape: leading.to_vec(),
+            }),
+            _ => Err(value_error(format!(
+                "{name} must have shape (3,) or (..., 3), got {}",
+                shape_text(&full)
+            ))),
+        }
+    }
+
+    /// Whether the input was one point of shape (3,).
+    pub(crate) fn single(&self) -> bool {
+        self.shape.is_empty()
+    }
+
+    /// Values per query (`per` of them each: 1 for f, 3 for ∇f, in query order) as an array
+    /// of the queries' leading shape, plus a last dimension of `per` when `per > 1`; one
+    /// query of shape (3,) gives a `numpy.float64` for `per == 1`.
+    pub(crate) fn shaped(
+        &self,
+        py: Python<'py>,
+        values: Vec<f64>,
+        per: usize,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        if self.single() && per == 1 {
+            let f = values.first().copied().unwrap_or(f64::NAN);
+            return py.import("numpy")?.getattr("float64")?.call1((f,));
+        }
+        let mut dims = self.shape.clone();
+        if per > 1 {
+            dims.push(per);
+        }
+        let array = numpy::ndarray::ArrayD::from_shape_vec(numpy::ndarray::IxDyn(&dims), values)
+            .map_err(|e| value_error(format!("result shape: {e}")))?;
+        Ok(array.into_pyarray(py).into_any())
     }
 
     /// The coordinates x0 y0 z0 x1 … in row order: borrowed from a float64 C-ordered array,
@@ -180,4 +207,34 @@ pub(crate) fn image_array<'py>(
     Array3::from_shape_vec((height, width, 4), rgba)
         .expect("the length is height × width × 4")
         .into_pyarray(py)
+}
+
+/// An array handed out read-only and without copies: made on first access, then the same
+/// object every time (`a.flags.writeable` is false, and NumPy refuses to turn it back on, as
+/// its memory belongs to psi).
+pub(crate) struct ReadOnly<A>(PyOnceLock<Py<A>>);
+
+impl<A> Default for ReadOnly<A> {
+    fn default() -> Self {
+        ReadOnly(PyOnceLock::new())
+    }
+}
+
+impl<A> ReadOnly<A> {
+    /// The array, made by `make` on first access and marked read-only.
+    pub(crate) fn get<'py>(
+        &self,
+        py: Python<'py>,
+        make: impl FnOnce() -> Bound<'py, A>,
+    ) -> PyResult<Bound<'py, A>> {
+        let array = self.0.get_or_try_init(py, || -> PyResult<Py<A>> {
+            let array = make();
+            array
+                .as_any()
+                .getattr("flags")?
+                .setattr("writeable", false)?;
+            Ok(array.unbind())
+        })?;
+        Ok(array.bind(py).clone())
+    }
 }

@@ -52,14 +52,17 @@ pub(crate) fn psi_error(py: Python<'_>, error: psi::PsiError, context: Option<&s
 /// panic inside it into a `RuntimeError` naming it as psi's bug.
 pub(crate) fn detached<T: Send>(py: Python<'_>, work: impl FnOnce() -> T + Send) -> PyResult<T> {
     py.detach(|| catch_unwind(AssertUnwindSafe(work)))
-        .map_err(|payload| {
-            let what = payload
-                .downcast_ref::<&str>()
-                .map(|s| (*s).to_owned())
-                .or_else(|| payload.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".to_owned());
-            PyRuntimeError::new_err(format!("psi: internal error (please report it): {what}"))
-        })
+        .map_err(panic_error)
+}
+
+/// The `RuntimeError` for a panic's payload, naming it as psi's bug.
+pub(crate) fn panic_error(payload: Box<dyn std::any::Any + Send>) -> PyErr {
+    let what = payload
+        .downcast_ref::<&str>()
+        .map(|s| (*s).to_owned())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".to_owned());
+    PyRuntimeError::new_err(format!("psi: internal error (please report it): {what}"))
 }
 
 /// The whole number `value` as a `T` when it lies in `lo..=hi`, else a `ValueError` `name:

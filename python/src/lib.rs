@@ -12,7 +12,9 @@ use pyo3::prelude::*;
 mod arrays;
 mod errors;
 mod json;
+mod monitor;
 mod mpu;
+mod pickle;
 mod points;
 mod render;
 mod sample;
@@ -31,6 +33,7 @@ fn psi_python(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(points::builtin_model, m)?)?;
     m.add_function(wrap_pyfunction!(sample::sample, m)?)?;
     m.add_function(wrap_pyfunction!(sample::save_particles, m)?)?;
+    m.add_function(wrap_pyfunction!(sample::load_particles, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(render::render_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(mpu::_rust_loop_seconds, m)?)?;

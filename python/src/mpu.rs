@@ -4,13 +4,17 @@
 use std::sync::Arc;
 
 use numpy::PyArray2;
+use psi::mpu::{BuildOptions, MpuFrame};
 use psi::preprocess::ErrorThreshold;
 use psi::{DVec3, MpuParams, PolygonizeParams};
+use pyo3::IntoPyObjectExt;
 use pyo3::prelude::*;
+use pyo3::types::PyBytes;
 use rayon::prelude::*;
 
-use crate::arrays::{Queries, flat_rows, oriented_array, vec3_array, vector};
+use crate::arrays::{Queries, ReadOnly, flat_rows, oriented_array, vec3_array, vector3};
 use crate::errors::{bounded, detached, value_error};
+use crate::monitor::{Progress, monitored};
 use crate::points::{Input, input_of};
 
 /// The MPU options a user may change, the CLI's `--mpu-error`, `--max-depth`, `--smooth` and
@@ -62,14 +66,110 @@ type Mesh<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<u32>>);
 /// to the bounding-box diagonal D, in (0, 1] (default: the points' suggestion, `PointSet.error`,
 /// at least the paper's 0.005); `max_depth` the octree's depth limit (0 to 16); `smooth`
 /// disables sharp edge and corner fits; `scale_invariant` solves the fits in each cell's units.
-/// The build releases the interpreter. Raises `ValueError` for too few or unusable points.
+/// `frame`: another MPU's `frame` to build in (default: the points' own). `progress`: `True`
+/// for a bar on stderr, or a callable `(stage, done, total)`. The build runs with the
+/// interpreter released; Ctrl-C stops it. Picklable (unpickling builds it again from its
+/// points, bitwise the same). Raises `ValueError` for too few or unusable points.
 #[pyclass(frozen, module = "psi", name = "Mpu")]
 pub(crate) struct Mpu {
     pub(crate) mpu: Arc<psi::Mpu>,
-    /// The input's name and its report object (the points live in `mpu`).
+    /// The input's name and its report object.
     pub(crate) name: String,
     pub(crate) input_json: Arc<serde_json::Value>,
     pub(crate) threshold: ErrorThreshold,
+    /// The points as given to the build (a pickle rebuilds from them: the MPU's own have
+    /// normals made unit); `None` for a scene's MPU, built from its own points.
+    pub(crate) given: Option<Given>,
+    points: ReadOnly<PyArray2<f64>>,
+    normals: ReadOnly<PyArray2<f64>>,
+}
+
+impl Mpu {
+    /// A Python `Mpu` of a built MPU.
+    pub(crate) fn of(
+        mpu: Arc<psi::Mpu>,
+        name: String,
+        input_json: Arc<serde_json::Value>,
+        threshold: ErrorThreshold,
+        given: Option<Given>,
+    ) -> Self {
+        Mpu {
+            mpu,
+            name,
+            input_json,
+            threshold,
+            given,
+            points: ReadOnly::default(),
+            normals: ReadOnly::default(),
+        }
+    }
+}
+
+/// Points an MPU was built from, shared: a prepared input's, or an unpickled MPU's.
+#[derive(Clone)]
+pub(crate) enum Given {
+    Input(Arc<Input>),
+    Points(Arc<Vec<psi::OrientedPoint>>),
+}
+
+impl AsRef<[psi::OrientedPoint]> for Given {
+    fn as_ref(&self) -> &[psi::OrientedPoint] {
+        match self {
+            Given::Input(i) => &i.points,
+            Given::Points(p) => p,
+        }
+    }
+}
+
+/// What a pickled `Mpu` holds besides its input's report: enough to build it again, bitwise.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct MpuState {
+    name: String,
+    points: Vec<psi::OrientedPoint>,
+    params: MpuParams,
+    frame: MpuFrame,
+    threshold: ErrorThreshold,
+}
+
+/// Builds the MPU of `points` in `frame` (or its own) on a worker thread ([`monitored`]).
+fn build(
+    py: Python<'_>,
+    name: &str,
+    points: impl AsRef<[psi::OrientedPoint]> + Send + 'static,
+    params: MpuParams,
+    frame: Option<MpuFrame>,
+    progress: &Progress,
+) -> PyResult<psi::Mpu> {
+    monitored(py, progress, move |monitor| {
+        let options = BuildOptions {
+            frame,
+            monitor: *monitor,
+            ..Default::default()
+        };
+        psi::Mpu::build_with(points.as_ref(), &params, options)
+    })?
+    .map_err(|e| value_error(format!("{name}: building the MPU implicit: {e}")))
+}
+
+/// A frame from its dict (`Mpu.frame`).
+fn frame_of(obj: &Bound<'_, PyAny>) -> PyResult<MpuFrame> {
+    let field = |k: &str| {
+        obj.get_item(k)
+            .map_err(|_| value_error(format!("frame: no {k:?}; pass another Mpu's .frame")))
+    };
+    let frame = MpuFrame {
+        origin: vector3(&field("origin")?, "frame origin")?,
+        root_center: vector3(&field("root_center")?, "frame root_center")?,
+        root_half: field("root_half")?.extract()?,
+        diagonal: field("diagonal")?.extract()?,
+    };
+    let finite = frame.origin.is_finite() && frame.root_center.is_finite();
+    if !(finite && frame.root_half > 0.0 && frame.diagonal > 0.0) {
+        return Err(value_error(
+            "frame: positions must be finite and sizes positive",
+        ));
+    }
+    Ok(frame)
 }
 
 /// f and ∇f at `xyz` (x0 y0 z0 x1 …) into `f` and `g` (gx0 gy0 gz0 …), in parallel chunks.
@@ -95,7 +195,7 @@ fn evaluate_into(mpu: &psi::Mpu, xyz: &[f64], f: &mut [f64], g: &mut [f64]) {
 impl Mpu {
     #[new]
     #[pyo3(signature = (points, normals=None, *, error=None, max_depth=12, smooth=false,
-        scale_invariant=false, preprocess=true))]
+        scale_invariant=false, preprocess=true, frame=None, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -106,6 +206,8 @@ impl Mpu {
         smooth: bool,
         scale_invariant: bool,
         preprocess: bool,
+        frame: Option<&Bound<'_, PyAny>>,
+        progress: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let options = MpuOptions {
             error,
@@ -113,20 +215,83 @@ impl Mpu {
             smooth,
             scale_invariant,
         };
-        let input = input_of(py, points, normals, preprocess)?;
+        let frame = frame.map(frame_of).transpose()?;
+        let progress = Progress::from_arg(py, progress)?;
+        let input = input_of(py, points, normals, preprocess, &progress)?;
         let (params, threshold) = options.params(&input)?;
-        let mpu = detached(py, || psi::Mpu::build(&input.points, &params))?
-            .map_err(|e| value_error(format!("{}: building the MPU implicit: {e}", input.name)))?;
-        Ok(Mpu {
-            mpu: Arc::new(mpu),
-            name: input.name.clone(),
-            input_json: Arc::new(input.json.clone()),
+        let given = Given::Input(input.clone());
+        let mpu = build(py, &input.name, given.clone(), params, frame, &progress)?;
+        Ok(Mpu::of(
+            Arc::new(mpu),
+            input.name.clone(),
+            Arc::new(input.json.clone()),
             threshold,
-        })
+            Some(given),
+        ))
     }
 
-    /// f and ∇f at `x`: shape (3,) gives `(float, (3,) array)`, shape (M, 3) gives `(f (M,),
-    /// ∇f (M, 3))`, float64; x in world units, any real dtype and layout (a float64 C-ordered
+    /// The frame the MPU lives in, a dict: `origin` (3,) the world position of its local
+    /// coordinates, `root_center` (3,) and `root_half` the root cube (local frame, world
+    /// units), `diagonal` the length scale D. `Mpu(..., frame=other.frame)` builds in it (a
+    /// scene's MPU and a build from scratch of its points then agree).
+    #[getter]
+    fn frame<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let f = self.mpu.frame();
+        let dict = pyo3::types::PyDict::new(py);
+        dict.set_item("origin", f.origin.to_array())?;
+        dict.set_item("root_center", f.root_center.to_array())?;
+        dict.set_item("root_half", f.root_half)?;
+        dict.set_item("diagonal", f.diagonal)?;
+        Ok(dict.into_any())
+    }
+
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let points = match &self.given {
+            Some(given) => given.as_ref().to_vec(),
+            None => self.mpu.points().to_vec(),
+        };
+        let state = crate::pickle::encode(&MpuState {
+            name: self.name.clone(),
+            points,
+            params: *self.mpu.params(),
+            frame: *self.mpu.frame(),
+            threshold: self.threshold,
+        })?;
+        let restore = py.get_type::<Mpu>().getattr("_from_state")?;
+        let json = crate::json::to_python(py, &self.input_json)?;
+        (restore, (PyBytes::new(py, &state), json)).into_bound_py_any(py)
+    }
+
+    /// Unpickling (not API): builds the MPU again from its points, in its frame.
+    #[classmethod]
+    fn _from_state(
+        cls: &Bound<'_, pyo3::types::PyType>,
+        state: &[u8],
+        json: &Bound<'_, PyAny>,
+    ) -> PyResult<Self> {
+        let py = cls.py();
+        let s: MpuState = crate::pickle::decode(state, "Mpu")?;
+        let input_json = crate::pickle::json_of(json)?;
+        let given = Given::Points(Arc::new(s.points));
+        let mpu = build(
+            py,
+            &s.name,
+            given.clone(),
+            s.params,
+            Some(s.frame),
+            &Progress::Silent,
+        )?;
+        Ok(Mpu::of(
+            Arc::new(mpu),
+            s.name,
+            Arc::new(input_json),
+            s.threshold,
+            Some(given),
+        ))
+    }
+
+    /// f and ∇f at `x`: shape (3,) gives `(float, (3,) array)` (the float a `numpy.float64`),
+    /// shape (..., 3) gives `(f (...), ∇f (..., 3))`, float64; x in world units, any real dtype and layout (a float64 C-ordered
     /// array is read in place). ∇f is dimensionless (|∇f| ≈ 1 near the surface). Raises
     /// `ValueError` for another shape or a NaN or infinite coordinate.
     fn value_and_gradient<'py>(
@@ -143,15 +308,11 @@ impl Mpu {
             evaluate_into(mpu, &xyz, &mut f, &mut g);
             (f, g)
         })?;
-        if queries.single {
-            let value = f[0].into_pyobject(py)?.into_any();
-            return Ok((value, vector(py, g).into_any()));
-        }
-        Ok((vector(py, f).into_any(), flat_rows(py, g, 3).into_any()))
+        Ok((queries.shaped(py, f, 1)?, queries.shaped(py, g, 3)?))
     }
 
-    /// f at `x` (shape (3,) gives a float, (M, 3) an (M,) float64 array); see
-    /// `value_and_gradient`.
+    /// f at `x` (shape (3,) gives a float, a `numpy.float64`; (..., 3) a float64 array of shape
+    /// (...)); see `value_and_gradient`.
     fn value<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let queries = Queries::new(x, "x")?;
         let xyz = queries.coordinates("x")?;
@@ -161,28 +322,31 @@ impl Mpu {
                 .map(|x| mpu.value(DVec3::new(x[0], x[1], x[2])))
                 .collect()
         })?;
-        if queries.single {
-            return Ok(f[0].into_pyobject(py)?.into_any());
-        }
-        Ok(vector(py, f).into_any())
+        queries.shaped(py, f, 1)
     }
 
     /// The zero set near the data as a triangle mesh (what `psi mesh` writes): `(vertices
     /// (V, 3) float64, world units; faces (F, 3) uint32, counter-clockwise seen from outside)`.
     /// `resolution`: grid cells across the root cube (2 to 2048).
-    #[pyo3(signature = (resolution=256))]
-    fn mesh<'py>(&self, py: Python<'py>, resolution: i128) -> PyResult<Mesh<'py>> {
+    /// `progress` as for `Mpu(...)`; Ctrl-C stops it.
+    #[pyo3(signature = (resolution=256, *, progress=None))]
+    fn mesh<'py>(
+        &self,
+        py: Python<'py>,
+        resolution: i128,
+        progress: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Mesh<'py>> {
         let resolution: u32 = bounded("resolution", resolution, 2, 2048)?;
-        let mpu = &*self.mpu;
-        let soup = detached(py, || {
-            psi::polygonize(
-                mpu,
-                &PolygonizeParams {
-                    resolution,
-                    ..PolygonizeParams::standard()
-                },
-            )
-        })?;
+        let progress = Progress::from_arg(py, progress)?;
+        let mpu = self.mpu.clone();
+        let params = PolygonizeParams {
+            resolution,
+            ..PolygonizeParams::standard()
+        };
+        let soup = monitored(py, &progress, move |monitor| {
+            psi::mpu::polygonize_with(&mpu, &params, monitor)
+        })?
+        .map_err(|_| value_error("interrupted"))?;
         let faces: Vec<u32> = soup.faces.iter().flatten().copied().collect();
         Ok((vec3_array(py, &soup.vertices), flat_rows(py, faces, 3)))
     }
@@ -243,16 +407,19 @@ impl Mpu {
         crate::json::report(py, self.mpu.report())
     }
 
-    /// The points the MPU was built from, shape (N, 3), float64 (a new array each access).
+    /// The points the MPU was built from, shape (N, 3), float64: read-only, made on first
+    /// access and the same array afterwards.
     #[getter]
-    fn points<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        oriented_array(py, self.mpu.points(), false)
+    fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        self.points
+            .get(py, || oriented_array(py, self.mpu.points(), false))
     }
 
-    /// Their unit normals, shape (N, 3), float64 (a new array each access).
+    /// Their unit normals, shape (N, 3), float64: read-only, as `points`.
     #[getter]
-    fn normals<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        oriented_array(py, self.mpu.points(), true)
+    fn normals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        self.normals
+            .get(py, || oriented_array(py, self.mpu.points(), true))
     }
 
     fn __repr__(&self) -> String {

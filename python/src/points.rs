@@ -5,13 +5,17 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use numpy::PyArray2;
 use psi::preprocess::PreprocessParams;
 use psi::{MeshSampling, PointCloudFile, PreparedInput, ReadOptions};
+use pyo3::IntoPyObjectExt;
 use pyo3::exceptions::PyUserWarning;
 use pyo3::prelude::*;
+use pyo3::types::PyBytes;
 
-use crate::arrays::{oriented_array, vector3, vectors};
-use crate::errors::{bounded, detached, psi_error, value_error};
+use crate::arrays::{ReadOnly, oriented_array, vector3, vectors};
+use crate::errors::{bounded, psi_error, value_error};
+use crate::monitor::{Progress, monitored};
 
 /// What was read and how it was prepared (the CLI's input, from the facade).
 pub(crate) type Input = PreparedInput;
@@ -29,6 +33,7 @@ fn preprocess_params(
     estimate_noise: bool,
     denoise: bool,
     densify: bool,
+    keep_inward_normals: bool,
 ) -> PyResult<PreprocessParams> {
     let viewpoint = viewpoint.map(|v| vector3(v, "viewpoint")).transpose()?;
     if viewpoint.is_some_and(|v| !v.is_finite()) {
@@ -45,23 +50,41 @@ fn preprocess_params(
         estimate_noise,
         denoise,
         densify_meshes: densify,
+        flip_inward_normals: !keep_inward_normals,
     })
 }
 
-/// Prepares the points of `file` (named `name`) for the MPU, the interpreter released;
-/// warns, as the CLI does, when given normals disagree.
+/// The points of `file` (named `name`; read by `read` on the worker thread) prepared for the
+/// MPU, on a worker thread ([`monitored`]: progress, Ctrl-C); warns, as the CLI notices, when
+/// given normals disagree or were flipped outward.
 fn prepare(
     py: Python<'_>,
     name: String,
-    file: PointCloudFile,
-    params: &PreprocessParams,
+    read: impl FnOnce() -> PyResult<PointCloudFile> + Send + 'static,
+    params: PreprocessParams,
+    progress: &Progress,
 ) -> PyResult<Input> {
     let what = name.clone();
-    let input = detached(py, || psi::prepare_input(name, file, params))?.map_err(|e| {
-        value_error(format!(
-            "{what}: {e}; give normals or let psi estimate them (estimate_normals=True, preprocess=True)"
-        ))
-    })?;
+    let input = monitored(py, progress, move |monitor| {
+        monitor.report("read", 0, 1);
+        let file = read()?;
+        monitor
+            .check()
+            .map_err(|_| crate::errors::value_error("interrupted"))?;
+        monitor.report("read", 1, 1);
+        psi::prepare_input(name.clone(), file, &params, monitor).map_err(|e| {
+            value_error(format!(
+                "{name}: {e}; give normals or let psi estimate them (estimate_normals=True, preprocess=True)"
+            ))
+        })
+    })??;
+    if input.report.inward_normals_flipped {
+        let message = format!(
+            "psi: {what}: the normals pointed inward (judged on the convex hull); flipped them outward (keep_inward_normals=True to keep them)"
+        );
+        let message = std::ffi::CString::new(message).unwrap_or_default();
+        PyErr::warn(py, &py.get_type::<PyUserWarning>(), &message, 1)?;
+    }
     if let Some(opposed) = input.report.inconsistent_normals() {
         let message = format!(
             "psi: {what}: {:.1} % of neighbouring normals point to opposite sides; try orient_normals=True",
@@ -78,10 +101,11 @@ fn from_arrays(
     py: Python<'_>,
     points: &Bound<'_, PyAny>,
     normals: Option<&Bound<'_, PyAny>>,
-    params: &PreprocessParams,
+    params: PreprocessParams,
+    progress: &Progress,
 ) -> PyResult<Input> {
     let file = columns(points, normals)?;
-    prepare(py, "points".to_owned(), file, params)
+    prepare(py, "points".to_owned(), move || Ok(file), params, progress)
 }
 
 /// Arrays `points` (N, 3) and optional `normals` (N, 3) as `psi_io` reads an XYZ file of
@@ -112,6 +136,7 @@ pub(crate) fn input_of(
     points: &Bound<'_, PyAny>,
     normals: Option<&Bound<'_, PyAny>>,
     preprocess: bool,
+    progress: &Progress,
 ) -> PyResult<Arc<Input>> {
     if let Ok(set) = points.cast::<PointSet>() {
         if normals.is_some() {
@@ -126,7 +151,9 @@ pub(crate) fn input_of(
     } else {
         PreprocessParams::none()
     };
-    Ok(Arc::new(from_arrays(py, points, normals, &params)?))
+    Ok(Arc::new(from_arrays(
+        py, points, normals, params, progress,
+    )?))
 }
 
 /// Oriented points prepared for the MPU: as read (from a file, arrays or the built-in model),
@@ -138,10 +165,34 @@ pub(crate) fn input_of(
 /// denoise=True, densify=True)` reads arrays: `points` (N, 3) positions in world units and
 /// `normals` (N, 3) (normalised; rows with a zero normal dropped) or `None` (estimated), any
 /// real dtype and layout, as an XYZ file of them would be read. `preprocess=False` turns every
-/// step off (normals are then required); otherwise each flag is the CLI's flag of that name.
+/// step off (normals are then required); otherwise each flag is the CLI's flag of that name,
+/// `keep_inward_normals` the CLI's `--keep-inward-normals` (normals that point inward as a
+/// whole are otherwise flipped outward, with a `UserWarning`). `progress`: `True` for a bar on
+/// stderr, or a callable `(stage, done, total)`. Ctrl-C stops the work. Picklable.
 #[pyclass(frozen, module = "psi", name = "PointSet")]
 pub(crate) struct PointSet {
     pub(crate) input: Arc<Input>,
+    points: ReadOnly<PyArray2<f64>>,
+    normals: ReadOnly<PyArray2<f64>>,
+}
+
+impl PointSet {
+    pub(crate) fn of(input: Input) -> Self {
+        PointSet {
+            input: Arc::new(input),
+            points: ReadOnly::default(),
+            normals: ReadOnly::default(),
+        }
+    }
+}
+
+/// What a pickled `PointSet` holds besides its report.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct PointSetState {
+    name: String,
+    points_read: usize,
+    points: Vec<psi::OrientedPoint>,
+    report: psi::preprocess::PreprocessReport,
 }
 
 #[pymethods]
@@ -149,7 +200,7 @@ impl PointSet {
     #[new]
     #[pyo3(signature = (points, normals=None, *, preprocess=true, keep_outliers=false,
         estimate_normals=true, orient_normals=false, viewpoint=None, estimate_noise=true,
-        denoise=true, densify=true))]
+        denoise=true, densify=true, keep_inward_normals=false, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -163,6 +214,8 @@ impl PointSet {
         estimate_noise: bool,
         denoise: bool,
         densify: bool,
+        keep_inward_normals: bool,
+        progress: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let params = preprocess_params(
             preprocess,
@@ -173,24 +226,60 @@ impl PointSet {
             estimate_noise,
             denoise,
             densify,
+            keep_inward_normals,
         )?;
-        let input = from_arrays(py, points, normals, &params)?;
-        Ok(PointSet {
-            input: Arc::new(input),
-        })
+        let progress = Progress::from_arg(py, progress)?;
+        Ok(PointSet::of(from_arrays(
+            py, points, normals, params, &progress,
+        )?))
     }
 
-    /// Positions after preprocessing, shape (N, 3), float64, world units (a new array each
-    /// access).
+    /// Positions after preprocessing, shape (N, 3), float64, world units: a read-only array,
+    /// made on first access and the same object afterwards.
     #[getter]
-    fn points<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
-        oriented_array(py, &self.input.points, false)
+    fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        self.points
+            .get(py, || oriented_array(py, &self.input.points, false))
     }
 
-    /// Unit normals after preprocessing, shape (N, 3), float64 (a new array each access).
+    /// Unit normals after preprocessing, shape (N, 3), float64: read-only, as `points`.
     #[getter]
-    fn normals<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
-        oriented_array(py, &self.input.points, true)
+    fn normals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        self.normals
+            .get(py, || oriented_array(py, &self.input.points, true))
+    }
+
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let i = &*self.input;
+        let state = crate::pickle::encode(&PointSetState {
+            name: i.name.clone(),
+            points_read: i.points_read,
+            points: i.points.clone(),
+            report: i.report.clone(),
+        })?;
+        let restore = py.get_type::<PointSet>().getattr("_from_state")?;
+        let args = (
+            PyBytes::new(py, &state),
+            crate::json::to_python(py, &i.json)?,
+        );
+        (restore, args).into_bound_py_any(py)
+    }
+
+    /// Unpickling (not API).
+    #[classmethod]
+    fn _from_state(
+        _cls: &Bound<'_, pyo3::types::PyType>,
+        state: &[u8],
+        json: &Bound<'_, PyAny>,
+    ) -> PyResult<Self> {
+        let s: PointSetState = crate::pickle::decode(state, "PointSet")?;
+        Ok(PointSet::of(Input {
+            name: s.name,
+            points_read: s.points_read,
+            points: s.points,
+            report: s.report,
+            json: crate::pickle::json_of(json)?,
+        }))
     }
 
     /// Points read, before preprocessing.
@@ -241,7 +330,7 @@ impl PointSet {
 #[pyfunction]
 #[pyo3(signature = (path, per_vertex=false, *, preprocess=true, keep_outliers=false,
     estimate_normals=true, orient_normals=false, viewpoint=None, estimate_noise=true,
-    denoise=true, densify=true))]
+    denoise=true, densify=true, keep_inward_normals=false, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn load_points(
     py: Python<'_>,
@@ -255,6 +344,8 @@ pub(crate) fn load_points(
     estimate_noise: bool,
     denoise: bool,
     densify: bool,
+    keep_inward_normals: bool,
+    progress: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<PointSet> {
     let params = preprocess_params(
         preprocess,
@@ -265,30 +356,41 @@ pub(crate) fn load_points(
         estimate_noise,
         denoise,
         densify,
+        keep_inward_normals,
     )?;
     let sampling = if per_vertex {
         MeshSampling::VertexNormals
     } else {
         MeshSampling::FaceCentroids
     };
-    let file = detached(py, || psi::load_points(&path, &ReadOptions { sampling }))?
-        .map_err(|e| psi_error(py, e, Some("reading the input")))?;
-    let input = prepare(py, path.display().to_string(), file, &params)?;
-    Ok(PointSet {
-        input: Arc::new(input),
-    })
+    let progress = Progress::from_arg(py, progress)?;
+    let name = path.display().to_string();
+    let read = move || {
+        psi::load_points(&path, &ReadOptions { sampling })
+            .map_err(|e| Python::attach(|py| psi_error(py, e, Some("reading the input"))))
+    };
+    Ok(PointSet::of(prepare(py, name, read, params, &progress)?))
 }
 
 /// The built-in model (a bumpy, rounded-square torus with a thin neck; 80 000 points unless
 /// `points` says otherwise), prepared as `psi sample` without an input does.
 #[pyfunction]
-#[pyo3(signature = (points=None))]
-pub(crate) fn builtin_model(py: Python<'_>, points: Option<i128>) -> PyResult<PointSet> {
+#[pyo3(signature = (points=None, *, progress=None))]
+pub(crate) fn builtin_model(
+    py: Python<'_>,
+    points: Option<i128>,
+    progress: Option<&Bound<'_, PyAny>>,
+) -> PyResult<PointSet> {
     let default = psi::shapes::BUILTIN_MODEL_POINTS as i128;
     let n = bounded::<u32>("points", points.unwrap_or(default), 1, 50_000_000)? as usize;
-    let file = detached(py, || psi::builtin_file(n))?;
-    let input = prepare(py, "builtin".to_owned(), file, &PreprocessParams::scan())?;
-    Ok(PointSet {
-        input: Arc::new(input),
-    })
+    let progress = Progress::from_arg(py, progress)?;
+    let read = move || Ok(psi::builtin_file(n));
+    let input = prepare(
+        py,
+        "builtin".to_owned(),
+        read,
+        PreprocessParams::scan(),
+        &progress,
+    )?;
+    Ok(PointSet::of(input))
 }

@@ -58,6 +58,19 @@ fn deliver<'py>(
     path: Option<PathBuf>,
 ) -> PyResult<Bound<'py, PyAny>> {
     if let Some(path) = path {
+        let png = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        if !png {
+            return Err(value_error(format!(
+                "{}: psi writes pictures as PNG only; give a path ending in .png (extension {:?})",
+                path.display(),
+                path.extension()
+                    .map(|e| e.to_string_lossy().into_owned())
+                    .unwrap_or_default()
+            )));
+        }
         detached(py, || psi::save_png(&path, &image))?.map_err(|e| psi_error(py, e, None))?;
         return Ok(py.None().into_bound(py));
     }
@@ -103,9 +116,14 @@ pub(crate) fn render<'py>(
         ))
     })?;
     let depth: Vec<f64> = p.depth.iter().map(|&d| f64::from(d)).collect();
-    let (colors, legend_bar) = coloring
-        .colors(Some(&depth), Some(&p.sigma), &p.normals)
-        .expect("particles carry every property");
+    let depth = particles.has_depth.then_some(&depth[..]);
+    let sigma = particles.has_sigma.then_some(&p.sigma[..]);
+    let (colors, legend_bar) = coloring.colors(depth, sigma, &p.normals).ok_or_else(|| {
+        value_error(format!(
+            "color: these particles have no {} to colour by; try color=\"normal\"",
+            coloring.name()
+        ))
+    })?;
     params.legend = legend_bar.filter(|_| legend);
     let image = detached(py, || {
         render_splats(&p.positions, &p.normals, &colors, &p.sigma, &params)

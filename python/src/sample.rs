@@ -6,25 +6,33 @@ use std::sync::{Arc, OnceLock};
 
 use numpy::{PyArray1, PyArray2};
 use psi::preprocess::ErrorThreshold;
-use psi::{DensityMode, ParticleParams, SampleReport};
+use psi::{DVec3, DensityMode, ParticleParams, SampleReport};
+use pyo3::IntoPyObjectExt;
 use pyo3::prelude::*;
+use pyo3::types::PyBytes;
 
-use crate::arrays::{vec3_array, vector};
-use crate::errors::{bounded, detached, psi_error};
+use crate::arrays::{ReadOnly, vec3_array, vector, vectors};
+use crate::errors::{bounded, detached, psi_error, value_error};
+use crate::monitor::{Progress, monitored};
 use crate::mpu::Mpu;
 
 /// The sampling options of `psi sample` (`--iterations`, `--k`, `--count`, `--uniform`,
 /// `--seed`) as `ParticleParams`, with the CLI's bounds.
 pub(crate) fn particle_params(
     iterations: i128,
-    k: i128,
+    k: Option<i128>,
     count: Option<i128>,
     uniform: bool,
     seed: i128,
 ) -> PyResult<ParticleParams> {
+    if let (Some(k), Some(c)) = (k, count) {
+        return Err(crate::errors::value_error(format!(
+            "k={k} and count={c} conflict: give k (particles per leaf) or count (exactly that many), not both"
+        )));
+    }
     let exact = |c| bounded::<u32>("count", c, 1, 50_000_000).map(|c| c as usize);
     Ok(ParticleParams {
-        k: bounded::<u8>("k", k, 1, 64)?.into(),
+        k: bounded::<u8>("k", k.unwrap_or(1), 1, 64)?.into(),
         count: count.map(exact).transpose()?,
         iterations: bounded::<u32>("iterations", iterations, 0, 100_000)? as usize,
         density: if uniform {
@@ -54,53 +62,262 @@ struct ReportSource {
 #[pyclass(frozen, module = "psi", name = "Particles")]
 pub(crate) struct Particles {
     pub(crate) particles: psi::Particles,
+    /// Whether `particles.depth` and `.sigma` were given (particles from arrays or a file may
+    /// lack them: then depth is 0 and σ the splat estimate, and the getters give `None`).
+    pub(crate) has_depth: bool,
+    pub(crate) has_sigma: bool,
     source: Option<ReportSource>,
     report: OnceLock<serde_json::Value>,
+    arrays: [ReadOnly<PyArray2<f64>>; 2],
+    depth_array: ReadOnly<PyArray1<u8>>,
+    sigma_array: ReadOnly<PyArray1<f64>>,
 }
 
 impl Particles {
-    /// Particles without a report (a scene's).
-    pub(crate) fn bare(particles: psi::Particles) -> Self {
+    fn with(particles: psi::Particles, has: (bool, bool), source: Option<ReportSource>) -> Self {
         Particles {
             particles,
-            source: None,
+            has_depth: has.0,
+            has_sigma: has.1,
+            source,
             report: OnceLock::new(),
+            arrays: Default::default(),
+            depth_array: ReadOnly::default(),
+            sigma_array: ReadOnly::default(),
+        }
+    }
+
+    /// Particles without a report (a scene's).
+    pub(crate) fn bare(particles: psi::Particles) -> Self {
+        Self::with(particles, (true, true), None)
+    }
+
+    /// Particles from columns: normals estimated where absent, σ estimated for drawing where
+    /// absent ([`psi::render::uniform_radius`], as `psi render` does).
+    fn from_columns(c: psi::ParticleColumns, normals_given: bool) -> PyResult<Self> {
+        let n = c.positions.len();
+        let normals = if normals_given {
+            c.normals
+        } else {
+            psi::preprocess::estimate_normals(&c.positions)
+                .into_iter()
+                .map(|v| if v == DVec3::ZERO { DVec3::Z } else { v })
+                .collect()
+        };
+        let depth = match &c.depth {
+            Some(d) => d
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| {
+                    if v.fract() == 0.0 && (0.0..=255.0).contains(&v) {
+                        Ok(v as u8)
+                    } else {
+                        Err(value_error(format!(
+                            "depth: particle {i} has depth {v}, not a whole number in 0..=255"
+                        )))
+                    }
+                })
+                .collect::<PyResult<Vec<u8>>>()?,
+            None => vec![0; n],
+        };
+        if let Some(i) = c
+            .sigma
+            .as_ref()
+            .and_then(|s| s.iter().position(|v| !(v.is_finite() && *v > 0.0)))
+        {
+            return Err(value_error(format!(
+                "sigma: particle {i} has a sigma that is not a positive number"
+            )));
+        }
+        let sigma = c
+            .sigma
+            .clone()
+            .unwrap_or_else(|| vec![0.5 * psi::render::uniform_radius(&c.positions); n]);
+        let particles = psi::Particles {
+            target: sigma.clone(),
+            positions: c.positions,
+            normals,
+            depth,
+            sigma,
+        };
+        Ok(Self::with(
+            particles,
+            (c.depth.is_some(), c.sigma.is_some()),
+            None,
+        ))
+    }
+
+    /// The particles as the columns of a file, without what they were not given.
+    pub(crate) fn columns(&self) -> psi::ParticleColumns {
+        let p = &self.particles;
+        psi::ParticleColumns {
+            positions: p.positions.clone(),
+            normals: p.normals.clone(),
+            depth: self
+                .has_depth
+                .then(|| p.depth.iter().map(|&d| f64::from(d)).collect()),
+            sigma: self.has_sigma.then(|| p.sigma.clone()),
         }
     }
 }
 
+/// A one-dimensional float64 column of `n` values, or a `ValueError`.
+fn column(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResult<Vec<f64>> {
+    let array: numpy::PyArrayLike1<'_, f64, numpy::AllowTypeChange> = obj
+        .extract()
+        .map_err(|e: PyErr| value_error(format!("{name} must be a 1-D array of numbers: {e}")))?;
+    let v: Vec<f64> = array.as_array().iter().copied().collect();
+    if v.len() != n {
+        return Err(value_error(format!(
+            "{name} must have shape ({n},), got ({},)",
+            v.len()
+        )));
+    }
+    if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+        return Err(value_error(format!("{name}: value {i} is NaN or infinite")));
+    }
+    Ok(v)
+}
+
+/// What a pickled `Particles` holds besides its report.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct ParticlesState {
+    positions: Vec<DVec3>,
+    normals: Vec<DVec3>,
+    depth: Vec<u8>,
+    sigma: Vec<f64>,
+    target: Vec<f64>,
+    has_depth: bool,
+    has_sigma: bool,
+}
+
 #[pymethods]
 impl Particles {
-    /// Positions, shape (n, 3), float64, world units.
+    /// Particles from arrays (another tool's samples, say): `positions` (N, 3) world units;
+    /// `normals` (N, 3) or `None` (estimated from the positions' neighbourhoods); `depth` (N,)
+    /// whole numbers 0..255 or `None`; `sigma` (N,) positive radii or `None` (then `render`
+    /// sizes the splats from the point count). Picklable, as every `Particles`.
+    #[new]
+    #[pyo3(signature = (positions, normals=None, *, depth=None, sigma=None))]
+    fn new(
+        positions: &Bound<'_, PyAny>,
+        normals: Option<&Bound<'_, PyAny>>,
+        depth: Option<&Bound<'_, PyAny>>,
+        sigma: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let positions = vectors(positions, "positions")?;
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(value_error(format!(
+                "positions: point {i} has a NaN or infinite coordinate"
+            )));
+        }
+        let n = positions.len();
+        let given = normals.is_some();
+        let normals = match normals {
+            Some(v) => {
+                let v = vectors(v, "normals")?;
+                if v.len() != n {
+                    return Err(value_error(format!(
+                        "normals must have the shape of positions, ({n}, 3), got ({}, 3)",
+                        v.len()
+                    )));
+                }
+                if let Some(i) = v.iter().position(|p| !p.is_finite()) {
+                    return Err(value_error(format!("normals: row {i} is NaN or infinite")));
+                }
+                v
+            }
+            None => Vec::new(),
+        };
+        let columns = psi::ParticleColumns {
+            positions,
+            normals,
+            depth: depth.map(|d| column(d, "depth", n)).transpose()?,
+            sigma: sigma.map(|s| column(s, "sigma", n)).transpose()?,
+        };
+        Self::from_columns(columns, given)
+    }
+
+    /// Positions, shape (n, 3), float64, world units: read-only, made on first access and the
+    /// same array afterwards (as every array here).
     #[getter]
-    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        vec3_array(py, &self.particles.positions)
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        self.arrays[0].get(py, || vec3_array(py, &self.particles.positions))
     }
 
     /// Unit normals ∇f/|∇f|, shape (n, 3), float64.
     #[getter]
-    fn normals<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        vec3_array(py, &self.particles.normals)
+    fn normals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        self.arrays[1].get(py, || vec3_array(py, &self.particles.normals))
     }
 
-    /// Octree depth of each particle's leaf, shape (n,), uint8.
+    /// Octree depth of each particle's leaf, shape (n,), uint8; `None` when not given.
     #[getter]
-    fn depth<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u8>> {
-        vector(py, self.particles.depth.clone())
+    fn depth<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray1<u8>>>> {
+        if !self.has_depth {
+            return Ok(None);
+        }
+        let d = &self.particles.depth;
+        self.depth_array.get(py, || vector(py, d.clone())).map(Some)
     }
 
     /// Repulsion radius σ of each particle (about half the local spacing), shape (n,),
-    /// float64, world units.
+    /// float64, world units; `None` when not given.
     #[getter]
-    fn sigma<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        vector(py, self.particles.sigma.clone())
+    fn sigma<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray1<f64>>>> {
+        if !self.has_sigma {
+            return Ok(None);
+        }
+        let s = &self.particles.sigma;
+        self.sigma_array.get(py, || vector(py, s.clone())).map(Some)
+    }
+
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let p = &self.particles;
+        let state = crate::pickle::encode(&ParticlesState {
+            positions: p.positions.clone(),
+            normals: p.normals.clone(),
+            depth: p.depth.clone(),
+            sigma: p.sigma.clone(),
+            target: p.target.clone(),
+            has_depth: self.has_depth,
+            has_sigma: self.has_sigma,
+        })?;
+        let report = self.report(py)?;
+        let restore = py.get_type::<Particles>().getattr("_from_state")?;
+        (restore, (PyBytes::new(py, &state), report)).into_bound_py_any(py)
+    }
+
+    /// Unpickling (not API).
+    #[classmethod]
+    fn _from_state(
+        _cls: &Bound<'_, pyo3::types::PyType>,
+        state: &[u8],
+        report: &Bound<'_, PyAny>,
+    ) -> PyResult<Self> {
+        let s: ParticlesState = crate::pickle::decode(state, "Particles")?;
+        let particles = psi::Particles {
+            positions: s.positions,
+            normals: s.normals,
+            depth: s.depth,
+            sigma: s.sigma,
+            target: s.target,
+        };
+        let out = Self::with(particles, (s.has_depth, s.has_sigma), None);
+        if !report.is_none() {
+            let _ = out.report.set(crate::pickle::json_of(report)?);
+        }
+        Ok(out)
     }
 
     /// The run's report, the dict `psi sample --json` writes (`input`, `mpu`, `particles`,
     /// `peak_memory_bytes`); made on first access (it measures the MPU's data coverage).
-    /// `None` for a scene's particles.
+    /// `None` for particles not sampled by `psi.sample` (a scene's, arrays, a file's).
     #[getter]
     fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        if let Some(value) = self.report.get() {
+            return crate::json::to_python(py, value);
+        }
         let Some(s) = &self.source else {
             return Ok(py.None().into_bound(py));
         };
@@ -138,31 +355,66 @@ impl Particles {
 /// (0 to 100 000), every random choice from `seed`. For the same input and seed the particles
 /// are bitwise those the CLI writes. The interpreter is released meanwhile.
 #[pyfunction]
-#[pyo3(signature = (mpu, *, iterations=20, k=1, count=None, uniform=false, seed=2007))]
+#[pyo3(signature = (mpu, *, iterations=20, k=None, count=None, uniform=false, seed=2007,
+    progress=None))]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn sample(
     py: Python<'_>,
     mpu: &Mpu,
     iterations: i128,
-    k: i128,
+    k: Option<i128>,
     count: Option<i128>,
     uniform: bool,
     seed: i128,
+    progress: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Particles> {
     let params = particle_params(iterations, k, count, uniform, seed)?;
+    let progress = Progress::from_arg(py, progress)?;
     let shared = mpu.mpu.clone();
-    let run = detached(py, || psi::sample(&shared, &params))?;
-    Ok(Particles {
-        particles: run.particles,
-        source: Some(ReportSource {
-            mpu: shared,
-            input_json: mpu.input_json.clone(),
-            threshold: mpu.threshold,
-            sampling: run.report,
-            params,
-            peak_memory_bytes: psi::report::peak_memory_bytes(),
-        }),
-        report: OnceLock::new(),
-    })
+    let worker = shared.clone();
+    let run = monitored(py, &progress, move |monitor| {
+        psi::particles::sample_with(&worker, &params, monitor)
+    })?
+    .map_err(|_| crate::errors::value_error("interrupted"))?;
+    let source = ReportSource {
+        mpu: shared,
+        input_json: mpu.input_json.clone(),
+        threshold: mpu.threshold,
+        sampling: run.report,
+        params,
+        peak_memory_bytes: psi::report::peak_memory_bytes(),
+    };
+    Ok(Particles::with(run.particles, (true, true), Some(source)))
+}
+
+/// Reads particles from a file: a PLY with `x y z nx ny nz` and, when present, `depth` and
+/// `sigma` (what `psi sample -o` and `save_particles` write; bitwise back), or any points file
+/// psi reads (PLY, OBJ, XYZ: normals estimated when absent, no depth, no σ). Raises `OSError`
+/// when the file cannot be read and `ValueError` when it is malformed.
+#[pyfunction]
+pub(crate) fn load_particles(py: Python<'_>, path: PathBuf) -> PyResult<Particles> {
+    let loaded = detached(py, || psi::load_particles(&path))?;
+    match loaded {
+        Ok(columns) => Particles::from_columns(columns, true),
+        Err(psi::PsiError::Read {
+            reason: psi::io::ReadError::NoNormals,
+            ..
+        }) => {
+            let file = detached(py, || psi::load_points(&path, &psi::ReadOptions::paper()))?;
+            let file = file.map_err(|e| psi_error(py, e, None));
+            match file {
+                Ok(f) => Particles::from_columns(
+                    psi::ParticleColumns {
+                        positions: f.points.iter().map(|p| p.p).collect(),
+                        ..Default::default()
+                    },
+                    false,
+                ),
+                Err(e) => Err(e),
+            }
+        }
+        Err(e) => Err(psi_error(py, e, None)),
+    }
 }
 
 /// Writes particles as `psi sample -o` does: binary little-endian PLY with `x y z nx ny nz
@@ -170,6 +422,11 @@ pub(crate) fn sample(
 /// the file cannot be written (an existing file is then untouched).
 #[pyfunction]
 pub(crate) fn save_particles(py: Python<'_>, path: PathBuf, particles: &Particles) -> PyResult<()> {
-    detached(py, || psi::save_particles(&path, &particles.particles))?
+    if particles.has_depth && particles.has_sigma {
+        return detached(py, || psi::save_particles(&path, &particles.particles))?
+            .map_err(|e| psi_error(py, e, None));
+    }
+    let columns = particles.columns();
+    detached(py, || psi::save_particle_columns(&path, &columns))?
         .map_err(|e| psi_error(py, e, None))
 }

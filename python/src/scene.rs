@@ -1,36 +1,83 @@
 //! `psi.Scene`: points, their MPU and their particles kept consistent under shape edits by
-//! local regeneration (`psi::regen::Scene`), as `psi edit` does.
+//! local regeneration (`psi::regen::Scene`), as `psi edit` does; safe from any number of
+//! threads (one lock), picklable.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use numpy::PyArray2;
+use psi::mpu::MpuFrame;
+use psi::particles::DensityField;
+use psi::preprocess::ErrorThreshold;
 use psi::regen::{Edit, RegenError};
+use psi::{DVec3, MpuParams, OrientedPoint, ParticleParams, SampleReport};
+use pyo3::IntoPyObjectExt;
+use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
+use pyo3::types::PyBytes;
 
 use crate::arrays::{oriented_array, vector3};
 use crate::errors::{detached, value_error};
-use crate::mpu::MpuOptions;
+use crate::monitor::{Progress, monitored};
+use crate::mpu::{Mpu, MpuOptions};
 use crate::points::input_of;
 use crate::sample::{Particles, particle_params};
 
 /// Points, their MPU and their particles, updated locally by edits (paper §6): only the cells
 /// an edit can reach are refitted and only their particles regenerated; the particles elsewhere
-/// stay bitwise unchanged, and the result equals a build from scratch.
+/// stay bitwise unchanged, and the MPU equals a build from scratch in the scene's frame
+/// (`Mpu(scene.points, scene.normals, preprocess=False, frame=scene.mpu.frame)`).
 ///
 /// `Scene(points, normals=None, *, error=None, max_depth=12, smooth=False,
-/// scale_invariant=False, preprocess=True, iterations=20, k=1, count=None, uniform=False,
-/// seed=2007)`: the input and MPU options of `psi.Mpu`, the sampling options of `psi.sample`
-/// (`psi edit` uses their defaults but for `iterations`). Building and every edit release the
-/// interpreter. Each edit returns its report as a dict (`RegenReport`: marked and refitted
-/// cells, particles removed and regenerated, points, whether the edit left the root cube and
-/// forced a full rebuild, seconds); a refused edit raises `ValueError` and leaves the scene
-/// unchanged.
-#[pyclass(module = "psi", name = "Scene")]
+/// scale_invariant=False, preprocess=True, iterations=20, k=None, count=None, uniform=False,
+/// seed=2007, progress=None)`: the input and MPU options of `psi.Mpu`, the sampling options
+/// of `psi.sample` (`psi edit` uses their defaults but for `iterations`). Building and every
+/// edit release the interpreter; Ctrl-C stops the build. Each edit returns its report as a
+/// dict (`RegenReport`: marked and refitted cells, particles removed and regenerated, points,
+/// whether the edit left the root cube and forced a full rebuild, seconds; `edit`: the edit's
+/// place in the scene's sequence, from 0); a refused edit raises `ValueError` and leaves the
+/// scene unchanged.
+///
+/// Threads: every method takes the scene's lock (waiting with the interpreter released), so
+/// edits and reads from any number of threads apply one at a time, in some order. Picklable.
+#[pyclass(frozen, module = "psi", name = "Scene")]
 pub(crate) struct Scene {
-    scene: psi::regen::Scene,
-    /// The input's name.
+    state: Mutex<State>,
+    /// The input's name, its report object and the error threshold used.
     name: String,
-    report: psi::SampleReport,
+    input_json: Arc<serde_json::Value>,
+    threshold: ErrorThreshold,
+    report: SampleReport,
+}
+
+/// What the lock guards: the scene and the number of edits applied to it.
+struct State {
+    scene: psi::regen::Scene,
+    edits: usize,
+}
+
+/// Particles' arrays as a pickle holds them.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct ParticleArrays {
+    positions: Vec<DVec3>,
+    normals: Vec<DVec3>,
+    depth: Vec<u8>,
+    sigma: Vec<f64>,
+    target: Vec<f64>,
+}
+
+/// What a pickled `Scene` holds besides its input's report.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct SceneState {
+    name: String,
+    points: Vec<OrientedPoint>,
+    frame: MpuFrame,
+    mpu_params: MpuParams,
+    particle_params: ParticleParams,
+    particles: ParticleArrays,
+    field: DensityField,
+    edits: usize,
+    threshold: ErrorThreshold,
+    report: SampleReport,
 }
 
 fn edit_error(e: RegenError) -> PyErr {
@@ -38,10 +85,34 @@ fn edit_error(e: RegenError) -> PyErr {
 }
 
 impl Scene {
-    fn apply<'py>(&mut self, py: Python<'py>, edit: Edit) -> PyResult<Bound<'py, PyAny>> {
-        let scene = &mut self.scene;
-        let report = detached(py, || scene.apply(&edit))?.map_err(edit_error)?;
-        crate::json::report(py, &report)
+    /// The state, locked; waits with the interpreter released.
+    fn lock<'s>(&'s self, py: Python<'_>) -> PyResult<MutexGuard<'s, State>> {
+        if let Ok(guard) = self.state.try_lock() {
+            return Ok(guard);
+        }
+        // Another thread holds it: wait without the interpreter, then take it (the guard
+        // cannot leave the released section, so this retries until it can take it at once).
+        loop {
+            py.detach(|| drop(self.state.lock()));
+            match self.state.try_lock() {
+                Ok(guard) => return Ok(guard),
+                Err(std::sync::TryLockError::WouldBlock) => continue,
+                Err(std::sync::TryLockError::Poisoned(_)) => {
+                    return Err(PyRuntimeError::new_err("psi: the scene's lock is poisoned"));
+                }
+            }
+        }
+    }
+
+    fn apply<'py>(&self, py: Python<'py>, edit: Edit) -> PyResult<Bound<'py, PyAny>> {
+        let mut state = self.lock(py)?;
+        let state = &mut *state;
+        let report = detached(py, || state.scene.apply(&edit))?.map_err(edit_error)?;
+        let index = state.edits;
+        state.edits += 1;
+        let dict = crate::json::report(py, &report)?;
+        dict.set_item("edit", index)?;
+        Ok(dict)
     }
 }
 
@@ -49,8 +120,8 @@ impl Scene {
 impl Scene {
     #[new]
     #[pyo3(signature = (points, normals=None, *, error=None, max_depth=12, smooth=false,
-        scale_invariant=false, preprocess=true, iterations=20, k=1, count=None, uniform=false,
-        seed=2007))]
+        scale_invariant=false, preprocess=true, iterations=20, k=None, count=None, uniform=false,
+        seed=2007, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -62,10 +133,11 @@ impl Scene {
         scale_invariant: bool,
         preprocess: bool,
         iterations: i128,
-        k: i128,
+        k: Option<i128>,
         count: Option<i128>,
         uniform: bool,
         seed: i128,
+        progress: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let options = MpuOptions {
             error,
@@ -74,19 +146,25 @@ impl Scene {
             scale_invariant,
         };
         let params = particle_params(iterations, k, count, uniform, seed)?;
-        let input = input_of(py, points, normals, preprocess)?;
-        let (mpu_params, _) = options.params(&input)?;
+        let progress = Progress::from_arg(py, progress)?;
+        let input = input_of(py, points, normals, preprocess, &progress)?;
+        let (mpu_params, threshold) = options.params(&input)?;
+        let name = input.name.clone();
+        let input_json = Arc::new(input.json.clone());
         // The points move into the scene unless a `PointSet` still holds them.
-        let (name, points) = match Arc::try_unwrap(input) {
-            Ok(input) => (input.name, input.points),
-            Err(shared) => (shared.name.clone(), shared.points.clone()),
+        let points = match Arc::try_unwrap(input) {
+            Ok(input) => input.points,
+            Err(shared) => shared.points.clone(),
         };
-        let (scene, report) =
-            detached(py, || psi::regen::Scene::new(points, &mpu_params, &params))?
-                .map_err(|e| value_error(format!("{name}: building the scene: {e}")))?;
+        let (scene, report) = monitored(py, &progress, move |monitor| {
+            psi::regen::Scene::new_with(points, &mpu_params, &params, monitor)
+        })?
+        .map_err(|e| value_error(format!("{name}: building the scene: {e}")))?;
         Ok(Scene {
-            scene,
+            state: Mutex::new(State { scene, edits: 0 }),
             name,
+            input_json,
+            threshold,
             report,
         })
     }
@@ -95,7 +173,7 @@ impl Scene {
     /// t = distance / radius (world units; the normals follow the deformation); returns the
     /// edit's report.
     fn brush<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
         centre: &Bound<'py, PyAny>,
         radius: f64,
@@ -111,7 +189,7 @@ impl Scene {
 
     /// Removes the points within `radius` of `centre` (3,); returns the edit's report.
     fn remove<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
         centre: &Bound<'py, PyAny>,
         radius: f64,
@@ -126,7 +204,7 @@ impl Scene {
     /// Adds oriented points: `points` and `normals` (N, 3), normals normalised here (rows with
     /// a zero normal dropped); returns the edit's report.
     fn insert<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
         points: &Bound<'py, PyAny>,
         normals: &Bound<'py, PyAny>,
@@ -135,22 +213,46 @@ impl Scene {
         self.apply(py, Edit::Insert { points })
     }
 
-    /// The current particles (a copy; `report` is `None`).
+    /// The current particles (a snapshot; `report` is `None`).
     #[getter]
-    fn particles(&self) -> Particles {
-        Particles::bare(self.scene.particles().clone())
+    fn particles(&self, py: Python<'_>) -> PyResult<Particles> {
+        let state = self.lock(py)?;
+        Ok(Particles::bare(state.scene.particles().clone()))
     }
 
-    /// The current control points, shape (N, 3), float64, world units.
+    /// The current implicit, in the scene's frame (a snapshot): `scene.mpu.value(x)` is f of
+    /// the edited points.
     #[getter]
-    fn points<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        oriented_array(py, self.scene.points(), false)
+    fn mpu(&self, py: Python<'_>) -> PyResult<Mpu> {
+        let state = self.lock(py)?;
+        let mpu = Arc::new(state.scene.mpu().clone());
+        Ok(Mpu::of(
+            mpu,
+            self.name.clone(),
+            self.input_json.clone(),
+            self.threshold,
+            None,
+        ))
     }
 
-    /// Their unit normals, shape (N, 3), float64.
+    /// The current control points, shape (N, 3), float64, world units (a new array).
     #[getter]
-    fn normals<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        oriented_array(py, self.scene.points(), true)
+    fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let state = self.lock(py)?;
+        Ok(oriented_array(py, state.scene.points(), false))
+    }
+
+    /// Their unit normals, shape (N, 3), float64 (a new array).
+    #[getter]
+    fn normals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let state = self.lock(py)?;
+        Ok(oriented_array(py, state.scene.points(), true))
+    }
+
+    /// Edits applied so far.
+    #[getter]
+    fn edits(&self, py: Python<'_>) -> PyResult<usize> {
+        Ok(self.lock(py)?.edits)
     }
 
     /// The first sampling's report (`SampleReport`: count, seconds, density, spacing quality
@@ -160,12 +262,85 @@ impl Scene {
         crate::json::report(py, &self.report)
     }
 
-    fn __repr__(&self) -> String {
-        format!(
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let state = self.lock(py)?;
+        let scene = &state.scene;
+        let p = scene.particles();
+        let bytes = crate::pickle::encode(&SceneState {
+            name: self.name.clone(),
+            points: scene.points().to_vec(),
+            frame: *scene.mpu().frame(),
+            mpu_params: *scene.mpu_params(),
+            particle_params: *scene.particle_params(),
+            particles: ParticleArrays {
+                positions: p.positions.clone(),
+                normals: p.normals.clone(),
+                depth: p.depth.clone(),
+                sigma: p.sigma.clone(),
+                target: p.target.clone(),
+            },
+            field: *scene.density(),
+            edits: state.edits,
+            threshold: self.threshold,
+            report: self.report.clone(),
+        })?;
+        drop(state);
+        let restore = py.get_type::<Scene>().getattr("_from_state")?;
+        let json = crate::json::to_python(py, &self.input_json)?;
+        (restore, (PyBytes::new(py, &bytes), json)).into_bound_py_any(py)
+    }
+
+    /// Unpickling (not API): the MPU built from scratch in the scene's frame, the particles
+    /// as they were.
+    #[classmethod]
+    fn _from_state(
+        cls: &Bound<'_, pyo3::types::PyType>,
+        state: &[u8],
+        json: &Bound<'_, PyAny>,
+    ) -> PyResult<Self> {
+        let py = cls.py();
+        let s: SceneState = crate::pickle::decode(state, "Scene")?;
+        let input_json = Arc::new(crate::pickle::json_of(json)?);
+        let a = s.particles;
+        let particles = psi::Particles {
+            positions: a.positions,
+            normals: a.normals,
+            depth: a.depth,
+            sigma: a.sigma,
+            target: a.target,
+        };
+        let (points, frame, field) = (s.points, s.frame, s.field);
+        let (mpu_params, particle_params) = (s.mpu_params, s.particle_params);
+        let scene = detached(py, move || {
+            psi::regen::Scene::from_state(
+                points,
+                frame,
+                &mpu_params,
+                &particle_params,
+                particles,
+                field,
+            )
+        })?
+        .map_err(|e| value_error(format!("unpickling a Scene: {e}")))?;
+        Ok(Scene {
+            state: Mutex::new(State {
+                scene,
+                edits: s.edits,
+            }),
+            name: s.name,
+            input_json,
+            threshold: s.threshold,
+            report: s.report,
+        })
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let state = self.lock(py)?;
+        Ok(format!(
             "Scene({:?}: {} points, {} particles)",
             self.name,
-            self.scene.points().len(),
-            self.scene.particles().len()
-        )
+            state.scene.points().len(),
+            state.scene.particles().len()
+        ))
     }
 }

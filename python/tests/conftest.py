@@ -101,3 +101,11 @@ def torus(n, seed, big=1.0, small=0.35):
     ring = np.stack([np.cos(u), np.sin(u), np.zeros(n)], axis=1)
     normal = np.cos(v)[:, None] * ring + np.sin(v)[:, None] * np.array([0.0, 0.0, 1.0])
     return big * ring + small * normal, normal
+
+
+def sphere(n, seed, radius=0.5, centre=(0.0, 0.0, 0.0)):
+    """``n`` points of a sphere with their outward unit normals (random, seeded)."""
+    rng = np.random.default_rng(seed)
+    normal = rng.normal(size=(n, 3))
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    return np.asarray(centre) + radius * normal, normal

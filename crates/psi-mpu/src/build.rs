@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 use psi_octree::{
-    Aabb, KnownPartitions, Octree, OctreeBuild, OctreeParams, OrientedPoint, PointIndex,
+    Aabb, KnownPartitions, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint, PointIndex,
 };
 use rayon::prelude::*;
 
@@ -19,17 +19,6 @@ use crate::fit_cell::{CellFit, CoarseIndex, FitInput, LeafFit, fit_cell, try_fit
 use crate::fit_store::FitStoreBuilder;
 use crate::frame::check_input_size;
 use crate::{BuildReport, FitKind, Mpu, MpuBuffers, MpuError, MpuFrame, MpuParams};
-
-/// Progress of an MPU build, reported after each octree level.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct BuildProgress {
-    /// The level just decided.
-    pub depth: u8,
-    /// The deepest level allowed.
-    pub max_depth: u8,
-    /// Cells created so far.
-    pub cells: usize,
-}
 
 /// What a local rebuild may take from an earlier MPU: the records of its cells that no edit
 /// reached (`marked[cell]` false), looked up by depth and integer key.
@@ -61,8 +50,10 @@ pub struct BuildOptions<'a> {
     pub reuse: Option<Reuse<'a>>,
     /// Memory for the arrays ([`MpuBuffers`]): a local rebuild of a large model notices.
     pub buffers: MpuBuffers,
-    /// Called after each octree level (progress reporting).
-    pub observe: Option<&'a (dyn Fn(BuildProgress) + Sync)>,
+    /// Progress (stage `"mpu"`: octree levels decided of `max_depth + 1`) and interruption:
+    /// once its stop flag is set, no cell splits any more and the build returns
+    /// [`MpuError::Interrupted`].
+    pub monitor: Monitor<'a>,
 }
 
 /// A cell's decision in a build: fitted now, or taken from a cell of the earlier MPU that no
@@ -219,7 +210,7 @@ impl Mpu {
             frame,
             reuse,
             buffers,
-            observe,
+            monitor,
         } = options;
         let frame = match frame {
             Some(f) => f,
@@ -259,6 +250,9 @@ impl Mpu {
             coarse,
             fits: prefit,
         } = prefit_marked(&data, params, eps0, reuse, &marked_old);
+        let levels = u64::from(params.max_depth) + 1;
+        monitor.report("mpu", 0, levels);
+        monitor.check()?;
         let Prepared { positions, points } = data;
         // The positions move into the octree, which hands them back to each decision.
         let input = FitInput {
@@ -273,14 +267,8 @@ impl Mpu {
             alpha: params.alpha,
             max_depth: params.max_depth,
         };
-        let on_level = |depth: u8, cells: usize| {
-            if let Some(observe) = observe {
-                observe(BuildProgress {
-                    depth,
-                    max_depth: params.max_depth,
-                    cells,
-                })
-            }
+        let on_level = |depth: u8, _cells: usize| {
+            monitor.report("mpu", u64::from(depth) + 1, levels);
         };
         // An unmarked cell holds no changed position (its fit radius R1 ≥ R = α·2√3·half is at
         // least its circumradius √3·half for α ≥ 0.5, and marking adds a 1e-9 margin),
@@ -296,6 +284,11 @@ impl Mpu {
             on_level: Some(&on_level),
         };
         let (octree, records) = Octree::build_with(positions, &oparams, octree_options, |v| {
+            if monitor.stopped() {
+                // Stopped: nothing splits any more, and the check after the octree discards
+                // this placeholder record.
+                return (false, CellRecord::Reused(0));
+            }
             let old = reuse.and_then(|r| r.old.octree.cell_at(v.cell.depth, v.cell.key));
             if let (Some(r), Some(old)) = (reuse, old)
                 && !r.marked[old as usize]
@@ -320,6 +313,7 @@ impl Mpu {
                 })),
             )
         })?;
+        monitor.check()?;
         // A local rebuild shares the earlier MPU's function store when it reuses most of it.
         let share = reuse.is_some_and(|r| 2 * marked_old.len() < r.old.octree.cells().len());
         let mut fits = FitStoreBuilder::new(
@@ -393,6 +387,7 @@ impl Mpu {
         }
         report.max_depth = octree.max_depth_reached();
         report.seconds = start.elapsed().as_secs_f64();
+        monitor.report("mpu", levels, levels);
         let fits = fits.finish();
         eval_nodes_into(&octree, &cell_fit, params.alpha, &mut nodes);
         // The lazily filled tables start empty, in the buffers' memory when there is some.

@@ -1,7 +1,7 @@
 //! Errors of the MPU build. Numerically degenerate fits are not errors: they fall back and are
 //! counted in the [`crate::BuildReport`].
 
-use psi_octree::OctreeError;
+use psi_octree::{Interrupted, OctreeError};
 use thiserror::Error;
 
 /// Why an MPU could not be built.
@@ -61,4 +61,7 @@ pub enum MpuError {
     /// ```
     #[error(transparent)]
     Octree(#[from] OctreeError),
+    /// The caller stopped the build ([`psi_octree::Monitor`]).
+    #[error("the MPU build was interrupted")]
+    Interrupted(#[from] Interrupted),
 }

@@ -49,7 +49,7 @@ mod quadric;
 mod report;
 
 pub use buffers::MpuBuffers;
-pub use build::{BuildOptions, BuildProgress, Reuse};
+pub use build::{BuildOptions, Reuse};
 pub use data_coverage::data_coverage;
 pub use data_footprint::{DataAnchor, FootprintTest};
 pub use error::MpuError;
@@ -58,6 +58,6 @@ pub use frame::MpuFrame;
 pub use local_function::{FitKind, LocalFunction};
 pub use mpu::Mpu;
 pub use params::MpuParams;
-pub use polygonize::{PolygonizeParams, TriangleSoup, polygonize};
+pub use polygonize::{PolygonizeParams, TriangleSoup, polygonize, polygonize_with};
 pub use quadric::Quadric;
 pub use report::{BuildReport, FitCounts};

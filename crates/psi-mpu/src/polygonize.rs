@@ -9,6 +9,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use psi_octree::{Interrupted, Monitor};
+
 use crate::Mpu;
 
 /// Parameters of [`polygonize`].
@@ -68,6 +70,19 @@ fn unkey(key: u64) -> [i64; 3] {
 /// The band: grid cells within ⌈1.5 × (median nearest-neighbour spacing of the input) / h⌉ + 1
 /// cells of an input point, h the grid step. Output is deterministic.
 pub fn polygonize(mpu: &Mpu, params: &PolygonizeParams) -> TriangleSoup {
+    polygonize_with(mpu, params, &Monitor::silent()).expect("a silent monitor never stops")
+}
+
+/// [`polygonize`], reporting its phases to `monitor` (stage `"mesh"`, five steps: band cells,
+/// corner values, vertices, faces) and returning [`Interrupted`] soon after its stop flag is
+/// set. A run that completes equals [`polygonize`]'s.
+pub fn polygonize_with(
+    mpu: &Mpu,
+    params: &PolygonizeParams,
+    monitor: &Monitor<'_>,
+) -> Result<TriangleSoup, Interrupted> {
+    const STEPS: u64 = 4;
+    monitor.report("mesh", 0, STEPS);
     let res = i64::from(params.resolution.clamp(2, 1 << 20));
     let root = *mpu.octree().root();
     let h = 2.0 * root.half / res as f64;
@@ -99,6 +114,8 @@ pub fn polygonize(mpu: &Mpu, params: &PolygonizeParams) -> TriangleSoup {
         .collect();
     cells.par_sort_unstable();
     cells.dedup();
+    monitor.check()?;
+    monitor.report("mesh", 1, STEPS);
 
     let mut corners: Vec<u64> = cells
         .iter()
@@ -116,13 +133,21 @@ pub fn polygonize(mpu: &Mpu, params: &PolygonizeParams) -> TriangleSoup {
     };
     let values: Vec<f64> = corners
         .par_iter()
-        .map(|&c| mpu.value(corner_pos(c) + origin))
+        .map(|&c| {
+            if monitor.stopped() {
+                return 0.0;
+            }
+            mpu.value(corner_pos(c) + origin)
+        })
         .collect();
+    monitor.check()?;
     let value_of: HashMap<u64, f64> = corners
         .iter()
         .copied()
         .zip(values.iter().copied())
         .collect();
+    monitor.check()?;
+    monitor.report("mesh", 2, STEPS);
 
     // One vertex per cell with a sign change: the mean edge crossing, projected onto f = 0.
     const EDGES: [(usize, usize); 12] = [
@@ -142,6 +167,9 @@ pub fn polygonize(mpu: &Mpu, params: &PolygonizeParams) -> TriangleSoup {
     let verts: Vec<Option<DVec3>> = cells
         .par_iter()
         .map(|&c| {
+            if monitor.stopped() {
+                return None;
+            }
             let [i, j, k] = unkey(c);
             let mut v = [0.0; 8];
             let mut p = [DVec3::ZERO; 8];
@@ -181,6 +209,8 @@ pub fn polygonize(mpu: &Mpu, params: &PolygonizeParams) -> TriangleSoup {
             (mpu.distance_in_spacings(x) <= params.max_data_distance).then_some(x)
         })
         .collect();
+    monitor.check()?;
+    monitor.report("mesh", 3, STEPS);
     let mut soup = TriangleSoup::default();
     let mut vertex_of: HashMap<u64, u32> = HashMap::with_capacity(cells.len());
     for (c, v) in cells.iter().zip(&verts) {
@@ -234,7 +264,8 @@ pub fn polygonize(mpu: &Mpu, params: &PolygonizeParams) -> TriangleSoup {
         }
     }
     drop_unreferenced_vertices(&mut soup);
-    soup
+    monitor.report("mesh", STEPS, STEPS);
+    Ok(soup)
 }
 
 /// Removes the vertices no face uses (those of quads dropped far from the data) and renumbers

@@ -35,6 +35,7 @@ mod cell_at;
 mod error;
 mod geometry;
 mod leaf_containing;
+mod monitor;
 mod octree;
 mod point_index;
 mod points_within;
@@ -42,6 +43,7 @@ mod support_cells;
 
 pub use error::OctreeError;
 pub use geometry::{Aabb, OrientedPoint};
+pub use monitor::{Interrupted, Monitor, Observer, StageCounter};
 pub use octree::{
     Cell, CellView, DEPTH_LIMIT, KnownPartitions, NO_CELL, Octree, OctreeBuffers, OctreeBuild,
     OctreeParams, RootCube, root_cube,

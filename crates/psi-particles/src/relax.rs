@@ -6,7 +6,7 @@
 
 use glam::DVec3;
 use psi_mpu::{DataAnchor, LeafEvaluation, Mpu};
-use psi_octree::Aabb;
+use psi_octree::{Aabb, Monitor};
 use rayon::prelude::*;
 
 use crate::neighbours::{FixedSet, NeighbourIndex};
@@ -30,8 +30,10 @@ struct Update {
 pub struct RelaxOptions<'a> {
     /// Which particles may move and where.
     pub region: RelaxRegion<'a>,
-    /// Called with the number of iterations done after each iteration (progress reporting).
-    pub on_iteration: Option<&'a (dyn Fn(usize) + Sync)>,
+    /// Progress (stage `"relax"`: iterations done of `params.iterations`) and interruption:
+    /// once its stop flag is set the iteration stops where it is (the caller checks and
+    /// discards the particles).
+    pub monitor: Monitor<'a>,
 }
 
 /// Which particles may move and where (local regeneration restricts both).
@@ -68,15 +70,9 @@ pub fn relax(
     params: &ParticleParams,
     options: RelaxOptions<'_>,
 ) {
-    let RelaxOptions {
-        region,
-        on_iteration,
-    } = options;
-    let on_iteration = |done: usize| {
-        if let Some(f) = on_iteration {
-            f(done)
-        }
-    };
+    let RelaxOptions { region, monitor } = options;
+    let total = params.iterations as u64;
+    monitor.report("relax", 0, total);
     let _span = tracing::info_span!(
         "relaxation",
         particles = particles.len(),
@@ -161,7 +157,10 @@ pub fn relax(
     let mut updates: Vec<Update> = Vec::with_capacity(active.len());
     for iteration in 0..params.iterations {
         if iteration > 0 {
-            on_iteration(iteration);
+            monitor.report("relax", iteration as u64, total);
+        }
+        if monitor.stopped() {
+            return;
         }
         let index = match (&fixed, region.movable) {
             (Some(f), Some(_)) => {
@@ -271,7 +270,7 @@ pub fn relax(
             fg[i] = (f, g);
         }
     }
-    on_iteration(params.iterations);
+    monitor.report("relax", total, total);
     // Final polish: a particle whose moves were all rejected still sits where it was seeded, on
     // an input point, which can be up to ε0 off the zero set.
     let polished: Vec<Option<(DVec3, DVec3)>> = active

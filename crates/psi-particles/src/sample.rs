@@ -3,6 +3,7 @@
 use std::time::Instant;
 
 use psi_mpu::{Mpu, PolygonizeParams, polygonize};
+use psi_octree::{Interrupted, Monitor};
 use serde::{Deserialize, Serialize};
 
 use crate::seed::{quotas, seed};
@@ -81,6 +82,12 @@ pub fn surface_area(mpu: &Mpu) -> f64 {
 /// Seeds particles from `mpu`'s surface leaves and returns them with their density field
 /// (targets and σ set). Deterministic for a given `params.seed`.
 pub fn initialize(mpu: &Mpu, params: &ParticleParams) -> Seeding {
+    initialize_with(mpu, params, &Monitor::silent())
+}
+
+/// [`initialize`], the dart throwing of exact counts and uniform mode stopping early once
+/// `monitor`'s flag is set (the caller checks and discards the seeds).
+fn initialize_with(mpu: &Mpu, params: &ParticleParams, monitor: &Monitor<'_>) -> Seeding {
     let leaves: Vec<u32> = mpu.surface_leaves().collect();
     let depths = leaves.iter().map(|&l| mpu.octree().cell(l).depth);
     let d_min = depths.clone().min().unwrap_or(0);
@@ -100,7 +107,7 @@ pub fn initialize(mpu: &Mpu, params: &ParticleParams) -> Seeding {
         (count, _) => {
             let n = count.unwrap_or(leaves.len());
             let shape = |d: u8| if uniform { 1.0 } else { field.target_sigma(d) };
-            poisson_seeds(mpu, n, &shape, params.seed).unwrap_or_else(|| {
+            poisson_seeds(mpu, n, &shape, params.seed, monitor).unwrap_or_else(|| {
                 seed(
                     mpu,
                     &leaves,
@@ -155,23 +162,27 @@ pub fn seed_leaves(
 /// Seeds, relaxes (in uniform mode also separates close pairs) and measures (the paper's
 /// pipeline): [`sample_with`] without progress reports.
 pub fn sample(mpu: &Mpu, params: &ParticleParams) -> Sampling {
-    sample_with(mpu, params, None)
+    sample_with(mpu, params, &Monitor::silent()).expect("a silent monitor never stops")
 }
 
-/// [`sample`], calling `on_iteration(iterations done)` after each relaxation iteration when
-/// given (progress reporting).
+/// [`sample`], reporting its stages to `monitor` (`"seed"`, `"relax"` by iteration,
+/// `"separate"` in uniform mode, `"measure"`) and stopping with [`Interrupted`] once its stop
+/// flag is set. A run that completes equals [`sample`]'s bit for bit.
 pub fn sample_with(
     mpu: &Mpu,
     params: &ParticleParams,
-    on_iteration: Option<&(dyn Fn(usize) + Sync)>,
-) -> Sampling {
+    monitor: &Monitor<'_>,
+) -> Result<Sampling, Interrupted> {
     let t0 = Instant::now();
     let seeding = tracing::info_span!("seeding").entered();
+    monitor.report("seed", 0, 1);
     let Seeding {
         mut particles,
         density,
         seeded_leaves,
-    } = initialize(mpu, params);
+    } = initialize_with(mpu, params, monitor);
+    monitor.check()?;
+    monitor.report("seed", 1, 1);
     drop(seeding);
     let init_seconds = t0.elapsed().as_secs_f64();
     // The seeds are measured after the simulation, so that its clock starts with nothing
@@ -181,20 +192,34 @@ pub fn sample_with(
     let t1 = Instant::now();
     let options = RelaxOptions {
         region: RelaxRegion::default(),
-        on_iteration,
+        monitor: *monitor,
     };
     relax(mpu, &mut particles, &density, params, options);
+    monitor.check()?;
     // Uniform mode only (`None` otherwise).
-    let separation = separate_close_pairs(
-        mpu,
-        &mut particles,
-        &density,
-        params,
-        RelaxRegion::default(),
-    );
+    let separation = if density.uniform.is_some() {
+        monitor.report("separate", 0, 1);
+        let s = separate_close_pairs(
+            mpu,
+            &mut particles,
+            &density,
+            params,
+            RelaxRegion::default(),
+        );
+        monitor.check()?;
+        monitor.report("separate", 1, 1);
+        s
+    } else {
+        None
+    };
     let simulate_seconds = t1.elapsed().as_secs_f64();
+    monitor.report("measure", 0, 2);
     let before = measure_quality(mpu, &seeds);
+    monitor.check()?;
+    monitor.report("measure", 1, 2);
     let after = measure_quality(mpu, &particles);
+    monitor.check()?;
+    monitor.report("measure", 2, 2);
     let report = SampleReport {
         count: particles.len(),
         seeded_leaves,
@@ -206,5 +231,5 @@ pub fn sample_with(
         after,
         separation,
     };
-    Sampling { particles, report }
+    Ok(Sampling { particles, report })
 }

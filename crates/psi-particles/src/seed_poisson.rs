@@ -7,7 +7,7 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 use psi_mpu::Mpu;
-use psi_octree::PointIndex;
+use psi_octree::{Monitor, PointIndex};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_pcg::Pcg64Mcg;
@@ -15,7 +15,14 @@ use rand_pcg::Pcg64Mcg;
 use crate::seed::Seed;
 
 /// Accepted input-point indices for scale `c` (radius of point i: c·radius[i]).
-fn throw(positions: &[DVec3], radius: &[f64], order: &[u32], c: f64, cell: f64) -> Vec<u32> {
+/// Stops early (a partial list) once `monitor`'s flag is set.
+fn throw(
+    positions: &[DVec3],
+    radius: &[f64],
+    order: &[u32],
+    (c, cell): (f64, f64),
+    monitor: &Monitor<'_>,
+) -> Vec<u32> {
     let mut grid: HashMap<(i64, i64, i64), Vec<u32>> = HashMap::new();
     let mut accepted = Vec::new();
     let key = |p: DVec3| {
@@ -25,7 +32,10 @@ fn throw(positions: &[DVec3], radius: &[f64], order: &[u32], c: f64, cell: f64) 
             (p.z / cell).floor() as i64,
         )
     };
-    for &i in order {
+    for (k, &i) in order.iter().enumerate() {
+        if k % 65_536 == 0 && monitor.stopped() {
+            break;
+        }
         let p = positions[i as usize];
         let (kx, ky, kz) = key(p);
         let mut free = true;
@@ -59,6 +69,7 @@ pub(crate) fn poisson_seeds(
     count: usize,
     radius_of: &dyn Fn(u8) -> f64,
     seed: u64,
+    monitor: &Monitor<'_>,
 ) -> Option<Vec<Seed>> {
     let input = mpu.points();
     if count == 0 || count > input.len() {
@@ -77,8 +88,18 @@ pub(crate) fn poisson_seeds(
     let (mut lo, mut hi) = (0.0f64, 8.0f64);
     let mut best: Option<Vec<u32>> = None;
     for _ in 0..18 {
+        if monitor.stopped() {
+            // The caller checks the flag and discards the seeds.
+            return None;
+        }
         let c = 0.5 * (lo + hi);
-        let acc = throw(&positions, &radius, &order, c, (c * r_max).max(1e-300));
+        let acc = throw(
+            &positions,
+            &radius,
+            &order,
+            (c, (c * r_max).max(1e-300)),
+            monitor,
+        );
         if acc.len() >= count {
             lo = c;
             let better = best.as_ref().is_none_or(|b| acc.len() < b.len());

@@ -36,6 +36,7 @@ mod densify_mesh;
 mod estimate_noise;
 mod estimate_normals;
 mod find_outliers;
+mod inward_normals;
 mod local_fit;
 mod median;
 mod orient_normals;
@@ -47,6 +48,7 @@ pub use densify_mesh::{MeshCoarseness, densify_mesh, mesh_coarseness};
 pub use estimate_noise::{NoiseEstimate, estimate_noise};
 pub use estimate_normals::estimate_normals;
 pub use find_outliers::{Outliers, find_outliers};
+pub use inward_normals::{InwardVotes, inward_votes};
 pub use orient_normals::{
     NormalConsistency, check_normal_consistency, orient_normals, orient_toward,
 };
@@ -54,5 +56,5 @@ pub use preprocess::{
     ErrorThreshold, INCONSISTENT_NORMALS, MeshRef, MeshReport, NOISE_ERROR_FACTOR, NormalTreatment,
     OutlierReport, PAPER_ERROR_REL, PointOrigin, PreprocessError, PreprocessParams,
     PreprocessReport, Preprocessed, ScanInput, StepSeconds, ThresholdSource,
-    error_threshold_for_noise, preprocess,
+    error_threshold_for_noise, preprocess, preprocess_with,
 };

@@ -4,13 +4,13 @@
 use std::time::Instant;
 
 use glam::DVec3;
-use psi_octree::{Aabb, OrientedPoint};
+use psi_octree::{Aabb, Interrupted, Monitor, OrientedPoint};
 use serde::{Deserialize, Serialize};
 
 use crate::{
     DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, check_normal_consistency,
-    denoise, densify_mesh, estimate_noise, estimate_normals, find_outliers, mesh_coarseness,
-    orient_normals, orient_toward,
+    denoise, densify_mesh, estimate_noise, estimate_normals, find_outliers, inward_votes,
+    mesh_coarseness, orient_normals, orient_toward,
 };
 
 /// Ohtake's error threshold ε0 relative to the bounding-box diagonal D (algorithms.md §1.1):
@@ -49,6 +49,11 @@ pub struct PreprocessParams {
     pub denoise: bool,
     /// Add points on a coarse mesh's large triangles ([`crate::densify_mesh`]).
     pub densify_meshes: bool,
+    /// Flip given normals that point inward as a whole ([`crate::inward_votes`]) to outward,
+    /// so that f > 0 outside; off for a surface seen from inside (a room scanned from its
+    /// middle), whose hull points face inward on purpose.
+    #[serde(default)]
+    pub flip_inward_normals: bool,
 }
 
 impl PreprocessParams {
@@ -63,6 +68,7 @@ impl PreprocessParams {
             estimate_noise: true,
             denoise: true,
             densify_meshes: true,
+            flip_inward_normals: true,
         }
     }
 
@@ -76,6 +82,7 @@ impl PreprocessParams {
             estimate_noise: false,
             denoise: false,
             densify_meshes: false,
+            flip_inward_normals: false,
         }
     }
 }
@@ -192,6 +199,10 @@ pub struct PreprocessReport {
     pub normals: NormalTreatment,
     /// Normals flipped by an orientation step.
     pub normals_flipped: usize,
+    /// Whether given normals pointed inward as a whole and were all flipped outward
+    /// ([`PreprocessParams::flip_inward_normals`]).
+    #[serde(default)]
+    pub inward_normals_flipped: bool,
     /// Same-sheet neighbour pairs with opposed normals, given normals only (before any
     /// reorientation).
     pub consistency: Option<NormalConsistency>,
@@ -251,6 +262,9 @@ pub enum PreprocessError {
     /// ```
     #[error("the points have no normals and normal estimation is off")]
     NoNormals,
+    /// The caller stopped the work ([`psi_octree::Monitor`]).
+    #[error("preprocessing was interrupted")]
+    Interrupted(#[from] Interrupted),
 }
 
 impl PreprocessReport {
@@ -337,6 +351,23 @@ pub fn preprocess(
     input: ScanInput<'_>,
     params: &PreprocessParams,
 ) -> Result<Preprocessed, PreprocessError> {
+    preprocess_with(input, params, &Monitor::silent())
+}
+
+/// [`preprocess`], reporting each step that runs to `monitor` as a stage (`"densify"`,
+/// `"outliers"`, `"normals"`, `"noise"`, `"denoise"`, each 0 then 1 of 1) and returning
+/// [`PreprocessError::Interrupted`] between steps once its stop flag is set. A run that
+/// completes equals [`preprocess`]'s.
+pub fn preprocess_with(
+    input: ScanInput<'_>,
+    params: &PreprocessParams,
+    monitor: &Monitor<'_>,
+) -> Result<Preprocessed, PreprocessError> {
+    let step = |stage: &str, done: u64| -> Result<(), Interrupted> {
+        monitor.check()?;
+        monitor.report(stage, done, 1);
+        Ok(())
+    };
     let ScanInput {
         mut points,
         normals_given,
@@ -353,6 +384,7 @@ pub fn preprocess(
     if let PointOrigin::MeshCentroids(m) = origin
         && params.densify_meshes
     {
+        step("densify", 0)?;
         let t = Instant::now();
         if let Some(coarseness) = mesh_coarseness(m.vertices, m.faces) {
             let extra = coarseness
@@ -366,10 +398,12 @@ pub fn preprocess(
             points.extend(extra);
         }
         seconds.mesh = t.elapsed().as_secs_f64();
+        step("densify", 1)?;
     }
 
     let mut outliers = None;
     if params.remove_outliers && !origin.is_mesh() {
+        step("outliers", 0)?;
         let t = Instant::now();
         let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
         let normals: Option<Vec<DVec3>> =
@@ -385,11 +419,14 @@ pub fn preprocess(
             off_surface: found.off_surface,
         });
         seconds.outliers = t.elapsed().as_secs_f64();
+        step("outliers", 1)?;
     }
 
+    step("normals", 0)?;
     let t = Instant::now();
     let mut consistency = None;
     let mut normals_flipped = 0;
+    let mut inward_normals_flipped = false;
     let normals = if normals_given {
         let check = check_normal_consistency(&points, 20_000);
         consistency = Some(check);
@@ -397,6 +434,13 @@ pub fn preprocess(
             normals_flipped = orient_normals(&mut points);
             NormalTreatment::GivenReoriented
         } else {
+            if params.flip_inward_normals && inward_votes(&points).inward() {
+                for p in &mut points {
+                    p.n = -p.n;
+                }
+                normals_flipped = points.len();
+                inward_normals_flipped = true;
+            }
             NormalTreatment::Given
         }
     } else {
@@ -418,6 +462,7 @@ pub fn preprocess(
         }
     };
     seconds.normals = t.elapsed().as_secs_f64();
+    step("normals", 1)?;
 
     let mut noise = None;
     let mut noise_rel = None;
@@ -425,6 +470,7 @@ pub fn preprocess(
     let mut noise_rel_after = None;
     let mut error_rel = PAPER_ERROR_REL;
     if params.estimate_noise {
+        step("noise", 0)?;
         let t = Instant::now();
         let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
         let estimate = estimate_noise(&positions);
@@ -436,14 +482,17 @@ pub fn preprocess(
         }
         noise = Some(estimate);
         seconds.noise = t.elapsed().as_secs_f64();
+        step("noise", 1)?;
         // Given normals pointing every way would leave each point few neighbours on its side.
         let inconsistent = opposed_beyond_limit(consistency, normals).is_some();
         if origin.is_mesh() {
             // The triangles are the surface: their residuals are no noise to fit around.
             error_rel = PAPER_ERROR_REL;
         } else if params.denoise && error_rel > PAPER_ERROR_REL && !inconsistent {
+            step("denoise", 0)?;
             let t = Instant::now();
             denoised = Some(denoise(&mut points, estimate.sigma));
+            monitor.check()?;
             seconds.denoise = t.elapsed().as_secs_f64();
             let t = Instant::now();
             let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
@@ -451,6 +500,7 @@ pub fn preprocess(
             noise_rel_after = Some(rel);
             error_rel = error_threshold_for_noise(rel);
             seconds.noise += t.elapsed().as_secs_f64();
+            step("denoise", 1)?;
         }
     }
 
@@ -462,6 +512,7 @@ pub fn preprocess(
             outliers,
             normals,
             normals_flipped,
+            inward_normals_flipped,
             consistency,
             noise,
             noise_rel,
@@ -475,89 +526,5 @@ pub fn preprocess(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use psi_shapes::{AnalyticShape, gaussian_vector};
-    use rand::SeedableRng;
-    use rand_pcg::Pcg64Mcg;
-
-    /// A sphere of 20 000 points with noise of 0.6 sample spacings (enough to raise ε0 and to
-    /// call for denoising) and 50 points strewn around it.
-    fn noisy_sphere_with_strays() -> Vec<OrientedPoint> {
-        let sphere = AnalyticShape::Sphere { radius: 1.0 };
-        let spacing = (sphere.area() / 20_000.0).sqrt();
-        let mut rng = Pcg64Mcg::seed_from_u64(5);
-        let mut points: Vec<OrientedPoint> = sphere
-            .sample(20_000, 4)
-            .into_iter()
-            .map(|p| OrientedPoint {
-                p: p.p + 0.6 * spacing * gaussian_vector(&mut rng),
-                n: p.n,
-            })
-            .collect();
-        for i in 0..50 {
-            let d = gaussian_vector(&mut rng).normalize();
-            let r = if i % 2 == 0 { 0.5 } else { 1.5 };
-            points.push(OrientedPoint { p: r * d, n: d });
-        }
-        points
-    }
-
-    /// The same points as a scan lose their strays and are denoised; as a mesh's vertices they
-    /// are kept as they are, with the paper's threshold.
-    #[test]
-    fn a_meshs_points_are_neither_pruned_nor_denoised() {
-        let points = noisy_sphere_with_strays();
-        let run = |origin| {
-            let input = ScanInput {
-                points: points.clone(),
-                normals_given: true,
-                origin,
-            };
-            preprocess(input, &PreprocessParams::scan()).unwrap()
-        };
-        let scan = run(PointOrigin::Scan);
-        assert!(
-            scan.report.outliers.unwrap().removed >= 40,
-            "{:?}",
-            scan.report
-        );
-        assert!(scan.report.denoised.is_some());
-        let mesh = run(PointOrigin::MeshVertices);
-        assert_eq!(mesh.report.outliers, None);
-        assert_eq!(mesh.report.denoised, None);
-        assert_eq!(mesh.report.error_rel, PAPER_ERROR_REL);
-        assert_eq!(mesh.points, points);
-    }
-
-    /// Given normals of which a third point inward are not denoised as they are (each point
-    /// would see few neighbours on its side); reoriented first, they are.
-    #[test]
-    fn inconsistent_given_normals_are_denoised_only_once_reoriented() {
-        let mut points = noisy_sphere_with_strays();
-        for p in points.iter_mut().step_by(3) {
-            p.n = -p.n;
-        }
-        let run = |orient_given_normals| {
-            let input = ScanInput {
-                points: points.clone(),
-                normals_given: true,
-                origin: PointOrigin::Scan,
-            };
-            let params = PreprocessParams {
-                orient_given_normals,
-                ..PreprocessParams::scan()
-            };
-            preprocess(input, &params).unwrap().report
-        };
-        let as_given = run(false);
-        let opposed = as_given.consistency.unwrap().opposed_fraction();
-        assert!(opposed > INCONSISTENT_NORMALS);
-        assert_eq!(as_given.inconsistent_normals(), Some(opposed));
-        assert_eq!(as_given.denoised, None);
-        assert!(as_given.error_rel > PAPER_ERROR_REL);
-        let reoriented = run(true);
-        assert!(reoriented.denoised.is_some());
-        assert_eq!(reoriented.inconsistent_normals(), None);
-    }
-}
+#[path = "preprocess_tests.rs"]
+mod tests;

@@ -1,6 +1,7 @@
 //! Errors of scene construction and edits.
 
 use psi_mpu::MpuError;
+use psi_octree::Interrupted;
 use thiserror::Error;
 
 /// Why a scene could not be built or an edit applied. The scene is unchanged after an error.
@@ -27,4 +28,7 @@ pub enum RegenError {
     /// ```
     #[error(transparent)]
     Mpu(#[from] MpuError),
+    /// The caller stopped the work ([`psi_octree::Monitor`]).
+    #[error("interrupted")]
+    Interrupted(#[from] Interrupted),
 }

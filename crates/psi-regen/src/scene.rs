@@ -3,8 +3,8 @@
 use std::time::Instant;
 
 use glam::DVec3;
-use psi_mpu::{BuildOptions, Mpu, MpuBuffers, MpuParams, Reuse};
-use psi_octree::{Aabb, OrientedPoint};
+use psi_mpu::{BuildOptions, Mpu, MpuBuffers, MpuFrame, MpuParams, Reuse};
+use psi_octree::{Aabb, Monitor, OrientedPoint};
 use psi_particles::{
     DensityField, ParticleParams, Particles, RelaxOptions, RelaxRegion, SampleReport,
     measure_quality, relax, seed_leaves, separate_close_pairs,
@@ -59,8 +59,23 @@ impl Scene {
         mpu_params: &MpuParams,
         particle_params: &ParticleParams,
     ) -> Result<(Scene, SampleReport), RegenError> {
-        let mpu = Mpu::build(&points, mpu_params)?;
-        let run = psi_particles::sample(&mpu, particle_params);
+        Self::new_with(points, mpu_params, particle_params, &Monitor::silent())
+    }
+
+    /// [`Scene::new`], reporting the MPU build and the sampling to `monitor` and returning
+    /// [`RegenError::Interrupted`] once its stop flag is set.
+    pub fn new_with(
+        points: Vec<OrientedPoint>,
+        mpu_params: &MpuParams,
+        particle_params: &ParticleParams,
+        monitor: &Monitor<'_>,
+    ) -> Result<(Scene, SampleReport), RegenError> {
+        let options = BuildOptions {
+            monitor: *monitor,
+            ..Default::default()
+        };
+        let mpu = Mpu::build_with(points, mpu_params, options)?;
+        let run = psi_particles::sample_with(&mpu, particle_params, monitor)?;
         let field = run.report.density;
         let spare = MpuBuffers::like(&mpu);
         let scene = Scene {
@@ -72,6 +87,44 @@ impl Scene {
             particle_params: *particle_params,
         };
         Ok((scene, run.report))
+    }
+
+    /// A scene from its state: `points` (shape N, world units, unit normals) whose MPU is built
+    /// from scratch in `frame` with `mpu_params`, and `particles` sampled on it with
+    /// `particle_params` and the density `field` (what [`Scene::mpu`], [`Scene::particles`],
+    /// [`Scene::density`] and the parameter accessors give). The MPU equals the one the state
+    /// was taken from (a local rebuild equals a build from scratch in its frame).
+    pub fn from_state(
+        points: Vec<OrientedPoint>,
+        frame: MpuFrame,
+        mpu_params: &MpuParams,
+        particle_params: &ParticleParams,
+        particles: Particles,
+        field: DensityField,
+    ) -> Result<Scene, RegenError> {
+        let options = BuildOptions {
+            frame: Some(frame),
+            ..Default::default()
+        };
+        let mpu = Mpu::build_with(points, mpu_params, options)?;
+        Ok(Scene {
+            spare: MpuBuffers::like(&mpu),
+            mpu,
+            particles,
+            field,
+            mpu_params: *mpu_params,
+            particle_params: *particle_params,
+        })
+    }
+
+    /// The MPU parameters every rebuild uses.
+    pub fn mpu_params(&self) -> &MpuParams {
+        &self.mpu_params
+    }
+
+    /// The sampling parameters every regeneration uses.
+    pub fn particle_params(&self) -> &ParticleParams {
+        &self.particle_params
     }
 
     /// The control points (world units, unit normals).
@@ -144,7 +197,7 @@ impl Scene {
                 indices_kept: edit.keeps_indices(),
             }),
             buffers: std::mem::take(&mut self.spare),
-            observe: None,
+            monitor: Monitor::silent(),
         };
         let mpu = Mpu::build_with(points, &self.mpu_params, options)?;
         // New cells that were fitted again: not present before, or marked.
@@ -207,7 +260,7 @@ impl Scene {
         };
         let options = RelaxOptions {
             region,
-            on_iteration: None,
+            monitor: Monitor::silent(),
         };
         relax(
             &mpu,

@@ -1,9 +1,10 @@
 """psi — point-set implicits: an MPU surface from oriented points, adaptive particles on it.
 
 Read and prepare points (``load_points``, ``PointSet``, ``builtin_model``), build the MPU
-implicit (``Mpu``), sample particles (``sample``), edit locally (``Scene``), save and draw
-(``save_particles``, ``render``, ``render_mesh``). NumPy arrays in and out; every result equals
-the ``psi`` command line's for the same input and options. See ``help(psi.Mpu)`` and the others.
+implicit (``Mpu``), sample particles (``sample``), edit locally (``Scene``), save, read and
+draw particles (``save_particles``, ``load_particles``, ``Particles``, ``render``,
+``render_mesh``). NumPy arrays in and out; every result equals the ``psi`` command line's for
+the same input and options. See ``help(psi.Mpu)`` and the others.
 """
 
 from ._psi import (
@@ -13,6 +14,7 @@ from ._psi import (
     Scene,
     __version__,
     builtin_model,
+    load_particles,
     load_points,
     render,
     render_mesh,
@@ -27,6 +29,7 @@ __all__ = [
     "Scene",
     "__version__",
     "builtin_model",
+    "load_particles",
     "load_points",
     "render",
     "render_mesh",

@@ -7,10 +7,34 @@ any real dtype and any C- or F-ordered layout (copied once; a float64 C-ordered 
 (uint8 for depth, uint32 for faces) arrays. Defaults are the ``psi`` command line's. Bad input
 raises ``ValueError``; a file that cannot be opened or written raises ``OSError``
 (``FileNotFoundError``, ``PermissionError``, ...); messages are the CLI's.
+
+Arrays held by an object (``PointSet.points``, ``Mpu.normals``, ``Particles.positions``, ...)
+are read-only and the same object on each access; a ``Scene``'s arrays are fresh, writable
+copies. ``PointSet``, ``Mpu``, ``Particles`` and ``Scene`` pickle (an ``Mpu`` is rebuilt from
+its points on unpickling, bitwise the same).
+
+``progress`` (keyword, on every call that can take long): ``None`` or ``False`` for silence,
+``True`` for a bar on stderr (tqdm's when tqdm is installed), or a callable ``(stage, done,
+total)`` called in the calling thread as the work goes on: stages in pipeline order (``"read"``,
+..., ``"mpu"``, ``"seed"``, ``"relax"``, ``"mesh"``), ``done`` rising to ``total`` within each;
+an exception it raises stops the work and propagates. Ctrl-C (``KeyboardInterrupt``) stops any
+long call within a fraction of a second, creating nothing.
 """
 
 from os import PathLike
-from typing import Any, Literal, Optional, Tuple, Union, final, overload
+from typing import (
+    Any,
+    Callable,
+    List,
+    Literal,
+    Mapping,
+    Optional,
+    Tuple,
+    TypedDict,
+    Union,
+    final,
+    overload,
+)
 
 import numpy as np
 import numpy.typing as npt
@@ -23,6 +47,7 @@ __all__ = [
     "Scene",
     "__version__",
     "builtin_model",
+    "load_particles",
     "load_points",
     "render",
     "render_mesh",
@@ -33,6 +58,13 @@ __all__ = [
 _Path = Union[str, "PathLike[str]"]
 _Points = npt.ArrayLike
 _F64 = npt.NDArray[np.float64]
+_Vec3 = Tuple[float, float, float]
+_One = Union[Tuple[float, float, float], List[float]]
+_Progress = Union[bool, Callable[[str, int, int], object], None]
+_Frame = TypedDict(
+    "_Frame",
+    {"origin": _Vec3, "root_center": _Vec3, "root_half": float, "diagonal": float},
+)
 
 @final
 class PointSet:
@@ -45,7 +77,10 @@ class PointSet:
     out (``keep_outliers``), missing normals estimated (``estimate_normals``) and oriented by
     propagation or toward ``viewpoint`` (3,), given normals reoriented (``orient_normals``),
     the noise estimated (``estimate_noise``) and taken out where it would matter
-    (``denoise``), a coarse mesh given more points (``densify``).
+    (``denoise``), a coarse mesh given more points (``densify``). Normals that point inward
+    as a whole (judged on the convex hull; never for an open surface) are flipped outward
+    with a ``UserWarning`` unless ``keep_inward_normals`` (the CLI's
+    ``--keep-inward-normals``); ``report["inward_normals_flipped"]`` says whether they were.
     """
 
     def __new__(
@@ -61,13 +96,15 @@ class PointSet:
         estimate_noise: bool = True,
         denoise: bool = True,
         densify: bool = True,
+        keep_inward_normals: bool = False,
+        progress: _Progress = None,
     ) -> PointSet: ...
     @property
     def points(self) -> _F64:
-        """Positions after preprocessing, (N, 3) float64, world units."""
+        """Positions after preprocessing, (N, 3) float64, world units; read-only."""
     @property
     def normals(self) -> _F64:
-        """Unit normals after preprocessing, (N, 3) float64."""
+        """Unit normals after preprocessing, (N, 3) float64; read-only."""
     @property
     def points_read(self) -> int:
         """Points read, before preprocessing."""
@@ -79,7 +116,8 @@ class PointSet:
         """The file as given, ``"builtin"``, or ``"points"`` for arrays."""
     @property
     def report(self) -> dict[str, Any]:
-        """The ``input`` object of the CLI's JSON report (``psi info --json``)."""
+        """The ``input`` object of the CLI's JSON report (``psi info --json``), with
+        ``"inward_normals_flipped"`` (bool)."""
     def __len__(self) -> int: ...
 
 def load_points(
@@ -94,6 +132,8 @@ def load_points(
     estimate_noise: bool = True,
     denoise: bool = True,
     densify: bool = True,
+    keep_inward_normals: bool = False,
+    progress: _Progress = None,
 ) -> PointSet:
     """Reads a PLY, OBJ or XYZ file and prepares its points as ``psi sample FILE`` does.
 
@@ -102,7 +142,7 @@ def load_points(
     Raises ``OSError`` when the file cannot be read, ``ValueError`` when it is malformed.
     """
 
-def builtin_model(points: Optional[int] = None) -> PointSet:
+def builtin_model(points: Optional[int] = None, *, progress: _Progress = None) -> PointSet:
     """The built-in model (80 000 points unless ``points``, 1 to 50 000 000), prepared as
     ``psi sample`` without an input does."""
 
@@ -115,8 +155,11 @@ class Mpu:
     ``normals`` (N, 3) or ``None``, prepared as ``PointSet(points, normals,
     preprocess=preprocess)``. ``error``: ε0/D in (0, 1], default the points' suggestion
     (``PointSet.error``); ``max_depth``: octree depth limit, 0 to 16; ``smooth``: no sharp
-    edge or corner fits; ``scale_invariant``: fits solved in each cell's units. Raises
-    ``ValueError`` for too few (fewer than 16) or unusable points.
+    edge or corner fits; ``scale_invariant``: fits solved in each cell's units; ``frame``:
+    another MPU's ``frame`` to build in (its octree root and length scale; by default the
+    points' own), so that ``Mpu(scene.points, scene.normals, preprocess=False,
+    frame=scene.mpu.frame)`` agrees with ``scene.mpu`` to rounding. Raises ``ValueError`` for
+    too few (fewer than 16) or unusable points.
     """
 
     def __new__(
@@ -129,20 +172,32 @@ class Mpu:
         smooth: bool = False,
         scale_invariant: bool = False,
         preprocess: bool = True,
+        frame: Optional[Mapping[str, Any]] = None,
+        progress: _Progress = None,
     ) -> Mpu: ...
     @overload
-    def value_and_gradient(self, x: Tuple[float, float, float]) -> Tuple[float, _F64]: ...
+    def value_and_gradient(self, x: _One) -> Tuple[float, _F64]:  # type: ignore[overload-overlap]
+        ...
     @overload
-    def value_and_gradient(self, x: _Points) -> Tuple[Union[float, _F64], _F64]:
-        """f and ∇f at ``x``: (3,) gives ``(float, (3,))``, (M, 3) gives ``((M,), (M, 3))``.
+    def value_and_gradient(self, x: _Points) -> Tuple[_F64, _F64]:
+        """f and ∇f at ``x``: a point (3,) gives ``(float, (3,) float64)``, an array (..., 3)
+        of any leading shape gives ``(f (...), ∇f (..., 3))`` (``(M, 3)`` → ``(M,)`` and
+        ``(M, 3)``; ``(0, 3)`` → empty arrays).
 
-        World units; |∇f| ≈ 1 near the surface. Evaluated in parallel with the interpreter
-        released. Raises ``ValueError`` for another shape or a NaN or infinite coordinate.
+        World units; |∇f| ≈ 1 near the surface. The float is a ``numpy.float64`` (so a
+        ``float``); a (3,) ndarray also gives one at run time, though typed as the array
+        overload. Evaluated in parallel with the interpreter released. Raises ``ValueError``
+        for a last axis other than 3 or a NaN or infinite coordinate.
         """
-    def value(self, x: _Points) -> Union[float, _F64]:
-        """f at ``x`` (3,) → float, or (M, 3) → (M,) float64."""
+    @overload
+    def value(self, x: _One) -> float:  # type: ignore[overload-overlap]
+        ...
+    @overload
+    def value(self, x: _Points) -> _F64:
+        """f at ``x``: a point (3,) → float, an array (..., 3) → (...) float64 (see
+        ``value_and_gradient``)."""
     def mesh(
-        self, resolution: int = 256
+        self, resolution: int = 256, *, progress: _Progress = None
     ) -> Tuple[_F64, npt.NDArray[np.uint32]]:
         """The zero set near the data (what ``psi mesh`` writes): vertices (V, 3) float64,
         faces (F, 3) uint32, counter-clockwise seen from outside. ``resolution``: grid cells
@@ -175,51 +230,85 @@ class Mpu:
     def report(self) -> dict[str, Any]:
         """The build's diagnostics (``BuildReport``)."""
     @property
+    def frame(self) -> _Frame:
+        """The frame the MPU lives in: ``origin`` (x, y, z), the world position of its local
+        coordinates; ``root_center`` (x, y, z) and ``root_half``, the octree's root cube (local
+        coordinates, world units); ``diagonal``, the length scale D. ``Mpu(..., frame=...)``
+        builds in it."""
+    @property
     def points(self) -> _F64:
-        """The points the MPU was built from, (N, 3) float64."""
+        """The points the MPU was built from, (N, 3) float64; read-only."""
     @property
     def normals(self) -> _F64:
-        """Their unit normals, (N, 3) float64."""
+        """Their unit normals, (N, 3) float64; read-only."""
 
 @final
 class Particles:
-    """Particles on an MPU surface; arrays are new copies on each access."""
+    """Particles on a surface: from ``sample``, a ``Scene``, ``load_particles`` or arrays.
 
+    ``Particles(positions, normals=None, *, depth=None, sigma=None)``: ``positions`` (n, 3),
+    world units; ``normals`` (n, 3) or ``None`` (then estimated from the positions, unit
+    length); ``depth`` (n,) integers 0 to 255 or ``None``; ``sigma`` (n,) positive, world
+    units, or ``None``. Raises ``ValueError`` for a bad shape, a NaN or infinite value, a
+    depth out of range or a sigma that is not positive. Arrays are read-only and the same
+    object on each access.
+    """
+
+    def __new__(
+        cls,
+        positions: _Points,
+        normals: Optional[_Points] = None,
+        *,
+        depth: Optional[npt.ArrayLike] = None,
+        sigma: Optional[_Points] = None,
+    ) -> Particles: ...
     @property
     def positions(self) -> _F64:
         """Positions, (n, 3) float64, world units."""
     @property
     def normals(self) -> _F64:
-        """Unit normals ∇f/|∇f|, (n, 3) float64."""
+        """Unit normals (∇f/|∇f| for sampled particles), (n, 3) float64."""
     @property
-    def depth(self) -> npt.NDArray[np.uint8]:
-        """Octree depth of each particle's leaf, (n,) uint8."""
+    def depth(self) -> Optional[npt.NDArray[np.uint8]]:
+        """Octree depth of each particle's leaf, (n,) uint8; ``None`` when not known
+        (particles from arrays or a file without it)."""
     @property
-    def sigma(self) -> _F64:
-        """Repulsion radius σ (about half the local spacing), (n,) float64, world units."""
+    def sigma(self) -> Optional[_F64]:
+        """Repulsion radius σ (about half the local spacing), (n,) float64, world units;
+        ``None`` when not known."""
     @property
     def report(self) -> Optional[dict[str, Any]]:
         """The dict ``psi sample --json`` writes (``input``, ``mpu``, ``particles``,
-        ``peak_memory_bytes``); ``None`` for a scene's particles."""
+        ``peak_memory_bytes``); ``None`` for a scene's particles and particles from arrays or
+        a file."""
     def __len__(self) -> int: ...
 
 def sample(
     mpu: Mpu,
     *,
     iterations: int = 20,
-    k: int = 1,
+    k: Optional[int] = None,
     count: Optional[int] = None,
     uniform: bool = False,
     seed: int = 2007,
+    progress: _Progress = None,
 ) -> Particles:
-    """Seeds ``k`` particles per surface-containing leaf (1 to 64), or exactly ``count`` (1 to
-    50 000 000), depth-adaptive or ``uniform`` (one spacing, blue noise), and relaxes them for
-    ``iterations`` steps (0 to 100 000); every random choice from ``seed`` (0 to 2**64 - 1).
-    Bitwise the particles ``psi sample`` writes for the same input and options."""
+    """Seeds ``k`` particles per surface-containing leaf (1 to 64; ``None`` means 1), or
+    exactly ``count`` (1 to 50 000 000; ``ValueError`` with ``k`` too), depth-adaptive or
+    ``uniform`` (one spacing, blue noise), and relaxes them for ``iterations`` steps (0 to
+    100 000); every random choice from ``seed`` (0 to 2**64 - 1). Bitwise the particles
+    ``psi sample`` writes for the same input and options."""
 
 def save_particles(path: _Path, particles: Particles) -> None:
-    """Writes binary PLY ``x y z nx ny nz depth sigma`` (float64), as ``psi sample -o``;
+    """Writes binary PLY ``x y z nx ny nz depth sigma`` (float64), as ``psi sample -o``, with
+    only the columns the particles have (no ``depth``/``sigma`` when they are ``None``);
     ``OSError`` when it cannot (an existing file is then untouched)."""
+
+def load_particles(path: _Path) -> Particles:
+    """Reads particles from a PLY (as ``save_particles`` and ``psi sample -o`` write it,
+    bitwise) or an XYZ file: ``x y z`` with ``nx ny nz`` (else estimated), ``depth`` and
+    ``sigma`` when present (else ``None``). ``OSError`` when the file cannot be read
+    (``FileNotFoundError`` when missing), ``ValueError`` when it is malformed."""
 
 @final
 class Scene:
@@ -230,6 +319,9 @@ class Scene:
     ``particles_removed``, ``particles_regenerated``, ``points``, ``full_rebuild``,
     ``mpu_seconds``, ``particle_seconds``, ``seconds``); a refused edit raises ``ValueError``
     and leaves the scene unchanged. Particles outside the refitted cells stay bitwise equal.
+    Each report also has ``"edit"``, the 0-based number of the edit in the scene's sequence
+    of applied edits (a refused edit takes none). Methods take an internal lock: a scene may
+    be used from any number of threads.
     """
 
     def __new__(
@@ -243,10 +335,11 @@ class Scene:
         scale_invariant: bool = False,
         preprocess: bool = True,
         iterations: int = 20,
-        k: int = 1,
+        k: Optional[int] = None,
         count: Optional[int] = None,
         uniform: bool = False,
         seed: int = 2007,
+        progress: _Progress = None,
     ) -> Scene: ...
     def brush(
         self, centre: _Points, radius: float, displacement: _Points
@@ -261,11 +354,14 @@ class Scene:
     def particles(self) -> Particles:
         """The current particles (a copy)."""
     @property
+    def mpu(self) -> Mpu:
+        """The current MPU implicit, in the scene's frame (``Mpu.frame``)."""
+    @property
     def points(self) -> _F64:
-        """The current control points, (N, 3) float64."""
+        """The current control points, (N, 3) float64; a new writable copy each access."""
     @property
     def normals(self) -> _F64:
-        """Their unit normals, (N, 3) float64."""
+        """Their unit normals, (N, 3) float64; a new writable copy each access."""
     @property
     def report(self) -> dict[str, Any]:
         """The first sampling's report (``SampleReport``)."""
@@ -295,7 +391,9 @@ def render(
     legend: bool = True,
 ) -> None:
     """Draws particles as ``psi render`` does: to a PNG at ``path``, or without ``path`` as
-    a (size, size, 4) uint8 RGBA image. ``size`` 16 to 8192 pixels."""
+    a (size, size, 4) uint8 RGBA image. ``size`` 16 to 8192 pixels. Only PNG is written: a
+    ``path`` not ending in ``.png`` raises ``ValueError`` (nothing written); so does
+    ``color="depth"`` for particles without depth (``color="normal"`` needs only normals)."""
 @overload
 def render_mesh(
     vertices: _Points,
@@ -315,4 +413,4 @@ def render_mesh(
     view: Literal["front", "side", "top", "iso"] = "front",
 ) -> None:
     """Draws a triangle mesh (vertices (V, 3), faces (F, 3)) flat-shaded, as ``psi render``
-    draws a mesh file."""
+    draws a mesh file; ``path`` as for ``render`` (PNG only)."""

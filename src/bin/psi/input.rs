@@ -51,6 +51,7 @@ fn preprocess_params(args: &InputArgs) -> PreprocessParams {
         estimate_noise: !args.no_noise_estimate,
         denoise: !args.no_denoise,
         densify_meshes: !args.no_densify,
+        flip_inward_normals: !args.keep_inward_normals,
     }
 }
 
@@ -85,11 +86,18 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
         ));
     }
     let params = preprocess_params(args);
-    let input = psi::prepare_input(name.clone(), file, &params).map_err(|e| Failure {
+    let monitor = psi::octree::Monitor::silent();
+    let input = psi::prepare_input(name.clone(), file, &params, &monitor).map_err(|e| Failure {
         error: anyhow::anyhow!("{name}: {e}; drop --no-normal-estimation or give oriented points"),
         code: 2,
     })?;
     let prep = &input.report;
+    if prep.inward_normals_flipped {
+        ui.notice(&format!(
+            "{}: the normals pointed inward (judged on the convex hull); flipped them outward (--keep-inward-normals to keep them)",
+            input.name
+        ));
+    }
     if let Some(opposed) = prep.inconsistent_normals() {
         eprintln!(
             "psi: warning: {}: {:.1} % of neighbouring normals point to opposite sides; try --orient-normals",

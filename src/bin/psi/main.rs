@@ -72,6 +72,11 @@ pub(crate) struct InputArgs {
     /// that the implicit follows the mesh).
     #[arg(long)]
     pub(crate) no_densify: bool,
+    /// Keep given normals that point inward as a whole (default: judged at the points on the
+    /// convex hull and flipped outward, with a notice; keep them for a surface seen from
+    /// inside, such as a room scanned from its middle).
+    #[arg(long)]
+    pub(crate) keep_inward_normals: bool,
 }
 
 /// A point `x,y,z` of the command line (world units).

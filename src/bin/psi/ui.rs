@@ -65,12 +65,9 @@ pub(crate) fn build_mpu(
     params: &psi::MpuParams,
 ) -> Result<psi::Mpu, psi::MpuError> {
     let bar = ui.bar("MPU levels", u64::from(params.max_depth) + 1);
-    let observe = |p: psi::mpu::BuildProgress| {
-        bar.set_position(u64::from(p.depth) + 1);
-        bar.set_message(format!("{} cells", p.cells));
-    };
+    let observe = |_: &str, done: u64, _: u64| bar.set_position(done);
     let options = psi::mpu::BuildOptions {
-        observe: Some(&observe),
+        monitor: psi::octree::Monitor::new(Some(&observe), None),
         ..Default::default()
     };
     let mpu = psi::Mpu::build_with(points, params, options);
@@ -81,7 +78,14 @@ pub(crate) fn build_mpu(
 /// Samples with a progress bar over the relaxation iterations.
 pub(crate) fn sample(ui: Ui, mpu: &psi::Mpu, params: &psi::ParticleParams) -> psi::Sampling {
     let bar = ui.bar("relaxation", params.iterations as u64);
-    let run = psi::particles::sample_with(mpu, params, Some(&|i| bar.set_position(i as u64)));
+    let observe = |stage: &str, done: u64, _: u64| {
+        if stage == "relax" {
+            bar.set_position(done)
+        }
+    };
+    let monitor = psi::octree::Monitor::new(Some(&observe), None);
+    let run = psi::particles::sample_with(mpu, params, &monitor)
+        .expect("a monitor without a stop flag never stops");
     bar.finish_and_clear();
     run
 }

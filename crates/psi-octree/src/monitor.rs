@@ -1,0 +1,151 @@
+//! Progress and interruption of long work: what a caller (a progress bar, the Python package's
+//! Ctrl-C handling) hands to the layers' long-running functions.
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+use thiserror::Error;
+
+/// What observes a [`Monitor`]: called with `(stage, done, total)` from any thread.
+pub type Observer<'a> = dyn Fn(&str, u64, u64) + Sync + 'a;
+
+/// A long computation was stopped on its caller's request ([`Monitor::check`]).
+#[derive(Clone, Copy, Debug, Error, PartialEq, Eq)]
+#[error("interrupted")]
+pub struct Interrupted;
+
+/// What a long computation reports and how its caller asks it to stop: an optional observer of
+/// `(stage, done, total)` and an optional stop flag. Both are borrowed, so a monitor is `Copy`
+/// and costs nothing when silent.
+///
+/// Work that takes a monitor reports each of its stages, in order, ending each with
+/// `done == total`, and looks at the stop flag between stages and at a bounded interval inside
+/// them (every cell, particle chunk or iteration). Once the flag is set it stops early and
+/// returns [`Interrupted`], or, in a helper whose caller checks right after, a partial result
+/// that its caller discards. The flag never changes a result that completes: a monitored run
+/// equals an unmonitored one bit for bit.
+///
+/// ```
+/// use std::sync::atomic::{AtomicBool, Ordering};
+/// use psi_octree::{Interrupted, Monitor};
+///
+/// let stop = AtomicBool::new(false);
+/// let seen = std::sync::Mutex::new(Vec::new());
+/// let observe = |stage: &str, done: u64, total: u64| {
+///     seen.lock().unwrap().push((stage.to_owned(), done, total))
+/// };
+/// let monitor = Monitor::new(Some(&observe), Some(&stop));
+/// monitor.report("fit", 1, 2);
+/// assert_eq!(monitor.check(), Ok(()));
+/// stop.store(true, Ordering::Relaxed);
+/// assert_eq!(monitor.check(), Err(Interrupted));
+/// assert_eq!(seen.lock().unwrap().len(), 1);
+/// assert_eq!(Monitor::silent().check(), Ok(()));
+/// ```
+#[derive(Clone, Copy, Default)]
+pub struct Monitor<'a> {
+    observe: Option<&'a Observer<'a>>,
+    stop: Option<&'a AtomicBool>,
+}
+
+impl std::fmt::Debug for Monitor<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Monitor")
+            .field("observed", &self.observe.is_some())
+            .field("stoppable", &self.stop.is_some())
+            .finish()
+    }
+}
+
+impl<'a> Monitor<'a> {
+    /// No observer, no stop flag: the work runs to the end.
+    pub const fn silent() -> Monitor<'static> {
+        Monitor {
+            observe: None,
+            stop: None,
+        }
+    }
+
+    /// A monitor reporting to `observe` (called from any thread, with `(stage, done, total)`)
+    /// and stopping once `stop` is set.
+    pub fn new(observe: Option<&'a Observer<'a>>, stop: Option<&'a AtomicBool>) -> Self {
+        Monitor { observe, stop }
+    }
+
+    /// Whether the caller asked the work to stop.
+    #[inline]
+    pub fn stopped(&self) -> bool {
+        self.stop.is_some_and(|s| s.load(Ordering::Relaxed))
+    }
+
+    /// `Err(Interrupted)` once the caller asked the work to stop.
+    #[inline]
+    pub fn check(&self) -> Result<(), Interrupted> {
+        if self.stopped() {
+            Err(Interrupted)
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Reports that `done` of `total` steps of `stage` are finished.
+    pub fn report(&self, stage: &str, done: u64, total: u64) {
+        if let Some(observe) = self.observe {
+            observe(stage, done, total);
+        }
+    }
+
+    /// A stage of `total` steps finished from several threads: [`StageCounter::add`] counts
+    /// them and reports about every hundredth of the total; the stage's start (0) is reported
+    /// now and its end by [`StageCounter::finish`].
+    pub fn stage(&self, stage: &'static str, total: u64) -> StageCounter<'a> {
+        self.report(stage, 0, total);
+        StageCounter {
+            monitor: *self,
+            stage,
+            total,
+            step: (total / 100).max(1),
+            done: AtomicU64::new(0),
+        }
+    }
+}
+
+/// Progress of one stage counted from several threads ([`Monitor::stage`]).
+#[derive(Debug)]
+pub struct StageCounter<'a> {
+    monitor: Monitor<'a>,
+    stage: &'static str,
+    total: u64,
+    step: u64,
+    done: AtomicU64,
+}
+
+impl StageCounter<'_> {
+    /// Counts `n` more finished steps, reporting when a hundredth of the total is crossed.
+    /// Returns whether the caller asked the work to stop.
+    #[inline]
+    pub fn add(&self, n: u64) -> bool {
+        if self.monitor.observe.is_some() {
+            let before = self.done.fetch_add(n, Ordering::Relaxed);
+            let after = before + n;
+            if before / self.step != after / self.step {
+                self.monitor
+                    .report(self.stage, after.min(self.total), self.total);
+            }
+        }
+        self.monitor.stopped()
+    }
+
+    /// Whether the caller asked the work to stop.
+    #[inline]
+    pub fn stopped(&self) -> bool {
+        self.monitor.stopped()
+    }
+
+    /// Reports the stage complete (`total` of `total`) unless the work was stopped, and returns
+    /// `Err(Interrupted)` if it was.
+    pub fn finish(self) -> Result<(), Interrupted> {
+        self.monitor.check()?;
+        self.monitor.report(self.stage, self.total, self.total);
+        Ok(())
+    }
+}
