@@ -63,9 +63,23 @@ impl Steps {
 pub(crate) enum Progress {
     /// Nothing shown.
     Silent,
-    /// Called with `(stage, done, total)`; `close()` called at the end when it has one (the
-    /// bar of `progress=True`).
+    /// The caller's callable, called with `(stage, done, total)`.
     Call(Py<PyAny>),
+    /// The bar of `progress=True`: called likewise, and closed once when the call that made
+    /// it ends (this value is dropped), whatever the outcome.
+    Bar(Py<PyAny>),
+}
+
+impl Drop for Progress {
+    fn drop(&mut self) {
+        if let Progress::Bar(bar) = self {
+            Python::attach(|py| {
+                if let Err(e) = bar.call_method0(py, "close") {
+                    e.write_unraisable(py, Some(bar.bind(py)));
+                }
+            });
+        }
+    }
 }
 
 impl Progress {
@@ -83,7 +97,7 @@ impl Progress {
                 return Ok(Progress::Silent);
             }
             let bar = py.import("psi._progress")?.call_method0("stderr_bar")?;
-            return Ok(Progress::Call(bar.unbind()));
+            return Ok(Progress::Bar(bar.unbind()));
         }
         if !arg.is_callable() {
             return Err(crate::errors::value_error(
@@ -94,19 +108,10 @@ impl Progress {
     }
 
     fn deliver(&self, py: Python<'_>, steps: Vec<Step>) -> PyResult<()> {
-        if let Progress::Call(f) = self {
+        if let Progress::Call(f) | Progress::Bar(f) = self {
             for (stage, done, total) in steps {
                 f.call1(py, (stage, done, total))?;
             }
-        }
-        Ok(())
-    }
-
-    fn close(&self, py: Python<'_>) -> PyResult<()> {
-        if let Progress::Call(f) = self
-            && f.bind(py).hasattr("close")?
-        {
-            f.call_method0(py, "close")?;
         }
         Ok(())
     }
@@ -144,7 +149,7 @@ pub(crate) fn monitored<T: Send + 'static>(
     }
     let receive = Mutex::new(receive);
     let take = |steps: &Mutex<Steps>| steps.lock().map(|mut s| s.pending()).unwrap_or_default();
-    let outcome = loop {
+    loop {
         let received = py.detach(|| match receive.lock() {
             Ok(r) => r.recv_timeout(TICK),
             Err(_) => Err(RecvTimeoutError::Disconnected),
@@ -165,9 +170,5 @@ pub(crate) fn monitored<T: Send + 'static>(
             stop.store(true, Ordering::Relaxed);
             break Err(e);
         }
-    };
-    let closed = progress.close(py);
-    let value = outcome?;
-    closed?;
-    Ok(value)
+    }
 }

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use numpy::PyArray2;
 use psi::mpu::{BuildOptions, MpuFrame};
 use psi::preprocess::ErrorThreshold;
-use psi::{DVec3, MpuParams, PolygonizeParams};
+use psi::{BuildReport, DVec3, MpuParams, PolygonizeParams};
 use pyo3::IntoPyObjectExt;
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
@@ -80,11 +80,18 @@ pub(crate) struct Mpu {
     /// The points as given to the build (a pickle rebuilds from them: the MPU's own have
     /// normals made unit); `None` for a scene's MPU, built from its own points.
     pub(crate) given: Option<Given>,
+    /// The report of the build this MPU repeats (an unpickled MPU reports its original's).
+    build_report: Option<BuildReport>,
     points: ReadOnly<PyArray2<f64>>,
     normals: ReadOnly<PyArray2<f64>>,
 }
 
 impl Mpu {
+    /// The report of the build (of the original build, for an unpickled MPU).
+    fn build_report(&self) -> &BuildReport {
+        self.build_report.as_ref().unwrap_or(self.mpu.report())
+    }
+
     /// A Python `Mpu` of a built MPU.
     pub(crate) fn of(
         mpu: Arc<psi::Mpu>,
@@ -99,6 +106,7 @@ impl Mpu {
             input_json,
             threshold,
             given,
+            build_report: None,
             points: ReadOnly::default(),
             normals: ReadOnly::default(),
         }
@@ -109,14 +117,22 @@ impl Mpu {
 #[derive(Clone)]
 pub(crate) enum Given {
     Input(Arc<Input>),
-    Points(Arc<Vec<psi::OrientedPoint>>),
+    /// An unpickled MPU's points; `true`: an MPU's own points, whose normals are unit.
+    Points(Arc<Vec<psi::OrientedPoint>>, bool),
+}
+
+impl Given {
+    /// Whether the normals are an MPU's own ([`BuildOptions::unit_normals`]).
+    fn unit_normals(&self) -> bool {
+        matches!(self, Given::Points(_, true))
+    }
 }
 
 impl AsRef<[psi::OrientedPoint]> for Given {
     fn as_ref(&self) -> &[psi::OrientedPoint] {
         match self {
             Given::Input(i) => &i.points,
-            Given::Points(p) => p,
+            Given::Points(p, _) => p,
         }
     }
 }
@@ -126,6 +142,8 @@ impl AsRef<[psi::OrientedPoint]> for Given {
 struct MpuState {
     name: String,
     points: Vec<psi::OrientedPoint>,
+    unit_normals: bool,
+    report: BuildReport,
     params: MpuParams,
     frame: MpuFrame,
     threshold: ErrorThreshold,
@@ -135,7 +153,7 @@ struct MpuState {
 fn build(
     py: Python<'_>,
     name: &str,
-    points: impl AsRef<[psi::OrientedPoint]> + Send + 'static,
+    points: Given,
     params: MpuParams,
     frame: Option<MpuFrame>,
     progress: &Progress,
@@ -143,6 +161,7 @@ fn build(
     monitored(py, progress, move |monitor| {
         let options = BuildOptions {
             frame,
+            unit_normals: points.unit_normals(),
             monitor: *monitor,
             ..Default::default()
         };
@@ -238,21 +257,24 @@ impl Mpu {
     fn frame<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let f = self.mpu.frame();
         let dict = pyo3::types::PyDict::new(py);
-        dict.set_item("origin", f.origin.to_array())?;
-        dict.set_item("root_center", f.root_center.to_array())?;
+        let triple = |v: DVec3| (v.x, v.y, v.z);
+        dict.set_item("origin", triple(f.origin))?;
+        dict.set_item("root_center", triple(f.root_center))?;
         dict.set_item("root_half", f.root_half)?;
         dict.set_item("diagonal", f.diagonal)?;
         Ok(dict.into_any())
     }
 
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let points = match &self.given {
-            Some(given) => given.as_ref().to_vec(),
-            None => self.mpu.points().to_vec(),
+        let (points, unit_normals) = match &self.given {
+            Some(given) => (given.as_ref().to_vec(), given.unit_normals()),
+            None => (self.mpu.points().to_vec(), true),
         };
         let state = crate::pickle::encode(&MpuState {
             name: self.name.clone(),
             points,
+            unit_normals,
+            report: self.build_report().clone(),
             params: *self.mpu.params(),
             frame: *self.mpu.frame(),
             threshold: self.threshold,
@@ -272,7 +294,7 @@ impl Mpu {
         let py = cls.py();
         let s: MpuState = crate::pickle::decode(state, "Mpu")?;
         let input_json = crate::pickle::json_of(json)?;
-        let given = Given::Points(Arc::new(s.points));
+        let given = Given::Points(Arc::new(s.points), s.unit_normals);
         let mpu = build(
             py,
             &s.name,
@@ -281,13 +303,15 @@ impl Mpu {
             Some(s.frame),
             &Progress::Silent,
         )?;
-        Ok(Mpu::of(
+        let mut out = Mpu::of(
             Arc::new(mpu),
             s.name,
             Arc::new(input_json),
             s.threshold,
             Some(given),
-        ))
+        );
+        out.build_report = Some(s.report);
+        Ok(out)
     }
 
     /// f and ∇f at `x`: shape (3,) gives `(float, (3,) array)` (the float a `numpy.float64`),
@@ -404,7 +428,7 @@ impl Mpu {
     /// as a dict.
     #[getter]
     fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        crate::json::report(py, self.mpu.report())
+        crate::json::report(py, self.build_report())
     }
 
     /// The points the MPU was built from, shape (N, 3), float64: read-only, made on first

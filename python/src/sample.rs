@@ -395,7 +395,11 @@ pub(crate) fn sample(
 pub(crate) fn load_particles(py: Python<'_>, path: PathBuf) -> PyResult<Particles> {
     let loaded = detached(py, || psi::load_particles(&path))?;
     match loaded {
-        Ok(columns) => Particles::from_columns(columns, true),
+        Ok(columns) => {
+            // A points file without normals reads them as zero: estimate them.
+            let given = columns.normals.iter().any(|n| *n != DVec3::ZERO);
+            Particles::from_columns(columns, given)
+        }
         Err(psi::PsiError::Read {
             reason: psi::io::ReadError::NoNormals,
             ..

@@ -41,7 +41,8 @@ use crate::sample::{Particles, particle_params};
 /// edits and reads from any number of threads apply one at a time, in some order. Picklable.
 #[pyclass(frozen, module = "psi", name = "Scene")]
 pub(crate) struct Scene {
-    state: Mutex<State>,
+    /// Shared with the worker thread an edit runs on, which holds the lock while it works.
+    state: Arc<Mutex<State>>,
     /// The input's name, its report object and the error threshold used.
     name: String,
     input_json: Arc<serde_json::Value>,
@@ -104,12 +105,19 @@ impl Scene {
         }
     }
 
+    /// Applies `edit` on a worker thread ([`monitored`]: Ctrl-C stops it and leaves the scene
+    /// unchanged); the worker takes the lock, so edits from several threads apply in turn.
     fn apply<'py>(&self, py: Python<'py>, edit: Edit) -> PyResult<Bound<'py, PyAny>> {
-        let mut state = self.lock(py)?;
-        let state = &mut *state;
-        let report = detached(py, || state.scene.apply(&edit))?.map_err(edit_error)?;
-        let index = state.edits;
-        state.edits += 1;
+        let shared = self.state.clone();
+        let (report, index) = monitored(py, &Progress::Silent, move |monitor| {
+            let Ok(mut state) = shared.lock() else {
+                return Err(PyRuntimeError::new_err("psi: the scene's lock is poisoned"));
+            };
+            let report = state.scene.apply_with(&edit, monitor).map_err(edit_error)?;
+            let index = state.edits;
+            state.edits += 1;
+            Ok((report, index))
+        })??;
         let dict = crate::json::report(py, &report)?;
         dict.set_item("edit", index)?;
         Ok(dict)
@@ -161,7 +169,7 @@ impl Scene {
         })?
         .map_err(|e| value_error(format!("{name}: building the scene: {e}")))?;
         Ok(Scene {
-            state: Mutex::new(State { scene, edits: 0 }),
+            state: Arc::new(Mutex::new(State { scene, edits: 0 })),
             name,
             input_json,
             threshold,
@@ -323,10 +331,10 @@ impl Scene {
         })?
         .map_err(|e| value_error(format!("unpickling a Scene: {e}")))?;
         Ok(Scene {
-            state: Mutex::new(State {
+            state: Arc::new(Mutex::new(State {
                 scene,
                 edits: s.edits,
-            }),
+            })),
             name: s.name,
             input_json,
             threshold: s.threshold,

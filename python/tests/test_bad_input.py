@@ -134,9 +134,10 @@ def test_bad_mpu_options_raise_value_error(kwargs, message):
 def test_bad_queries_and_sampling_options_raise_value_error():
     mpu = psi.Mpu(psi.builtin_model(3000))
     for x, message in [
-        (np.zeros((4, 2)), "x must have shape (3,) or (M, 3), got (4, 2)"),
-        (np.zeros(4), "x must have shape (3,) or (M, 3), got (4,)"),
-        (np.zeros((1, 1, 3)), "x must have shape (3,) or (M, 3), got (1, 1, 3)"),
+        (np.zeros((4, 2)), "x must have shape (3,) or (..., 3), got (4, 2)"),
+        (np.zeros(4), "x must have shape (3,) or (..., 3), got (4,)"),
+        (np.zeros((1, 3, 2)), "x must have shape (3,) or (..., 3), got (1, 3, 2)"),
+        (np.zeros(()), "x must have shape (3,) or (..., 3), got ()"),
         (np.array([[0, 0, 0], [0, np.nan, 0]]), "x: point 1 has a NaN or infinite coordinate"),
         (np.array([0, np.inf, 0]), "x: point 0 has a NaN or infinite coordinate"),
     ]:

@@ -159,7 +159,7 @@ def test_mesh(tmp_path):
 
 def test_scene(tmp_path):
     interrupt(
-        "points, normals = sphere(1_000_000, 3)",
+        "points, normals = sphere(2_000_000, 3)",
         "psi.Scene(points, normals, preprocess=False)",
         tmp_path,
     )

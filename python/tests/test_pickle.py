@@ -33,7 +33,9 @@ def queries(mpu, n=500, seed=7):
     return np.random.default_rng(seed).uniform(lo - pad, hi + pad, (n, 3))
 
 
-def same_mpu(a, b):
+def same_mpu(a, b, same_build=True):
+    """``a`` and ``b`` evaluate and describe alike; with ``same_build`` (a round trip) their
+    build reports (timings included) are equal too."""
     x = queries(a)
     same_array(a.value(x), b.value(x))
     fa, ga = a.value_and_gradient(x)
@@ -44,9 +46,14 @@ def same_mpu(a, b):
     for name in ("points", "normals", "bbox"):
         same_array(getattr(a, name), getattr(b, name))
     for name in ("leaves", "surface_leaves", "max_depth", "diagonal", "error", "error_source",
-                 "params", "report", "frame"):
+                 "params", "frame"):
         assert getattr(a, name) == getattr(b, name), name
     assert repr(a) == repr(b)
+    if same_build:
+        assert a.report == b.report
+    else:
+        assert {k: v for k, v in a.report.items() if k != "seconds"} == {
+            k: v for k, v in b.report.items() if k != "seconds"}
 
 
 @pytest.mark.parametrize("protocol", PROTOCOLS)
@@ -63,7 +70,7 @@ def test_point_set(tmp_path, protocol):
         assert repr(again) == repr(ps)
         # The PointSet is as good as new: the same MPU from both.
         if ps.name == "points":
-            same_mpu(psi.Mpu(ps), psi.Mpu(again))
+            same_mpu(psi.Mpu(ps), psi.Mpu(again), same_build=False)
 
 
 @pytest.mark.parametrize("protocol", PROTOCOLS)
@@ -142,6 +149,7 @@ def test_scene_after_edits(protocol):
     assert [r["edit"] for r in reports] == [0, 1, 2, 3]
     again = round_trip(scene, protocol)
     same_scene(scene, again)
+    assert again.edits == scene.edits == 4 and fresh.edits == 0
     # The same brush on both gives bitwise the same particles, and the next edit number.
     brush = ((0.1, -0.4, 0.2), 0.2, (0.0, 0.01, 0.0))
     a, b = scene.brush(*brush), again.brush(*brush)
@@ -177,9 +185,6 @@ def test_a_scene_mpu_equals_a_build_from_scratch_in_its_frame():
     assert isinstance(mpu, psi.Mpu)
     frame = mpu.frame
     assert set(frame) == {"origin", "root_center", "root_half", "diagonal"}
-    for key in ("origin", "root_center"):
-        assert isinstance(frame[key], tuple) and len(frame[key]) == 3, frame
-    assert isinstance(frame["root_half"], float) and isinstance(frame["diagonal"], float)
     scratch = psi.Mpu(scene.points, scene.normals, preprocess=False, frame=frame)
     assert scratch.frame == frame
     same_array(scratch.points, mpu.points)
@@ -190,3 +195,18 @@ def test_a_scene_mpu_equals_a_build_from_scratch_in_its_frame():
     # Not so without the frame: the points' own frame is another octree.
     own = psi.Mpu(scene.points, scene.normals, preprocess=False)
     assert own.frame != frame
+
+
+def test_a_frame_is_a_dict_of_points_and_lengths():
+    scene = psi.Scene(psi.builtin_model(5000), iterations=2)
+    for mpu in (scene.mpu, psi.Mpu(*sphere(2000, seed=38))):
+        frame = mpu.frame
+        assert set(frame) == {"origin", "root_center", "root_half", "diagonal"}
+        for key in ("origin", "root_center"):
+            assert isinstance(frame[key], tuple) and len(frame[key]) == 3, frame
+            assert all(isinstance(v, float) for v in frame[key]), frame
+        assert isinstance(frame["root_half"], float) and frame["root_half"] > 0
+        assert frame["diagonal"] == pytest.approx(mpu.diagonal, rel=0.1)
+        # The root cube holds the points.
+        local = mpu.points - np.asarray(frame["origin"]) - np.asarray(frame["root_center"])
+        assert np.abs(local).max() <= frame["root_half"]

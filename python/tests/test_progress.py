@@ -254,5 +254,8 @@ def test_a_bar_closed_before_any_report_writes_nothing(capsys, monkeypatch):
     monkeypatch.setitem(sys.modules, "tqdm", None)
     bar = progress_module.stderr_bar()
     bar.close()
-    bar("late", 1, 1)
     assert capsys.readouterr().err == ""
+    # A report after close starts a new line, which the next close ends.
+    bar("late", 1, 1)
+    bar.close()
+    assert capsys.readouterr().err == "\rpsi:       late [" + "=" * progress_module.WIDTH + "] 1/1\n"

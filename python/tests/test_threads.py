@@ -73,6 +73,7 @@ def test_threads_brushing_and_reading_end_in_a_serial_order():
     assert not errors, errors
     assert sorted(applied) == list(range(len(applied))), sorted(applied)
     assert len(applied) >= 4 and sum(reads) >= 4, (len(applied), reads)
+    assert scene.edits == len(applied)
 
     # The same brushes, one after another in the scene's order, on a fresh scene.
     serial = psi.Scene(model, iterations=5)

@@ -79,7 +79,7 @@ def test_render_writes_png_only(tmp_path, particles, mpu, name):
 def test_one_point_gives_a_float(mpu):
     x = np.array([0.3, -0.2, 0.1])
     batch_f, batch_g = mpu.value_and_gradient(x[None])
-    for given in (x, tuple(x), list(x), x.astype(np.float32).astype(np.float64)):
+    for given in (x, tuple(x), list(x), np.asfortranarray(x), x.astype(">f8")):
         f = mpu.value(given)
         assert type(f) is np.float64 and isinstance(f, float), type(f)
         assert f == batch_f[0]

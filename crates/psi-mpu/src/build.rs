@@ -50,6 +50,11 @@ pub struct BuildOptions<'a> {
     pub reuse: Option<Reuse<'a>>,
     /// Memory for the arrays ([`MpuBuffers`]): a local rebuild of a large model notices.
     pub buffers: MpuBuffers,
+    /// The normals are an MPU's own ([`Mpu::points`]: made unit by its build): used as they
+    /// are, not divided by their length again (which can move a bit), so that a build from
+    /// them reproduces that MPU bit for bit. A normal that is not unit is still refused by
+    /// nothing: give only an MPU's own points.
+    pub unit_normals: bool,
     /// Progress (stage `"mpu"`: octree levels decided of `max_depth + 1`) and interruption:
     /// once its stop flag is set, no cell splits any more and the build returns
     /// [`MpuError::Interrupted`].
@@ -92,6 +97,7 @@ fn prepare(
     params: &MpuParams,
     frame: &MpuFrame,
     mut positions: Vec<DVec3>,
+    unit_normals: bool,
 ) -> Result<Prepared, MpuError> {
     check_input_size(&points, params)?;
     for (index, p) in points.iter().enumerate() {
@@ -101,8 +107,10 @@ fn prepare(
         }
     }
     let mut points = points.into_owned();
-    for p in &mut points {
-        p.n /= p.n.length();
+    if !unit_normals {
+        for p in &mut points {
+            p.n /= p.n.length();
+        }
     }
     positions.clear();
     positions.extend(points.iter().map(|p| p.p - frame.origin));
@@ -210,6 +218,7 @@ impl Mpu {
             frame,
             reuse,
             buffers,
+            unit_normals,
             monitor,
         } = options;
         let frame = match frame {
@@ -237,7 +246,7 @@ impl Mpu {
                 r.old.octree.cells().len()
             )));
         }
-        let data = prepare(points, params, &frame, positions)?;
+        let data = prepare(points, params, &frame, positions, unit_normals)?;
         let n = data.points.len();
         let eps0 = params.error_rel * frame.diagonal;
         let marked_old: Vec<u32> = reuse.map_or_else(Vec::new, |r| {

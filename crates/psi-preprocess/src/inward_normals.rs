@@ -12,10 +12,13 @@ const DIRECTIONS: usize = 64;
 /// An extreme point votes only when its normal is this clearly along or against the direction
 /// (|n·d| ≥ 0.5); on an open sheet's rim the normal lies across the direction and says nothing.
 const DECISIVE: f64 = 0.5;
-/// Normals are judged inward when at least this many directions vote...
-const MIN_VOTES: usize = 16;
-/// ...and at least this share of the votes says inward. An open surface (one plane, one range
-/// view) votes both ways and is never flipped.
+/// Normals are judged only when the input looks closed: at least this many of the directions
+/// vote. A closed surface's extreme point along d has its normal near d (a smooth surface) or
+/// within a corner's angle of it (a cube's 0.577); an open one (a bowl seen from inside, a
+/// hemisphere, one range view) has directions whose extreme point lies on its rim, with the
+/// normal across d, and is never judged.
+const MIN_VOTES: usize = 62;
+/// Inward when at least this share of the votes says inward.
 const INWARD_SHARE: f64 = 0.9;
 
 /// The votes of the extreme points ([`inward_votes`]).
@@ -143,5 +146,7 @@ mod tests {
             .filter(|p| p.p.z > 0.0)
             .collect();
         assert!(!inward_votes(&cap).inward());
+        // The same cap with inward normals is a bowl seen from inside: not flipped either.
+        assert!(!inward_votes(&flipped(cap)).inward());
     }
 }

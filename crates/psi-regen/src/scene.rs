@@ -91,9 +91,10 @@ impl Scene {
 
     /// A scene from its state: `points` (shape N, world units, unit normals) whose MPU is built
     /// from scratch in `frame` with `mpu_params`, and `particles` sampled on it with
-    /// `particle_params` and the density `field` (what [`Scene::mpu`], [`Scene::particles`],
-    /// [`Scene::density`] and the parameter accessors give). The MPU equals the one the state
-    /// was taken from (a local rebuild equals a build from scratch in its frame).
+    /// `particle_params` and the density `field` (what [`Scene::points`], [`Scene::mpu`],
+    /// [`Scene::particles`], [`Scene::density`] and the parameter accessors give; the points'
+    /// normals are taken as the MPU's own, unit already). The MPU equals the one the state was
+    /// taken from (a local rebuild equals a build from scratch in its frame).
     pub fn from_state(
         points: Vec<OrientedPoint>,
         frame: MpuFrame,
@@ -104,6 +105,7 @@ impl Scene {
     ) -> Result<Scene, RegenError> {
         let options = BuildOptions {
             frame: Some(frame),
+            unit_normals: true,
             ..Default::default()
         };
         let mpu = Mpu::build_with(points, mpu_params, options)?;
@@ -166,6 +168,17 @@ impl Scene {
     /// marked leaves and relaxes only the new particles, the others fixed, rejecting moves that
     /// leave the marked leaves. On error the scene is unchanged.
     pub fn apply(&mut self, edit: &Edit) -> Result<RegenReport, RegenError> {
+        self.apply_with(edit, &Monitor::silent())
+    }
+
+    /// [`Scene::apply`], stopping with [`RegenError::Interrupted`] once `monitor`'s stop flag is
+    /// set (checked per refitted cell, per relaxation iteration and before the result replaces
+    /// the scene's state, which an interrupted edit leaves unchanged).
+    pub fn apply_with(
+        &mut self,
+        edit: &Edit,
+        monitor: &Monitor<'_>,
+    ) -> Result<RegenReport, RegenError> {
         let _span = tracing::info_span!("local_regeneration").entered();
         let t0 = Instant::now();
         let (points, changed) = edit.apply_into(self.mpu.points(), self.spare.take_points())?;
@@ -174,7 +187,8 @@ impl Scene {
         let inside = points.iter().all(|p| root.contains(p.p - origin));
         if !inside {
             // The edit left the root cube: start again in a new frame.
-            let (scene, _) = Scene::new(points, &self.mpu_params, &self.particle_params)?;
+            let (scene, _) =
+                Scene::new_with(points, &self.mpu_params, &self.particle_params, monitor)?;
             let report = RegenReport {
                 marked_cells: self.mpu.octree().cells().len(),
                 refit_cells: scene.mpu.octree().cells().len(),
@@ -197,7 +211,8 @@ impl Scene {
                 indices_kept: edit.keeps_indices(),
             }),
             buffers: std::mem::take(&mut self.spare),
-            monitor: Monitor::silent(),
+            unit_normals: false,
+            monitor: *monitor,
         };
         let mpu = Mpu::build_with(points, &self.mpu_params, options)?;
         // New cells that were fitted again: not present before, or marked.
@@ -260,7 +275,7 @@ impl Scene {
         };
         let options = RelaxOptions {
             region,
-            monitor: Monitor::silent(),
+            monitor: *monitor,
         };
         relax(
             &mpu,
@@ -278,6 +293,7 @@ impl Scene {
             region,
         );
         let particle_seconds = t1.elapsed().as_secs_f64();
+        monitor.check()?;
 
         let report = RegenReport {
             marked_cells: marked_old.iter().filter(|m| **m).count(),

@@ -354,6 +354,9 @@ class Scene:
     def particles(self) -> Particles:
         """The current particles (a copy)."""
     @property
+    def edits(self) -> int:
+        """Edits applied so far."""
+    @property
     def mpu(self) -> Mpu:
         """The current MPU implicit, in the scene's frame (``Mpu.frame``)."""
     @property

@@ -9,7 +9,8 @@ without it, one line on stderr rewritten in place with ``"\\r"``::
     psi:      relax [===============>              ] 10/20
 
 ended with a newline by ``close()``. Redraws are limited to about ten a second, bar a stage's
-first and last report, so a fast stream of reports costs little.
+first and last report, so a fast stream of reports costs little. A report after ``close()``
+starts a new line (or bar), which the next ``close()`` ends.
 """
 
 import importlib
@@ -55,12 +56,9 @@ class LineBar:
     def __init__(self) -> None:
         self.stage: Optional[str] = None
         self.last = 0.0  # time of the last redraw
-        self.drawn = 0  # length of the text on the line
-        self.closed = False
+        self.drawn = 0  # length of the text on the line; 0: no line started
 
     def __call__(self, stage: str, done: int, total: int) -> None:
-        if self.closed:
-            return
         now = time.monotonic()
         new_stage = stage != self.stage
         if not (new_stage or done >= total or now - self.last >= INTERVAL):
@@ -73,11 +71,10 @@ class LineBar:
         self.drawn = len(text)
 
     def close(self) -> None:
-        if self.closed:
-            return
-        self.closed = True
         if self.drawn:
             self.write("\n")
+        self.stage = None
+        self.drawn = 0
 
     @staticmethod
     def write(text: str) -> None:
@@ -98,11 +95,8 @@ class TqdmBar:
         self.tqdm = tqdm
         self.stage: Optional[str] = None
         self.bar: Any = None
-        self.closed = False
 
     def __call__(self, stage: str, done: int, total: int) -> None:
-        if self.closed:
-            return
         if stage != self.stage or self.bar is None:
             self.finish()
             self.stage = stage
@@ -123,7 +117,5 @@ class TqdmBar:
             self.bar = None
 
     def close(self) -> None:
-        if self.closed:
-            return
-        self.closed = True
         self.finish()
+        self.stage = None
