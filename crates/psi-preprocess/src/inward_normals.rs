@@ -128,6 +128,39 @@ mod tests {
         }
     }
 
+    /// A cube's faces sampled on a grid, with the faces' outward normals: its extreme points
+    /// along most directions are at corners, where the normal makes 55° with the direction.
+    fn cube(per_edge: usize) -> Vec<OrientedPoint> {
+        let mut points = Vec::new();
+        for axis in 0..3 {
+            for side in [-1.0, 1.0] {
+                for i in 0..per_edge {
+                    for j in 0..per_edge {
+                        let u = -1.0 + 2.0 * (i as f64 + 0.5) / per_edge as f64;
+                        let v = -1.0 + 2.0 * (j as f64 + 0.5) / per_edge as f64;
+                        let mut p = [0.0; 3];
+                        p[axis] = side;
+                        p[(axis + 1) % 3] = u;
+                        p[(axis + 2) % 3] = v;
+                        let mut n = [0.0; 3];
+                        n[axis] = side;
+                        points.push(OrientedPoint {
+                            p: DVec3::from_array(p),
+                            n: DVec3::from_array(n),
+                        });
+                    }
+                }
+            }
+        }
+        points
+    }
+
+    #[test]
+    fn a_cube_is_judged_at_its_corners() {
+        assert!(!inward_votes(&cube(20)).inward());
+        assert!(inward_votes(&flipped(cube(20))).inward());
+    }
+
     #[test]
     fn open_sheets_are_never_judged_inward() {
         // A flat square with normals +z, and the same with -z: both directions vote alike.
