@@ -97,7 +97,10 @@ fn a_monitored_pipeline_equals_a_silent_one_and_reports_every_stage() {
 
     let stages = log.stages_complete();
     for s in ["mpu", "seed", "relax", "separate", "measure", "mesh"] {
-        assert!(stages.iter().any(|x| x == s), "{s} not reported: {stages:?}");
+        assert!(
+            stages.iter().any(|x| x == s),
+            "{s} not reported: {stages:?}"
+        );
     }
 }
 
@@ -201,8 +204,7 @@ fn an_interrupted_edit_leaves_the_scene_as_it_was() {
     assert!(matches!(r, Err(psi::regen::RegenError::Interrupted(_))));
     assert_eq!(scene.particles(), &before);
     // And the scene still edits as one that was never interrupted.
-    let (mut fresh, _) =
-        psi::regen::Scene::new(torus(5000), &MpuParams::paper(), &sp).unwrap();
+    let (mut fresh, _) = psi::regen::Scene::new(torus(5000), &MpuParams::paper(), &sp).unwrap();
     scene.apply(&edit).unwrap();
     fresh.apply(&edit).unwrap();
     assert_eq!(scene.particles(), fresh.particles());

@@ -165,7 +165,8 @@ impl Scene {
             Err(shared) => shared.points.clone(),
         };
         let (scene, report) = monitored(py, &progress, move |monitor| {
-            psi::regen::Scene::new_with(points, &mpu_params, &params, monitor)
+            let none = psi::octree::PointAttributes::default();
+            psi::regen::Scene::new_with(points, none, &mpu_params, &params, monitor)
         })?
         .map_err(|e| value_error(format!("{name}: building the scene: {e}")))?;
         Ok(Scene {
@@ -327,6 +328,7 @@ impl Scene {
                 &particle_params,
                 particles,
                 field,
+                Default::default(),
             )
         })?
         .map_err(|e| value_error(format!("unpickling a Scene: {e}")))?;

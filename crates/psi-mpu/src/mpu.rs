@@ -192,10 +192,23 @@ impl Mpu {
         self.footprint.spacing(self.input_data(), q)
     }
 
+    /// Indices of the input points ([`Mpu::points`]) within `radius` of world `x` (world
+    /// units), into `out` (cleared first), in increasing order.
+    pub fn inputs_within(&self, x: DVec3, radius: f64, out: &mut Vec<u32>) {
+        out.clear();
+        self.index.within(x - self.frame.origin, radius, out);
+        out.sort_unstable();
+    }
+
     /// The input point nearest to world `x` (world units, unit normal); `None` for an empty input.
     pub fn nearest_input(&self, x: DVec3) -> Option<OrientedPoint> {
-        let (q, _) = self.index.nearest_one(x - self.frame.origin)?;
-        Some(self.points[q as usize])
+        Some(self.points[self.nearest_input_index(x)? as usize])
+    }
+
+    /// The index ([`Mpu::points`]) of the input point nearest to world `x`; `None` for an
+    /// empty input.
+    pub fn nearest_input_index(&self, x: DVec3) -> Option<u32> {
+        Some(self.index.nearest_one(x - self.frame.origin)?.0)
     }
 
     /// Distance from world `x` to the nearest input point, in units of the local input spacing

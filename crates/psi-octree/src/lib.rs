@@ -37,6 +37,7 @@ mod geometry;
 mod leaf_containing;
 mod monitor;
 mod octree;
+mod point_attributes;
 mod point_index;
 mod points_within;
 mod support_cells;
@@ -48,4 +49,5 @@ pub use octree::{
     Cell, CellView, DEPTH_LIMIT, KnownPartitions, NO_CELL, Octree, OctreeBuffers, OctreeBuild,
     OctreeParams, RootCube, root_cube,
 };
+pub use point_attributes::PointAttributes;
 pub use point_index::PointIndex;

@@ -39,6 +39,7 @@ mod seed;
 mod seed_poisson;
 mod separate;
 mod sigma_scale;
+mod transfer_attributes;
 
 pub use density::{DensityField, paper_weight};
 pub use octree_buckets::OctreeBuckets;
@@ -53,3 +54,4 @@ pub use sample::{
     SampleReport, Sampling, Seeding, initialize, sample, sample_with, seed_leaves, surface_area,
 };
 pub use separate::{SEPARATION, SeparationReport, separate_close_pairs};
+pub use transfer_attributes::{TRANSFER_RADIUS_SIGMAS, transfer_attributes};

@@ -124,15 +124,33 @@ pub fn mesh_coarseness(vertices: &[DVec3], faces: &[[u32; 3]]) -> Option<MeshCoa
 /// assert!(densify_mesh(&v, &[[0, 1, 2]], 1.0).is_empty());
 /// ```
 pub fn densify_mesh(vertices: &[DVec3], faces: &[[u32; 3]], max_area: f64) -> Vec<OrientedPoint> {
+    densify_mesh_with_sources(vertices, faces, max_area).0
+}
+
+/// [`densify_mesh`], and for each extra point the index of its triangle's own point among the
+/// mesh's one point per triangle (`psi-io` gives one to every triangle without a repeated
+/// index and with a finite, non-zero cross product, in face order): what the extra point
+/// inherits attributes from.
+pub fn densify_mesh_with_sources(
+    vertices: &[DVec3],
+    faces: &[[u32; 3]],
+    max_area: f64,
+) -> (Vec<OrientedPoint>, Vec<u32>) {
     let mut out = Vec::new();
+    let mut sources = Vec::new();
     if max_area.is_nan() || max_area <= 0.0 {
-        return out;
+        return (out, sources);
     }
+    let mut own = 0u32;
     for f in faces {
         let [Some(a), Some(b), Some(c)] = f.map(|i| vertices.get(i as usize).copied()) else {
             continue;
         };
         let cross = (b - a).cross(c - a);
+        let repeated = f[0] == f[1] || f[1] == f[2] || f[0] == f[2];
+        let has_point = !repeated && cross.is_finite() && cross != DVec3::ZERO;
+        let point = own;
+        own += u32::from(has_point);
         let area = 0.5 * cross.length();
         if area.is_nan() || area <= max_area || !area.is_finite() {
             continue;
@@ -153,12 +171,13 @@ pub fn densify_mesh(vertices: &[DVec3], faces: &[[u32; 3]], max_area: f64) -> Ve
                 for p in pieces {
                     if (p - centroid).length() > 1e-9 * (b - a).length() {
                         out.push(OrientedPoint { p, n });
+                        sources.push(point);
                     }
                 }
             }
         }
     }
-    out
+    (out, sources)
 }
 
 #[cfg(test)]

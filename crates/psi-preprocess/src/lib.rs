@@ -44,7 +44,7 @@ mod preprocess;
 mod spatial_order;
 
 pub use denoise::{DenoiseReport, denoise};
-pub use densify_mesh::{MeshCoarseness, densify_mesh, mesh_coarseness};
+pub use densify_mesh::{MeshCoarseness, densify_mesh, densify_mesh_with_sources, mesh_coarseness};
 pub use estimate_noise::{NoiseEstimate, estimate_noise};
 pub use estimate_normals::estimate_normals;
 pub use find_outliers::{Outliers, find_outliers};

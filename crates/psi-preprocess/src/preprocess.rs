@@ -9,8 +9,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::{
     DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, check_normal_consistency,
-    denoise, densify_mesh, estimate_noise, estimate_normals, find_outliers, inward_votes,
-    mesh_coarseness, orient_normals, orient_toward,
+    denoise, densify_mesh_with_sources, estimate_noise, estimate_normals, find_outliers,
+    inward_votes, mesh_coarseness, orient_normals, orient_toward,
 };
 
 /// Ohtake's error threshold ε0 relative to the bounding-box diagonal D (algorithms.md §1.1):
@@ -245,6 +245,10 @@ pub struct Preprocessed {
     pub points: Vec<OrientedPoint>,
     /// What each step did.
     pub report: PreprocessReport,
+    /// For each point, the index of the input point it came from (shape: M): a point left in
+    /// keeps its index, a point added on a coarse mesh's triangle takes that triangle's point.
+    /// Attributes follow the points by it ([`psi_octree::PointAttributes::select`]).
+    pub source: Vec<u32>,
 }
 
 /// Why [`preprocess`] could not prepare the points.
@@ -379,6 +383,8 @@ pub fn preprocess_with(
     let _span = tracing::info_span!("preprocess", points = points.len()).entered();
     let points_in = points.len();
     let mut seconds = StepSeconds::default();
+    // The input point each point came from (its triangle's, for a densified point).
+    let mut source: Vec<u32> = (0..points_in as u32).collect();
 
     let mut mesh_report = None;
     if let PointOrigin::MeshCentroids(m) = origin
@@ -387,15 +393,16 @@ pub fn preprocess_with(
         step("densify", 0)?;
         let t = Instant::now();
         if let Some(coarseness) = mesh_coarseness(m.vertices, m.faces) {
-            let extra = coarseness
+            let (extra, from) = coarseness
                 .max_area
-                .map(|a| densify_mesh(m.vertices, m.faces, a))
+                .map(|a| densify_mesh_with_sources(m.vertices, m.faces, a))
                 .unwrap_or_default();
             mesh_report = Some(MeshReport {
                 coarseness,
                 points_added: extra.len(),
             });
             points.extend(extra);
+            source.extend(from);
         }
         seconds.mesh = t.elapsed().as_secs_f64();
         step("densify", 1)?;
@@ -412,6 +419,8 @@ pub fn preprocess_with(
         if found.count() > 0 {
             let mut keep = found.mask.iter().map(|m| !m);
             points.retain(|_| keep.next().unwrap_or(true));
+            let mut keep = found.mask.iter().map(|m| !m);
+            source.retain(|_| keep.next().unwrap_or(true));
         }
         outliers = Some(OutlierReport {
             removed: found.count(),
@@ -449,6 +458,12 @@ pub fn preprocess_with(
             p.n = n;
         }
         // A point whose neighbourhood gave no plane is dropped: it has no normal to fit with.
+        let mut has_normal = points
+            .iter()
+            .map(|p| p.n != DVec3::ZERO)
+            .collect::<Vec<_>>()
+            .into_iter();
+        source.retain(|_| has_normal.next().unwrap_or(true));
         points.retain(|p| p.n != DVec3::ZERO);
         match params.viewpoint {
             Some(v) => {
@@ -522,6 +537,7 @@ pub fn preprocess_with(
             seconds,
         },
         points,
+        source,
     })
 }
 

@@ -84,3 +84,57 @@ fn inconsistent_given_normals_are_denoised_only_once_reoriented() {
     assert!(reoriented.denoised.is_some());
     assert_eq!(reoriented.inconsistent_normals(), None);
 }
+
+/// Every point passed on names the input point it came from: the strays left out are named by
+/// no point, the others keep their order, and without denoising each sits where its source
+/// was; estimated normals keep the mapping too.
+#[test]
+fn sources_name_the_input_points_kept() {
+    let points = noisy_sphere_with_strays();
+    for normals_given in [true, false] {
+        let mut input_points = points.clone();
+        if !normals_given {
+            for p in &mut input_points {
+                p.n = DVec3::ZERO;
+            }
+        }
+        let params = PreprocessParams {
+            denoise: false,
+            ..PreprocessParams::scan()
+        };
+        let input = ScanInput {
+            points: input_points,
+            normals_given,
+            origin: PointOrigin::Scan,
+        };
+        let done = preprocess(input, &params).unwrap();
+        assert_eq!(done.source.len(), done.points.len());
+        assert!(done.source.windows(2).all(|w| w[0] < w[1]));
+        for (p, &s) in done.points.iter().zip(&done.source) {
+            assert_eq!(p.p, points[s as usize].p);
+        }
+        // The 50 strays are the last points: most are left out, so not named.
+        let strays_named = done.source.iter().filter(|&&s| s >= 20_000).count();
+        assert!(strays_named < 10, "{strays_named} strays kept");
+    }
+}
+
+/// A coarse mesh's added points name their own triangle's point.
+#[test]
+fn densified_points_name_their_triangle() {
+    // Two large triangles, one degenerate between them (no point of its own).
+    let vertices = [
+        DVec3::ZERO,
+        DVec3::new(4.0, 0.0, 0.0),
+        DVec3::new(0.0, 4.0, 0.0),
+        DVec3::new(4.0, 4.0, 0.0),
+    ];
+    let faces = [[0, 1, 2], [1, 1, 3], [1, 3, 2]];
+    let (extra, from) = crate::densify_mesh_with_sources(&vertices, &faces, 0.5);
+    assert_eq!(extra.len(), from.len());
+    for (p, &t) in extra.iter().zip(&from) {
+        // Triangle 0's point is point 0; the third face's point is point 1.
+        let expected = if p.p.x + p.p.y < 4.0 { 0 } else { 1 };
+        assert_eq!(t, expected, "{p:?}");
+    }
+}

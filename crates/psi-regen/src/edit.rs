@@ -59,6 +59,30 @@ impl Edit {
         matches!(self, Edit::Brush { .. } | Edit::Insert { .. })
     }
 
+    /// The indices of `points` that survive the edit, in the order the new points list them
+    /// first (every point for a brush or an insertion; those outside the ball for a removal or
+    /// a replacement); the edit's own points, if any, follow them. Attributes of the points
+    /// follow the edit by it ([`psi_octree::PointAttributes::select`]).
+    pub fn survivors(&self, points: &[OrientedPoint]) -> Vec<u32> {
+        match self {
+            Edit::Remove { center, radius } | Edit::Replace { center, radius, .. } => {
+                let r2 = radius * radius;
+                (0..points.len() as u32)
+                    .filter(|&i| (points[i as usize].p - *center).length_squared() > r2)
+                    .collect()
+            }
+            Edit::Brush { .. } | Edit::Insert { .. } => (0..points.len() as u32).collect(),
+        }
+    }
+
+    /// The points the edit adds after the survivors (a replacement's or an insertion's).
+    pub fn added(&self) -> usize {
+        match self {
+            Edit::Replace { points, .. } | Edit::Insert { points } => points.len(),
+            Edit::Brush { .. } | Edit::Remove { .. } => 0,
+        }
+    }
+
     /// Applies the edit to `points`, returning the new points and every changed position (old
     /// and new positions of moved points, removed and added points).
     pub fn apply(

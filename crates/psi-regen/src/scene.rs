@@ -4,10 +4,10 @@ use std::time::Instant;
 
 use glam::DVec3;
 use psi_mpu::{BuildOptions, Mpu, MpuBuffers, MpuFrame, MpuParams, Reuse};
-use psi_octree::{Aabb, Monitor, OrientedPoint};
+use psi_octree::{Aabb, Monitor, OrientedPoint, PointAttributes};
 use psi_particles::{
     DensityField, ParticleParams, Particles, RelaxOptions, RelaxRegion, SampleReport,
-    measure_quality, relax, seed_leaves, separate_close_pairs,
+    measure_quality, relax, seed_leaves, separate_close_pairs, transfer_attributes,
 };
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -42,6 +42,10 @@ pub struct RegenReport {
 pub struct Scene {
     mpu: Mpu,
     particles: Particles,
+    /// The control points' attributes (aligned with `mpu.points()`) and the particles' (aligned
+    /// with `particles`, from [`transfer_attributes`]); empty when the input had none.
+    attributes: PointAttributes,
+    particle_attributes: PointAttributes,
     field: DensityField,
     mpu_params: MpuParams,
     particle_params: ParticleParams,
@@ -59,28 +63,36 @@ impl Scene {
         mpu_params: &MpuParams,
         particle_params: &ParticleParams,
     ) -> Result<(Scene, SampleReport), RegenError> {
-        Self::new_with(points, mpu_params, particle_params, &Monitor::silent())
+        let none = PointAttributes::default();
+        Self::new_with(points, none, mpu_params, particle_params, &Monitor::silent())
     }
 
-    /// [`Scene::new`], reporting the MPU build and the sampling to `monitor` and returning
-    /// [`RegenError::Interrupted`] once its stop flag is set.
+    /// [`Scene::new`] with the points' `attributes` (aligned with `points`, or empty), which
+    /// edits carry along and the particles take ([`transfer_attributes`]), reporting the MPU
+    /// build and the sampling to `monitor` and returning [`RegenError::Interrupted`] once its
+    /// stop flag is set.
     pub fn new_with(
         points: Vec<OrientedPoint>,
+        attributes: PointAttributes,
         mpu_params: &MpuParams,
         particle_params: &ParticleParams,
         monitor: &Monitor<'_>,
     ) -> Result<(Scene, SampleReport), RegenError> {
+        check_attributes(&attributes, points.len())?;
         let options = BuildOptions {
             monitor: *monitor,
             ..Default::default()
         };
         let mpu = Mpu::build_with(points, mpu_params, options)?;
         let run = psi_particles::sample_with(&mpu, particle_params, monitor)?;
+        let particle_attributes = transfer_attributes(&mpu, &run.particles, &attributes);
         let field = run.report.density;
         let spare = MpuBuffers::like(&mpu);
         let scene = Scene {
             spare,
             mpu,
+            attributes,
+            particle_attributes,
             particles: run.particles,
             field,
             mpu_params: *mpu_params,
@@ -102,7 +114,11 @@ impl Scene {
         particle_params: &ParticleParams,
         particles: Particles,
         field: DensityField,
+        attributes: [PointAttributes; 2],
     ) -> Result<Scene, RegenError> {
+        let [attributes, particle_attributes] = attributes;
+        check_attributes(&attributes, points.len())?;
+        check_attributes(&particle_attributes, particles.len())?;
         let options = BuildOptions {
             frame: Some(frame),
             unit_normals: true,
@@ -113,6 +129,8 @@ impl Scene {
             spare: MpuBuffers::like(&mpu),
             mpu,
             particles,
+            attributes,
+            particle_attributes,
             field,
             mpu_params: *mpu_params,
             particle_params: *particle_params,
@@ -142,6 +160,16 @@ impl Scene {
     /// The current particles.
     pub fn particles(&self) -> &Particles {
         &self.particles
+    }
+
+    /// The control points' attributes (aligned with [`Scene::points`]; empty without any).
+    pub fn attributes(&self) -> &PointAttributes {
+        &self.attributes
+    }
+
+    /// The particles' attributes (aligned with [`Scene::particles`]; empty without any).
+    pub fn particle_attributes(&self) -> &PointAttributes {
+        &self.particle_attributes
     }
 
     /// The density field fixed at the first sampling.
@@ -179,6 +207,27 @@ impl Scene {
         edit: &Edit,
         monitor: &Monitor<'_>,
     ) -> Result<RegenReport, RegenError> {
+        self.apply_attributed(edit, &PointAttributes::default(), monitor)
+    }
+
+    /// [`Scene::apply_with`], the points an edit adds (a replacement's or an insertion's)
+    /// carrying `added` (aligned with them, or empty: then the defaults of
+    /// [`PointAttributes::extend`] where the scene has attributes). The points an edit keeps
+    /// keep theirs; particles the edit regenerates take theirs from the points near them.
+    pub fn apply_attributed(
+        &mut self,
+        edit: &Edit,
+        added: &PointAttributes,
+        monitor: &Monitor<'_>,
+    ) -> Result<RegenReport, RegenError> {
+        check_attributes(added, edit.added())?;
+        // (No pass over the points when there are no attributes to carry.)
+        let mut attributes = PointAttributes::default();
+        if !(self.attributes.is_empty() && added.is_empty()) {
+            let survivors = edit.survivors(self.mpu.points());
+            attributes = self.attributes.select(&survivors);
+            attributes.extend(survivors.len(), added, edit.added());
+        }
         let _span = tracing::info_span!("local_regeneration").entered();
         let t0 = Instant::now();
         let (points, changed) = edit.apply_into(self.mpu.points(), self.spare.take_points())?;
@@ -187,8 +236,13 @@ impl Scene {
         let inside = points.iter().all(|p| root.contains(p.p - origin));
         if !inside {
             // The edit left the root cube: start again in a new frame.
-            let (scene, _) =
-                Scene::new_with(points, &self.mpu_params, &self.particle_params, monitor)?;
+            let (scene, _) = Scene::new_with(
+                points,
+                attributes,
+                &self.mpu_params,
+                &self.particle_params,
+                monitor,
+            )?;
             let report = RegenReport {
                 marked_cells: self.mpu.octree().cells().len(),
                 refit_cells: scene.mpu.octree().cells().len(),
@@ -253,6 +307,8 @@ impl Scene {
         let mut particles = self.particles.clone();
         particles.retain_mask(&keep);
         let kept = particles.len();
+        let kept_ids: Vec<u32> = (0..keep.len() as u32).filter(|&i| keep[i as usize]).collect();
+        let mut particle_attributes = self.particle_attributes.select(&kept_ids);
         let leaves: Vec<u32> = mpu
             .surface_leaves()
             .filter(|&l| refit[l as usize])
@@ -292,6 +348,13 @@ impl Scene {
             &self.particle_params,
             region,
         );
+        if !attributes.is_empty() {
+            let mut fresh_particles = particles.clone();
+            let fresh_ids: Vec<bool> = (0..particles.len()).map(|i| i >= kept).collect();
+            fresh_particles.retain_mask(&fresh_ids);
+            let fresh_attributes = transfer_attributes(&mpu, &fresh_particles, &attributes);
+            particle_attributes.extend(kept, &fresh_attributes, fresh_particles.len());
+        }
         let particle_seconds = t1.elapsed().as_secs_f64();
         monitor.check()?;
 
@@ -308,12 +371,26 @@ impl Scene {
         };
         self.spare = std::mem::replace(&mut self.mpu, mpu).into_buffers();
         self.particles = particles;
+        self.attributes = attributes;
+        self.particle_attributes = particle_attributes;
         Ok(report)
     }
 
     /// Quality figures of the current particles.
     pub fn quality(&self) -> psi_particles::Quality {
         measure_quality(&self.mpu, &self.particles)
+    }
+}
+
+/// Refuses attributes whose present columns are not `n` long.
+fn check_attributes(attributes: &PointAttributes, n: usize) -> Result<(), RegenError> {
+    if attributes.fits(n) {
+        Ok(())
+    } else {
+        Err(RegenError::BadEdit(format!(
+            "attributes for {} points given for {n}",
+            attributes.len().unwrap_or(0)
+        )))
     }
 }
 

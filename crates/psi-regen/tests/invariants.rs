@@ -453,3 +453,97 @@ fn removing_a_ball_and_inserting_a_patch_are_local_and_exact() {
         assert!((0.95..1.05).contains(&ratio), "{edit:?}: {ratio}");
     }
 }
+
+/// Attributes follow the points through edits (survivors keep theirs, added points carry the
+/// caller's), and particles keep theirs where the edit did not regenerate them; regenerated
+/// particles take the colour of the points around them.
+#[test]
+fn attributes_follow_points_and_particles_through_edits() {
+    use psi_octree::{Monitor, PointAttributes};
+    let points = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.35,
+    }
+    .sample(6000, 11);
+    let colour = |p: DVec3| if p.x < 0.0 { [200, 10, 10] } else { [10, 10, 200] };
+    let attributes = PointAttributes {
+        colors: Some(points.iter().map(|p| colour(p.p)).collect()),
+        intensity: Some((0..points.len()).map(|i| i as f32).collect()),
+        classification: None,
+    };
+    let params = ParticleParams {
+        iterations: 4,
+        ..ParticleParams::paper()
+    };
+    let silent = Monitor::silent();
+    let (mut scene, _) = Scene::new_with(
+        points.clone(),
+        attributes,
+        &MpuParams::paper(),
+        &params,
+        &silent,
+    )
+    .unwrap();
+    let check = |scene: &Scene, away: DVec3| {
+        let a = scene.attributes();
+        assert!(a.fits(scene.points().len()));
+        assert!(scene.particle_attributes().fits(scene.particles().len()));
+        // Away from x = 0 a particle's colour is its side's.
+        let colors = scene.particle_attributes().colors.as_ref().unwrap();
+        for (x, c) in scene.particles().positions.iter().zip(colors) {
+            if x.x.abs() > 0.3 && (*x - away).length() > 0.3 {
+                assert_eq!(*c, colour(*x), "particle at {x}");
+            }
+        }
+    };
+    let nowhere = DVec3::splat(1e9);
+    check(&scene, nowhere);
+    // A removal: the survivors keep their own intensity (their original index).
+    let centre = points[10].p;
+    scene
+        .apply(&Edit::Remove {
+            center: centre,
+            radius: 0.2,
+        })
+        .unwrap();
+    let kept: Vec<f32> = (0..points.len())
+        .filter(|&i| (points[i].p - centre).length() > 0.2)
+        .map(|i| i as f32)
+        .collect();
+    assert_eq!(scene.attributes().intensity.as_ref().unwrap(), &kept);
+    check(&scene, nowhere);
+    // An insertion carries the caller's attributes; a brush keeps everyone's.
+    let before = scene.particles().clone();
+    let before_attributes = scene.particle_attributes().clone();
+    let new = vec![OrientedPoint {
+        p: DVec3::new(1.35, 0.0, 0.0),
+        n: DVec3::X,
+    }];
+    let added = PointAttributes {
+        colors: Some(vec![[0, 255, 0]]),
+        intensity: None,
+        classification: Some(vec![6]),
+    };
+    scene
+        .apply_attributed(&Edit::Insert { points: new }, &added, &silent)
+        .unwrap();
+    let a = scene.attributes();
+    assert_eq!(a.colors.as_ref().unwrap().last(), Some(&[0, 255, 0]));
+    assert_eq!(a.intensity.as_ref().unwrap().last(), Some(&0.0));
+    let classes = a.classification.as_ref().unwrap();
+    assert_eq!(classes.last(), Some(&6));
+    assert!(classes[..classes.len() - 1].iter().all(|&c| c == 0));
+    // Particles the insertion did not regenerate keep their attributes bitwise.
+    let colors = scene.particle_attributes().colors.as_ref().unwrap();
+    let old_colors = before_attributes.colors.as_ref().unwrap();
+    let mut unchanged = 0;
+    for (i, x) in before.positions.iter().enumerate() {
+        if let Some(j) = scene.particles().positions.iter().position(|y| y == x) {
+            assert_eq!(colors[j], old_colors[i]);
+            unchanged += 1;
+        }
+    }
+    assert!(unchanged > before.len() / 2);
+    // Away from the green point, colours are the sides' still.
+    check(&scene, DVec3::new(1.35, 0.0, 0.0));
+}
