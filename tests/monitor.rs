@@ -5,10 +5,9 @@
 
 use std::collections::HashMap;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use psi::mpu::{BuildOptions, polygonize_with};
-use psi::octree::{Interrupted, Monitor};
+use psi::octree::{Interrupted, Monitor, StopFlag};
 use psi::preprocess::{PointOrigin, PreprocessError, PreprocessParams, ScanInput, preprocess};
 use psi::{Mpu, MpuError, MpuParams, OrientedPoint, ParticleParams, PolygonizeParams};
 
@@ -21,9 +20,9 @@ impl Log {
         self.0.lock().unwrap().push((stage.to_owned(), done, total));
     }
 
-    /// Checks each stage's reports never decrease (reports may come from several threads, so
-    /// only the running maximum is compared) and that every stage reached its total; returns
-    /// the stages in the order first seen.
+    /// Checks that each stage's reports, in the order made (the layers report from the
+    /// calling thread), never decrease, and that every stage reached its total; returns the
+    /// stages in the order first seen.
     fn stages_complete(&self) -> Vec<String> {
         let log = self.0.lock().unwrap();
         let mut best: HashMap<&str, (u64, u64)> = HashMap::new();
@@ -34,7 +33,8 @@ impl Log {
                 order.push(stage.clone());
                 (0, *total)
             });
-            e.0 = e.0.max(*done);
+            assert!(*done >= e.0, "{stage} went back from {} to {done}", e.0);
+            e.0 = *done;
         }
         for (stage, (done, total)) in &best {
             assert_eq!(done, total, "{stage} did not reach its total");
@@ -65,7 +65,7 @@ fn a_monitored_pipeline_equals_a_silent_one_and_reports_every_stage() {
     let params = MpuParams::paper();
     let log = Log::default();
     let observe = |s: &str, d: u64, t: u64| log.push(s, d, t);
-    let stop = AtomicBool::new(false);
+    let stop = StopFlag::new();
     let monitor = Monitor::new(Some(&observe), Some(&stop));
 
     let silent = Mpu::build(&points, &params).unwrap();
@@ -76,6 +76,7 @@ fn a_monitored_pipeline_equals_a_silent_one_and_reports_every_stage() {
     let watched = Mpu::build_with(&points, &params, options).unwrap();
     same_mpu(&silent, &watched);
 
+    let mut stages = log.stages_complete();
     for density in [psi::DensityMode::Adaptive, psi::DensityMode::Uniform] {
         let sp = ParticleParams {
             iterations: 6,
@@ -84,18 +85,24 @@ fn a_monitored_pipeline_equals_a_silent_one_and_reports_every_stage() {
             ..ParticleParams::paper()
         };
         let a = psi::sample(&silent, &sp);
+        let run = Log::default();
+        let observe = |s: &str, d: u64, t: u64| run.push(s, d, t);
+        let monitor = Monitor::new(Some(&observe), Some(&stop));
         let b = psi::particles::sample_with(&silent, &sp, &monitor).unwrap();
         assert_eq!(a.particles, b.particles);
+        stages.extend(run.stages_complete());
     }
     let mesh = PolygonizeParams {
         resolution: 48,
         ..PolygonizeParams::standard()
     };
     let a = psi::polygonize(&silent, &mesh);
-    let b = polygonize_with(&silent, &mesh, &monitor).unwrap();
+    let run = Log::default();
+    let observe = |s: &str, d: u64, t: u64| run.push(s, d, t);
+    let b = polygonize_with(&silent, &mesh, &Monitor::new(Some(&observe), Some(&stop))).unwrap();
     assert_eq!((a.vertices, a.faces), (b.vertices, b.faces));
+    stages.extend(run.stages_complete());
 
-    let stages = log.stages_complete();
     for s in ["mpu", "seed", "relax", "separate", "measure", "mesh"] {
         assert!(
             stages.iter().any(|x| x == s),
@@ -104,17 +111,40 @@ fn a_monitored_pipeline_equals_a_silent_one_and_reports_every_stage() {
     }
 }
 
-/// A monitor whose observer sets the stop flag once `stage` reports `at` done.
-fn stop_at<'a>(
-    stop: &'a AtomicBool,
+/// Runs `work` with a monitor whose observer sets the stop flag once `stage` reports `at`
+/// done; returns its result and every report made, so that a test can check nothing ran on.
+fn stopped_at<T>(
     stage: &'static str,
     at: u64,
-) -> impl Fn(&str, u64, u64) + Sync + 'a {
-    move |s: &str, done: u64, _| {
+    work: impl FnOnce(&Monitor<'_>) -> T,
+) -> (T, Vec<(String, u64, u64)>) {
+    let stop = StopFlag::new();
+    let log = Log::default();
+    let observe = |s: &str, done: u64, total: u64| {
+        log.push(s, done, total);
         if s == stage && done >= at {
-            stop.store(true, Ordering::Relaxed);
+            stop.stop();
         }
-    }
+    };
+    let result = work(&Monitor::new(Some(&observe), Some(&stop)));
+    (result, log.0.into_inner().unwrap())
+}
+
+/// The largest `done` reported for `stage`, and whether any stage after it was reported.
+fn reach(log: &[(String, u64, u64)], stage: &str) -> (u64, u64, bool) {
+    let first = log
+        .iter()
+        .position(|r| r.0 == stage)
+        .expect("stage reported");
+    let done = log
+        .iter()
+        .filter(|r| r.0 == stage)
+        .map(|r| r.1)
+        .max()
+        .unwrap();
+    let total = log[first].2;
+    let later = log[first..].iter().any(|r| r.0 != stage);
+    (done, total, later)
 }
 
 #[test]
@@ -123,46 +153,46 @@ fn a_stop_flag_ends_each_long_function_with_interrupted() {
     let params = MpuParams::paper();
     let mpu = Mpu::build(&points, &params).unwrap();
 
-    let stop = AtomicBool::new(false);
-    let observe = stop_at(&stop, "mpu", 2);
-    let options = BuildOptions {
-        monitor: Monitor::new(Some(&observe), Some(&stop)),
-        ..Default::default()
-    };
-    let built = Mpu::build_with(&points, &params, options);
+    let (built, log) = stopped_at("mpu", 2, |monitor| {
+        let options = BuildOptions {
+            monitor: *monitor,
+            ..Default::default()
+        };
+        Mpu::build_with(&points, &params, options)
+    });
     assert!(matches!(built, Err(MpuError::Interrupted(Interrupted))));
+    let (done, total, _) = reach(&log, "mpu");
+    assert!(
+        done <= 3 && done < total,
+        "the build went on to level {done}"
+    );
 
-    let stop = AtomicBool::new(false);
-    let observe = stop_at(&stop, "relax", 3);
-    let monitor = Monitor::new(Some(&observe), Some(&stop));
     let sp = ParticleParams {
         iterations: 10,
         ..ParticleParams::paper()
     };
-    assert_eq!(
-        psi::particles::sample_with(&mpu, &sp, &monitor).unwrap_err(),
-        Interrupted
-    );
+    let (sampled, log) = stopped_at("relax", 3, |m| psi::particles::sample_with(&mpu, &sp, m));
+    assert_eq!(sampled.unwrap_err(), Interrupted);
+    assert_eq!(reach(&log, "relax"), (3, 10, false));
 
-    let stop = AtomicBool::new(false);
-    let observe = stop_at(&stop, "mesh", 1);
-    let monitor = Monitor::new(Some(&observe), Some(&stop));
     let mesh = PolygonizeParams {
         resolution: 48,
         ..PolygonizeParams::standard()
     };
-    assert!(polygonize_with(&mpu, &mesh, &monitor).is_err());
+    let (meshed, log) = stopped_at("mesh", 1, |m| polygonize_with(&mpu, &mesh, m));
+    assert!(meshed.is_err());
+    assert_eq!(reach(&log, "mesh"), (1, 4, false));
 
-    let stop = AtomicBool::new(false);
-    let observe = stop_at(&stop, "outliers", 1);
-    let monitor = Monitor::new(Some(&observe), Some(&stop));
-    let input = ScanInput {
-        points: points.clone(),
-        normals_given: true,
-        origin: PointOrigin::Scan,
-    };
-    let prepared = psi::preprocess::preprocess_with(input, &PreprocessParams::scan(), &monitor);
+    let (prepared, log) = stopped_at("outliers", 1, |m| {
+        let input = ScanInput {
+            points: points.clone(),
+            normals_given: true,
+            origin: PointOrigin::Scan,
+        };
+        psi::preprocess::preprocess_with(input, &PreprocessParams::scan(), m)
+    });
     assert!(matches!(prepared, Err(PreprocessError::Interrupted(_))));
+    assert_eq!(reach(&log, "outliers"), (1, 1, false));
 
     // The same input, unstopped, prepares as the silent path does.
     let input = |points: &[OrientedPoint]| ScanInput {
@@ -197,12 +227,19 @@ fn an_interrupted_edit_leaves_the_scene_as_it_was() {
         radius: 0.3,
         displacement: psi::DVec3::new(0.0, 0.0, 0.02),
     };
-    let stop = AtomicBool::new(false);
-    let observe = stop_at(&stop, "relax", 1);
-    let monitor = Monitor::new(Some(&observe), Some(&stop));
-    let r = scene.apply_with(&edit, &monitor);
-    assert!(matches!(r, Err(psi::regen::RegenError::Interrupted(_))));
-    assert_eq!(scene.particles(), &before);
+    let points_before = scene.points().to_vec();
+    for (stage, at) in [("mpu", 1), ("relax", 1)] {
+        let (r, _) = stopped_at(stage, at, |m| scene.apply_with(&edit, m));
+        assert!(matches!(r, Err(psi::regen::RegenError::Interrupted(_))));
+        assert_eq!(scene.particles(), &before);
+        assert_eq!(scene.points(), &points_before[..]);
+    }
+    // A stop that comes after the edit claimed its commit does not take effect.
+    let flag = StopFlag::new();
+    let mut copy = scene.clone();
+    copy.apply_with(&edit, &Monitor::new(None, Some(&flag)))
+        .unwrap();
+    assert!(!flag.stop());
     // And the scene still edits as one that was never interrupted.
     let (mut fresh, _) = psi::regen::Scene::new(torus(5000), &MpuParams::paper(), &sp).unwrap();
     scene.apply(&edit).unwrap();

@@ -3,16 +3,17 @@
 //! work's progress to the caller's `progress` (a callable, or `True` for a bar on stderr).
 //!
 //! On a pending signal (or an exception from `progress`) the work's stop flag is set
-//! ([`psi::octree::Monitor`]): the layers stop at their next check and nothing is kept. The call
-//! returns the exception at once; work still inside a step that has no check of its own
-//! finishes that step on its thread, its result dropped.
+//! ([`psi::octree::StopFlag`]): the layers stop at their next check and nothing is kept. The
+//! call returns the exception at once. Work that changes state (a scene's edit) claims its
+//! commit first; a stop that comes after the claim is too late: the call then waits for the
+//! work, returns its result and raises the signal's exception again at the next line
+//! (`_thread.interrupt_main`), as if the signal had come after the call.
 
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, channel};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use psi::octree::Monitor;
+use psi::octree::{Monitor, StopFlag};
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 
@@ -125,7 +126,7 @@ pub(crate) fn monitored<T: Send + 'static>(
     progress: &Progress,
     work: impl FnOnce(&Monitor<'_>) -> T + Send + 'static,
 ) -> PyResult<T> {
-    let stop = Arc::new(AtomicBool::new(false));
+    let stop = Arc::new(StopFlag::new());
     let steps = Arc::new(Mutex::new(Steps::default()));
     let (send, receive) = channel();
     let (worker_stop, worker_steps) = (stop.clone(), steps.clone());
@@ -167,8 +168,22 @@ pub(crate) fn monitored<T: Send + 'static>(
             Err(RecvTimeoutError::Timeout) => {}
         }
         if let Err(e) = delivered.and_then(|()| py.check_signals()) {
-            stop.store(true, Ordering::Relaxed);
-            break Err(e);
+            if stop.stop() {
+                break Err(e);
+            }
+            // Too late: the work committed. Take its result and raise the signal again.
+            let result = py.detach(|| match receive.lock() {
+                Ok(r) => r.recv().map_err(|_| ()),
+                Err(_) => Err(()),
+            });
+            let Ok(result) = result else {
+                break Err(e);
+            };
+            if !e.is_instance_of::<pyo3::exceptions::PyKeyboardInterrupt>(py) {
+                break Err(e);
+            }
+            py.import("_thread")?.call_method0("interrupt_main")?;
+            break result.map_err(crate::errors::panic_error);
         }
     }
 }

@@ -60,24 +60,28 @@ fn preprocess_params(
 fn prepare(
     py: Python<'_>,
     name: String,
-    read: impl FnOnce() -> PyResult<PointCloudFile> + Send + 'static,
+    read: impl FnOnce() -> Result<PointCloudFile, psi::PsiError> + Send + 'static,
     params: PreprocessParams,
     progress: &Progress,
 ) -> PyResult<Input> {
+    /// Why preparing failed, told on the caller's thread.
+    enum Failed {
+        Read(psi::PsiError),
+        Prepare(psi::preprocess::PreprocessError),
+    }
     let what = name.clone();
     let input = monitored(py, progress, move |monitor| {
         monitor.report("read", 0, 1);
-        let file = read()?;
-        monitor
-            .check()
-            .map_err(|_| crate::errors::value_error("interrupted"))?;
+        let file = read().map_err(Failed::Read)?;
         monitor.report("read", 1, 1);
-        psi::prepare_input(name.clone(), file, &params, monitor).map_err(|e| {
-            value_error(format!(
-                "{name}: {e}; give normals or let psi estimate them (estimate_normals=True, preprocess=True)"
-            ))
-        })
-    })??;
+        psi::prepare_input(name, file, &params, monitor).map_err(Failed::Prepare)
+    })?;
+    let input = input.map_err(|e| match e {
+        Failed::Read(e) => psi_error(py, e, Some("reading the input")),
+        Failed::Prepare(e) => value_error(format!(
+            "{what}: {e}; give normals or let psi estimate them (estimate_normals=True, preprocess=True)"
+        )),
+    })?;
     if input.report.inward_normals_flipped {
         let message = format!(
             "psi: {what}: the normals pointed inward (judged on the convex hull); flipped them outward (keep_inward_normals=True to keep them)"
@@ -365,10 +369,7 @@ pub(crate) fn load_points(
     };
     let progress = Progress::from_arg(py, progress)?;
     let name = path.display().to_string();
-    let read = move || {
-        psi::load_points(&path, &ReadOptions { sampling })
-            .map_err(|e| Python::attach(|py| psi_error(py, e, Some("reading the input"))))
-    };
+    let read = move || psi::load_points(&path, &ReadOptions { sampling });
     Ok(PointSet::of(prepare(py, name, read, params, &progress)?))
 }
 

@@ -2,7 +2,7 @@
 //! local regeneration (`psi::regen::Scene`), as `psi edit` does; safe from any number of
 //! threads (one lock), picklable.
 
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError, TryLockError};
 
 use numpy::PyArray2;
 use psi::mpu::MpuFrame;
@@ -11,12 +11,11 @@ use psi::preprocess::ErrorThreshold;
 use psi::regen::{Edit, RegenError};
 use psi::{DVec3, MpuParams, OrientedPoint, ParticleParams, SampleReport};
 use pyo3::IntoPyObjectExt;
-use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
 use crate::arrays::{oriented_array, vector3};
-use crate::errors::{detached, value_error};
+use crate::errors::value_error;
 use crate::monitor::{Progress, monitored};
 use crate::mpu::{Mpu, MpuOptions};
 use crate::points::input_of;
@@ -87,19 +86,18 @@ fn edit_error(e: RegenError) -> PyErr {
 
 impl Scene {
     /// The state, locked; waits with the interpreter released.
+    /// The state, locked. While another thread holds it, waits in short sleeps without the
+    /// interpreter, checking for signals between them (Ctrl-C raises). A lock poisoned by a
+    /// panic is taken all the same: an edit changes the state only in its last, panic-free
+    /// step, so the state is whole.
     fn lock<'s>(&'s self, py: Python<'_>) -> PyResult<MutexGuard<'s, State>> {
-        if let Ok(guard) = self.state.try_lock() {
-            return Ok(guard);
-        }
-        // Another thread holds it: wait without the interpreter, then take it (the guard
-        // cannot leave the released section, so this retries until it can take it at once).
         loop {
-            py.detach(|| drop(self.state.lock()));
             match self.state.try_lock() {
                 Ok(guard) => return Ok(guard),
-                Err(std::sync::TryLockError::WouldBlock) => continue,
-                Err(std::sync::TryLockError::Poisoned(_)) => {
-                    return Err(PyRuntimeError::new_err("psi: the scene's lock is poisoned"));
+                Err(TryLockError::Poisoned(p)) => return Ok(p.into_inner()),
+                Err(TryLockError::WouldBlock) => {
+                    py.detach(|| std::thread::sleep(std::time::Duration::from_millis(2)));
+                    py.check_signals()?;
                 }
             }
         }
@@ -110,13 +108,13 @@ impl Scene {
     fn apply<'py>(&self, py: Python<'py>, edit: Edit) -> PyResult<Bound<'py, PyAny>> {
         let shared = self.state.clone();
         let (report, index) = monitored(py, &Progress::Silent, move |monitor| {
-            let Ok(mut state) = shared.lock() else {
-                return Err(PyRuntimeError::new_err("psi: the scene's lock is poisoned"));
-            };
+            let mut state = shared.lock().unwrap_or_else(PoisonError::into_inner);
+            // Waiting for the lock may have taken long: stop now rather than after a refit.
+            monitor.check().map_err(|e| edit_error(e.into()))?;
             let report = state.scene.apply_with(&edit, monitor).map_err(edit_error)?;
             let index = state.edits;
             state.edits += 1;
-            Ok((report, index))
+            Ok::<_, PyErr>((report, index))
         })??;
         let dict = crate::json::report(py, &report)?;
         dict.set_item("edit", index)?;
@@ -320,7 +318,7 @@ impl Scene {
         };
         let (points, frame, field) = (s.points, s.frame, s.field);
         let (mpu_params, particle_params) = (s.mpu_params, s.particle_params);
-        let scene = detached(py, move || {
+        let scene = monitored(py, &Progress::Silent, move |_| {
             psi::regen::Scene::from_state(
                 points,
                 frame,

@@ -124,6 +124,14 @@ fn initialize_with(mpu: &Mpu, params: &ParticleParams, monitor: &Monitor<'_>) ->
             })
         }
     };
+    if monitor.stopped() {
+        // The caller checks the flag and discards this.
+        return Seeding {
+            particles: Particles::default(),
+            density: field,
+            seeded_leaves: leaves.len(),
+        };
+    }
     let per_leaf = seeds.len() as f64 / leaves.len().max(1) as f64;
     field.scale = 1.0 / per_leaf.max(1e-12).sqrt();
     if uniform {

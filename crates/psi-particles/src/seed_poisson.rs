@@ -89,8 +89,9 @@ pub(crate) fn poisson_seeds(
     let mut best: Option<Vec<u32>> = None;
     for _ in 0..18 {
         if monitor.stopped() {
-            // The caller checks the flag and discards the seeds.
-            return None;
+            // The caller checks the flag and discards the seeds (none, so that it does not
+            // fall back on seeding by leaf first).
+            return Some(Vec::new());
         }
         let c = 0.5 * (lo + hi);
         let acc = throw(

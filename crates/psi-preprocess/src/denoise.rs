@@ -8,7 +8,7 @@
 //! bunny with noise of 0.25 % and 0.5 % of D (`cargo xtask scans`; docs/notes/2026-11-24-real-scans.md).
 
 use glam::DVec3;
-use psi_octree::{OrientedPoint, PointIndex};
+use psi_octree::{Monitor, OrientedPoint, PointIndex};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -69,10 +69,20 @@ pub struct DenoiseReport {
 /// assert!(points.iter().all(|p| p.n.z > 0.9));
 /// ```
 pub fn denoise(points: &mut [OrientedPoint], sigma: f64) -> DenoiseReport {
+    denoise_with(points, sigma, &Monitor::silent())
+}
+
+/// [`denoise`], stopping early once `monitor`'s flag is set (checked per point: the points
+/// are then partly moved, and the caller discards them).
+pub fn denoise_with(
+    points: &mut [OrientedPoint],
+    sigma: f64,
+    monitor: &Monitor<'_>,
+) -> DenoiseReport {
     let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
     let order = SpatialOrder::new(&positions);
     let mut sorted = order.gather(points);
-    let report = denoise_in_order(&mut sorted, sigma);
+    let report = denoise_in_order(&mut sorted, sigma, monitor);
     points.copy_from_slice(&order.scatter(&sorted));
     report
 }
@@ -101,7 +111,11 @@ fn by_distance(a: &(u32, f64), b: &(u32, f64)) -> std::cmp::Ordering {
 }
 
 /// [`denoise`] of `points` already in a spatially coherent order.
-fn denoise_in_order(points: &mut [OrientedPoint], sigma: f64) -> DenoiseReport {
+fn denoise_in_order(
+    points: &mut [OrientedPoint],
+    sigma: f64,
+    monitor: &Monitor<'_>,
+) -> DenoiseReport {
     let n = points.len();
     if n < MIN_NEIGHBOURS || sigma.is_nan() || sigma <= 0.0 {
         return DenoiseReport::default();
@@ -163,6 +177,9 @@ fn denoise_in_order(points: &mut [OrientedPoint], sigma: f64) -> DenoiseReport {
     let moved: Vec<Option<OrientedPoint>> = points
         .par_iter()
         .map(|p| {
+            if monitor.stopped() {
+                return None;
+            }
             // The position from the refined fit, the normal from the wide one (its tilt is
             // averaged over more points).
             let (refined, wide_fit) = local_fit(p)?;

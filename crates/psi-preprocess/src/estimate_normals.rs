@@ -7,7 +7,7 @@
 //! unoriented; `orient_normals` or `orient_toward` give them a side.
 
 use glam::DVec3;
-use psi_octree::PointIndex;
+use psi_octree::{Monitor, PointIndex};
 use rayon::prelude::*;
 
 use crate::local_fit::Moments;
@@ -34,17 +34,26 @@ const SIZES: [usize; 5] = [12, 16, 24, 32, 48];
 /// }
 /// ```
 pub fn estimate_normals(positions: &[DVec3]) -> Vec<DVec3> {
+    estimate_normals_with(positions, &Monitor::silent())
+}
+
+/// [`estimate_normals`], stopping early once `monitor`'s flag is set (checked per point; the
+/// caller then discards the result).
+pub fn estimate_normals_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<DVec3> {
     let order = SpatialOrder::new(positions);
-    order.scatter(&normals_in_order(&order.gather(positions)))
+    order.scatter(&normals_in_order(&order.gather(positions), monitor))
 }
 
 /// [`estimate_normals`] of points already in a spatially coherent order.
-fn normals_in_order(positions: &[DVec3]) -> Vec<DVec3> {
+fn normals_in_order(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<DVec3> {
     let index = PointIndex::new(positions);
     let largest = SIZES[SIZES.len() - 1];
     positions
         .par_iter()
         .map(|&p| {
+            if monitor.stopped() {
+                return DVec3::ZERO;
+            }
             let near = index.nearest(p, largest);
             let mut moments = Moments::around(p);
             let mut best: Option<(f64, DVec3)> = None;

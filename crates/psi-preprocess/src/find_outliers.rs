@@ -8,7 +8,7 @@
 //! against the surface rather than against itself.
 
 use glam::DVec3;
-use psi_octree::PointIndex;
+use psi_octree::{Monitor, PointIndex};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -133,11 +133,21 @@ fn off_surface(fit: &QuadricFit, p: DVec3, spacing: f64) -> bool {
 /// assert!(found.mask[900] && !found.mask[901]);
 /// ```
 pub fn find_outliers(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers {
+    find_outliers_with(positions, normals, &Monitor::silent())
+}
+
+/// [`find_outliers`], stopping early once `monitor`'s flag is set (checked per point; the
+/// result is then meaningless and the caller discards it).
+pub fn find_outliers_with(
+    positions: &[DVec3],
+    normals: Option<&[DVec3]>,
+    monitor: &Monitor<'_>,
+) -> Outliers {
     let normals = normals.filter(|v| v.len() == positions.len());
     let order = SpatialOrder::new(positions);
     let sorted = order.gather(positions);
     let sorted_normals = normals.map(|v| order.gather(v));
-    let found = outliers_in_order(&sorted, sorted_normals.as_deref());
+    let found = outliers_in_order(&sorted, sorted_normals.as_deref(), monitor);
     Outliers {
         mask: order.scatter(&found.mask),
         ..found
@@ -145,7 +155,11 @@ pub fn find_outliers(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers
 }
 
 /// [`find_outliers`] on points already in a spatially coherent order.
-fn outliers_in_order(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers {
+fn outliers_in_order(
+    positions: &[DVec3],
+    normals: Option<&[DVec3]>,
+    monitor: &Monitor<'_>,
+) -> Outliers {
     let n = positions.len();
     // Whether a point's given normal lies along the normals of at least a quarter of `near`
     // (either sign: orientation is repaired later), as a point of a surface's does.
@@ -172,6 +186,9 @@ fn outliers_in_order(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers
         .into_par_iter()
         .map(|i| {
             let mut near = [0u32; NEIGHBOURS];
+            if monitor.stopped() {
+                return near;
+            }
             let mut k = 0;
             for (j, _) in index.nearest(positions[i as usize], NEIGHBOURS + 1) {
                 if j != i && k < NEIGHBOURS {
@@ -195,6 +212,9 @@ fn outliers_in_order(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers
     let status: Vec<Status> = (0..n)
         .into_par_iter()
         .map(|i| {
+            if monitor.stopped() {
+                return Status::Core;
+            }
             let near = &neighbours[i];
             let mut around = near.map(|j| reach[j as usize]);
             let local = median(&mut around);
@@ -231,7 +251,7 @@ fn outliers_in_order(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers
         })
         .collect();
     drop(neighbours);
-    if !status.contains(&Status::Unsure) {
+    if monitor.stopped() || !status.contains(&Status::Unsure) {
         return Outliers {
             mask: vec![false; n],
             ..Outliers::default()
@@ -247,7 +267,7 @@ fn outliers_in_order(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers
     let verdicts: Vec<u8> = (0..n)
         .into_par_iter()
         .map(|i| {
-            if status[i] != Status::Unsure {
+            if status[i] != Status::Unsure || monitor.stopped() {
                 return 0;
             }
             let near = core_index.nearest(positions[i], NEIGHBOURS);

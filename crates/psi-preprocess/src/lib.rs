@@ -43,14 +43,15 @@ mod orient_normals;
 mod preprocess;
 mod spatial_order;
 
-pub use denoise::{DenoiseReport, denoise};
+pub use denoise::{DenoiseReport, denoise, denoise_with};
 pub use densify_mesh::{MeshCoarseness, densify_mesh, densify_mesh_with_sources, mesh_coarseness};
 pub use estimate_noise::{NoiseEstimate, estimate_noise};
-pub use estimate_normals::estimate_normals;
-pub use find_outliers::{Outliers, find_outliers};
+pub use estimate_normals::{estimate_normals, estimate_normals_with};
+pub use find_outliers::{Outliers, find_outliers, find_outliers_with};
 pub use inward_normals::{InwardVotes, inward_votes};
 pub use orient_normals::{
-    NormalConsistency, check_normal_consistency, orient_normals, orient_toward,
+    NormalConsistency, check_normal_consistency, orient_normals, orient_normals_with,
+    orient_toward,
 };
 pub use preprocess::{
     ErrorThreshold, INCONSISTENT_NORMALS, MeshRef, MeshReport, NOISE_ERROR_FACTOR, NormalTreatment,

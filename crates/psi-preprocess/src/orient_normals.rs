@@ -9,7 +9,7 @@ use std::collections::BinaryHeap;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use psi_octree::{OrientedPoint, PointIndex};
+use psi_octree::{Monitor, OrientedPoint, PointIndex};
 
 /// Neighbours per point in the graph.
 const K: usize = 8;
@@ -128,6 +128,7 @@ fn propagate(
     adj: &[Vec<u32>],
     done: &mut [bool],
     seeds: &[u32],
+    monitor: &Monitor<'_>,
 ) -> usize {
     let mut heap = BinaryHeap::new();
     let push =
@@ -143,7 +144,12 @@ fn propagate(
         push(&mut heap, i, points, done);
     }
     let mut flips = 0;
+    let mut pops = 0u32;
     while let Some(Candidate { to, from, .. }) = heap.pop() {
+        pops = pops.wrapping_add(1);
+        if pops.is_multiple_of(4096) && monitor.stopped() {
+            break;
+        }
         if done[to as usize] {
             continue;
         }
@@ -162,7 +168,16 @@ fn propagate(
 /// there), then a maximum-|n_i·n_j| spanning tree (Prim) carries the orientation. Returns the
 /// number of normals flipped. Deterministic.
 pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
+    orient_normals_with(points, &Monitor::silent())
+}
+
+/// [`orient_normals`], stopping early once `monitor`'s flag is set (checked every few
+/// thousand points; the caller then discards the points).
+pub fn orient_normals_with(points: &mut [OrientedPoint], monitor: &Monitor<'_>) -> usize {
     let adj = neighbour_graph(points);
+    if monitor.stopped() {
+        return 0;
+    }
     let n = points.len();
     let mut done = vec![false; n];
     let mut order: Vec<u32> = (0..n as u32).collect();
@@ -183,7 +198,10 @@ pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
             flips += 1;
         }
         done[seed as usize] = true;
-        flips += propagate(points, &adj, &mut done, &[seed]);
+        flips += propagate(points, &adj, &mut done, &[seed], monitor);
+        if monitor.stopped() {
+            break;
+        }
     }
     flips
 }
@@ -224,7 +242,7 @@ pub fn orient_toward(points: &mut [OrientedPoint], viewpoint: glam::DVec3) -> us
         let seeds: Vec<u32> = (0..points.len() as u32)
             .filter(|&i| done[i as usize])
             .collect();
-        flips += propagate(points, &adj, &mut done, &seeds);
+        flips += propagate(points, &adj, &mut done, &seeds, &Monitor::silent());
     }
     for (p, d) in points.iter_mut().zip(&done) {
         if !*d && facing(p) < 0.0 {

@@ -9,8 +9,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::{
     DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, check_normal_consistency,
-    denoise, densify_mesh_with_sources, estimate_noise, estimate_normals, find_outliers,
-    inward_votes, mesh_coarseness, orient_normals, orient_toward,
+    denoise_with, densify_mesh_with_sources, estimate_noise, estimate_normals_with,
+    find_outliers_with, inward_votes, mesh_coarseness, orient_normals_with, orient_toward,
 };
 
 /// Ohtake's error threshold ε0 relative to the bounding-box diagonal D (algorithms.md §1.1):
@@ -415,7 +415,8 @@ pub fn preprocess_with(
         let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
         let normals: Option<Vec<DVec3>> =
             normals_given.then(|| points.iter().map(|p| p.n).collect());
-        let found = find_outliers(&positions, normals.as_deref());
+        let found = find_outliers_with(&positions, normals.as_deref(), monitor);
+        monitor.check()?;
         if found.count() > 0 {
             let mut keep = found.mask.iter().map(|m| !m);
             points.retain(|_| keep.next().unwrap_or(true));
@@ -440,7 +441,8 @@ pub fn preprocess_with(
         let check = check_normal_consistency(&points, 20_000);
         consistency = Some(check);
         if params.orient_given_normals {
-            normals_flipped = orient_normals(&mut points);
+            normals_flipped = orient_normals_with(&mut points, monitor);
+            monitor.check()?;
             NormalTreatment::GivenReoriented
         } else {
             if params.flip_inward_normals && inward_votes(&points).inward() {
@@ -454,7 +456,9 @@ pub fn preprocess_with(
         }
     } else {
         let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
-        for (p, n) in points.iter_mut().zip(estimate_normals(&positions)) {
+        let estimated = estimate_normals_with(&positions, monitor);
+        monitor.check()?;
+        for (p, n) in points.iter_mut().zip(estimated) {
             p.n = n;
         }
         // A point whose neighbourhood gave no plane is dropped: it has no normal to fit with.
@@ -471,7 +475,8 @@ pub fn preprocess_with(
                 NormalTreatment::EstimatedTowardViewpoint
             }
             None => {
-                normals_flipped = orient_normals(&mut points);
+                normals_flipped = orient_normals_with(&mut points, monitor);
+                monitor.check()?;
                 NormalTreatment::EstimatedPropagated
             }
         }
@@ -506,7 +511,7 @@ pub fn preprocess_with(
         } else if params.denoise && error_rel > PAPER_ERROR_REL && !inconsistent {
             step("denoise", 0)?;
             let t = Instant::now();
-            denoised = Some(denoise(&mut points, estimate.sigma));
+            denoised = Some(denoise_with(&mut points, estimate.sigma, monitor));
             monitor.check()?;
             seconds.denoise = t.elapsed().as_secs_f64();
             let t = Instant::now();

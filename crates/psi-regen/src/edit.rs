@@ -217,7 +217,10 @@ impl Edit {
                     points: new.clone(),
                 }
                 .apply(&[])?;
-                out.extend_from_slice(new);
+                out.extend(
+                    new.iter()
+                        .map(|p| OrientedPoint::new_normalized(p.p, p.n).expect("checked")),
+                );
                 changed.extend(added);
                 Ok((out, changed))
             }

@@ -27,8 +27,18 @@ pub enum RegenError {
     /// assert!(matches!(r, Err(RegenError::Mpu(_))));
     /// ```
     #[error(transparent)]
-    Mpu(#[from] MpuError),
+    Mpu(MpuError),
     /// The caller stopped the work ([`psi_octree::Monitor`]).
     #[error("interrupted")]
     Interrupted(#[from] Interrupted),
+}
+
+impl From<MpuError> for RegenError {
+    /// An MPU error, but a stopped build is the scene's interruption.
+    fn from(e: MpuError) -> Self {
+        match e {
+            MpuError::Interrupted(i) => RegenError::Interrupted(i),
+            other => RegenError::Mpu(other),
+        }
+    }
 }

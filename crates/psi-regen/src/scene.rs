@@ -64,7 +64,13 @@ impl Scene {
         particle_params: &ParticleParams,
     ) -> Result<(Scene, SampleReport), RegenError> {
         let none = PointAttributes::default();
-        Self::new_with(points, none, mpu_params, particle_params, &Monitor::silent())
+        Self::new_with(
+            points,
+            none,
+            mpu_params,
+            particle_params,
+            &Monitor::silent(),
+        )
     }
 
     /// [`Scene::new`] with the points' `attributes` (aligned with `points`, or empty), which
@@ -182,6 +188,7 @@ impl Scene {
     pub fn rebuild_from_scratch(&self) -> Result<Mpu, RegenError> {
         let options = BuildOptions {
             frame: Some(*self.mpu.frame()),
+            unit_normals: true,
             ..Default::default()
         };
         Ok(Mpu::build_with(
@@ -253,6 +260,7 @@ impl Scene {
                 seconds: t0.elapsed().as_secs_f64(),
                 ..Default::default()
             };
+            monitor.claim_commit()?;
             *self = scene;
             return Ok(report);
         }
@@ -265,7 +273,9 @@ impl Scene {
                 indices_kept: edit.keeps_indices(),
             }),
             buffers: std::mem::take(&mut self.spare),
-            unit_normals: false,
+            // The kept points' normals are the MPU's own and the edit's new ones are unit: no
+            // renormalisation, so a build from `points()` repeats this MPU bit for bit.
+            unit_normals: true,
             monitor: *monitor,
         };
         let mpu = Mpu::build_with(points, &self.mpu_params, options)?;
@@ -307,7 +317,9 @@ impl Scene {
         let mut particles = self.particles.clone();
         particles.retain_mask(&keep);
         let kept = particles.len();
-        let kept_ids: Vec<u32> = (0..keep.len() as u32).filter(|&i| keep[i as usize]).collect();
+        let kept_ids: Vec<u32> = (0..keep.len() as u32)
+            .filter(|&i| keep[i as usize])
+            .collect();
         let mut particle_attributes = self.particle_attributes.select(&kept_ids);
         let leaves: Vec<u32> = mpu
             .surface_leaves()
@@ -357,6 +369,8 @@ impl Scene {
         }
         let particle_seconds = t1.elapsed().as_secs_f64();
         monitor.check()?;
+        // From here on the edit is committed: a stop request now comes too late.
+        monitor.claim_commit()?;
 
         let report = RegenReport {
             marked_cells: marked_old.iter().filter(|m| **m).count(),
