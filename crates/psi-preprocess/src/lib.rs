@@ -50,8 +50,7 @@ pub use estimate_normals::{estimate_normals, estimate_normals_with};
 pub use find_outliers::{Outliers, find_outliers, find_outliers_with};
 pub use inward_normals::{InwardVotes, inward_votes};
 pub use orient_normals::{
-    NormalConsistency, check_normal_consistency, orient_normals, orient_normals_with,
-    orient_toward,
+    NormalConsistency, check_normal_consistency, orient_normals, orient_normals_with, orient_toward,
 };
 pub use preprocess::{
     ErrorThreshold, INCONSISTENT_NORMALS, MeshRef, MeshReport, NOISE_ERROR_FACTOR, NormalTreatment,
