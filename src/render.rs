@@ -11,8 +11,23 @@ use crate::PsiError;
 ///
 /// # Errors
 ///
-/// [`PsiError::Write`] when the file cannot be written (the previous file is untouched).
+/// [`PsiError::Write`] when the path does not end in `.png` (a picture must not be written
+/// as PNG bytes under another format's name) or the file cannot be written (the previous file
+/// is untouched).
 pub fn save_png(path: &Path, image: &Pixmap) -> Result<(), PsiError> {
+    let png = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if !png {
+        return Err(PsiError::Write {
+            path: path.to_path_buf(),
+            reason: std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "psi writes pictures as PNG only: give a path ending in .png",
+            ),
+        });
+    }
     let png = image.encode_png().map_err(|e| PsiError::Write {
         path: path.to_path_buf(),
         reason: std::io::Error::other(e),

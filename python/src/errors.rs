@@ -41,6 +41,12 @@ pub(crate) fn psi_error(py: Python<'_>, error: psi::PsiError, context: Option<&s
         None => error.to_string(),
     };
     match &error {
+        // A path psi refuses before writing (a picture not named .png) is bad input.
+        psi::PsiError::Write { reason, .. }
+            if reason.kind() == std::io::ErrorKind::InvalidInput =>
+        {
+            value_error(message)
+        }
         psi::PsiError::Open { reason, .. } | psi::PsiError::Write { reason, .. } => {
             os_error(py, message, reason)
         }

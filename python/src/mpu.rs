@@ -92,6 +92,12 @@ impl Mpu {
         self.build_report.as_ref().unwrap_or(self.mpu.report())
     }
 
+    /// This MPU reporting `report` (an unpickled one's original build) instead of its own.
+    pub(crate) fn reporting(mut self, report: Option<BuildReport>) -> Self {
+        self.build_report = report;
+        self
+    }
+
     /// A Python `Mpu` of a built MPU.
     pub(crate) fn of(
         mpu: Arc<psi::Mpu>,
@@ -303,15 +309,14 @@ impl Mpu {
             Some(s.frame),
             &Progress::Silent,
         )?;
-        let mut out = Mpu::of(
+        let out = Mpu::of(
             Arc::new(mpu),
             s.name,
             Arc::new(input_json),
             s.threshold,
             Some(given),
         );
-        out.build_report = Some(s.report);
-        Ok(out)
+        Ok(out.reporting(Some(s.report)))
     }
 
     /// f and ∇f at `x`: shape (3,) gives `(float, (3,) array)` (the float a `numpy.float64`),

@@ -40,6 +40,25 @@ fn preprocess_params(
         return Err(value_error("viewpoint must be three finite numbers"));
     }
     if !preprocess {
+        let asked: Vec<&str> = [
+            (keep_outliers, "keep_outliers"),
+            (!estimate_normals, "estimate_normals"),
+            (orient_normals, "orient_normals"),
+            (viewpoint.is_some(), "viewpoint"),
+            (!estimate_noise, "estimate_noise"),
+            (!denoise, "denoise"),
+            (!densify, "densify"),
+            (keep_inward_normals, "keep_inward_normals"),
+        ]
+        .into_iter()
+        .filter_map(|(given, name)| given.then_some(name))
+        .collect();
+        if !asked.is_empty() {
+            return Err(value_error(format!(
+                "preprocess=False turns every preprocessing step off; {} asks for one",
+                asked.join(", ")
+            )));
+        }
         return Ok(PreprocessParams::none());
     }
     Ok(PreprocessParams {

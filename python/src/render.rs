@@ -58,19 +58,6 @@ fn deliver<'py>(
     path: Option<PathBuf>,
 ) -> PyResult<Bound<'py, PyAny>> {
     if let Some(path) = path {
-        let png = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-        if !png {
-            return Err(value_error(format!(
-                "{}: psi writes pictures as PNG only; give a path ending in .png (extension {:?})",
-                path.display(),
-                path.extension()
-                    .map(|e| e.to_string_lossy().into_owned())
-                    .unwrap_or_default()
-            )));
-        }
         detached(py, || psi::save_png(&path, &image))?.map_err(|e| psi_error(py, e, None))?;
         return Ok(py.None().into_bound(py));
     }

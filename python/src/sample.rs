@@ -30,6 +30,11 @@ pub(crate) fn particle_params(
             "k={k} and count={c} conflict: give k (particles per leaf) or count (exactly that many), not both"
         )));
     }
+    if let (Some(k), true) = (k, uniform) {
+        return Err(crate::errors::value_error(format!(
+            "k={k} and uniform=True conflict: uniform sampling sets its count from count= (or one per leaf), not k"
+        )));
+    }
     let exact = |c| bounded::<u32>("count", c, 1, 50_000_000).map(|c| c as usize);
     Ok(ParticleParams {
         k: bounded::<u8>("k", k.unwrap_or(1), 1, 64)?.into(),
@@ -200,6 +205,7 @@ impl Particles {
     #[new]
     #[pyo3(signature = (positions, normals=None, *, depth=None, sigma=None))]
     fn new(
+        py: Python<'_>,
         positions: &Bound<'_, PyAny>,
         normals: Option<&Bound<'_, PyAny>>,
         depth: Option<&Bound<'_, PyAny>>,
@@ -222,10 +228,21 @@ impl Particles {
                         v.len()
                     )));
                 }
-                if let Some(i) = v.iter().position(|p| !p.is_finite()) {
-                    return Err(value_error(format!("normals: row {i} is NaN or infinite")));
+                if let Some(i) = v.iter().position(|p| !p.is_finite() || *p == DVec3::ZERO) {
+                    return Err(value_error(format!(
+                        "normals: row {i} is zero, NaN or infinite"
+                    )));
                 }
-                v
+                // Unit rows (to rounding) are kept bit for bit, others made unit.
+                v.into_iter()
+                    .map(|n| {
+                        if (n.length_squared() - 1.0).abs() <= 1e-12 {
+                            n
+                        } else {
+                            n.normalize()
+                        }
+                    })
+                    .collect()
             }
             None => Vec::new(),
         };
@@ -235,7 +252,7 @@ impl Particles {
             depth: depth.map(|d| column(d, "depth", n)).transpose()?,
             sigma: sigma.map(|s| column(s, "sigma", n)).transpose()?,
         };
-        Self::from_columns(columns, given)
+        detached(py, || Self::from_columns(columns, given))?
     }
 
     /// Positions, shape (n, 3), float64, world units: read-only, made on first access and the
@@ -398,7 +415,7 @@ pub(crate) fn load_particles(py: Python<'_>, path: PathBuf) -> PyResult<Particle
         Ok(columns) => {
             // A points file without normals reads them as zero: estimate them.
             let given = columns.normals.iter().any(|n| *n != DVec3::ZERO);
-            Particles::from_columns(columns, given)
+            detached(py, || Particles::from_columns(columns, given))?
         }
         Err(psi::PsiError::Read {
             reason: psi::io::ReadError::NoNormals,
@@ -407,13 +424,13 @@ pub(crate) fn load_particles(py: Python<'_>, path: PathBuf) -> PyResult<Particle
             let file = detached(py, || psi::load_points(&path, &psi::ReadOptions::paper()))?;
             let file = file.map_err(|e| psi_error(py, e, None));
             match file {
-                Ok(f) => Particles::from_columns(
-                    psi::ParticleColumns {
+                Ok(f) => {
+                    let columns = psi::ParticleColumns {
                         positions: f.points.iter().map(|p| p.p).collect(),
                         ..Default::default()
-                    },
-                    false,
-                ),
+                    };
+                    detached(py, || Particles::from_columns(columns, false))?
+                }
                 Err(e) => Err(e),
             }
         }

@@ -49,10 +49,12 @@ pub(crate) struct Scene {
     report: SampleReport,
 }
 
-/// What the lock guards: the scene and the number of edits applied to it.
+/// What the lock guards: the scene, the number of edits applied to it, and, for a scene just
+/// unpickled, the report of the build its MPU repeats (until the next edit).
 struct State {
     scene: psi::regen::Scene,
     edits: usize,
+    mpu_report: Option<psi::BuildReport>,
 }
 
 /// Particles' arrays as a pickle holds them.
@@ -78,6 +80,7 @@ struct SceneState {
     edits: usize,
     threshold: ErrorThreshold,
     report: SampleReport,
+    mpu_report: psi::BuildReport,
 }
 
 fn edit_error(e: RegenError) -> PyErr {
@@ -114,6 +117,7 @@ impl Scene {
             let report = state.scene.apply_with(&edit, monitor).map_err(edit_error)?;
             let index = state.edits;
             state.edits += 1;
+            state.mpu_report = None;
             Ok::<_, PyErr>((report, index))
         })??;
         let dict = crate::json::report(py, &report)?;
@@ -168,7 +172,11 @@ impl Scene {
         })?
         .map_err(|e| value_error(format!("{name}: building the scene: {e}")))?;
         Ok(Scene {
-            state: Arc::new(Mutex::new(State { scene, edits: 0 })),
+            state: Arc::new(Mutex::new(State {
+                scene,
+                edits: 0,
+                mpu_report: None,
+            })),
             name,
             input_json,
             threshold,
@@ -233,13 +241,14 @@ impl Scene {
     fn mpu(&self, py: Python<'_>) -> PyResult<Mpu> {
         let state = self.lock(py)?;
         let mpu = Arc::new(state.scene.mpu().clone());
-        Ok(Mpu::of(
+        let out = Mpu::of(
             mpu,
             self.name.clone(),
             self.input_json.clone(),
             self.threshold,
             None,
-        ))
+        );
+        Ok(out.reporting(state.mpu_report.clone()))
     }
 
     /// The current control points, shape (N, 3), float64, world units (a new array).
@@ -290,6 +299,10 @@ impl Scene {
             edits: state.edits,
             threshold: self.threshold,
             report: self.report.clone(),
+            mpu_report: state
+                .mpu_report
+                .clone()
+                .unwrap_or_else(|| scene.mpu().report().clone()),
         })?;
         drop(state);
         let restore = py.get_type::<Scene>().getattr("_from_state")?;
@@ -334,6 +347,7 @@ impl Scene {
             state: Arc::new(Mutex::new(State {
                 scene,
                 edits: s.edits,
+                mpu_report: Some(s.mpu_report),
             })),
             name: s.name,
             input_json,

@@ -173,6 +173,8 @@ def open_surfaces():
     up = np.tile([0.0, 0.0, 1.0], (2000, 1))
     return {
         "hemisphere, normals inward": (points[bowl], -normals[bowl]),
+        "dome open at the bottom, seen from inside": (
+            points[points[:, 2] > -0.3], -normals[points[:, 2] > -0.3]),
         "hemisphere, normals outward": (points[bowl], normals[bowl]),
         "plane, normals down": (plane, -up),
         "plane, normals up": (plane, up),
@@ -215,3 +217,50 @@ def test_the_cli_flips_with_a_notice_unless_told_to_keep(tmp_path, cli):
     assert "inward" not in stderr and set(flags) == {False}, (stderr, flags)
     stderr, flags = info(outward)
     assert "inward" not in stderr and set(flags) == {False}, (stderr, flags)
+
+
+# Options that contradict each other are refused, not silently dropped.
+
+
+def test_k_with_uniform_is_refused(mpu):
+    with pytest.raises(ValueError) as e:
+        psi.sample(mpu, k=5, uniform=True)
+    assert "k=5" in str(e.value) and "uniform" in str(e.value)
+    with pytest.raises(ValueError):
+        psi.Scene(psi.builtin_model(3000), k=2, count=100)
+
+
+@pytest.mark.parametrize("flag", [{"keep_outliers": True}, {"orient_normals": True},
+                                  {"viewpoint": (0, 0, 5)}, {"denoise": False},
+                                  {"keep_inward_normals": True}])
+def test_preprocess_false_refuses_a_preprocessing_flag(flag):
+    points, normals = sphere(500, seed=57)
+    with pytest.raises(ValueError) as e:
+        psi.PointSet(points, normals, preprocess=False, **flag)
+    assert next(iter(flag)) in str(e.value)
+
+
+def test_the_cli_refuses_k_with_count_and_pictures_not_named_png(tmp_path, cli):
+    done = subprocess.run([str(cli), "sample", "--k", "2", "--count", "50", "--builtin-points",
+                           "3000"], capture_output=True, text=True)
+    assert done.returncode == 2 and "--count" in done.stderr, done.stderr
+    out = tmp_path / "p.ply"
+    subprocess.run([str(cli), "--quiet", "sample", "--builtin-points", "3000", "--iterations",
+                    "1", "-o", str(out)], check=True)
+    for args in (["render", str(out), "-o", str(tmp_path / "x.jpg")],
+                 ["sample", "--builtin-points", "3000", "--png", str(tmp_path / "y.jpg")]):
+        done = subprocess.run([str(cli), *args], capture_output=True, text=True)
+        assert done.returncode != 0 and "PNG" in done.stderr, done.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.ply"]
+
+
+def test_given_normals_are_made_unit_and_zero_ones_refused():
+    points, normals = sphere(300, seed=58)
+    p = psi.Particles(points, 3.0 * normals)
+    assert np.allclose(np.linalg.norm(p.normals, axis=1), 1.0, atol=1e-12)
+    assert np.allclose(p.normals, normals, atol=1e-12)
+    bad = normals.copy()
+    bad[7] = 0.0
+    with pytest.raises(ValueError) as e:
+        psi.Particles(points, bad)
+    assert "row 7" in str(e.value)

@@ -21,8 +21,10 @@ pub(crate) struct SampleArgs {
     /// Relaxation iterations.
     #[arg(long, default_value_t = 20, value_parser = crate::iterations)]
     iterations: usize,
-    /// Particles seeded per surface-containing octree leaf.
-    #[arg(long, default_value_t = 1, value_parser = |t: &str| crate::bounded(t, 1, 64))]
+    /// Particles seeded per surface-containing octree leaf (not with --count or --uniform,
+    /// which set the count themselves).
+    #[arg(long, default_value_t = 1, value_parser = |t: &str| crate::bounded(t, 1, 64),
+        conflicts_with_all = ["count", "uniform"])]
     k: usize,
     /// Exactly this many particles (instead of k per leaf).
     #[arg(long, value_parser = |t: &str| crate::bounded(t, 1, 50_000_000))]
