@@ -1,8 +1,9 @@
-//! File IO: reading inputs by extension (or content sniffing) and writing outputs through a
-//! temporary file renamed into place, so a failure never clobbers an existing file.
+//! File IO: reading inputs by extension (or content: signatures, then text sniffing; the
+//! scanner formats streamed from the file) and writing outputs through a temporary file
+//! renamed into place, so a failure never clobbers an existing file.
 
 use std::fs;
-use std::io::{BufWriter, Write};
+use std::io::{BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
@@ -10,35 +11,111 @@ use psi_io::{Format, PointCloudFile, ReadError, ReadOptions, TriangleMesh};
 
 use crate::PsiError;
 
-fn read_bytes(path: &Path) -> Result<Vec<u8>, PsiError> {
-    let open = |reason| PsiError::Open {
+fn open_error(path: &Path, reason: std::io::Error) -> PsiError {
+    PsiError::Open {
         path: path.to_path_buf(),
         reason,
-    };
-    if path.is_dir() {
-        return Err(open(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "is a directory, not a file",
-        )));
     }
-    fs::read(path).map_err(open)
 }
 
-fn format_of(path: &Path, bytes: &[u8]) -> Format {
+fn read_error(path: &Path) -> impl FnOnce(ReadError) -> PsiError + '_ {
+    move |reason| PsiError::Read {
+        path: path.to_path_buf(),
+        reason,
+    }
+}
+
+fn check_not_dir(path: &Path) -> Result<(), PsiError> {
+    if path.is_dir() {
+        return Err(open_error(
+            path,
+            std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "is a directory, not a file",
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn read_bytes(path: &Path) -> Result<Vec<u8>, PsiError> {
+    check_not_dir(path)?;
+    fs::read(path).map_err(|e| open_error(path, e))
+}
+
+/// The format its extension names (`ply`, `obj`, `xyz`/`pts`/`txt`, `las`, `laz`, `e57`,
+/// `pcd`, any case), if any.
+fn extension_format(path: &Path) -> Option<Format> {
     path.extension()
         .and_then(|e| e.to_str())
         .and_then(Format::from_extension)
-        .unwrap_or_else(|| Format::sniff(bytes))
 }
 
-/// Reads oriented points from a PLY, OBJ or XYZ file (format from the extension, else sniffed).
-/// A mesh gives one point per triangle (or per vertex, per `opts`).
+/// The format of a file: its extension's; else the signature of its content (PLY, LAS/LAZ,
+/// E57, PCD); else, for text, OBJ or XYZ as sniffed. Binary content that neither names is
+/// [`ReadError::UnknownFormat`] rather than a text reader's complaint about its bytes.
+fn format_of(path: &Path, bytes: &[u8]) -> Result<Format, ReadError> {
+    if let Some(format) = extension_format(path).or_else(|| Format::detect(bytes)) {
+        return Ok(format);
+    }
+    if Format::looks_binary(bytes) {
+        return Err(ReadError::UnknownFormat {
+            extension: path.extension().map(|e| e.to_string_lossy().into_owned()),
+        });
+    }
+    Ok(Format::sniff(bytes))
+}
+
+/// Reads oriented points from a PLY, OBJ, XYZ, LAS/LAZ, E57 or PCD file (format from the
+/// extension, else from the content). A mesh gives one point per triangle (or per vertex,
+/// per `opts`). See [`load_points_as`].
 pub fn load_points(path: &Path, opts: &ReadOptions) -> Result<PointCloudFile, PsiError> {
-    let bytes = read_bytes(path)?;
-    psi_io::read_points(&bytes, format_of(path, &bytes), opts).map_err(|reason| PsiError::Read {
-        path: path.to_path_buf(),
-        reason,
-    })
+    load_points_as(path, None, opts)
+}
+
+/// Reads oriented points from a file as `format`, or when `None` as its extension (else its
+/// content) says. LAS/LAZ, E57 and PCD files are read from the file in bounded chunks
+/// ([`psi_io::read_points_from`]), not loaded whole first; their colour, intensity and
+/// classification are in [`PointCloudFile::attributes`], their format, scans and invalid
+/// records in [`PointCloudFile::source`].
+///
+/// ```
+/// let dir = std::env::temp_dir().join(format!("psi-doc-as-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// let path = dir.join("cloud.data");
+/// std::fs::write(&path, "0 0 0 0 0 1\n1 0 0 0 0 1\n").unwrap();
+/// let file = psi::load_points_as(&path, Some(psi::io::Format::Xyz), &psi::ReadOptions::paper()).unwrap();
+/// assert_eq!(file.points.len(), 2);
+/// std::fs::write(&path, [0u8, 159, 146, 150]).unwrap();
+/// let err = psi::load_points(&path, &psi::ReadOptions::paper()).unwrap_err();
+/// assert!(err.to_string().contains("unknown file extension `.data`"), "{err}");
+/// ```
+///
+/// # Errors
+///
+/// [`PsiError::Open`] when the file cannot be opened; [`PsiError::Read`] when it is
+/// malformed, truncated, or binary in no format psi knows ([`ReadError::UnknownFormat`]).
+pub fn load_points_as(
+    path: &Path,
+    format: Option<Format>,
+    opts: &ReadOptions,
+) -> Result<PointCloudFile, PsiError> {
+    match format.or_else(|| extension_format(path)) {
+        Some(format) if format.is_streamed() => {
+            check_not_dir(path)?;
+            let file = fs::File::open(path).map_err(|e| open_error(path, e))?;
+            psi_io::read_points_from(BufReader::new(file), format, opts).map_err(read_error(path))
+        }
+        Some(format) => {
+            let bytes = read_bytes(path)?;
+            psi_io::read_points(&bytes, format, opts).map_err(read_error(path))
+        }
+        None => {
+            let bytes = read_bytes(path)?;
+            let format = format_of(path, &bytes).map_err(read_error(path))?;
+            psi_io::read_points(&bytes, format, opts).map_err(read_error(path))
+        }
+    }
 }
 
 /// The columns of a particle file (what [`save_particles`] writes), aligned index by index.
@@ -78,9 +155,10 @@ pub fn load_particles(path: &Path) -> Result<ParticleColumns, PsiError> {
         path: path.to_path_buf(),
         reason,
     };
-    if format_of(path, &bytes) != Format::Ply {
-        let file = psi_io::read_points(&bytes, format_of(path, &bytes), &ReadOptions::paper())
-            .map_err(read_error)?;
+    let format = format_of(path, &bytes).map_err(read_error)?;
+    if format != Format::Ply {
+        let file =
+            psi_io::read_points(&bytes, format, &ReadOptions::paper()).map_err(read_error)?;
         return Ok(ParticleColumns {
             positions: file.points.iter().map(|p| p.p).collect(),
             normals: file.points.iter().map(|p| p.n).collect(),
@@ -119,10 +197,8 @@ pub fn load_particles(path: &Path) -> Result<ParticleColumns, PsiError> {
 /// Reads a triangle mesh (a reference mesh, say) from a PLY or OBJ file.
 pub fn load_mesh(path: &Path) -> Result<TriangleMesh, PsiError> {
     let bytes = read_bytes(path)?;
-    psi_io::read_mesh(&bytes, format_of(path, &bytes)).map_err(|reason| PsiError::Read {
-        path: path.to_path_buf(),
-        reason,
-    })
+    let format = format_of(path, &bytes).map_err(read_error(path))?;
+    psi_io::read_mesh(&bytes, format).map_err(read_error(path))
 }
 
 /// Whether `a` and `b` name the same existing file (after resolving links and relative

@@ -39,8 +39,8 @@ pub use psi_shapes as shapes;
 
 pub use error::PsiError;
 pub use files::{
-    ParticleColumns, load_mesh, load_particles, load_points, same_file, save_json, save_mesh,
-    save_particle_columns, save_particles, save_points, write_atomically,
+    ParticleColumns, load_mesh, load_particles, load_points, load_points_as, same_file, save_json,
+    save_mesh, save_particle_columns, save_particles, save_points, write_atomically,
 };
 pub use glam::DVec3;
 pub use prepare::{PreparedInput, builtin_file, prepare_input, prepare_points};

@@ -117,5 +117,7 @@ pub fn builtin_file(n: usize) -> PointCloudFile {
         degenerate_faces: 0,
         dropped_points: 0,
         mesh: None,
+        attributes: Default::default(),
+        source: Default::default(),
     }
 }

@@ -99,7 +99,7 @@ pub enum ReadError {
     /// ```
     #[error("{element} {index} has a NaN or infinite {what}{}", at_line(*line))]
     NonFinite {
-        /// `vertex` (PLY, OBJ) or `point` (XYZ).
+        /// `vertex` (PLY, OBJ) or `point` (XYZ, PCD, LAS, E57).
         element: &'static str,
         /// 0-based index of the vertex or point.
         index: usize,
@@ -192,6 +192,126 @@ pub enum ReadError {
         /// Points skipped for a zero normal.
         dropped_points: usize,
     },
+
+    /// The input could not be read (an I/O error of the stream the facade opened), as text.
+    #[error("cannot read the input: {reason}")]
+    Io {
+        /// The operating system's reason.
+        reason: String,
+    },
+
+    /// The format cannot be told: a binary file whose extension (or lack of one) names no
+    /// format psi reads, and whose first bytes match none either.
+    ///
+    /// ```
+    /// use psi_io::ReadError;
+    /// let err = ReadError::UnknownFormat { extension: Some("bin".into()) };
+    /// assert!(err.to_string().contains("unknown file extension `.bin`"));
+    /// ```
+    #[error(
+        "{}: binary content in no format psi reads (ply, obj, xyz, las, laz, e57, pcd); \
+         name the format with --format",
+        extension_text(extension.as_deref())
+    )]
+    UnknownFormat {
+        /// The file's extension, without the dot, when it has one.
+        extension: Option<String>,
+    },
+
+    /// A LAS or LAZ file whose header, records or structure are malformed or unsupported
+    /// (ASPRS LAS 1.4 R15; LAZ as written by LASzip).
+    ///
+    /// ```
+    /// use psi_io::{read_points, Format, ReadError, ReadOptions};
+    /// let err = read_points(b"LASF", Format::Las, &ReadOptions::paper()).unwrap_err();
+    /// assert!(matches!(err, ReadError::Las { .. }));
+    /// ```
+    #[error("invalid LAS/LAZ file: {reason}")]
+    Las {
+        /// What is wrong.
+        reason: String,
+    },
+
+    /// A LAS point data record format psi cannot read (LAS 1.4 R15 defines 0 to 10).
+    #[error(
+        "unsupported LAS point data record format {format} (LAS 1.4 R15 defines formats 0 to 10)"
+    )]
+    UnsupportedPointFormat {
+        /// The format number as written in the header (compression bits removed).
+        format: u8,
+    },
+
+    /// The point data ends before all the points a LAS, PCD or E57 header announces.
+    #[error("the data ends after {read} points, but the header announces {announced}")]
+    TruncatedPoints {
+        /// Points the header announces.
+        announced: u64,
+        /// Points actually present (complete records).
+        read: u64,
+    },
+
+    /// A LAZ chunk is truncated or corrupt: decoding the points from `first_point` on failed.
+    #[error(
+        "LAZ data is truncated or corrupt in the chunk holding points {first_point}..{end}: {reason}"
+    )]
+    LazChunk {
+        /// 0-based index of the first point of the batch being decoded.
+        first_point: u64,
+        /// One past the last point of that batch.
+        end: u64,
+        /// The decoder's reason.
+        reason: String,
+    },
+
+    /// An E57 file (ASTM E2807) that is malformed or cannot be read.
+    #[error("invalid E57 file: {reason}")]
+    E57 {
+        /// What is wrong.
+        reason: String,
+    },
+
+    /// An E57 scan (a `data3D` entry) without the fields of a position: neither
+    /// `cartesianX/Y/Z` nor `sphericalRange/Azimuth/Elevation` (ASTM E2807 §8.4.4).
+    #[error(
+        "E57 scan {scan} has neither cartesian (cartesianX/Y/Z) nor spherical \
+         (sphericalRange/Azimuth/Elevation) coordinate fields"
+    )]
+    E57NoCoordinates {
+        /// 0-based index of the scan in the file's `data3D` list.
+        scan: usize,
+    },
+
+    /// A PCD header (PCL's PCD v0.7 format) line that is malformed or contradicts another.
+    ///
+    /// ```
+    /// use psi_io::{read_points, Format, ReadError, ReadOptions};
+    /// let err = read_points(b"VERSION 0.7\nFIELDS x y\n", Format::Pcd, &ReadOptions::paper())
+    ///     .unwrap_err();
+    /// assert!(matches!(err, ReadError::PcdHeader { .. }));
+    /// ```
+    #[error("invalid PCD header (line {line}): {reason}")]
+    PcdHeader {
+        /// 1-based line number (the line after the header when something is missing).
+        line: usize,
+        /// What is wrong.
+        reason: String,
+    },
+
+    /// PCD point data that disagrees with its header, or cannot be decoded.
+    #[error("PCD point {point}: {reason}")]
+    PcdData {
+        /// 0-based index of the point record.
+        point: u64,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+fn extension_text(extension: Option<&str>) -> String {
+    match extension {
+        Some(e) => format!("unknown file extension `.{e}`"),
+        None => "no file extension".to_owned(),
+    }
 }
 
 fn at_line(line: Option<usize>) -> String {

@@ -1,15 +1,26 @@
 //! # psi-io
 //!
-//! Reading oriented points and triangle meshes, and writing PLY, for psi. This crate does no
-//! filesystem access: readers parse a byte slice, writers write to any [`std::io::Write`]. The
-//! facade crate opens files, adds file names to errors and writes through a temporary file.
+//! Reading oriented points, scans and triangle meshes, and writing PLY, for psi. This crate
+//! does no filesystem access: readers parse a byte slice or any `Read + Seek` stream, writers
+//! write to any [`std::io::Write`]. The facade crate opens files, adds file names to errors
+//! and writes through a temporary file.
 //!
-//! * Formats ([`Format`]): PLY (ASCII, binary little- and big-endian), Wavefront OBJ, and XYZ
-//!   text (`x y z nx ny nz` per line). [`Format::from_extension`] and [`Format::sniff`] pick one.
+//! * Formats ([`Format`]): PLY (ASCII, binary little- and big-endian), Wavefront OBJ, XYZ
+//!   text (`x y z nx ny nz` per line), LAS 1.0–1.4 and LAZ (ASPRS LAS 1.4 R15; the `las`
+//!   crate, parallel LAZ decoding), E57 (ASTM E2807; the `e57` crate: every scan under its
+//!   pose) and PCD (PCL's PCD v0.7: ascii, binary, binary_compressed; read here).
+//!   [`Format::from_extension`], [`Format::detect`] (signatures) and [`Format::sniff`] pick
+//!   one.
 //! * [`read_points`] gives the oriented points psi works on ([`PointCloudFile`]): from a mesh
 //!   one point per triangle at its centroid with the face normal (the paper's counts, the
 //!   default), or per vertex with area-weighted normals ([`MeshSampling`]); from a point cloud
 //!   the points with their (normalised) normals. [`read_mesh`] gives the [`TriangleMesh`].
+//! * Attributes: colour, intensity and LAS classification ride along in
+//!   [`PointCloudFile::attributes`] ([`PointAttributes`], one entry per kept point; PLY
+//!   `red green blue` and `intensity`/`scalar_intensity` too), and what the file was in
+//!   [`PointCloudFile::source`] ([`SourceInfo`]: format, E57 scans, invalid records).
+//! * Streaming: [`PointStream`] reads LAS/LAZ, E57 and PCD in bounded chunks
+//!   ([`PointChunk`]), for files larger than memory; [`read_points_from`] collects them.
 //! * [`read_point_scalars`] gives named scalar columns of a PLY `vertex` element (a particle
 //!   file's `depth` and `sigma`, say), aligned record by record, nothing dropped.
 //! * [`write_points_ply`] writes points, normals and named scalar channels (f64);
@@ -44,38 +55,58 @@
 //! assert!(file.mesh.is_some());
 //! ```
 
+mod attributes;
 mod error;
 mod format;
+mod las_checks;
+mod lzf;
 mod mesh_to_points;
 mod model;
 mod options;
+mod pcd_header;
+mod point_chunk;
+mod read_e57;
+mod read_las;
 mod read_obj;
+mod read_pcd;
 mod read_ply;
 mod read_scalars;
 mod read_xyz;
+mod stream;
 mod text;
 mod write_ply;
 
+pub use attributes::{AttributeKinds, PointAttributes};
 pub use error::{ReadError, WriteError};
 pub use format::Format;
-pub use model::{NormalSource, PointCloudFile, TriangleMesh};
+pub use model::{FileSummary, NormalSource, PointCloudFile, SourceInfo, TriangleMesh};
 pub use options::{MeshSampling, ReadOptions};
+pub use point_chunk::{PointChunk, StreamEnd, StreamHeader};
 pub use read_scalars::read_point_scalars;
+pub use stream::{PointStream, read_points_from};
 pub use write_ply::{write_mesh_ply, write_points_ply};
 
 use model::Parsed;
 
+/// Parses a text or PLY file (the formats read whole); the streamed formats go through
+/// [`read_points_from`].
 fn parse(bytes: &[u8], format: Format) -> Result<Parsed, ReadError> {
-    match format {
+    let mut parsed = match format {
         Format::Ply => read_ply::read_ply(bytes),
         Format::Obj => read_obj::read_obj(bytes),
         Format::Xyz => read_xyz::read_xyz(bytes),
-    }
+        Format::Las | Format::Laz | Format::E57 | Format::Pcd => Err(ReadError::Header {
+            reason: format!("{} files are read as streams", format.name()),
+        }),
+    }?;
+    parsed.source.format = Some(format);
+    Ok(parsed)
 }
 
 /// Reads the oriented points of a file's content.
 ///
-/// * `bytes`: the whole file.
+/// * `bytes`: the whole file. (LAS/LAZ, E57 and PCD are read through [`read_points_from`] on
+///   a copy; the facade streams them from the file instead.)
 /// * `format`: how to parse it (see [`Format::sniff`] / [`Format::from_extension`]).
 /// * `opts`: how a mesh becomes points ([`ReadOptions::paper`]: one point per triangle).
 ///
@@ -103,6 +134,9 @@ pub fn read_points(
     format: Format,
     opts: &ReadOptions,
 ) -> Result<PointCloudFile, ReadError> {
+    if format.is_streamed() {
+        return read_points_from(std::io::Cursor::new(bytes.to_vec()), format, opts);
+    }
     mesh_to_points::to_point_cloud(parse(bytes, format)?, opts)
 }
 
@@ -152,7 +186,7 @@ pub fn points_from_columns(
     let parsed = Parsed {
         vertices: positions,
         normals,
-        faces: Vec::new(),
+        ..Parsed::default()
     };
     mesh_to_points::to_point_cloud(parsed, &ReadOptions::paper())
 }
@@ -162,7 +196,8 @@ pub fn points_from_columns(
 ///
 /// # Errors
 ///
-/// [`ReadError::NoFaces`] when the file has no faces, and the parse errors of [`read_points`].
+/// [`ReadError::NoFaces`] when the file has no faces (always for LAS/LAZ, E57 and PCD, which
+/// hold points only; their content is not read), and the parse errors of [`read_points`].
 ///
 /// ```
 /// use psi_io::{read_mesh, Format};
@@ -171,5 +206,8 @@ pub fn points_from_columns(
 /// assert_eq!(mesh.faces, vec![[0, 1, 2], [0, 2, 3]]);
 /// ```
 pub fn read_mesh(bytes: &[u8], format: Format) -> Result<TriangleMesh, ReadError> {
+    if format.is_streamed() {
+        return Err(ReadError::NoFaces);
+    }
     mesh_to_points::to_mesh(parse(bytes, format)?)
 }

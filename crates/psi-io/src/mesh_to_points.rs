@@ -4,6 +4,7 @@
 use glam::DVec3;
 use psi_octree::OrientedPoint;
 
+use crate::attributes;
 use crate::error::ReadError;
 use crate::model::{NormalSource, Parsed, PointCloudFile, TriangleMesh};
 use crate::options::{MeshSampling, ReadOptions};
@@ -50,10 +51,12 @@ fn centroid(a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
     }
 }
 
-/// One point per non-degenerate triangle; returns the points and the degenerate count.
-fn face_centroids(mesh: &TriangleMesh) -> (Vec<OrientedPoint>, usize) {
+/// One point per non-degenerate triangle; returns the points, the degenerate count and the
+/// triangles that gave the points.
+fn face_centroids(mesh: &TriangleMesh) -> (Vec<OrientedPoint>, usize, Vec<[u32; 3]>) {
     let v = &mesh.vertices;
     let mut points = Vec::with_capacity(mesh.faces.len());
+    let mut kept = Vec::with_capacity(mesh.faces.len());
     let mut degenerate = 0;
     for &f in &mesh.faces {
         let point = face_cross(v, f).and_then(|n| {
@@ -61,16 +64,20 @@ fn face_centroids(mesh: &TriangleMesh) -> (Vec<OrientedPoint>, usize) {
             Some(OrientedPoint { p, n: unit(n)? })
         });
         match point {
-            Some(p) => points.push(p),
+            Some(p) => {
+                points.push(p);
+                kept.push(f);
+            }
             None => degenerate += 1,
         }
     }
-    (points, degenerate)
+    (points, degenerate, kept)
 }
 
 /// One point per referenced vertex with its area-weighted normal; returns the points, the
-/// degenerate-triangle count and the count of referenced vertices whose normal sums to zero.
-fn vertex_normals(mesh: &TriangleMesh) -> (Vec<OrientedPoint>, usize, usize) {
+/// degenerate-triangle count, the count of referenced vertices whose normal sums to zero and
+/// the indices of the vertices that gave the points.
+fn vertex_normals(mesh: &TriangleMesh) -> (Vec<OrientedPoint>, usize, usize, Vec<usize>) {
     let v = &mesh.vertices;
     let mut sums = vec![DVec3::ZERO; v.len()];
     let mut referenced = vec![false; v.len()];
@@ -89,17 +96,21 @@ fn vertex_normals(mesh: &TriangleMesh) -> (Vec<OrientedPoint>, usize, usize) {
         }
     }
     let mut points = Vec::with_capacity(v.len());
+    let mut kept = Vec::with_capacity(v.len());
     let mut dropped = 0;
     for (i, &p) in v.iter().enumerate() {
         if !referenced[i] {
             continue;
         }
         match unit(sums[i]) {
-            Some(n) => points.push(OrientedPoint { p, n }),
+            Some(n) => {
+                points.push(OrientedPoint { p, n });
+                kept.push(i);
+            }
             None => dropped += 1,
         }
     }
-    (points, degenerate, dropped)
+    (points, degenerate, dropped, kept)
 }
 
 /// Oriented points from parsed data per `opts`; see [`crate::read_points`] for the rules.
@@ -109,17 +120,31 @@ pub(crate) fn to_point_cloud(
 ) -> Result<PointCloudFile, ReadError> {
     let vertices = parsed.vertices.len();
     let faces = parsed.faces.len();
+    let source = parsed.source;
     let result = if faces > 0 {
         let mesh = TriangleMesh {
             vertices: parsed.vertices,
             faces: parsed.faces,
         };
-        let (points, degenerate_faces, dropped_points) = match opts.sampling {
+        let (points, degenerate_faces, dropped_points, attributes) = match opts.sampling {
             MeshSampling::FaceCentroids => {
-                let (points, degenerate) = face_centroids(&mesh);
-                (points, degenerate, 0)
+                let (points, degenerate, kept) = face_centroids(&mesh);
+                (
+                    points,
+                    degenerate,
+                    0,
+                    attributes::per_face(&parsed.attributes, &kept),
+                )
             }
-            MeshSampling::VertexNormals => vertex_normals(&mesh),
+            MeshSampling::VertexNormals => {
+                let (points, degenerate, dropped, kept) = vertex_normals(&mesh);
+                (
+                    points,
+                    degenerate,
+                    dropped,
+                    attributes::select(&parsed.attributes, &kept),
+                )
+            }
         };
         PointCloudFile {
             points,
@@ -132,6 +157,8 @@ pub(crate) fn to_point_cloud(
             degenerate_faces,
             dropped_points,
             mesh: Some(mesh),
+            attributes,
+            source,
         }
     } else if vertices == 0 {
         PointCloudFile {
@@ -142,6 +169,8 @@ pub(crate) fn to_point_cloud(
             degenerate_faces: 0,
             dropped_points: 0,
             mesh: None,
+            attributes: parsed.attributes,
+            source,
         }
     } else if parsed.normals.is_none() {
         // Positions only: normals are estimated later (psi-preprocess).
@@ -157,10 +186,14 @@ pub(crate) fn to_point_cloud(
             degenerate_faces: 0,
             dropped_points: 0,
             mesh: None,
+            attributes: parsed.attributes,
+            source,
         }
     } else {
         let normals = parsed.normals.unwrap_or_default();
         let mut points = Vec::with_capacity(vertices);
+        let mut kept = Vec::new();
+        let track = !parsed.attributes.is_empty();
         let mut dropped_points = 0;
         for (index, (&p, &n)) in parsed.vertices.iter().zip(&normals).enumerate() {
             if !n.is_finite() {
@@ -172,10 +205,20 @@ pub(crate) fn to_point_cloud(
                 });
             }
             match unit(n) {
-                Some(n) => points.push(OrientedPoint { p, n }),
+                Some(n) => {
+                    points.push(OrientedPoint { p, n });
+                    if track {
+                        kept.push(index);
+                    }
+                }
                 None => dropped_points += 1,
             }
         }
+        let attributes = if dropped_points == 0 {
+            parsed.attributes
+        } else {
+            attributes::select(&parsed.attributes, &kept)
+        };
         PointCloudFile {
             points,
             normals: NormalSource::File,
@@ -184,6 +227,8 @@ pub(crate) fn to_point_cloud(
             degenerate_faces: 0,
             dropped_points,
             mesh: None,
+            attributes,
+            source,
         }
     };
     if result.points.is_empty() {

@@ -3,6 +3,9 @@
 use glam::DVec3;
 use psi_octree::OrientedPoint;
 
+use crate::attributes::{AttributeKinds, PointAttributes};
+use crate::format::Format;
+
 /// An indexed triangle mesh in the file's units.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TriangleMesh {
@@ -50,6 +53,66 @@ pub struct PointCloudFile {
     pub dropped_points: usize,
     /// The triangle mesh, when the file had faces.
     pub mesh: Option<TriangleMesh>,
+    /// Colour, intensity and classification of the points, each column aligned with
+    /// `points` when present (see [`PointAttributes`] for units).
+    pub attributes: PointAttributes,
+    /// What the file was: its format, scans and the records skipped as invalid.
+    pub source: SourceInfo,
+}
+
+/// Where a [`PointCloudFile`] came from, beyond its points.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct SourceInfo {
+    /// The format read; `None` for points given in memory.
+    pub format: Option<Format>,
+    /// A one-line description of the file's layout, e.g. `LAS 1.4, point format 7, LAZ` or
+    /// `PCD 0.7, binary_compressed, 640 x 480`; `None` for PLY, OBJ and XYZ.
+    pub detail: Option<String>,
+    /// The number of scans (E57 `data3D` entries); `None` for formats without scans.
+    pub scans: Option<usize>,
+    /// Records skipped because the file marks them invalid or their position is not finite:
+    /// E57 returns flagged invalid or direction-only, PCD NaN points (PCL's marker in
+    /// organised clouds). Not counted in `vertices`.
+    pub invalid_points: u64,
+}
+
+/// What `psi info` says about a file as read, before any preprocessing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FileSummary {
+    /// See [`SourceInfo`].
+    pub source: SourceInfo,
+    /// Points read (`points.len()`).
+    pub points: usize,
+    /// Whether the file gave normals.
+    pub normals: NormalSource,
+    /// The attribute columns present.
+    pub attributes: AttributeKinds,
+    /// Componentwise minimum and maximum of the positions; `None` without points.
+    pub bounds: Option<(DVec3, DVec3)>,
+}
+
+impl PointCloudFile {
+    /// The componentwise minimum and maximum of the points' positions; `None` when there
+    /// are none.
+    pub fn bounds(&self) -> Option<(DVec3, DVec3)> {
+        let first = self.points.first()?.p;
+        Some(
+            self.points
+                .iter()
+                .fold((first, first), |(lo, hi), q| (lo.min(q.p), hi.max(q.p))),
+        )
+    }
+
+    /// The format, scans, counts, attributes and coordinate ranges of this file.
+    pub fn summary(&self) -> FileSummary {
+        FileSummary {
+            source: self.source.clone(),
+            points: self.points.len(),
+            normals: self.normals,
+            attributes: AttributeKinds::of(&self.attributes),
+            bounds: self.bounds(),
+        }
+    }
 }
 
 /// What a reader extracts before points are made: positions, optional per-vertex normals,
@@ -62,4 +125,8 @@ pub(crate) struct Parsed {
     pub(crate) normals: Option<Vec<DVec3>>,
     /// Triangles, indices `< vertices.len()`.
     pub(crate) faces: Vec<[u32; 3]>,
+    /// Per-vertex attributes, each present column as long as `vertices`.
+    pub(crate) attributes: PointAttributes,
+    /// What the file was (the format is set by the caller of the reader).
+    pub(crate) source: SourceInfo,
 }

@@ -63,6 +63,7 @@ pub(crate) fn read_obj(bytes: &[u8]) -> Result<Parsed, ReadError> {
         vertices,
         normals,
         faces,
+        ..Parsed::default()
     })
 }
 

@@ -16,6 +16,7 @@ use ply_rs_bw::ply::{
     ScalarType,
 };
 
+use crate::attributes::{PointAttributes, channel_from_u16, channel_from_unit, intensity_value};
 use crate::error::ReadError;
 use crate::model::Parsed;
 use crate::text::is_blank;
@@ -27,7 +28,8 @@ fn is_index_list(name: &str) -> bool {
     INDEX_LISTS.contains(&name)
 }
 
-/// Parses a PLY file: the `vertex` element (`x y z`, optional `nx ny nz`) and, when present,
+/// Parses a PLY file: the `vertex` element (`x y z`, optional `nx ny nz`, and the attributes
+/// `red green blue` and `intensity` or `scalar_intensity` when present) and, when present,
 /// the `face` element's index lists, triangulated as fans. Other elements and properties are
 /// skipped.
 pub(crate) fn read_ply(bytes: &[u8]) -> Result<Parsed, ReadError> {
@@ -40,7 +42,7 @@ pub(crate) fn read_ply(bytes: &[u8]) -> Result<Parsed, ReadError> {
             break;
         }
         if name == "vertex" {
-            read_vertices(&mut records, def, layout.normals, &mut parsed)?;
+            read_vertices(&mut records, def, &layout, &mut parsed)?;
             pending -= 1;
         } else if layout.faces && name == "face" {
             parsed.faces = read_faces(&mut records, def, layout.vertex_count)?;
@@ -79,6 +81,10 @@ struct Layout {
     vertex_count: usize,
     normals: bool,
     faces: bool,
+    /// `red green blue` are all scalar properties of `vertex`.
+    colors: bool,
+    /// Which intensity property is read: 0 `intensity`, 1 `scalar_intensity` (CloudCompare).
+    intensity: Option<usize>,
 }
 
 impl Layout {
@@ -151,10 +157,14 @@ impl Layout {
             }
             _ => false,
         };
+        let colors = ["red", "green", "blue"].iter().all(|n| scalar(n));
+        let intensity = INTENSITY_NAMES.iter().position(|n| scalar(n));
         Ok(Self {
             vertex_count: vertex.count,
             normals: normals == 3,
             faces,
+            colors,
+            intensity,
         })
     }
 }
@@ -297,15 +307,22 @@ fn scalar_size(s: &ScalarType) -> usize {
 fn read_vertices(
     records: &mut Records<'_>,
     def: &ElementDef,
-    normals: bool,
+    layout: &Layout,
     parsed: &mut Parsed,
 ) -> Result<(), ReadError> {
+    let normals = layout.normals;
     let parser = Parser::<VertexRecord>::new();
     let capacity = records.capacity(def.count, def);
     let mut positions = Vec::with_capacity(capacity);
     let mut vertex_normals = Vec::with_capacity(if normals { capacity } else { 0 });
+    let mut attributes = PointAttributes {
+        colors: layout.colors.then(|| Vec::with_capacity(capacity)),
+        intensity: layout.intensity.map(|_| Vec::with_capacity(capacity)),
+        classification: None,
+    };
     for index in 0..def.count {
-        let v = records.read(&parser, def, index)?.0;
+        let record = records.read(&parser, def, index)?;
+        let v = record.v;
         let p = DVec3::new(v[0], v[1], v[2]);
         if !p.is_finite() {
             return Err(ReadError::NonFinite {
@@ -319,9 +336,16 @@ fn read_vertices(
         if normals {
             vertex_normals.push(DVec3::new(v[3], v[4], v[5]));
         }
+        if let Some(colors) = &mut attributes.colors {
+            colors.push(record.rgb);
+        }
+        if let (Some(values), Some(which)) = (&mut attributes.intensity, layout.intensity) {
+            values.push(record.intensity[which]);
+        }
     }
     parsed.vertices = positions;
     parsed.normals = normals.then_some(vertex_normals);
+    parsed.attributes = attributes;
     Ok(())
 }
 
@@ -401,11 +425,28 @@ impl PropertyAccess for Skip {
     }
 }
 
-/// `x y z nx ny nz` of one vertex, any numeric type widened to f64; other properties ignored.
-struct VertexRecord([f64; 6]);
+/// The intensity property names read, in order of preference.
+const INTENSITY_NAMES: [&str; 2] = ["intensity", "scalar_intensity"];
+
+/// `x y z nx ny nz` of one vertex, any numeric type widened to f64, with its colour (8 bits
+/// per channel: `uchar` as is, 16-bit types by their high byte, other integers clamped to
+/// 0–255, floats scaled from 0–1) and intensities; other properties ignored.
+struct VertexRecord {
+    v: [f64; 6],
+    rgb: [u8; 3],
+    intensity: [f32; 2],
+}
+
+/// How a colour channel of some PLY type becomes 8 bits.
+enum Channel {
+    Byte(u8),
+    Wide(u16),
+    Int(i64),
+    Unit(f64),
+}
 
 impl VertexRecord {
-    fn set(&mut self, name: &str, value: f64) -> PropertyAccessResult {
+    fn set(&mut self, name: &str, value: f64, channel: Channel) -> PropertyAccessResult {
         let slot = match name {
             "x" => 0,
             "y" => 1,
@@ -413,40 +454,61 @@ impl VertexRecord {
             "nx" => 3,
             "ny" => 4,
             "nz" => 5,
-            _ => return PropertyAccessResult::Ignored,
+            "red" | "green" | "blue" => {
+                let k = usize::from(name != "red") + usize::from(name == "blue");
+                self.rgb[k] = match channel {
+                    Channel::Byte(v) => v,
+                    Channel::Wide(v) => channel_from_u16(v),
+                    Channel::Int(v) => v.clamp(0, 255) as u8,
+                    Channel::Unit(v) => channel_from_unit(v),
+                };
+                return PropertyAccessResult::Set;
+            }
+            _ => match INTENSITY_NAMES.iter().position(|&n| n == name) {
+                Some(k) => {
+                    self.intensity[k] = intensity_value(value);
+                    return PropertyAccessResult::Set;
+                }
+                None => return PropertyAccessResult::Ignored,
+            },
         };
-        self.0[slot] = value;
+        self.v[slot] = value;
         PropertyAccessResult::Set
     }
 }
 
 impl PropertyAccess for VertexRecord {
     fn new() -> Self {
-        Self([0.0; 6])
+        Self {
+            v: [0.0; 6],
+            rgb: [0; 3],
+            intensity: [0.0; 2],
+        }
     }
     fn set_char(&mut self, name: &str, value: i8) -> PropertyAccessResult {
-        self.set(name, f64::from(value))
+        self.set(name, f64::from(value), Channel::Int(i64::from(value)))
     }
     fn set_uchar(&mut self, name: &str, value: u8) -> PropertyAccessResult {
-        self.set(name, f64::from(value))
+        self.set(name, f64::from(value), Channel::Byte(value))
     }
     fn set_short(&mut self, name: &str, value: i16) -> PropertyAccessResult {
-        self.set(name, f64::from(value))
+        let wide = Channel::Wide(value.max(0) as u16);
+        self.set(name, f64::from(value), wide)
     }
     fn set_ushort(&mut self, name: &str, value: u16) -> PropertyAccessResult {
-        self.set(name, f64::from(value))
+        self.set(name, f64::from(value), Channel::Wide(value))
     }
     fn set_int(&mut self, name: &str, value: i32) -> PropertyAccessResult {
-        self.set(name, f64::from(value))
+        self.set(name, f64::from(value), Channel::Int(i64::from(value)))
     }
     fn set_uint(&mut self, name: &str, value: u32) -> PropertyAccessResult {
-        self.set(name, f64::from(value))
+        self.set(name, f64::from(value), Channel::Int(i64::from(value)))
     }
     fn set_float(&mut self, name: &str, value: f32) -> PropertyAccessResult {
-        self.set(name, f64::from(value))
+        self.set(name, f64::from(value), Channel::Unit(f64::from(value)))
     }
     fn set_double(&mut self, name: &str, value: f64) -> PropertyAccessResult {
-        self.set(name, value)
+        self.set(name, value, Channel::Unit(value))
     }
 }
 

@@ -70,5 +70,6 @@ pub(crate) fn read_xyz(bytes: &[u8]) -> Result<Parsed, ReadError> {
         vertices,
         normals: (columns != Some(3)).then_some(normals),
         faces: Vec::new(),
+        ..Parsed::default()
     })
 }

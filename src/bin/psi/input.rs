@@ -16,6 +16,8 @@ pub(crate) struct Loaded {
     pub(crate) path: Option<PathBuf>,
     /// The prepared points, their name and their report.
     pub(crate) input: PreparedInput,
+    /// The file as read, before preprocessing (`psi info` prints it).
+    pub(crate) file: psi::io::FileSummary,
 }
 
 impl Loaded {
@@ -69,8 +71,8 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
             } else {
                 MeshSampling::FaceCentroids
             };
-            let file =
-                psi::load_points(path, &ReadOptions { sampling }).context("reading the input")?;
+            let file = psi::load_points_as(path, args.format, &ReadOptions { sampling })
+                .context("reading the input")?;
             (path.display().to_string(), file)
         }
     };
@@ -85,6 +87,7 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
             }
         ));
     }
+    let summary = file.summary();
     let params = preprocess_params(args);
     let monitor = psi::octree::Monitor::silent();
     let input = psi::prepare_input(name.clone(), file, &params, &monitor).map_err(|e| Failure {
@@ -156,5 +159,6 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
     Ok(Loaded {
         path: args.input.clone(),
         input,
+        file: summary,
     })
 }

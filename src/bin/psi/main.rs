@@ -39,8 +39,13 @@ struct Cli {
 /// The input every command reads.
 #[derive(Args, Clone, Debug)]
 pub(crate) struct InputArgs {
-    /// Oriented points or a triangle mesh (PLY, OBJ, XYZ). Without it, the built-in model.
+    /// Oriented points or a triangle mesh (PLY, OBJ, XYZ), or a scan (LAS, LAZ, E57, PCD).
+    /// Without it, the built-in model.
     pub(crate) input: Option<PathBuf>,
+    /// Read the input as this format (ply, obj, xyz, las, laz, e57, pcd), whatever its
+    /// extension (default: by extension, else by content).
+    #[arg(long, value_name = "FORMAT", value_parser = input_format, requires = "input")]
+    pub(crate) format: Option<psi::io::Format>,
     /// From a mesh, one point per vertex with area-weighted normals (default: per triangle).
     #[arg(long)]
     pub(crate) per_vertex: bool,
@@ -77,6 +82,17 @@ pub(crate) struct InputArgs {
     /// inside, such as a room scanned from its middle).
     #[arg(long)]
     pub(crate) keep_inward_normals: bool,
+}
+
+/// Parses a `--format` name: ply, obj, xyz, las, laz, e57 or pcd.
+fn input_format(text: &str) -> Result<psi::io::Format, String> {
+    psi::io::Format::ALL
+        .into_iter()
+        .find(|f| f.name().eq_ignore_ascii_case(text.trim()))
+        .ok_or_else(|| {
+            let names: Vec<&str> = psi::io::Format::ALL.iter().map(|f| f.name()).collect();
+            format!("{text}: expected one of {}", names.join(", "))
+        })
 }
 
 /// A point `x,y,z` of the command line (world units).

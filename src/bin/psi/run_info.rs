@@ -1,15 +1,53 @@
-//! `psi info`.
+//! `psi info`: what was read (format, scans, point count, attributes, coordinate ranges) and
+//! what preprocessing made of it.
+
+use psi::io::{FileSummary, NormalSource};
+use serde_json::json;
 
 use crate::input::load;
 use crate::{Failure, InputArgs};
 
+/// The file as read, for `--json`: the `file` object beside the reports' `input` fields.
+fn file_json(file: &FileSummary) -> serde_json::Value {
+    let normals = match file.normals {
+        NormalSource::File => "file",
+        NormalSource::Faces => "faces",
+        NormalSource::Vertices => "vertices",
+        NormalSource::Missing => "missing",
+    };
+    json!({
+        "format": file.source.format.map(|f| f.name()),
+        "detail": file.source.detail,
+        "scans": file.source.scans,
+        "points": file.points,
+        "invalid_points": file.source.invalid_points,
+        "normals": normals,
+        "attributes": file.attributes.names(),
+        "min": file.bounds.map(|b| b.0.to_array()),
+        "max": file.bounds.map(|b| b.1.to_array()),
+    })
+}
+
 pub(crate) fn run(args: &InputArgs, json: bool, ui: crate::ui::Ui) -> Result<(), Failure> {
     let loaded = load(args, ui)?;
-    let (input, j) = (&loaded.input, &loaded.input.json);
+    let (input, j, file) = (&loaded.input, &loaded.input.json, &loaded.file);
     if json {
-        println!("{}", serde_json::to_string_pretty(j)?);
+        let mut j = j.clone();
+        if let Some(object) = j.as_object_mut() {
+            object.insert("file".to_owned(), file_json(file));
+        }
+        println!("{}", serde_json::to_string_pretty(&j)?);
     } else {
         println!("input          {}", input.name);
+        let format = match (&file.source.detail, file.source.format) {
+            (Some(detail), _) => detail.clone(),
+            (None, Some(f)) => f.name().to_uppercase(),
+            (None, None) => "built-in model".to_owned(),
+        };
+        println!("format         {format}");
+        if let Some(scans) = file.source.scans {
+            println!("scans          {scans}");
+        }
         println!("vertices       {}", j["vertices"]);
         println!("faces          {}", j["faces"]);
         println!(
@@ -17,6 +55,30 @@ pub(crate) fn run(args: &InputArgs, json: bool, ui: crate::ui::Ui) -> Result<(),
             input.points_read,
             input.points.len()
         );
+        if file.source.invalid_points > 0 {
+            let n = file.source.invalid_points;
+            println!(
+                "invalid        {n} record{} skipped (flagged invalid or not finite)",
+                if n == 1 { "" } else { "s" }
+            );
+        }
+        let names = file.attributes.names();
+        println!(
+            "attributes     {}",
+            if names.is_empty() {
+                "none".to_owned()
+            } else {
+                names.join(", ")
+            }
+        );
+        if let Some((lo, hi)) = file.bounds {
+            for (axis, (a, b)) in ["x", "y", "z"]
+                .iter()
+                .zip(lo.to_array().into_iter().zip(hi.to_array()))
+            {
+                println!("{axis} range        {a} .. {b}");
+            }
+        }
         if j["degenerate_faces"].as_u64() > Some(0) {
             println!("skipped        {} degenerate faces", j["degenerate_faces"]);
         }

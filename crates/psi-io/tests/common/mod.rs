@@ -175,3 +175,5 @@ pub fn config() -> Config {
         ..Config::default()
     }
 }
+
+pub mod scans;

@@ -1,0 +1,77 @@
+//! What the streaming readers hand out: a header read before any point, batches of points
+//! with their normals and attributes, and the count at the end.
+
+use glam::DVec3;
+
+use crate::attributes::{self, AttributeKinds, PointAttributes};
+use crate::error::ReadError;
+use crate::format::Format;
+
+/// A batch of points read from a stream: positions in the file's (georeferenced) units as
+/// f64, with normals and attributes aligned with them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PointChunk {
+    /// Positions (shape: n ≤ the requested batch size), world units, all finite.
+    pub positions: Vec<DVec3>,
+    /// The file's normals, when it has them (PCD `normal_x normal_y normal_z`): not
+    /// normalised; a normal the file leaves undefined (NaN) is zero.
+    pub normals: Option<Vec<DVec3>>,
+    /// Colour, intensity, classification: the columns [`StreamHeader::attributes`] names.
+    pub attributes: PointAttributes,
+}
+
+impl PointChunk {
+    /// An empty chunk with the columns of `header`.
+    pub(crate) fn for_header(header: &StreamHeader, capacity: usize) -> Self {
+        Self {
+            positions: Vec::with_capacity(capacity),
+            normals: header.normals.then(|| Vec::with_capacity(capacity)),
+            attributes: attributes::with_kinds(header.attributes, capacity),
+        }
+    }
+
+    /// The number of points in the chunk.
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Whether the chunk has no points.
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+}
+
+/// What a stream knows from the file's header, before any point is read.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StreamHeader {
+    /// The format, as the content says ([`Format::Laz`] for a compressed LAS file whatever
+    /// it was opened as).
+    pub format: Format,
+    /// A one-line description of the layout (version, point format, encoding, scans).
+    pub detail: String,
+    /// Point records the header announces (E57: the sum over the scans), invalid ones
+    /// included.
+    pub announced_points: u64,
+    /// The number of scans (E57 `data3D` entries); `None` for the other formats.
+    pub scans: Option<usize>,
+    /// Whether chunks carry normals.
+    pub normals: bool,
+    /// The attribute columns chunks carry.
+    pub attributes: AttributeKinds,
+}
+
+/// How a stream ended: every record visited (or the visitor stopped it).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StreamEnd {
+    /// Points handed to the visitor.
+    pub points: u64,
+    /// Records skipped as invalid (see [`crate::SourceInfo::invalid_points`]).
+    pub invalid_points: u64,
+}
+
+/// A reader's I/O error as a [`ReadError::Io`].
+pub(crate) fn io_error(e: std::io::Error) -> ReadError {
+    ReadError::Io {
+        reason: e.to_string(),
+    }
+}
