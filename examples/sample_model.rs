@@ -35,7 +35,7 @@ fn main() -> anyhow::Result<()> {
         report.before.spacing.cv,
         report.after.spacing.cv
     );
-    psi::save_particles(Path::new(&output), &run.particles)?;
+    psi::save_particles(Path::new(&output), &run.particles, &Default::default())?;
     println!("wrote {output}");
     Ok(())
 }

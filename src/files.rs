@@ -9,6 +9,8 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use psi_io::{Format, PointCloudFile, ReadError, ReadOptions, TriangleMesh};
 
+use psi_octree::PointAttributes;
+
 use crate::PsiError;
 
 fn open_error(path: &Path, reason: std::io::Error) -> PsiError {
@@ -129,6 +131,10 @@ pub struct ParticleColumns {
     pub depth: Option<Vec<f64>>,
     /// Repulsion radius σ (shape: N, world units), when the file has a `sigma` property.
     pub sigma: Option<Vec<f64>>,
+    /// Colours, intensities and LAS classes (aligned; empty when the file has none): a PLY's
+    /// `red green blue` (0–255), `intensity` and `classification`, or another format's
+    /// attributes.
+    pub attributes: PointAttributes,
 }
 
 /// Reads particles: from a PLY its `vertex` columns `x y z nx ny nz` and, when present,
@@ -164,12 +170,46 @@ pub fn load_particles(path: &Path) -> Result<ParticleColumns, PsiError> {
             normals: file.points.iter().map(|p| p.n).collect(),
             depth: None,
             sigma: None,
+            attributes: file.attributes,
         });
     }
-    let names = ["x", "y", "z", "nx", "ny", "nz", "depth", "sigma"];
+    let names = [
+        "x",
+        "y",
+        "z",
+        "nx",
+        "ny",
+        "nz",
+        "depth",
+        "sigma",
+        "red",
+        "green",
+        "blue",
+        "intensity",
+        "classification",
+    ];
     let mut columns = psi_io::read_point_scalars(&bytes, &names).map_err(read_error)?;
+    let classification = columns.pop().flatten();
+    let intensity = columns.pop().flatten();
+    let rgb: Vec<Option<Vec<f64>>> = columns.split_off(8);
     let sigma = columns.pop().flatten();
     let depth = columns.pop().flatten();
+    let byte = |v: f64| v.round().clamp(0.0, 255.0) as u8;
+    let colors = match &rgb[..] {
+        [Some(r), Some(g), Some(b)] => Some(
+            r.iter()
+                .zip(g)
+                .zip(b)
+                .map(|((&r, &g), &b)| [byte(r), byte(g), byte(b)])
+                .collect(),
+        ),
+        _ => None,
+    };
+    let attributes = PointAttributes {
+        colors,
+        intensity: intensity.map(|v| v.into_iter().map(|x| x as f32).collect()),
+        classification: classification.map(|v| v.into_iter().map(byte).collect()),
+    };
     let vectors = |c: &[Option<Vec<f64>>]| match c {
         [Some(x), Some(y), Some(z)] => Some(
             x.iter()
@@ -191,6 +231,7 @@ pub fn load_particles(path: &Path) -> Result<ParticleColumns, PsiError> {
         normals,
         depth,
         sigma,
+        attributes,
     })
 }
 
@@ -266,34 +307,76 @@ fn to_io(e: psi_io::WriteError) -> std::io::Error {
     }
 }
 
-/// Writes particles as binary little-endian PLY: x y z nx ny nz depth sigma (doubles).
-pub fn save_particles(path: &Path, particles: &psi_particles::Particles) -> Result<(), PsiError> {
+/// Writes particles and their `attributes` (aligned, or empty) by the path's extension: LAS or
+/// LAZ for `.las`/`.laz` ([`psi_io::write_las`]: positions and attributes), else binary
+/// little-endian PLY with `x y z nx ny nz depth sigma` (doubles) and the attribute columns.
+pub fn save_particles(
+    path: &Path,
+    particles: &psi_particles::Particles,
+    attributes: &PointAttributes,
+) -> Result<(), PsiError> {
     let depth: Vec<f64> = particles.depth.iter().map(|&d| f64::from(d)).collect();
-    write_atomically(path, |w| {
-        let mut w = w;
-        psi_io::write_points_ply(
-            &mut w,
-            &particles.positions,
-            &particles.normals,
-            &[("depth", &depth), ("sigma", &particles.sigma)],
-        )
-        .map_err(to_io)
-    })
+    let scalars = [("depth", &depth[..]), ("sigma", &particles.sigma[..])];
+    write_particles(
+        path,
+        &particles.positions,
+        &particles.normals,
+        &scalars,
+        attributes,
+    )
 }
 
-/// Writes particle columns as binary little-endian PLY: x y z nx ny nz, then `depth` and
-/// `sigma` (doubles) when present (particles from arrays or another tool may lack them).
+/// Writes particle columns as [`save_particles`] does, `depth` and `sigma` only when present
+/// (particles from arrays or another tool may lack them).
 pub fn save_particle_columns(path: &Path, columns: &ParticleColumns) -> Result<(), PsiError> {
-    let mut extra: Vec<(&str, &[f64])> = Vec::new();
+    let mut scalars: Vec<(&str, &[f64])> = Vec::new();
     if let Some(d) = &columns.depth {
-        extra.push(("depth", d));
+        scalars.push(("depth", d));
     }
     if let Some(s) = &columns.sigma {
-        extra.push(("sigma", s));
+        scalars.push(("sigma", s));
+    }
+    write_particles(
+        path,
+        &columns.positions,
+        &columns.normals,
+        &scalars,
+        &columns.attributes,
+    )
+}
+
+/// Whether `path` names a LAS or LAZ file (`Some(compressed)`) by its extension.
+fn las_output(path: &Path) -> Option<bool> {
+    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+    match ext.as_str() {
+        "las" => Some(false),
+        "laz" => Some(true),
+        _ => None,
+    }
+}
+
+/// The one writer of particle files: LAS/LAZ by extension (built in memory, which a LAS
+/// header's last-written counts need), else PLY; through a temporary file renamed into place.
+fn write_particles(
+    path: &Path,
+    positions: &[DVec3],
+    normals: &[DVec3],
+    scalars: &[(&str, &[f64])],
+    attributes: &PointAttributes,
+) -> Result<(), PsiError> {
+    if let Some(compressed) = las_output(path) {
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        psi_io::write_las(&mut bytes, positions, attributes, compressed).map_err(|e| {
+            PsiError::Write {
+                path: path.to_path_buf(),
+                reason: to_io(e),
+            }
+        })?;
+        return write_atomically(path, |w| w.write_all(bytes.get_ref()));
     }
     write_atomically(path, |w| {
         let mut w = w;
-        psi_io::write_points_ply(&mut w, &columns.positions, &columns.normals, &extra)
+        psi_io::write_points_ply_with_attributes(&mut w, positions, normals, scalars, attributes)
             .map_err(to_io)
     })
 }

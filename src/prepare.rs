@@ -3,7 +3,7 @@
 //! here.
 
 use psi_io::{NormalSource, PointCloudFile};
-use psi_octree::{Monitor, OrientedPoint};
+use psi_octree::{Monitor, OrientedPoint, PointAttributes};
 use psi_preprocess::{
     MeshRef, PointOrigin, PreprocessError, PreprocessParams, PreprocessReport, Preprocessed,
     ScanInput,
@@ -23,6 +23,10 @@ pub struct PreparedInput {
     pub report: PreprocessReport,
     /// The reports' `input` object ([`crate::report::input_json`]).
     pub json: serde_json::Value,
+    /// The file's colours, intensities and classes, following the points (aligned with
+    /// `points`: a point left in keeps its own, a point added on a mesh's triangle takes its
+    /// triangle's); empty when the file has none.
+    pub attributes: PointAttributes,
 }
 
 /// Prepares the points of `file`, named `name`, for the MPU ([`prepare_points`]) and
@@ -55,12 +59,14 @@ pub fn prepare_input(
         points: &prepared.points,
         prep: &prepared.report,
     });
+    let attributes = file.attributes.select(&prepared.source);
     Ok(PreparedInput {
         name,
         points_read,
         points: prepared.points,
         report: prepared.report,
         json,
+        attributes,
     })
 }
 

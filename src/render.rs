@@ -48,7 +48,7 @@ pub fn particles_image(
 ) -> Result<Pixmap, RenderError> {
     let depth: Vec<f64> = particles.depth.iter().map(|&d| f64::from(d)).collect();
     let (colors, legend) = Coloring::Depth
-        .colors(Some(&depth), None, &particles.normals)
+        .colors(Some(&depth), None, &particles.normals, None)
         .expect("depth given");
     let params = RenderParams {
         legend,

@@ -49,16 +49,22 @@ fn shape_text(shape: &[usize]) -> String {
     }
 }
 
+/// The shape check of an (N, 3) array.
+fn check_rows(shape: &[usize], name: &str) -> PyResult<usize> {
+    if shape.len() != 2 || shape[1] != 3 {
+        return Err(value_error(format!(
+            "{name} must have shape (N, 3), got {}",
+            shape_text(shape)
+        )));
+    }
+    Ok(shape[0])
+}
+
 /// The rows of an (N, 3) array as vectors (one copy, in row order whatever the layout).
 pub(crate) fn vectors(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<DVec3>> {
     let array = float_array(obj, name)?;
     let view = array.as_array();
-    if view.ndim() != 2 || view.shape()[1] != 3 {
-        return Err(value_error(format!(
-            "{name} must have shape (N, 3), got {}",
-            shape_text(view.shape())
-        )));
-    }
+    check_rows(view.shape(), name)?;
     if let Some(flat) = view.as_slice() {
         return Ok(flat
             .chunks_exact(3)
@@ -70,6 +76,11 @@ pub(crate) fn vectors(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<DVec3>
         .into_iter()
         .map(|r| DVec3::new(r[0], r[1], r[2]))
         .collect())
+}
+
+/// The number of rows of an (N, 3) array (checked as [`vectors`] checks it).
+pub(crate) fn rows(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<usize> {
+    check_rows(float_array(obj, name)?.as_array().shape(), name)
 }
 
 /// One finite point or vector of shape (3,).
@@ -209,8 +220,8 @@ pub(crate) fn image_array<'py>(
         .into_pyarray(py)
 }
 
-/// An array handed out read-only and without copies: made on first access, then the same
-/// object every time (`a.flags.writeable` is false, and NumPy refuses to turn it back on, as
+/// An array handed out read-only, copied once: made on first access (the object then keeps
+/// this copy for its lifetime), then the same object every time (`a.flags.writeable` is false, and NumPy refuses to turn it back on, as
 /// its memory belongs to psi).
 pub(crate) struct ReadOnly<A>(PyOnceLock<Py<A>>);
 
@@ -237,4 +248,22 @@ impl<A> ReadOnly<A> {
         })?;
         Ok(array.bind(py).clone())
     }
+}
+
+/// A one-dimensional float64 column of `n` values, or a `ValueError`.
+pub(crate) fn column(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResult<Vec<f64>> {
+    let array: numpy::PyArrayLike1<'_, f64, numpy::AllowTypeChange> = obj
+        .extract()
+        .map_err(|e: PyErr| value_error(format!("{name} must be a 1-D array of numbers: {e}")))?;
+    let v: Vec<f64> = array.as_array().iter().copied().collect();
+    if v.len() != n {
+        return Err(value_error(format!(
+            "{name} must have shape ({n},), got ({},)",
+            v.len()
+        )));
+    }
+    if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+        return Err(value_error(format!("{name}: value {i} is NaN or infinite")));
+    }
+    Ok(v)
 }

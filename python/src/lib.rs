@@ -10,6 +10,7 @@
 use pyo3::prelude::*;
 
 mod arrays;
+mod attributes;
 mod errors;
 mod json;
 mod monitor;

@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use numpy::PyArray2;
 use psi::mpu::{BuildOptions, MpuFrame};
+use psi::octree::PointAttributes;
 use psi::preprocess::ErrorThreshold;
 use psi::{BuildReport, DVec3, MpuParams, PolygonizeParams};
 use pyo3::IntoPyObjectExt;
@@ -82,6 +83,9 @@ pub(crate) struct Mpu {
     pub(crate) given: Option<Given>,
     /// The report of the build this MPU repeats (an unpickled MPU reports its original's).
     build_report: Option<BuildReport>,
+    /// The attributes of its points (aligned with `mpu.points()`; empty without any), which
+    /// particles sampled on it take.
+    pub(crate) attributes: Arc<PointAttributes>,
     points: ReadOnly<PyArray2<f64>>,
     normals: ReadOnly<PyArray2<f64>>,
 }
@@ -90,6 +94,12 @@ impl Mpu {
     /// The report of the build (of the original build, for an unpickled MPU).
     fn build_report(&self) -> &BuildReport {
         self.build_report.as_ref().unwrap_or(self.mpu.report())
+    }
+
+    /// This MPU with its points' `attributes`.
+    pub(crate) fn carrying(mut self, attributes: PointAttributes) -> Self {
+        self.attributes = Arc::new(attributes);
+        self
     }
 
     /// This MPU reporting `report` (an unpickled one's original build) instead of its own.
@@ -113,6 +123,7 @@ impl Mpu {
             threshold,
             given,
             build_report: None,
+            attributes: Arc::default(),
             points: ReadOnly::default(),
             normals: ReadOnly::default(),
         }
@@ -150,6 +161,7 @@ struct MpuState {
     points: Vec<psi::OrientedPoint>,
     unit_normals: bool,
     report: BuildReport,
+    attributes: PointAttributes,
     params: MpuParams,
     frame: MpuFrame,
     threshold: ErrorThreshold,
@@ -252,7 +264,8 @@ impl Mpu {
             Arc::new(input.json.clone()),
             threshold,
             Some(given),
-        ))
+        )
+        .carrying(input.attributes.clone()))
     }
 
     /// The frame the MPU lives in, a dict: `origin` (3,) the world position of its local
@@ -281,6 +294,7 @@ impl Mpu {
             points,
             unit_normals,
             report: self.build_report().clone(),
+            attributes: (*self.attributes).clone(),
             params: *self.mpu.params(),
             frame: *self.mpu.frame(),
             threshold: self.threshold,
@@ -316,7 +330,7 @@ impl Mpu {
             s.threshold,
             Some(given),
         );
-        Ok(out.reporting(Some(s.report)))
+        Ok(out.reporting(Some(s.report)).carrying(s.attributes))
     }
 
     /// f and ∇f at `x`: shape (3,) gives `(float, (3,) array)` (the float a `numpy.float64`),

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use numpy::PyArray2;
+use psi::octree::PointAttributes;
 use psi::preprocess::PreprocessParams;
 use psi::{MeshSampling, PointCloudFile, PreparedInput, ReadOptions};
 use pyo3::IntoPyObjectExt;
@@ -14,6 +15,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
 use crate::arrays::{ReadOnly, oriented_array, vector3, vectors};
+use crate::attributes::{AttributeArrays, attributes_of};
 use crate::errors::{bounded, psi_error, value_error};
 use crate::monitor::{Progress, monitored};
 
@@ -97,9 +99,10 @@ fn prepare(
     })?;
     let input = input.map_err(|e| match e {
         Failed::Read(e) => psi_error(py, e, Some("reading the input")),
-        Failed::Prepare(e) => value_error(format!(
+        Failed::Prepare(e @ psi::preprocess::PreprocessError::NoNormals) => value_error(format!(
             "{what}: {e}; give normals or let psi estimate them (estimate_normals=True, preprocess=True)"
         )),
+        Failed::Prepare(e) => value_error(format!("{what}: {e}")),
     })?;
     if input.report.inward_normals_flipped {
         let message = format!(
@@ -124,18 +127,21 @@ fn from_arrays(
     py: Python<'_>,
     points: &Bound<'_, PyAny>,
     normals: Option<&Bound<'_, PyAny>>,
+    attributes: PointAttributes,
     params: PreprocessParams,
     progress: &Progress,
 ) -> PyResult<Input> {
-    let file = columns(points, normals)?;
+    let file = columns(points, normals, attributes)?;
     prepare(py, "points".to_owned(), move || Ok(file), params, progress)
 }
 
-/// Arrays `points` (N, 3) and optional `normals` (N, 3) as `psi_io` reads an XYZ file of
-/// them (zero normals dropped); a `ValueError` when the shapes differ or a value is not finite.
+/// Arrays `points` (N, 3) and optional `normals` (N, 3), with their `attributes`, as `psi_io`
+/// reads an XYZ file of them (zero normals dropped, with their attributes); a `ValueError` when
+/// the shapes differ or a value is not finite.
 pub(crate) fn columns(
     points: &Bound<'_, PyAny>,
     normals: Option<&Bound<'_, PyAny>>,
+    attributes: PointAttributes,
 ) -> PyResult<PointCloudFile> {
     let positions = vectors(points, "points")?;
     let normals = normals.map(|n| vectors(n, "normals")).transpose()?;
@@ -148,7 +154,7 @@ pub(crate) fn columns(
             n.len()
         )));
     }
-    psi::io::points_from_columns(positions, normals)
+    psi::io::points_from_columns(positions, normals, attributes)
         .map_err(|e| value_error(format!("points: {e}")))
 }
 
@@ -174,8 +180,9 @@ pub(crate) fn input_of(
     } else {
         PreprocessParams::none()
     };
+    let none = PointAttributes::default();
     Ok(Arc::new(from_arrays(
-        py, points, normals, params, progress,
+        py, points, normals, none, params, progress,
     )?))
 }
 
@@ -197,6 +204,7 @@ pub(crate) struct PointSet {
     pub(crate) input: Arc<Input>,
     points: ReadOnly<PyArray2<f64>>,
     normals: ReadOnly<PyArray2<f64>>,
+    attributes: AttributeArrays,
 }
 
 impl PointSet {
@@ -205,6 +213,7 @@ impl PointSet {
             input: Arc::new(input),
             points: ReadOnly::default(),
             normals: ReadOnly::default(),
+            attributes: AttributeArrays::default(),
         }
     }
 }
@@ -216,19 +225,24 @@ struct PointSetState {
     points_read: usize,
     points: Vec<psi::OrientedPoint>,
     report: psi::preprocess::PreprocessReport,
+    attributes: PointAttributes,
 }
 
 #[pymethods]
 impl PointSet {
     #[new]
-    #[pyo3(signature = (points, normals=None, *, preprocess=true, keep_outliers=false,
-        estimate_normals=true, orient_normals=false, viewpoint=None, estimate_noise=true,
-        denoise=true, densify=true, keep_inward_normals=false, progress=None))]
+    #[pyo3(signature = (points, normals=None, *, colors=None, intensity=None,
+        classification=None, preprocess=true, keep_outliers=false, estimate_normals=true,
+        orient_normals=false, viewpoint=None, estimate_noise=true, denoise=true, densify=true,
+        keep_inward_normals=false, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         points: &Bound<'_, PyAny>,
         normals: Option<&Bound<'_, PyAny>>,
+        colors: Option<&Bound<'_, PyAny>>,
+        intensity: Option<&Bound<'_, PyAny>>,
+        classification: Option<&Bound<'_, PyAny>>,
         preprocess: bool,
         keep_outliers: bool,
         estimate_normals: bool,
@@ -252,8 +266,10 @@ impl PointSet {
             keep_inward_normals,
         )?;
         let progress = Progress::from_arg(py, progress)?;
+        let n = crate::arrays::rows(points, "points")?;
+        let attributes = attributes_of(colors, intensity, classification, n)?;
         Ok(PointSet::of(from_arrays(
-            py, points, normals, params, &progress,
+            py, points, normals, attributes, params, &progress,
         )?))
     }
 
@@ -279,6 +295,7 @@ impl PointSet {
             points_read: i.points_read,
             points: i.points.clone(),
             report: i.report.clone(),
+            attributes: i.attributes.clone(),
         })?;
         let restore = py.get_type::<PointSet>().getattr("_from_state")?;
         let args = (
@@ -302,7 +319,32 @@ impl PointSet {
             points: s.points,
             report: s.report,
             json: crate::pickle::json_of(json)?,
+            attributes: s.attributes,
         }))
+    }
+
+    /// Colours of the points, (N, 3) uint8 (read-only), or `None` when the input had none.
+    #[getter]
+    fn colors<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray2<u8>>>> {
+        self.attributes.colors(py, &self.input.attributes)
+    }
+
+    /// Return intensities, (N,) float32 (read-only), or `None`.
+    #[getter]
+    fn intensity<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Option<Bound<'py, numpy::PyArray1<f32>>>> {
+        self.attributes.intensity(py, &self.input.attributes)
+    }
+
+    /// LAS classes, (N,) uint8 (read-only), or `None`.
+    #[getter]
+    fn classification<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Option<Bound<'py, numpy::PyArray1<u8>>>> {
+        self.attributes.classification(py, &self.input.attributes)
     }
 
     /// Points read, before preprocessing.

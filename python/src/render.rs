@@ -99,18 +99,21 @@ pub(crate) fn render<'py>(
     let p = &particles.particles;
     let coloring = Coloring::from_name(color).ok_or_else(|| {
         value_error(format!(
-            "color: {color:?} is not one of \"depth\", \"sigma\", \"normal\""
+            "color: {color:?} is not one of \"depth\", \"sigma\", \"normal\", \"input\""
         ))
     })?;
     let depth: Vec<f64> = p.depth.iter().map(|&d| f64::from(d)).collect();
     let depth = particles.has_depth.then_some(&depth[..]);
     let sigma = particles.has_sigma.then_some(&p.sigma[..]);
-    let (colors, legend_bar) = coloring.colors(depth, sigma, &p.normals).ok_or_else(|| {
-        value_error(format!(
-            "color: these particles have no {} to colour by; try color=\"normal\"",
-            coloring.name()
-        ))
-    })?;
+    let input = particles.attributes.colors.as_deref();
+    let (colors, legend_bar) = coloring
+        .colors(depth, sigma, &p.normals, input)
+        .ok_or_else(|| {
+            value_error(format!(
+                "color: these particles have no {} to colour by; try color=\"normal\"",
+                coloring.name()
+            ))
+        })?;
     params.legend = legend_bar.filter(|_| legend);
     let image = detached(py, || {
         render_splats(&p.positions, &p.normals, &colors, &p.sigma, &params)

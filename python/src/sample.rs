@@ -5,13 +5,15 @@ use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
 use numpy::{PyArray1, PyArray2};
+use psi::octree::PointAttributes;
 use psi::preprocess::ErrorThreshold;
 use psi::{DVec3, DensityMode, ParticleParams, SampleReport};
 use pyo3::IntoPyObjectExt;
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
-use crate::arrays::{ReadOnly, vec3_array, vector, vectors};
+use crate::arrays::{ReadOnly, column, vec3_array, vector, vectors};
+use crate::attributes::{AttributeArrays, attributes_of};
 use crate::errors::{bounded, detached, psi_error, value_error};
 use crate::monitor::{Progress, monitored};
 use crate::mpu::Mpu;
@@ -62,8 +64,9 @@ struct ReportSource {
 
 /// Particles on an MPU surface: `positions` and `normals` (n, 3) float64, `depth` (n,) uint8
 /// (octree depth of each particle's leaf), `sigma` (n,) float64 (repulsion radius, world
-/// units); from `psi.sample` also `report`, the CLI's JSON report. Arrays are new copies on
-/// each access.
+/// units); `colors` (n, 3) uint8, `intensity` (n,) float32 and `classification` (n,) uint8
+/// where the input had them (carried from the input points near each particle); from
+/// `psi.sample` also `report`, the CLI's JSON report. Arrays are read-only and made once.
 #[pyclass(frozen, module = "psi", name = "Particles")]
 pub(crate) struct Particles {
     pub(crate) particles: psi::Particles,
@@ -73,9 +76,12 @@ pub(crate) struct Particles {
     pub(crate) has_sigma: bool,
     source: Option<ReportSource>,
     report: OnceLock<serde_json::Value>,
+    /// Colours, intensities and classes (aligned with the particles; empty without any).
+    pub(crate) attributes: PointAttributes,
     arrays: [ReadOnly<PyArray2<f64>>; 2],
     depth_array: ReadOnly<PyArray1<u8>>,
     sigma_array: ReadOnly<PyArray1<f64>>,
+    attribute_arrays: AttributeArrays,
 }
 
 impl Particles {
@@ -86,10 +92,18 @@ impl Particles {
             has_sigma: has.1,
             source,
             report: OnceLock::new(),
+            attributes: PointAttributes::default(),
             arrays: Default::default(),
             depth_array: ReadOnly::default(),
             sigma_array: ReadOnly::default(),
+            attribute_arrays: AttributeArrays::default(),
         }
+    }
+
+    /// These particles carrying `attributes` (aligned with them, or empty).
+    pub(crate) fn carrying(mut self, attributes: PointAttributes) -> Self {
+        self.attributes = attributes;
+        self
     }
 
     /// Particles without a report (a scene's).
@@ -145,11 +159,10 @@ impl Particles {
             depth,
             sigma,
         };
-        Ok(Self::with(
-            particles,
-            (c.depth.is_some(), c.sigma.is_some()),
-            None,
-        ))
+        Ok(
+            Self::with(particles, (c.depth.is_some(), c.sigma.is_some()), None)
+                .carrying(c.attributes),
+        )
     }
 
     /// The particles as the columns of a file, without what they were not given.
@@ -162,26 +175,9 @@ impl Particles {
                 .has_depth
                 .then(|| p.depth.iter().map(|&d| f64::from(d)).collect()),
             sigma: self.has_sigma.then(|| p.sigma.clone()),
+            attributes: self.attributes.clone(),
         }
     }
-}
-
-/// A one-dimensional float64 column of `n` values, or a `ValueError`.
-fn column(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResult<Vec<f64>> {
-    let array: numpy::PyArrayLike1<'_, f64, numpy::AllowTypeChange> = obj
-        .extract()
-        .map_err(|e: PyErr| value_error(format!("{name} must be a 1-D array of numbers: {e}")))?;
-    let v: Vec<f64> = array.as_array().iter().copied().collect();
-    if v.len() != n {
-        return Err(value_error(format!(
-            "{name} must have shape ({n},), got ({},)",
-            v.len()
-        )));
-    }
-    if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-        return Err(value_error(format!("{name}: value {i} is NaN or infinite")));
-    }
-    Ok(v)
 }
 
 /// What a pickled `Particles` holds besides its report.
@@ -194,6 +190,7 @@ struct ParticlesState {
     target: Vec<f64>,
     has_depth: bool,
     has_sigma: bool,
+    attributes: PointAttributes,
 }
 
 #[pymethods]
@@ -201,15 +198,21 @@ impl Particles {
     /// Particles from arrays (another tool's samples, say): `positions` (N, 3) world units;
     /// `normals` (N, 3) or `None` (estimated from the positions' neighbourhoods); `depth` (N,)
     /// whole numbers 0..255 or `None`; `sigma` (N,) positive radii or `None` (then `render`
-    /// sizes the splats from the point count). Picklable, as every `Particles`.
+    /// sizes the splats from the point count); `colors` (N, 3) 0–255, `intensity` (N,) and
+    /// `classification` (N,) 0–255 or `None`. Picklable, as every `Particles`.
     #[new]
-    #[pyo3(signature = (positions, normals=None, *, depth=None, sigma=None))]
+    #[pyo3(signature = (positions, normals=None, *, depth=None, sigma=None, colors=None,
+        intensity=None, classification=None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         positions: &Bound<'_, PyAny>,
         normals: Option<&Bound<'_, PyAny>>,
         depth: Option<&Bound<'_, PyAny>>,
         sigma: Option<&Bound<'_, PyAny>>,
+        colors: Option<&Bound<'_, PyAny>>,
+        intensity: Option<&Bound<'_, PyAny>>,
+        classification: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let positions = vectors(positions, "positions")?;
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
@@ -251,6 +254,7 @@ impl Particles {
             normals,
             depth: depth.map(|d| column(d, "depth", n)).transpose()?,
             sigma: sigma.map(|s| column(s, "sigma", n)).transpose()?,
+            attributes: attributes_of(colors, intensity, classification, n)?,
         };
         detached(py, || Self::from_columns(columns, given))?
     }
@@ -299,6 +303,7 @@ impl Particles {
             target: p.target.clone(),
             has_depth: self.has_depth,
             has_sigma: self.has_sigma,
+            attributes: self.attributes.clone(),
         })?;
         let report = self.report(py)?;
         let restore = py.get_type::<Particles>().getattr("_from_state")?;
@@ -320,11 +325,29 @@ impl Particles {
             sigma: s.sigma,
             target: s.target,
         };
-        let out = Self::with(particles, (s.has_depth, s.has_sigma), None);
+        let out = Self::with(particles, (s.has_depth, s.has_sigma), None).carrying(s.attributes);
         if !report.is_none() {
             let _ = out.report.set(crate::pickle::json_of(report)?);
         }
         Ok(out)
+    }
+
+    /// Colours carried from the input, (n, 3) uint8 (read-only), or `None`.
+    #[getter]
+    fn colors<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray2<u8>>>> {
+        self.attribute_arrays.colors(py, &self.attributes)
+    }
+
+    /// Intensities carried from the input, (n,) float32 (read-only), or `None`.
+    #[getter]
+    fn intensity<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray1<f32>>>> {
+        self.attribute_arrays.intensity(py, &self.attributes)
+    }
+
+    /// LAS classes carried from the input (weighted majority), (n,) uint8, or `None`.
+    #[getter]
+    fn classification<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray1<u8>>>> {
+        self.attribute_arrays.classification(py, &self.attributes)
     }
 
     /// The run's report, the dict `psi sample --json` writes (`input`, `mpu`, `particles`,
@@ -389,10 +412,15 @@ pub(crate) fn sample(
     let progress = Progress::from_arg(py, progress)?;
     let shared = mpu.mpu.clone();
     let worker = shared.clone();
+    let input_attributes = mpu.attributes.clone();
     let run = monitored(py, &progress, move |monitor| {
-        psi::particles::sample_with(&worker, &params, monitor)
+        let run = psi::particles::sample_with(&worker, &params, monitor)?;
+        let carried =
+            psi::particles::transfer_attributes(&worker, &run.particles, &input_attributes);
+        Ok::<_, psi::octree::Interrupted>((run, carried))
     })?
-    .map_err(|_| crate::errors::value_error("interrupted"))?;
+    .map_err(|_| crate::errors::value_error("interrupted"));
+    let (run, carried) = run?;
     let source = ReportSource {
         mpu: shared,
         input_json: mpu.input_json.clone(),
@@ -401,7 +429,7 @@ pub(crate) fn sample(
         params,
         peak_memory_bytes: psi::report::peak_memory_bytes(),
     };
-    Ok(Particles::with(run.particles, (true, true), Some(source)))
+    Ok(Particles::with(run.particles, (true, true), Some(source)).carrying(carried))
 }
 
 /// Reads particles from a file: a PLY with `x y z nx ny nz` and, when present, `depth` and
@@ -444,8 +472,10 @@ pub(crate) fn load_particles(py: Python<'_>, path: PathBuf) -> PyResult<Particle
 #[pyfunction]
 pub(crate) fn save_particles(py: Python<'_>, path: PathBuf, particles: &Particles) -> PyResult<()> {
     if particles.has_depth && particles.has_sigma {
-        return detached(py, || psi::save_particles(&path, &particles.particles))?
-            .map_err(|e| psi_error(py, e, None));
+        return detached(py, || {
+            psi::save_particles(&path, &particles.particles, &particles.attributes)
+        })?
+        .map_err(|e| psi_error(py, e, None));
     }
     let columns = particles.columns();
     detached(py, || psi::save_particle_columns(&path, &columns))?

@@ -6,6 +6,7 @@ use std::sync::{Arc, Mutex, MutexGuard, PoisonError, TryLockError};
 
 use numpy::PyArray2;
 use psi::mpu::MpuFrame;
+use psi::octree::PointAttributes;
 use psi::particles::DensityField;
 use psi::preprocess::ErrorThreshold;
 use psi::regen::{Edit, RegenError};
@@ -15,6 +16,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
 use crate::arrays::{oriented_array, vector3};
+use crate::attributes::attributes_of;
 use crate::errors::value_error;
 use crate::monitor::{Progress, monitored};
 use crate::mpu::{Mpu, MpuOptions};
@@ -81,6 +83,7 @@ struct SceneState {
     threshold: ErrorThreshold,
     report: SampleReport,
     mpu_report: psi::BuildReport,
+    attributes: [PointAttributes; 2],
 }
 
 fn edit_error(e: RegenError) -> PyErr {
@@ -108,13 +111,21 @@ impl Scene {
 
     /// Applies `edit` on a worker thread ([`monitored`]: Ctrl-C stops it and leaves the scene
     /// unchanged); the worker takes the lock, so edits from several threads apply in turn.
-    fn apply<'py>(&self, py: Python<'py>, edit: Edit) -> PyResult<Bound<'py, PyAny>> {
+    fn apply<'py>(
+        &self,
+        py: Python<'py>,
+        edit: Edit,
+        added: PointAttributes,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let shared = self.state.clone();
         let (report, index) = monitored(py, &Progress::Silent, move |monitor| {
             let mut state = shared.lock().unwrap_or_else(PoisonError::into_inner);
             // Waiting for the lock may have taken long: stop now rather than after a refit.
             monitor.check().map_err(|e| edit_error(e.into()))?;
-            let report = state.scene.apply_with(&edit, monitor).map_err(edit_error)?;
+            let report = state
+                .scene
+                .apply_attributed(&edit, &added, monitor)
+                .map_err(edit_error)?;
             let index = state.edits;
             state.edits += 1;
             state.mpu_report = None;
@@ -162,13 +173,12 @@ impl Scene {
         let name = input.name.clone();
         let input_json = Arc::new(input.json.clone());
         // The points move into the scene unless a `PointSet` still holds them.
-        let points = match Arc::try_unwrap(input) {
-            Ok(input) => input.points,
-            Err(shared) => shared.points.clone(),
+        let (points, attributes) = match Arc::try_unwrap(input) {
+            Ok(input) => (input.points, input.attributes),
+            Err(shared) => (shared.points.clone(), shared.attributes.clone()),
         };
         let (scene, report) = monitored(py, &progress, move |monitor| {
-            let none = psi::octree::PointAttributes::default();
-            psi::regen::Scene::new_with(points, none, &mpu_params, &params, monitor)
+            psi::regen::Scene::new_with(points, attributes, &mpu_params, &params, monitor)
         })?
         .map_err(|e| value_error(format!("{name}: building the scene: {e}")))?;
         Ok(Scene {
@@ -199,7 +209,7 @@ impl Scene {
             radius,
             displacement: vector3(displacement, "displacement")?,
         };
-        self.apply(py, edit)
+        self.apply(py, edit, PointAttributes::default())
     }
 
     /// Removes the points within `radius` of `centre` (3,); returns the edit's report.
@@ -213,26 +223,42 @@ impl Scene {
             center: vector3(centre, "centre")?,
             radius,
         };
-        self.apply(py, edit)
+        self.apply(py, edit, PointAttributes::default())
     }
 
     /// Adds oriented points: `points` and `normals` (N, 3), normals normalised here (rows with
-    /// a zero normal dropped); returns the edit's report.
+    /// a zero normal dropped), with their `colors`, `intensity` and `classification` (or the
+    /// defaults — black, 0, class 0 — where the scene has such attributes); returns the edit's
+    /// report.
+    #[pyo3(signature = (points, normals, *, colors=None, intensity=None, classification=None))]
     fn insert<'py>(
         &self,
         py: Python<'py>,
         points: &Bound<'py, PyAny>,
         normals: &Bound<'py, PyAny>,
+        colors: Option<&Bound<'py, PyAny>>,
+        intensity: Option<&Bound<'py, PyAny>>,
+        classification: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let points = crate::points::columns(points, Some(normals))?.points;
-        self.apply(py, Edit::Insert { points })
+        let n = crate::arrays::rows(points, "points")?;
+        let attributes = attributes_of(colors, intensity, classification, n)?;
+        let file = crate::points::columns(points, Some(normals), attributes)?;
+        let added = file.attributes;
+        self.apply(
+            py,
+            Edit::Insert {
+                points: file.points,
+            },
+            added,
+        )
     }
 
     /// The current particles (a snapshot; `report` is `None`).
     #[getter]
     fn particles(&self, py: Python<'_>) -> PyResult<Particles> {
         let state = self.lock(py)?;
-        Ok(Particles::bare(state.scene.particles().clone()))
+        let particles = Particles::bare(state.scene.particles().clone());
+        Ok(particles.carrying(state.scene.particle_attributes().clone()))
     }
 
     /// The current implicit, in the scene's frame (a snapshot): `scene.mpu.value(x)` is f of
@@ -248,7 +274,8 @@ impl Scene {
             self.threshold,
             None,
         );
-        Ok(out.reporting(state.mpu_report.clone()))
+        let attributes = state.scene.attributes().clone();
+        Ok(out.reporting(state.mpu_report.clone()).carrying(attributes))
     }
 
     /// The current control points, shape (N, 3), float64, world units (a new array).
@@ -303,6 +330,10 @@ impl Scene {
                 .mpu_report
                 .clone()
                 .unwrap_or_else(|| scene.mpu().report().clone()),
+            attributes: [
+                scene.attributes().clone(),
+                scene.particle_attributes().clone(),
+            ],
         })?;
         drop(state);
         let restore = py.get_type::<Scene>().getattr("_from_state")?;
@@ -339,7 +370,7 @@ impl Scene {
                 &particle_params,
                 particles,
                 field,
-                Default::default(),
+                s.attributes,
             )
         })?
         .map_err(|e| value_error(format!("unpickling a Scene: {e}")))?;

@@ -214,3 +214,16 @@ def test_a_panic_becomes_a_runtime_error():
         psi._psi._panic_for_tests()
     # The interpreter and the package still work afterwards.
     assert len(psi.PointSet(*torus(500, seed=2))) == 500
+
+
+def test_points_that_make_no_surface_say_so(cli, tmp_path):
+    line = np.outer(np.arange(40.0), [1.0, 2.0, 3.0])
+    for points, words in [(np.zeros((40, 3)), "all points coincide"),
+                          (line, "all points lie on one straight line")]:
+        for normals in (None, np.tile([0.0, 0.0, 1.0], (40, 1))):
+            with pytest.raises(ValueError) as e:
+                psi.PointSet(points, normals)
+            assert words in str(e.value) and "too few" not in str(e.value)
+        path = tmp_path / "degenerate.xyz"
+        np.savetxt(path, points)
+        assert words in cli_error(cli, "sample", path)

@@ -8,7 +8,9 @@
 //! * `tune [MODEL]`: relaxation constants varied one at a time;
 //! * `tune-shapes`: step sizes and σ adaptation on a sphere and a torus;
 //! * `level-cv [MODEL] [p,q ...]`: the per-level nearest-neighbour CV split into a level's
-//!   inside and its boundaries.
+//!   inside and its boundaries;
+//! * `formats [POINTS]`: decoding speed of LAZ and LAS files written by psi (a survey-like
+//!   tile, 10 M points by default), read through the streaming reader.
 //!
 //! MODEL (a path relative to the workspace root, or absolute) defaults to
 //! `../shared/models/bunny.ply`.
@@ -17,6 +19,7 @@ use anyhow::{Context, Result, bail};
 
 mod edit;
 mod eval;
+mod formats;
 mod level_cv;
 mod relax;
 mod tune;
@@ -48,9 +51,9 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         }
         return Ok(());
     }
-    let (program, rest) = args
-        .split_first()
-        .context("bench needs a program: relax, eval, edit, tune, tune-shapes or level-cv")?;
+    let (program, rest) = args.split_first().context(
+        "bench needs a program: relax, eval, edit, tune, tune-shapes, level-cv or formats",
+    )?;
     match program.as_str() {
         "relax" => relax::run(rest),
         "eval" => eval::run(rest),
@@ -58,8 +61,11 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         "tune" => tune::run(rest),
         "tune-shapes" => tune_shapes::run(),
         "level-cv" => level_cv::run(rest),
+        "formats" => formats::run(rest),
         other => {
-            bail!("unknown bench program {other}: relax, eval, edit, tune, tune-shapes or level-cv")
+            bail!(
+                "unknown bench program {other}: relax, eval, edit, tune, tune-shapes, level-cv or formats"
+            )
         }
     }
 }

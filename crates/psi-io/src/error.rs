@@ -318,7 +318,7 @@ fn at_line(line: Option<usize>) -> String {
     line.map(|l| format!(" (line {l})")).unwrap_or_default()
 }
 
-/// Why a PLY file could not be written.
+/// Why a PLY, LAS or LAZ file could not be written.
 #[derive(Debug, Error)]
 pub enum WriteError {
     /// The output rejected a write.
@@ -395,5 +395,31 @@ pub enum WriteError {
         vertex: u32,
         /// Number of vertices in the mesh.
         vertices: usize,
+    },
+
+    /// A position has a NaN or infinite coordinate, which LAS cannot store.
+    ///
+    /// ```
+    /// use std::io::Cursor;
+    /// use glam::DVec3;
+    /// use psi_io::{write_las, PointAttributes, WriteError};
+    /// let points = [DVec3::ZERO, DVec3::new(0.0, f64::NAN, 0.0)];
+    /// let err = write_las(Cursor::new(Vec::new()), &points, &PointAttributes::default(), false)
+    ///     .unwrap_err();
+    /// assert!(matches!(err, WriteError::NonFinite { index: 1 }));
+    /// assert_eq!(err.to_string(), "point 1 has a NaN or infinite position");
+    /// ```
+    #[error("point {index} has a NaN or infinite position")]
+    NonFinite {
+        /// 0-based index of the first such point.
+        index: usize,
+    },
+
+    /// The `las` crate refused the LAS/LAZ header or a point record (not expected for
+    /// finite positions: the writer chooses a scale that fits them).
+    #[error("cannot write the LAS/LAZ file: {reason}")]
+    Las {
+        /// The `las` crate's reason.
+        reason: String,
     },
 }

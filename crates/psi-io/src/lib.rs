@@ -1,9 +1,10 @@
 //! # psi-io
 //!
-//! Reading oriented points, scans and triangle meshes, and writing PLY, for psi. This crate
-//! does no filesystem access: readers parse a byte slice or any `Read + Seek` stream, writers
-//! write to any [`std::io::Write`]. The facade crate opens files, adds file names to errors
-//! and writes through a temporary file.
+//! Reading oriented points, scans and triangle meshes, and writing PLY and LAS/LAZ, for psi.
+//! This crate does no filesystem access: readers parse a byte slice or any `Read + Seek`
+//! stream, writers write to any [`std::io::Write`] (LAS/LAZ: `Write + Seek`, as the header is
+//! completed last). The facade crate opens files, adds file names to errors and writes through
+//! a temporary file.
 //!
 //! * Formats ([`Format`]): PLY (ASCII, binary little- and big-endian), Wavefront OBJ, XYZ
 //!   text (`x y z nx ny nz` per line), LAS 1.0–1.4 and LAZ (ASPRS LAS 1.4 R15; the `las`
@@ -24,7 +25,12 @@
 //! * [`read_point_scalars`] gives named scalar columns of a PLY `vertex` element (a particle
 //!   file's `depth` and `sigma`, say), aligned record by record, nothing dropped.
 //! * [`write_points_ply`] writes points, normals and named scalar channels (f64);
-//!   [`write_mesh_ply`] writes a mesh (f32 positions, int indices).
+//!   [`write_points_ply_with_attributes`] adds the attribute columns (`red green blue`
+//!   uchar, `intensity` float, `classification` uchar); [`write_mesh_ply`] writes a mesh
+//!   (f32 positions, int indices).
+//! * [`write_las`] writes points with their attributes as LAS 1.4 or LAZ (point format 7,
+//!   colour × 257, a power-of-ten scale from the data's extent, offsets at its centre: no
+//!   precision lost beyond half the scale).
 //! * Every malformed input is a [`ReadError`] naming the element and index (or line) and the
 //!   reason; no byte sequence panics.
 //!
@@ -74,6 +80,7 @@ mod read_scalars;
 mod read_xyz;
 mod stream;
 mod text;
+mod write_las;
 mod write_ply;
 
 pub use attributes::{AttributeKinds, PointAttributes};
@@ -84,7 +91,8 @@ pub use options::{MeshSampling, ReadOptions};
 pub use point_chunk::{PointChunk, StreamEnd, StreamHeader};
 pub use read_scalars::read_point_scalars;
 pub use stream::{PointStream, read_points_from};
-pub use write_ply::{write_mesh_ply, write_points_ply};
+pub use write_las::write_las;
+pub use write_ply::{write_mesh_ply, write_points_ply, write_points_ply_with_attributes};
 
 use model::Parsed;
 
@@ -142,7 +150,8 @@ pub fn read_points(
 
 /// The oriented points of columns given in memory (a caller's arrays, not a file), read as an
 /// XYZ file of them would be: `positions` (shape: N, world units) with `normals` (shape: N,
-/// normalised here, zero ones skipped and counted) or without ([`NormalSource::Missing`]).
+/// normalised here, zero ones skipped and counted) or without ([`NormalSource::Missing`]), and
+/// their `attributes` (aligned, or empty), which follow the points kept.
 ///
 /// # Errors
 ///
@@ -152,15 +161,28 @@ pub fn read_points(
 ///
 /// ```
 /// use glam::DVec3;
-/// let file = psi_io::points_from_columns(vec![DVec3::ZERO, DVec3::X], Some(vec![DVec3::Z * 2.0, DVec3::ZERO])).unwrap();
+/// let none = psi_io::PointAttributes::default();
+/// let file = psi_io::points_from_columns(vec![DVec3::ZERO, DVec3::X], Some(vec![DVec3::Z * 2.0, DVec3::ZERO]), none.clone()).unwrap();
 /// assert_eq!((file.points.len(), file.dropped_points, file.points[0].n), (1, 1, DVec3::Z));
-/// let err = psi_io::points_from_columns(vec![DVec3::NAN], None).unwrap_err();
+/// let err = psi_io::points_from_columns(vec![DVec3::NAN], None, none).unwrap_err();
 /// assert_eq!(err.to_string(), "point 0 has a NaN or infinite position");
 /// ```
 pub fn points_from_columns(
     positions: Vec<glam::DVec3>,
     normals: Option<Vec<glam::DVec3>>,
+    attributes: PointAttributes,
 ) -> Result<PointCloudFile, ReadError> {
+    if !attributes.fits(positions.len()) {
+        return Err(ReadError::Record {
+            element: "point".to_owned(),
+            index: 0,
+            reason: format!(
+                "{} positions but attributes for {}",
+                positions.len(),
+                attributes.len().unwrap_or(0)
+            ),
+        });
+    }
     if let Some(n) = &normals
         && n.len() != positions.len()
     {
@@ -186,6 +208,7 @@ pub fn points_from_columns(
     let parsed = Parsed {
         vertices: positions,
         normals,
+        attributes,
         ..Parsed::default()
     };
     mesh_to_points::to_point_cloud(parsed, &ReadOptions::paper())

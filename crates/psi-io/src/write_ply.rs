@@ -1,10 +1,12 @@
-//! Binary little-endian PLY writers for oriented points (with scalar channels) and meshes.
+//! Binary little-endian PLY writers for oriented points (with scalar channels and attribute
+//! columns) and meshes.
 
 use std::collections::HashSet;
 use std::io::Write;
 
 use glam::DVec3;
 
+use crate::attributes::PointAttributes;
 use crate::error::WriteError;
 use crate::model::TriangleMesh;
 
@@ -43,8 +45,61 @@ pub fn write_points_ply(
     normals: &[DVec3],
     scalars: &[(&str, &[f64])],
 ) -> Result<(), WriteError> {
+    write_points_ply_with_attributes(
+        out,
+        positions,
+        normals,
+        scalars,
+        &PointAttributes::default(),
+    )
+}
+
+/// Writes oriented points with their attributes as a binary little-endian PLY: the columns of
+/// [`write_points_ply`] (`x y z nx ny nz` and the scalar channels, doubles), then, for each
+/// attribute column present, `property uchar red green blue` (colour), `property float
+/// intensity` and `property uchar classification`, in that order. These are the names psi's
+/// readers, CloudCompare and MeshLab use for colour and intensity.
+///
+/// * `positions`, `normals`, `scalars`: as for [`write_points_ply`].
+/// * `attributes`: each present column with N entries, written as stored (8-bit colour,
+///   intensity bit-exact as f32, classification byte); absent columns are not declared.
+///   Scalar channel names must not be those of a present attribute column.
+///
+/// With no attribute column the bytes are those of [`write_points_ply`]. Nothing is written
+/// when an argument is invalid.
+///
+/// ```
+/// use glam::DVec3;
+/// use psi_io::{read_point_scalars, read_points, write_points_ply_with_attributes, Format,
+///              PointAttributes, ReadOptions};
+///
+/// let positions = [DVec3::ZERO, DVec3::X];
+/// let normals = [DVec3::Z, DVec3::Z];
+/// let attributes = PointAttributes {
+///     colors: Some(vec![[255, 0, 0], [0, 0, 255]]),
+///     intensity: Some(vec![0.5, 1200.0]),
+///     classification: Some(vec![2, 6]),
+/// };
+/// let mut bytes = Vec::new();
+/// write_points_ply_with_attributes(&mut bytes, &positions, &normals, &[("sigma", &[0.1, 0.2])], &attributes)
+///     .unwrap();
+/// let back = read_points(&bytes, Format::Ply, &ReadOptions::paper()).unwrap();
+/// assert_eq!(back.attributes.colors, attributes.colors);
+/// assert_eq!(back.attributes.intensity, attributes.intensity);
+/// let columns = read_point_scalars(&bytes, &["classification", "sigma"]).unwrap();
+/// assert_eq!(columns[0], Some(vec![2.0, 6.0]));
+/// ```
+pub fn write_points_ply_with_attributes(
+    out: &mut impl Write,
+    positions: &[DVec3],
+    normals: &[DVec3],
+    scalars: &[(&str, &[f64])],
+    attributes: &PointAttributes,
+) -> Result<(), WriteError> {
     let n = positions.len();
     check_length("normals", n, normals.len())?;
+    check_attribute_lengths(attributes, n)?;
+    let attribute_names = attribute_properties(attributes);
     let mut seen = HashSet::new();
     for &(name, values) in scalars {
         check_name(name)?;
@@ -52,6 +107,12 @@ pub fn write_points_ply(
             return Err(WriteError::InvalidName {
                 name: name.to_owned(),
                 reason: "the name is used by two channels",
+            });
+        }
+        if attribute_names.iter().any(|&(_, a)| a == name) {
+            return Err(WriteError::InvalidName {
+                name: name.to_owned(),
+                reason: "the name is taken by an attribute column",
             });
         }
         check_length(name, n, values.len())?;
@@ -68,6 +129,9 @@ pub fn write_points_ply(
         header.push_str(name);
         header.push('\n');
     }
+    for (ty, name) in &attribute_names {
+        header.push_str(&format!("property {ty} {name}\n"));
+    }
     header.push_str("end_header\n");
     out.write_all(header.as_bytes())?;
 
@@ -80,11 +144,35 @@ pub fn write_points_ply(
         for &(_, values) in scalars {
             buf.extend_from_slice(&values[i].to_le_bytes());
         }
+        if let Some(colors) = &attributes.colors {
+            buf.extend_from_slice(&colors[i]);
+        }
+        if let Some(intensity) = &attributes.intensity {
+            buf.extend_from_slice(&intensity[i].to_le_bytes());
+        }
+        if let Some(classes) = &attributes.classification {
+            buf.push(classes[i]);
+        }
         flush_full(out, &mut buf)?;
     }
     out.write_all(&buf)?;
     out.flush()?;
     Ok(())
+}
+
+/// The PLY properties (type, name) of the attribute columns present, in the order written.
+fn attribute_properties(attributes: &PointAttributes) -> Vec<(&'static str, &'static str)> {
+    let mut properties = Vec::new();
+    if attributes.colors.is_some() {
+        properties.extend([("uchar", "red"), ("uchar", "green"), ("uchar", "blue")]);
+    }
+    if attributes.intensity.is_some() {
+        properties.push(("float", "intensity"));
+    }
+    if attributes.classification.is_some() {
+        properties.push(("uchar", "classification"));
+    }
+    properties
 }
 
 /// Writes a triangle mesh as a binary little-endian PLY: `element vertex` with
@@ -154,6 +242,27 @@ fn flush_full(out: &mut impl Write, buf: &mut Vec<u8>) -> std::io::Result<()> {
     if buf.len() >= CHUNK {
         out.write_all(buf)?;
         buf.clear();
+    }
+    Ok(())
+}
+
+/// Checks that every present attribute column has `n` entries.
+pub(crate) fn check_attribute_lengths(
+    attributes: &PointAttributes,
+    n: usize,
+) -> Result<(), WriteError> {
+    let lengths = [
+        ("colors", attributes.colors.as_ref().map(Vec::len)),
+        ("intensity", attributes.intensity.as_ref().map(Vec::len)),
+        (
+            "classification",
+            attributes.classification.as_ref().map(Vec::len),
+        ),
+    ];
+    for (what, len) in lengths {
+        if let Some(got) = len {
+            check_length(what, n, got)?;
+        }
     }
     Ok(())
 }

@@ -73,7 +73,7 @@ pub fn polygonize(mpu: &Mpu, params: &PolygonizeParams) -> TriangleSoup {
     polygonize_with(mpu, params, &Monitor::silent()).expect("a silent monitor never stops")
 }
 
-/// [`polygonize`], reporting its phases to `monitor` (stage `"mesh"`, five steps: band cells,
+/// [`polygonize`], reporting its phases to `monitor` (stage `"mesh"`, four steps: band cells,
 /// corner values, vertices, faces) and returning [`Interrupted`] soon after its stop flag is
 /// set. A run that completes equals [`polygonize`]'s.
 pub fn polygonize_with(

@@ -54,4 +54,4 @@ pub use sample::{
     SampleReport, Sampling, Seeding, initialize, sample, sample_with, seed_leaves, surface_area,
 };
 pub use separate::{SEPARATION, SeparationReport, separate_close_pairs};
-pub use transfer_attributes::{TRANSFER_RADIUS_SIGMAS, transfer_attributes};
+pub use transfer_attributes::{TRANSFER_POINTS, TRANSFER_RADIUS_SIGMAS, transfer_attributes};

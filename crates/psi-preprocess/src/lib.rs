@@ -40,6 +40,7 @@ mod inward_normals;
 mod local_fit;
 mod median;
 mod orient_normals;
+mod point_spread;
 mod preprocess;
 mod spatial_order;
 
@@ -52,6 +53,7 @@ pub use inward_normals::{InwardVotes, inward_votes};
 pub use orient_normals::{
     NormalConsistency, check_normal_consistency, orient_normals, orient_normals_with, orient_toward,
 };
+pub use point_spread::{Spread, point_spread};
 pub use preprocess::{
     ErrorThreshold, INCONSISTENT_NORMALS, MeshRef, MeshReport, NOISE_ERROR_FACTOR, NormalTreatment,
     OutlierReport, PAPER_ERROR_REL, PointOrigin, PreprocessError, PreprocessParams,

@@ -66,6 +66,24 @@ impl Moments {
         self.outer[5] += y.z * y.z;
     }
 
+    /// The covariance of the points added (at least one).
+    pub(crate) fn covariance(&self) -> Matrix3<f64> {
+        let n = self.count as f64;
+        let m = self.sum / n;
+        let [xx, xy, xz, yy, yz, zz] = self.outer.map(|v| v / n);
+        Matrix3::new(
+            xx - m.x * m.x,
+            xy - m.x * m.y,
+            xz - m.x * m.z,
+            xy - m.x * m.y,
+            yy - m.y * m.y,
+            yz - m.y * m.z,
+            xz - m.x * m.z,
+            yz - m.y * m.z,
+            zz - m.z * m.z,
+        )
+    }
+
     /// Number of points added.
     pub(crate) fn count(&self) -> usize {
         self.count
@@ -78,20 +96,7 @@ impl Moments {
         if self.count < 3 {
             return None;
         }
-        let n = self.count as f64;
-        let m = self.sum / n;
-        let [xx, xy, xz, yy, yz, zz] = self.outer.map(|v| v / n);
-        let cov = Matrix3::new(
-            xx - m.x * m.x,
-            xy - m.x * m.y,
-            xz - m.x * m.z,
-            xy - m.x * m.y,
-            yy - m.y * m.y,
-            yz - m.y * m.z,
-            xz - m.x * m.z,
-            yz - m.y * m.z,
-            zz - m.z * m.z,
-        );
+        let cov = self.covariance();
         let eig = cov.symmetric_eigen();
         let mut order = [0usize, 1, 2];
         order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
@@ -101,7 +106,7 @@ impl Moments {
         let spread = eigenvalues[1] > FLAT_SPREAD * eigenvalues.iter().sum::<f64>();
         let finite = eigenvalues.iter().all(|e| e.is_finite());
         (normal != DVec3::ZERO && spread && finite).then_some(PlaneFit {
-            centroid: self.origin + m,
+            centroid: self.origin + self.sum / self.count as f64,
             normal,
             eigenvalues,
         })

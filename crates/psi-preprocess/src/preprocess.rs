@@ -8,9 +8,10 @@ use psi_octree::{Aabb, Interrupted, Monitor, OrientedPoint};
 use serde::{Deserialize, Serialize};
 
 use crate::{
-    DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, check_normal_consistency,
-    denoise_with, densify_mesh_with_sources, estimate_noise, estimate_normals_with,
-    find_outliers_with, inward_votes, mesh_coarseness, orient_normals_with, orient_toward,
+    DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, Spread,
+    check_normal_consistency, denoise_with, densify_mesh_with_sources, estimate_noise,
+    estimate_normals_with, find_outliers_with, inward_votes, mesh_coarseness, orient_normals_with,
+    orient_toward, point_spread,
 };
 
 /// Ohtake's error threshold ε0 relative to the bounding-box diagonal D (algorithms.md §1.1):
@@ -266,6 +267,12 @@ pub enum PreprocessError {
     /// ```
     #[error("the points have no normals and normal estimation is off")]
     NoNormals,
+    /// The points can make no surface: they all coincide, or all lie on one line.
+    #[error("{}", match .0 {
+        Spread::Coincident => "all points coincide: they make no surface",
+        _ => "all points lie on one straight line: they make no surface",
+    })]
+    NoSurface(Spread),
     /// The caller stopped the work ([`psi_octree::Monitor`]).
     #[error("preprocessing was interrupted")]
     Interrupted(#[from] Interrupted),
@@ -380,6 +387,12 @@ pub fn preprocess_with(
     if !normals_given && !params.estimate_normals {
         return Err(PreprocessError::NoNormals);
     }
+    let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+    match point_spread(&positions) {
+        Spread::Surface => {}
+        degenerate => return Err(PreprocessError::NoSurface(degenerate)),
+    }
+    drop(positions);
     let _span = tracing::info_span!("preprocess", points = points.len()).entered();
     let points_in = points.len();
     let mut seconds = StepSeconds::default();

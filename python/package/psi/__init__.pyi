@@ -88,6 +88,9 @@ class PointSet:
         points: _Points,
         normals: Optional[_Points] = None,
         *,
+        colors: Optional[npt.ArrayLike] = None,
+        intensity: Optional[npt.ArrayLike] = None,
+        classification: Optional[npt.ArrayLike] = None,
         preprocess: bool = True,
         keep_outliers: bool = False,
         estimate_normals: bool = True,
@@ -105,6 +108,16 @@ class PointSet:
     @property
     def normals(self) -> _F64:
         """Unit normals after preprocessing, (N, 3) float64; read-only."""
+    @property
+    def colors(self) -> Optional[npt.NDArray[np.uint8]]:
+        """Colours of the points, (N, 3) uint8, read-only; ``None`` when the input had none
+        (PointSet(..., colors=...), or a file's colours: LAS/LAZ, E57, PCD, PLY)."""
+    @property
+    def intensity(self) -> Optional[npt.NDArray[np.float32]]:
+        """Return intensities, (N,) float32, read-only; ``None`` without."""
+    @property
+    def classification(self) -> Optional[npt.NDArray[np.uint8]]:
+        """LAS classification codes, (N,) uint8, read-only; ``None`` without."""
     @property
     def points_read(self) -> int:
         """Points read, before preprocessing."""
@@ -261,7 +274,20 @@ class Particles:
         *,
         depth: Optional[npt.ArrayLike] = None,
         sigma: Optional[_Points] = None,
+        colors: Optional[npt.ArrayLike] = None,
+        intensity: Optional[npt.ArrayLike] = None,
+        classification: Optional[npt.ArrayLike] = None,
     ) -> Particles: ...
+    @property
+    def colors(self) -> Optional[npt.NDArray[np.uint8]]:
+        """Colours carried from the input points near each particle (weighted mean within
+        one spacing, on its side of the surface), (n, 3) uint8; ``None`` without."""
+    @property
+    def intensity(self) -> Optional[npt.NDArray[np.float32]]:
+        """Intensities carried likewise, (n,) float32; ``None`` without."""
+    @property
+    def classification(self) -> Optional[npt.NDArray[np.uint8]]:
+        """LAS classes carried as the weighted majority, (n,) uint8; ``None`` without."""
     @property
     def positions(self) -> _F64:
         """Positions, (n, 3) float64, world units."""
@@ -348,8 +374,16 @@ class Scene:
         (1 − t²)², t = distance / radius."""
     def remove(self, centre: _Points, radius: float) -> dict[str, Any]:
         """Removes the points within ``radius`` of ``centre`` (3,)."""
-    def insert(self, points: _Points, normals: _Points) -> dict[str, Any]:
-        """Adds oriented points, (N, 3) each."""
+    def insert(
+        self,
+        points: _Points,
+        normals: _Points,
+        *,
+        colors: Optional[npt.ArrayLike] = None,
+        intensity: Optional[npt.ArrayLike] = None,
+        classification: Optional[npt.ArrayLike] = None,
+    ) -> dict[str, Any]:
+        """Adds oriented points, (N, 3) each, with their attributes (or the defaults)."""
     @property
     def particles(self) -> Particles:
         """The current particles (a copy)."""
@@ -376,7 +410,7 @@ def render(
     *,
     size: int = 1024,
     view: Literal["front", "side", "top", "iso"] = "front",
-    color: Literal["depth", "sigma", "normal"] = "depth",
+    color: Literal["depth", "sigma", "normal", "input"] = "depth",
     style: Literal["dots", "disks"] = "dots",
     splat_scale: float = 1.0,
     legend: bool = True,
@@ -388,7 +422,7 @@ def render(
     *,
     size: int = 1024,
     view: Literal["front", "side", "top", "iso"] = "front",
-    color: Literal["depth", "sigma", "normal"] = "depth",
+    color: Literal["depth", "sigma", "normal", "input"] = "depth",
     style: Literal["dots", "disks"] = "dots",
     splat_scale: float = 1.0,
     legend: bool = True,

@@ -91,7 +91,12 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
     let params = preprocess_params(args);
     let monitor = psi::octree::Monitor::silent();
     let input = psi::prepare_input(name.clone(), file, &params, &monitor).map_err(|e| Failure {
-        error: anyhow::anyhow!("{name}: {e}; drop --no-normal-estimation or give oriented points"),
+        error: match e {
+            psi::preprocess::PreprocessError::NoNormals => {
+                anyhow::anyhow!("{name}: {e}; drop --no-normal-estimation or give oriented points")
+            }
+            e => anyhow::anyhow!("{name}: {e}"),
+        },
         code: 2,
     })?;
     let prep = &input.report;

@@ -106,9 +106,20 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         .error_threshold(args.mpu.mpu_error)
         .relative;
     let mpu_params = args.mpu.params(error_rel);
-    let (mut scene, _) = Scene::new(loaded.input.points.clone(), &mpu_params, &params)
-        .with_context(|| format!("{}: building the scene", loaded.input.name))?;
-    let before = args.before.as_ref().map(|_| scene.particles().clone());
+    let (mut scene, _) = Scene::new_with(
+        loaded.input.points.clone(),
+        loaded.input.attributes.clone(),
+        &mpu_params,
+        &params,
+        &psi::octree::Monitor::silent(),
+    )
+    .with_context(|| format!("{}: building the scene", loaded.input.name))?;
+    let before = args.before.as_ref().map(|_| {
+        (
+            scene.particles().clone(),
+            scene.particle_attributes().clone(),
+        )
+    });
     let mut reports = Vec::new();
     for (i, e) in edits.iter().enumerate() {
         let r = scene.apply(e).map_err(|e| Failure {
@@ -129,10 +140,10 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         reports.push(r);
     }
     // Written only once every edit has succeeded.
-    if let (Some(path), Some(before)) = (&args.before, &before) {
-        psi::save_particles(path, before)?;
+    if let (Some(path), Some((before, attributes))) = (&args.before, &before) {
+        psi::save_particles(path, before, attributes)?;
     }
-    psi::save_particles(&args.output, scene.particles())?;
+    psi::save_particles(&args.output, scene.particles(), scene.particle_attributes())?;
     if let Some(path) = &args.points_after {
         psi::save_points(path, scene.points())?;
     }

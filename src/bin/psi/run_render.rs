@@ -30,6 +30,8 @@ enum ColorArg {
     Sigma,
     /// The normal as RGB.
     Normal,
+    /// The colours the particles carry from a coloured input.
+    Input,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -117,9 +119,11 @@ pub(crate) fn run(args: &RenderArgs) -> Result<(), Failure> {
             ColorArg::Depth => Coloring::Depth,
             ColorArg::Sigma => Coloring::Sigma,
             ColorArg::Normal => Coloring::Normal,
+            ColorArg::Input => Coloring::Input,
         };
+        let input = p.attributes.colors.as_deref();
         let (colors, legend) = coloring
-            .colors(p.depth.as_deref(), p.sigma.as_deref(), &p.normals)
+            .colors(p.depth.as_deref(), p.sigma.as_deref(), &p.normals, input)
             .ok_or_else(|| missing(coloring.name()))?;
         params.legend = legend.filter(|_| !args.no_legend);
         let radius = match &p.sigma {

@@ -15,7 +15,9 @@ pub(crate) struct SampleArgs {
     input: InputArgs,
     #[command(flatten)]
     mpu: crate::MpuArgs,
-    /// Output particles (binary PLY: x y z nx ny nz depth sigma).
+    /// Output particles: binary PLY (x y z nx ny nz depth sigma, and red green blue,
+    /// intensity, classification when the input has them), or LAS/LAZ for a `.las`/`.laz`
+    /// path (positions and those attributes).
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Relaxation iterations.
@@ -83,8 +85,11 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         ..ParticleParams::paper()
     };
     let run = crate::ui::sample(ui, &mpu, &params);
+    // Colours, intensities and classes of a scan, carried to the particles.
+    let attributes =
+        psi::particles::transfer_attributes(&mpu, &run.particles, &loaded.input.attributes);
     if let Some(out) = &args.output {
-        psi::save_particles(out, &run.particles)?;
+        psi::save_particles(out, &run.particles, &attributes)?;
     }
     if let Some(path) = &args.points_out {
         psi::save_points(path, &loaded.input.points)?;
