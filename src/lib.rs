@@ -43,7 +43,7 @@ pub use files::{
     save_mesh, save_particle_columns, save_particles, save_points, write_atomically,
 };
 pub use glam::DVec3;
-pub use prepare::{PreparedInput, builtin_file, prepare_input, prepare_points};
+pub use prepare::{PreparedInput, builtin_file, builtin_file_with, prepare_input, prepare_points};
 pub use psi_io::{MeshSampling, PointCloudFile, ReadOptions, TriangleMesh};
 pub use psi_mpu::{
     BuildReport, Mpu, MpuError, MpuParams, PolygonizeParams, TriangleSoup, polygonize,

@@ -115,8 +115,14 @@ pub fn prepare_points(
 /// assert_eq!((file.points.len(), file.vertices, file.faces), (1000, 1000, 0));
 /// ```
 pub fn builtin_file(n: usize) -> PointCloudFile {
+    builtin_file_with(n, &Monitor::silent())
+}
+
+/// [`builtin_file`], its sampling stopping early once `monitor`'s stop flag is set (the caller
+/// checks the flag and discards the file).
+pub fn builtin_file_with(n: usize, monitor: &Monitor<'_>) -> PointCloudFile {
     PointCloudFile {
-        points: psi_shapes::sample_builtin(n, psi_shapes::BUILTIN_MODEL_SEED),
+        points: psi_shapes::sample_builtin_with(n, psi_shapes::BUILTIN_MODEL_SEED, monitor),
         normals: NormalSource::File,
         vertices: n,
         faces: 0,

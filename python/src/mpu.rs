@@ -8,9 +8,7 @@ use psi::mpu::{BuildOptions, MpuFrame};
 use psi::octree::PointAttributes;
 use psi::preprocess::ErrorThreshold;
 use psi::{BuildReport, DVec3, MpuParams, PolygonizeParams};
-use pyo3::IntoPyObjectExt;
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
 use rayon::prelude::*;
 
 use crate::arrays::{Queries, ReadOnly, flat_rows, oriented_array, vec3_array, vector3};
@@ -289,7 +287,7 @@ impl Mpu {
             Some(given) => (given.as_ref().to_vec(), given.unit_normals()),
             None => (self.mpu.points().to_vec(), true),
         };
-        let state = crate::pickle::encode(&MpuState {
+        let state = MpuState {
             name: self.name.clone(),
             points,
             unit_normals,
@@ -298,10 +296,9 @@ impl Mpu {
             params: *self.mpu.params(),
             frame: *self.mpu.frame(),
             threshold: self.threshold,
-        })?;
-        let restore = py.get_type::<Mpu>().getattr("_from_state")?;
+        };
         let json = crate::json::to_python(py, &self.input_json)?;
-        (restore, (PyBytes::new(py, &state), json)).into_bound_py_any(py)
+        crate::pickle::reduce::<Mpu>(py, &state, json)
     }
 
     /// Unpickling (not API): builds the MPU again from its points, in its frame.

@@ -2,8 +2,10 @@
 //! Python object, and back. Unpickling goes through a classmethod `_from_state` of each class,
 //! which pickle names as `getattr(psi.Class, "_from_state")`.
 
+use pyo3::IntoPyObjectExt;
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString};
+use pyo3::type_object::PyTypeInfo;
+use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use serde_json::Value;
@@ -13,6 +15,18 @@ use crate::errors::value_error;
 /// `state` as bytes.
 pub(crate) fn encode<T: Serialize>(state: &T) -> PyResult<Vec<u8>> {
     postcard::to_stdvec(state).map_err(|e| value_error(format!("pickling: {e}")))
+}
+
+/// What `__reduce__` returns: `(T._from_state, (state as bytes, extra))`, `extra` the
+/// object's report (a Python object pickle handles itself).
+pub(crate) fn reduce<'py, T: PyTypeInfo>(
+    py: Python<'py>,
+    state: &impl Serialize,
+    extra: Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let restore = py.get_type::<T>().getattr("_from_state")?;
+    let bytes = PyBytes::new(py, &encode(state)?);
+    (restore, (bytes, extra)).into_bound_py_any(py)
 }
 
 /// The state `bytes` hold; a `ValueError` when they are not a state of this kind.

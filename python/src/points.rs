@@ -6,13 +6,11 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use numpy::PyArray2;
-use psi::octree::PointAttributes;
+use psi::octree::{Monitor, PointAttributes};
 use psi::preprocess::PreprocessParams;
 use psi::{MeshSampling, PointCloudFile, PreparedInput, ReadOptions};
-use pyo3::IntoPyObjectExt;
 use pyo3::exceptions::PyUserWarning;
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
 
 use crate::arrays::{ReadOnly, oriented_array, vector3, vectors};
 use crate::attributes::{AttributeArrays, attributes_of};
@@ -81,7 +79,7 @@ fn preprocess_params(
 fn prepare(
     py: Python<'_>,
     name: String,
-    read: impl FnOnce() -> Result<PointCloudFile, psi::PsiError> + Send + 'static,
+    read: impl FnOnce(&Monitor<'_>) -> Result<PointCloudFile, psi::PsiError> + Send + 'static,
     params: PreprocessParams,
     progress: &Progress,
 ) -> PyResult<Input> {
@@ -93,7 +91,11 @@ fn prepare(
     let what = name.clone();
     let input = monitored(py, progress, move |monitor| {
         monitor.report("read", 0, 1);
-        let file = read().map_err(Failed::Read)?;
+        let file = read(monitor).map_err(Failed::Read)?;
+        if monitor.stopped() {
+            // The caller has raised already; nothing of this is kept.
+            return Err(Failed::Prepare(psi::octree::Interrupted.into()));
+        }
         monitor.report("read", 1, 1);
         psi::prepare_input(name, file, &params, monitor).map_err(Failed::Prepare)
     })?;
@@ -104,10 +106,8 @@ fn prepare(
         )),
         Failed::Prepare(e) => value_error(format!("{what}: {e}")),
     })?;
-    if input.report.inward_normals_flipped {
-        let message = format!(
-            "psi: {what}: the normals pointed inward (judged on the convex hull); flipped them outward (keep_inward_normals=True to keep them)"
-        );
+    if let Some(notice) = input.report.inward_notice(&what) {
+        let message = format!("psi: {notice} (keep_inward_normals=True to keep them)");
         let message = std::ffi::CString::new(message).unwrap_or_default();
         PyErr::warn(py, &py.get_type::<PyUserWarning>(), &message, 1)?;
     }
@@ -132,7 +132,7 @@ fn from_arrays(
     progress: &Progress,
 ) -> PyResult<Input> {
     let file = columns(points, normals, attributes)?;
-    prepare(py, "points".to_owned(), move || Ok(file), params, progress)
+    prepare(py, "points".to_owned(), move |_| Ok(file), params, progress)
 }
 
 /// Arrays `points` (N, 3) and optional `normals` (N, 3), with their `attributes`, as `psi_io`
@@ -290,19 +290,14 @@ impl PointSet {
 
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let i = &*self.input;
-        let state = crate::pickle::encode(&PointSetState {
+        let state = PointSetState {
             name: i.name.clone(),
             points_read: i.points_read,
             points: i.points.clone(),
             report: i.report.clone(),
             attributes: i.attributes.clone(),
-        })?;
-        let restore = py.get_type::<PointSet>().getattr("_from_state")?;
-        let args = (
-            PyBytes::new(py, &state),
-            crate::json::to_python(py, &i.json)?,
-        );
-        (restore, args).into_bound_py_any(py)
+        };
+        crate::pickle::reduce::<PointSet>(py, &state, crate::json::to_python(py, &i.json)?)
     }
 
     /// Unpickling (not API).
@@ -430,7 +425,7 @@ pub(crate) fn load_points(
     };
     let progress = Progress::from_arg(py, progress)?;
     let name = path.display().to_string();
-    let read = move || psi::load_points(&path, &ReadOptions { sampling });
+    let read = move |_: &Monitor<'_>| psi::load_points(&path, &ReadOptions { sampling });
     Ok(PointSet::of(prepare(py, name, read, params, &progress)?))
 }
 
@@ -446,7 +441,7 @@ pub(crate) fn builtin_model(
     let default = psi::shapes::BUILTIN_MODEL_POINTS as i128;
     let n = bounded::<u32>("points", points.unwrap_or(default), 1, 50_000_000)? as usize;
     let progress = Progress::from_arg(py, progress)?;
-    let read = move || Ok(psi::builtin_file(n));
+    let read = move |monitor: &Monitor<'_>| Ok(psi::builtin_file_with(n, monitor));
     let input = prepare(
         py,
         "builtin".to_owned(),

@@ -8,9 +8,7 @@ use numpy::{PyArray1, PyArray2};
 use psi::octree::PointAttributes;
 use psi::preprocess::ErrorThreshold;
 use psi::{DVec3, DensityMode, ParticleParams, SampleReport};
-use pyo3::IntoPyObjectExt;
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
 
 use crate::arrays::{ReadOnly, column, vec3_array, vector, vectors};
 use crate::attributes::{AttributeArrays, attributes_of};
@@ -112,7 +110,7 @@ impl Particles {
     }
 
     /// Particles from columns: normals estimated where absent, σ estimated for drawing where
-    /// absent ([`psi::render::uniform_radius`], as `psi render` does).
+    /// absent ([`psi::render::splat_radii`], as `psi render` does).
     fn from_columns(c: psi::ParticleColumns, normals_given: bool) -> PyResult<Self> {
         let n = c.positions.len();
         let normals = if normals_given {
@@ -151,7 +149,7 @@ impl Particles {
         let sigma = c
             .sigma
             .clone()
-            .unwrap_or_else(|| vec![0.5 * psi::render::uniform_radius(&c.positions); n]);
+            .unwrap_or_else(|| psi::render::splat_radii(&c.positions, None));
         let particles = psi::Particles {
             target: sigma.clone(),
             positions: c.positions,
@@ -183,11 +181,7 @@ impl Particles {
 /// What a pickled `Particles` holds besides its report.
 #[derive(serde::Serialize, serde::Deserialize)]
 struct ParticlesState {
-    positions: Vec<DVec3>,
-    normals: Vec<DVec3>,
-    depth: Vec<u8>,
-    sigma: Vec<f64>,
-    target: Vec<f64>,
+    particles: psi::Particles,
     has_depth: bool,
     has_sigma: bool,
     attributes: PointAttributes,
@@ -294,20 +288,14 @@ impl Particles {
     }
 
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let p = &self.particles;
-        let state = crate::pickle::encode(&ParticlesState {
-            positions: p.positions.clone(),
-            normals: p.normals.clone(),
-            depth: p.depth.clone(),
-            sigma: p.sigma.clone(),
-            target: p.target.clone(),
+        let state = ParticlesState {
+            particles: self.particles.clone(),
             has_depth: self.has_depth,
             has_sigma: self.has_sigma,
             attributes: self.attributes.clone(),
-        })?;
+        };
         let report = self.report(py)?;
-        let restore = py.get_type::<Particles>().getattr("_from_state")?;
-        (restore, (PyBytes::new(py, &state), report)).into_bound_py_any(py)
+        crate::pickle::reduce::<Particles>(py, &state, report)
     }
 
     /// Unpickling (not API).
@@ -318,14 +306,8 @@ impl Particles {
         report: &Bound<'_, PyAny>,
     ) -> PyResult<Self> {
         let s: ParticlesState = crate::pickle::decode(state, "Particles")?;
-        let particles = psi::Particles {
-            positions: s.positions,
-            normals: s.normals,
-            depth: s.depth,
-            sigma: s.sigma,
-            target: s.target,
-        };
-        let out = Self::with(particles, (s.has_depth, s.has_sigma), None).carrying(s.attributes);
+        let has = (s.has_depth, s.has_sigma);
+        let out = Self::with(s.particles, has, None).carrying(s.attributes);
         if !report.is_none() {
             let _ = out.report.set(crate::pickle::json_of(report)?);
         }

@@ -10,10 +10,8 @@ use psi::octree::PointAttributes;
 use psi::particles::DensityField;
 use psi::preprocess::ErrorThreshold;
 use psi::regen::{Edit, RegenError};
-use psi::{DVec3, MpuParams, OrientedPoint, ParticleParams, SampleReport};
-use pyo3::IntoPyObjectExt;
+use psi::{MpuParams, OrientedPoint, ParticleParams, SampleReport};
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
 
 use crate::arrays::{oriented_array, vector3};
 use crate::attributes::attributes_of;
@@ -59,16 +57,6 @@ struct State {
     mpu_report: Option<psi::BuildReport>,
 }
 
-/// Particles' arrays as a pickle holds them.
-#[derive(serde::Serialize, serde::Deserialize)]
-struct ParticleArrays {
-    positions: Vec<DVec3>,
-    normals: Vec<DVec3>,
-    depth: Vec<u8>,
-    sigma: Vec<f64>,
-    target: Vec<f64>,
-}
-
 /// What a pickled `Scene` holds besides its input's report.
 #[derive(serde::Serialize, serde::Deserialize)]
 struct SceneState {
@@ -77,7 +65,7 @@ struct SceneState {
     frame: MpuFrame,
     mpu_params: MpuParams,
     particle_params: ParticleParams,
-    particles: ParticleArrays,
+    particles: psi::Particles,
     field: DensityField,
     edits: usize,
     threshold: ErrorThreshold,
@@ -308,20 +296,13 @@ impl Scene {
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let state = self.lock(py)?;
         let scene = &state.scene;
-        let p = scene.particles();
-        let bytes = crate::pickle::encode(&SceneState {
+        let saved = SceneState {
             name: self.name.clone(),
             points: scene.points().to_vec(),
             frame: *scene.mpu().frame(),
             mpu_params: *scene.mpu_params(),
             particle_params: *scene.particle_params(),
-            particles: ParticleArrays {
-                positions: p.positions.clone(),
-                normals: p.normals.clone(),
-                depth: p.depth.clone(),
-                sigma: p.sigma.clone(),
-                target: p.target.clone(),
-            },
+            particles: scene.particles().clone(),
             field: *scene.density(),
             edits: state.edits,
             threshold: self.threshold,
@@ -334,11 +315,10 @@ impl Scene {
                 scene.attributes().clone(),
                 scene.particle_attributes().clone(),
             ],
-        })?;
+        };
         drop(state);
-        let restore = py.get_type::<Scene>().getattr("_from_state")?;
         let json = crate::json::to_python(py, &self.input_json)?;
-        (restore, (PyBytes::new(py, &bytes), json)).into_bound_py_any(py)
+        crate::pickle::reduce::<Scene>(py, &saved, json)
     }
 
     /// Unpickling (not API): the MPU built from scratch in the scene's frame, the particles
@@ -352,14 +332,7 @@ impl Scene {
         let py = cls.py();
         let s: SceneState = crate::pickle::decode(state, "Scene")?;
         let input_json = Arc::new(crate::pickle::json_of(json)?);
-        let a = s.particles;
-        let particles = psi::Particles {
-            positions: a.positions,
-            normals: a.normals,
-            depth: a.depth,
-            sigma: a.sigma,
-            target: a.target,
-        };
+        let particles = s.particles;
         let (points, frame, field) = (s.points, s.frame, s.field);
         let (mpu_params, particle_params) = (s.mpu_params, s.particle_params);
         let scene = monitored(py, &Progress::Silent, move |_| {

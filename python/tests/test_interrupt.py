@@ -21,7 +21,9 @@ DELAY = 1.0
 REACTION = 0.5
 
 CHILD = r"""
+import os
 import sys
+import time
 import numpy as np
 import psi
 
@@ -37,6 +39,14 @@ try:
     made = {call}
 except KeyboardInterrupt:
     print("interrupted", flush=True)
+    # The work stops too: a second after the interruption (an unchecked step, a kd-tree
+    # build, may finish meanwhile) the process's CPU time over one more second (2 cores: 2 s).
+    time.sleep(1.0)
+    before = os.times()
+    time.sleep(1.0)
+    after = os.times()
+    print(f"cpu {{after.user - before.user + after.system - before.system:.3f}}", flush=True)
+    {after}
 else:
     print("finished", flush=True)
     sys.exit(3)
@@ -86,10 +96,17 @@ def next_line(lines, timeout):
         return time.monotonic(), "<nothing>"
 
 
-def interrupt(setup, call, tmp_path):
+#: CPU seconds the process may take in the second second after the interruption: the work
+#: stopped at its next check within the first (a step without one, a kd-tree build, runs on
+#: to its end), so about nothing.
+LINGER = 0.2
+
+
+def interrupt(setup, call, tmp_path, after="pass"):
     """Runs ``call`` in a child, sends SIGINT ``DELAY`` s after "started"; checks the child's
-    reaction."""
-    script = CHILD.format(setup=setup, call=call)
+    reaction: ``KeyboardInterrupt`` within ``REACTION`` s, the work stopped (at most
+    ``LINGER`` s of CPU in the next second), ``after`` (code checking the state) passes."""
+    script = CHILD.format(setup=setup, call=call, after=after)
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     child = subprocess.Popen(
         [sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -109,6 +126,10 @@ def interrupt(setup, call, tmp_path):
             pytest.fail("the call ran to its end: the signal did not stop it")
         assert line == "interrupted", (line, child.stderr.read() if line is None else "")
         assert arrived - sent < REACTION, f"KeyboardInterrupt {arrived - sent:.2f} s after SIGINT"
+        _, line = next_line(lines, 30)
+        assert line.startswith("cpu "), (line, child.stderr.read() if line is None else "")
+        cpu = float(line.split()[1])
+        assert cpu <= LINGER, f"the work went on: {cpu:.2f} CPU s in the second after Ctrl-C"
         _, line = next_line(lines, 60)
         assert line == "recovered", (line, child.stderr.read() if line is None else "")
         assert child.wait(timeout=30) == 0
@@ -171,4 +192,6 @@ def test_scene_brush(tmp_path):
         "scene = psi.Scene(psi.builtin_model(1_000_000), iterations=20)",
         "scene.brush((0.0, 0.0, 0.0), 3.0, (0.0, 0.0, 0.004))",
         tmp_path,
+        # Interrupted before its commit: the scene is as it was.
+        after="assert scene.edits == 0, scene.edits",
     )

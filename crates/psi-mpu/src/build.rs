@@ -9,7 +9,8 @@ use std::time::Instant;
 
 use glam::DVec3;
 use psi_octree::{
-    Aabb, KnownPartitions, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint, PointIndex,
+    Aabb, Interrupted, KnownPartitions, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint,
+    PointIndex,
 };
 use rayon::prelude::*;
 
@@ -136,7 +137,8 @@ fn prefit_marked(
     eps0: f64,
     reuse: Option<Reuse<'_>>,
     marked: &[u32],
-) -> Prefit {
+    monitor: &Monitor<'_>,
+) -> Result<Prefit, Interrupted> {
     let old_cell = |c: u32| {
         *reuse
             .expect("marked cells come with reuse")
@@ -159,6 +161,9 @@ fn prefit_marked(
             let early: Vec<Option<CellFit>> = marked
                 .par_iter()
                 .map(|&c| {
+                    if monitor.stopped() {
+                        return None;
+                    }
                     let cell = old_cell(c);
                     try_fit_cell(&input, cell.center, cell.half, eps0)
                 })
@@ -173,21 +178,26 @@ fn prefit_marked(
         index: Some(&index),
         params,
     };
-    let fits = marked
+    monitor.check()?;
+    // (A stop part-way leaves `None`s, and the whole is dropped.)
+    let fits: Option<Vec<CellFit>> = marked
         .par_iter()
         .zip(early)
         .map(|(&c, early)| {
-            early.unwrap_or_else(|| {
+            if monitor.stopped() {
+                return None;
+            }
+            Some(early.unwrap_or_else(|| {
                 let cell = old_cell(c);
                 fit_cell(&input, cell.center, cell.half, eps0)
-            })
+            }))
         })
         .collect();
-    Prefit {
+    Ok(Prefit {
         index,
         coarse,
-        fits,
-    }
+        fits: fits.ok_or(Interrupted)?,
+    })
 }
 
 impl Mpu {
@@ -258,7 +268,7 @@ impl Mpu {
             index,
             coarse,
             fits: prefit,
-        } = prefit_marked(&data, params, eps0, reuse, &marked_old);
+        } = prefit_marked(&data, params, eps0, reuse, &marked_old, &monitor)?;
         let levels = u64::from(params.max_depth) + 1;
         monitor.report("mpu", 0, levels);
         monitor.check()?;

@@ -96,6 +96,9 @@ pub fn polygonize_with(
     let mut cells: Vec<u64> = local
         .par_iter()
         .flat_map_iter(|p| {
+            if monitor.stopped() {
+                return Vec::new();
+            }
             let c = ((*p - min) / h).floor();
             let (ci, cj, ck) = (c.x as i64, c.y as i64, c.z as i64);
             let mut out = Vec::new();
@@ -112,6 +115,7 @@ pub fn polygonize_with(
             out
         })
         .collect();
+    monitor.check()?;
     cells.par_sort_unstable();
     cells.dedup();
     monitor.check()?;

@@ -1,9 +1,10 @@
 //! The particle set: structure-of-arrays state of the simulation.
 
 use glam::DVec3;
+use serde::{Deserialize, Serialize};
 
 /// Particles on the surface (all arrays have the same length N).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Particles {
     /// Positions, world units.
     pub positions: Vec<DVec3>,

@@ -279,6 +279,16 @@ pub enum PreprocessError {
 }
 
 impl PreprocessReport {
+    /// The notice for normals flipped outward ([`PreprocessReport::inward_normals_flipped`]),
+    /// naming the input; the caller adds how to keep them.
+    pub fn inward_notice(&self, name: &str) -> Option<String> {
+        self.inward_normals_flipped.then(|| {
+            format!(
+                "{name}: the normals pointed inward (judged on the convex hull); flipped them outward"
+            )
+        })
+    }
+
     /// The MPU error threshold to use: `user`'s when given, else the one the noise suggests
     /// when it is above the paper's, else the paper's.
     ///

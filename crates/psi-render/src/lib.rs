@@ -74,7 +74,7 @@ pub use legend::{Legend, append_legend};
 pub use mesh::render_mesh;
 pub use panel::side_by_side;
 pub use params::{Backfaces, RenderParams, SplatStyle, View};
-pub use radius::uniform_radius;
+pub use radius::{splat_radii, uniform_radius};
 pub use splats::render_splats;
 /// The image type every function returns (re-exported so callers need no tiny-skia
 /// dependency of their own): `width()`, `height()`, `pixel(x, y)`, `encode_png()`.

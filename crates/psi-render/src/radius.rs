@@ -34,3 +34,21 @@ pub fn uniform_radius(positions: &[DVec3]) -> f64 {
     }
     0.6 * diagonal / (finite.len() as f64).sqrt()
 }
+
+/// The splat radius of each of `positions` (shape N, world units): its `sigma` when the points
+/// carry one (psi's particles: σ is half the spacing), else half of [`uniform_radius`] for all
+/// (the estimate covers the surface, a spacing across, so halved to match σ).
+///
+/// ```
+/// use glam::DVec3;
+/// let p = [DVec3::ZERO, DVec3::new(3.0, 4.0, 0.0)];
+/// assert_eq!(psi_render::splat_radii(&p, Some(&[1.0, 2.0])), vec![1.0, 2.0]);
+/// let r = psi_render::uniform_radius(&p);
+/// assert_eq!(psi_render::splat_radii(&p, None), vec![0.5 * r; 2]);
+/// ```
+pub fn splat_radii(positions: &[DVec3], sigma: Option<&[f64]>) -> Vec<f64> {
+    match sigma {
+        Some(s) => s.to_vec(),
+        None => vec![0.5 * uniform_radius(positions); positions.len()],
+    }
+}

@@ -8,7 +8,7 @@ use glam::DVec3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-use psi_octree::OrientedPoint;
+use psi_octree::{Monitor, OrientedPoint};
 
 /// Number of points [`builtin_model`] returns.
 pub const BUILTIN_MODEL_POINTS: usize = 80_000;
@@ -55,6 +55,12 @@ pub const BUILTIN_MODEL_SEED: u64 = 0x5051_2007;
 /// `n` points of the built-in surface from seed `seed` (the default model is
 /// `sample_builtin(BUILTIN_MODEL_POINTS, 0x5051_2007)`); large `n` makes stress inputs.
 pub fn sample_builtin(n: usize, seed: u64) -> Vec<OrientedPoint> {
+    sample_builtin_with(n, seed, &Monitor::silent())
+}
+
+/// [`sample_builtin`], stopping early (fewer points: the caller checks the flag and discards
+/// them) once `monitor`'s stop flag is set, checked every 65 536 points.
+pub fn sample_builtin_with(n: usize, seed: u64, monitor: &Monitor<'_>) -> Vec<OrientedPoint> {
     // Largest area element over a parameter grid, with a margin.
     let mut jmax: f64 = 0.0;
     for i in 0..256 {
@@ -68,6 +74,9 @@ pub fn sample_builtin(n: usize, seed: u64) -> Vec<OrientedPoint> {
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
     let mut out = Vec::with_capacity(n);
     while out.len() < n {
+        if out.len() % 65_536 == 0 && monitor.stopped() {
+            break;
+        }
         let u = TAU * rng.random::<f64>();
         let t = TAU * rng.random::<f64>();
         let w: f64 = rng.random();

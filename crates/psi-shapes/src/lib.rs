@@ -32,5 +32,7 @@ mod gaussian_noise;
 pub mod tolerance;
 
 pub use analytic_shapes::AnalyticShape;
-pub use builtin_model::{BUILTIN_MODEL_POINTS, BUILTIN_MODEL_SEED, builtin_model, sample_builtin};
+pub use builtin_model::{
+    BUILTIN_MODEL_POINTS, BUILTIN_MODEL_SEED, builtin_model, sample_builtin, sample_builtin_with,
+};
 pub use gaussian_noise::{gaussian, gaussian_vector};

@@ -100,11 +100,8 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
         code: 2,
     })?;
     let prep = &input.report;
-    if prep.inward_normals_flipped {
-        ui.notice(&format!(
-            "{}: the normals pointed inward (judged on the convex hull); flipped them outward (--keep-inward-normals to keep them)",
-            input.name
-        ));
+    if let Some(notice) = prep.inward_notice(&input.name) {
+        ui.notice(&format!("{notice} (--keep-inward-normals to keep them)"));
     }
     if let Some(opposed) = prep.inconsistent_normals() {
         eprintln!(

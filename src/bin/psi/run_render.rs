@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::anyhow;
 use clap::{Args, ValueEnum};
 use psi::render::{
-    Coloring, RenderParams, SplatStyle, View, render_mesh, render_splats, uniform_radius,
+    Coloring, RenderParams, SplatStyle, View, render_mesh, render_splats, splat_radii,
 };
 
 use crate::Failure;
@@ -126,11 +126,7 @@ pub(crate) fn run(args: &RenderArgs) -> Result<(), Failure> {
             .colors(p.depth.as_deref(), p.sigma.as_deref(), &p.normals, input)
             .ok_or_else(|| missing(coloring.name()))?;
         params.legend = legend.filter(|_| !args.no_legend);
-        let radius = match &p.sigma {
-            Some(sigma) => sigma.clone(),
-            // σ is half the spacing; the estimate covers the surface, so halve it to match.
-            None => vec![0.5 * uniform_radius(&p.positions); p.positions.len()],
-        };
+        let radius = splat_radii(&p.positions, p.sigma.as_deref());
         let image = render_splats(&p.positions, &p.normals, &colors, &radius, &params)?;
         (image, format!("{} particles", p.positions.len()))
     };
