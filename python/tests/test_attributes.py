@@ -178,3 +178,31 @@ def test_a_georeferenced_tile_samples_as_the_same_tile_at_the_origin(tmp_path):
     d = psi.Mpu(psi.load_points(tmp_path / "tile0.las")).diagonal
     moved = georeferenced.positions - offset
     assert np.abs(moved - at_origin.positions).max() <= 1e-6 * d
+
+
+@pytest.mark.parametrize("suffix", ["las", "laz"])
+def test_colours_and_intensities_written_by_laspy_are_read_exactly(tmp_path, suffix):
+    laspy = pytest.importorskip("laspy", reason="laspy (PyPI) writes the LAS/LAZ file")
+    if suffix == "laz":
+        pytest.importorskip("lazrs", reason="lazrs (PyPI) compresses LAZ for laspy")
+    points, _ = sphere(5000, seed=68, radius=3.0)
+    rng = np.random.default_rng(69)
+    rgb = rng.integers(0, 256, (len(points), 3))
+    intensity = rng.integers(0, 65536, len(points))
+    classes = rng.integers(0, 32, len(points))
+    header = laspy.LasHeader(point_format=3, version="1.2")
+    header.scales = np.array([1e-4] * 3)
+    header.offsets = np.array([1000.0, 2000.0, 10.0])
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = (points + header.offsets).T
+    las.red, las.green, las.blue = (rgb * 256).T
+    las.intensity = intensity
+    las.classification = classes
+    path = tmp_path / f"scan.{suffix}"
+    las.write(str(path))
+    stored = laspy.read(str(path))
+    p = psi.load_particles(path)  # every record, in order
+    assert np.array_equal(p.positions, np.c_[stored.x, stored.y, stored.z])
+    assert np.array_equal(p.colors, rgb.astype(np.uint8))
+    assert np.array_equal(p.intensity, intensity.astype(np.float32))
+    assert np.array_equal(p.classification, classes.astype(np.uint8))

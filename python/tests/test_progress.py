@@ -126,6 +126,8 @@ class Stop(Exception):
 @pytest.mark.parametrize("name", NAMES)
 def test_an_exception_in_the_callable_stops_the_call_and_propagates(tmp_path, small, name):
     must_show, call = calls(tmp_path, *small)[name]
+    if isinstance(must_show, list):  # stop in the call's first stage
+        must_show = must_show[0]
     seen = []
 
     def raising(stage, done, total):

@@ -39,6 +39,23 @@ impl PointChunk {
     pub fn is_empty(&self) -> bool {
         self.positions.is_empty()
     }
+
+    /// The points from `at` on, taken out of this chunk (which keeps the first `at`).
+    pub(crate) fn split_off(&mut self, at: usize) -> PointChunk {
+        fn tail<T>(column: &mut Option<Vec<T>>, at: usize) -> Option<Vec<T>> {
+            column.as_mut().map(|c| c.split_off(at))
+        }
+        let a = &mut self.attributes;
+        PointChunk {
+            positions: self.positions.split_off(at),
+            normals: tail(&mut self.normals, at),
+            attributes: PointAttributes {
+                colors: tail(&mut a.colors, at),
+                intensity: tail(&mut a.intensity, at),
+                classification: tail(&mut a.classification, at),
+            },
+        }
+    }
 }
 
 /// What a stream knows from the file's header, before any point is read.

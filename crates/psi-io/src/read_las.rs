@@ -23,7 +23,14 @@ pub(crate) struct LasStream {
     reader: las::Reader,
     points: u64,
     compressed: bool,
+    /// Points per LAZ chunk (fixed-size chunks; 0 otherwise): batches are decoded in whole
+    /// chunks, many at once, so that the parallel decoder keeps every core busy.
+    laz_chunk: u64,
 }
+
+/// LAZ chunks decoded per batch at least: enough that both cores get several whole chunks
+/// (a batch cutting chunks, or a few chunks between two cores, leaves one idle).
+const CHUNKS_PER_BATCH: u64 = 16;
 
 /// Checks and reads the header of a LAS or LAZ file of `len` bytes.
 pub(crate) fn open<R: Read + Seek + Send + Sync + 'static>(
@@ -60,10 +67,17 @@ pub(crate) fn open<R: Read + Seek + Send + Sync + 'static>(
             classification: true,
         },
     };
+    let laz_chunk = match reader.header().laz_vlr() {
+        Ok(vlr) if checked.compressed && !vlr.uses_variable_size_chunks() => {
+            u64::from(vlr.chunk_size())
+        }
+        _ => 0,
+    };
     let stream = LasStream {
         reader,
         points: checked.points,
         compressed: checked.compressed,
+        laz_chunk,
     };
     Ok((header, stream))
 }
@@ -81,8 +95,15 @@ impl LasStream {
             .for_header(self.reader.header())
             .build();
         let mut index = 0u64;
+        // Decoded in whole LAZ chunks, at least CHUNKS_PER_BATCH of them; handed out in pieces
+        // of at most `max` (so at most `decode` points are held at once).
+        let max = max.max(1);
+        let decode = match self.laz_chunk {
+            0 => max as u64,
+            c => (max as u64).max(CHUNKS_PER_BATCH * c).div_ceil(c) * c,
+        };
         while index < self.points {
-            let want = (self.points - index).min(max as u64);
+            let want = (self.points - index).min(decode);
             let got = self
                 .reader
                 .fill_points(want, &mut data)
@@ -127,8 +148,9 @@ impl LasStream {
             if let Some(classes) = attributes.classification.as_mut() {
                 classes.extend(data.classification());
             }
-            index += got;
-            if visit(chunk).is_break() {
+            let (flow, handed) = hand_out(chunk, max, visit);
+            index += handed as u64;
+            if flow.is_break() {
                 break;
             }
         }
@@ -157,4 +179,32 @@ impl LasStream {
             las_error(e)
         }
     }
+}
+
+/// Hands `all` to `visit` in pieces of at most `max` points, in order, until it breaks;
+/// returns how it ended and the points handed out.
+fn hand_out<F: FnMut(PointChunk) -> ControlFlow<()>>(
+    mut all: PointChunk,
+    max: usize,
+    visit: &mut F,
+) -> (ControlFlow<()>, usize) {
+    if all.len() <= max {
+        let n = all.len();
+        return (visit(all), n);
+    }
+    // Cut from the end, so that each piece is copied once.
+    let mut pieces = Vec::new();
+    while all.len() > max {
+        let start = (all.len() - 1) / max * max;
+        pieces.push(all.split_off(start));
+    }
+    pieces.push(all);
+    let mut handed = 0;
+    for piece in pieces.into_iter().rev() {
+        handed += piece.len();
+        if visit(piece).is_break() {
+            return (ControlFlow::Break(()), handed);
+        }
+    }
+    (ControlFlow::Continue(()), handed)
 }
