@@ -206,3 +206,25 @@ def test_colours_and_intensities_written_by_laspy_are_read_exactly(tmp_path, suf
     assert np.array_equal(p.colors, rgb.astype(np.uint8))
     assert np.array_equal(p.intensity, intensity.astype(np.float32))
     assert np.array_equal(p.classification, classes.astype(np.uint8))
+
+
+def test_colours_and_intensities_written_by_pye57_are_read_exactly(tmp_path):
+    pye57 = pytest.importorskip("pye57", reason="pye57 (PyPI) writes the E57 file")
+    points, _ = sphere(500, seed=70, radius=2.0)
+    rng = np.random.default_rng(71)
+    rgb = rng.integers(0, 256, (len(points), 3)).astype(np.uint8)
+    intensity = rng.uniform(0, 1, len(points)).astype(np.float32)
+    path = tmp_path / "scan.e57"
+    e57 = pye57.E57(str(path), mode="w")
+    e57.write_scan_raw({
+        "cartesianX": points[:, 0].copy(), "cartesianY": points[:, 1].copy(),
+        "cartesianZ": points[:, 2].copy(), "colorRed": rgb[:, 0].copy(),
+        "colorGreen": rgb[:, 1].copy(), "colorBlue": rgb[:, 2].copy(), "intensity": intensity,
+    })
+    e57.close()
+    stored = pye57.E57(str(path)).read_scan_raw(0)
+    p = psi.load_particles(path)  # every record, in order
+    assert np.array_equal(p.positions, np.c_[stored["cartesianX"], stored["cartesianY"],
+                                             stored["cartesianZ"]])
+    assert np.array_equal(p.colors, rgb)
+    assert np.array_equal(p.intensity, intensity)
