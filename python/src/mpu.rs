@@ -207,23 +207,67 @@ fn frame_of(obj: &Bound<'_, PyAny>) -> PyResult<MpuFrame> {
     Ok(frame)
 }
 
-/// f and ∇f at `xyz` (x0 y0 z0 x1 …) into `f` and `g` (gx0 gy0 gz0 …), in parallel chunks.
-fn evaluate_into(mpu: &psi::Mpu, xyz: &[f64], f: &mut [f64], g: &mut [f64]) {
+/// f at `xyz` (x0 y0 z0 x1 …) into `f` and, when `g` is not empty, ∇f into `g` (gx0 gy0
+/// gz0 …), in parallel chunks; a chunk is skipped once `stopped()` (the caller discards all).
+fn evaluate_into(
+    mpu: &psi::Mpu,
+    xyz: &[f64],
+    f: &mut [f64],
+    g: &mut [f64],
+    stopped: &(dyn Fn() -> bool + Sync),
+) {
     const CHUNK: usize = 1024;
+    let with_gradient = !g.is_empty();
+    let g_chunks: Vec<&mut [f64]> = if with_gradient {
+        g.chunks_mut(3 * CHUNK).collect()
+    } else {
+        f.chunks(CHUNK).map(|_| -> &mut [f64] { &mut [] }).collect()
+    };
     f.par_chunks_mut(CHUNK)
-        .zip(g.par_chunks_mut(3 * CHUNK))
+        .zip(g_chunks)
         .zip(xyz.par_chunks(3 * CHUNK))
         .for_each(|((f, g), x)| {
-            for ((f, g), x) in f
-                .iter_mut()
-                .zip(g.chunks_exact_mut(3))
-                .zip(x.chunks_exact(3))
-            {
-                let (value, gradient) = mpu.value_and_gradient(DVec3::new(x[0], x[1], x[2]));
-                *f = value;
-                g.copy_from_slice(&gradient.to_array());
+            if stopped() {
+                return;
+            }
+            for (i, (f, x)) in f.iter_mut().zip(x.chunks_exact(3)).enumerate() {
+                let x = DVec3::new(x[0], x[1], x[2]);
+                if with_gradient {
+                    let (value, gradient) = mpu.value_and_gradient(x);
+                    *f = value;
+                    g[3 * i..3 * i + 3].copy_from_slice(&gradient.to_array());
+                } else {
+                    *f = mpu.value(x);
+                }
             }
         });
+}
+
+/// Queries at least this many run as a monitored call (Ctrl-C stops them; their coordinates
+/// are copied once for the worker thread); fewer run in place, without a thread's start-up.
+const MONITORED_QUERIES: usize = 1 << 16;
+
+/// f, and ∇f when `gradient` (else an empty vector), at the row-major coordinates `xyz`.
+fn evaluate(
+    py: Python<'_>,
+    mpu: &Arc<psi::Mpu>,
+    xyz: std::borrow::Cow<'_, [f64]>,
+    gradient: bool,
+) -> PyResult<(Vec<f64>, Vec<f64>)> {
+    let n = xyz.len() / 3;
+    let run = move |mpu: &psi::Mpu, xyz: &[f64], stopped: &(dyn Fn() -> bool + Sync)| {
+        let mut f = vec![0.0; n];
+        let mut g = vec![0.0; if gradient { 3 * n } else { 0 }];
+        evaluate_into(mpu, xyz, &mut f, &mut g, stopped);
+        (f, g)
+    };
+    if n < MONITORED_QUERIES {
+        return detached(py, || run(mpu, &xyz, &|| false));
+    }
+    let (mpu, xyz) = (mpu.clone(), xyz.into_owned());
+    monitored(py, &Progress::Silent, move |m| {
+        run(&mpu, &xyz, &|| m.stopped())
+    })
 }
 
 #[pymethods]
@@ -331,23 +375,18 @@ impl Mpu {
     }
 
     /// f and ∇f at `x`: shape (3,) gives `(float, (3,) array)` (the float a `numpy.float64`),
-    /// shape (..., 3) gives `(f (...), ∇f (..., 3))`, float64; x in world units, any real dtype and layout (a float64 C-ordered
-    /// array is read in place). ∇f is dimensionless (|∇f| ≈ 1 near the surface). Raises
-    /// `ValueError` for another shape or a NaN or infinite coordinate.
+    /// shape (..., 3) gives `(f (...), ∇f (..., 3))`, float64; x in world units, any real
+    /// dtype and layout (a float64 C-ordered array of fewer than 65 536 points is read in
+    /// place; more are copied once and run on a worker thread that Ctrl-C stops). ∇f is
+    /// dimensionless (|∇f| ≈ 1 near the surface). Raises `ValueError` for another shape or a
+    /// NaN or infinite coordinate.
     fn value_and_gradient<'py>(
         &self,
         py: Python<'py>,
         x: &Bound<'py, PyAny>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         let queries = Queries::new(x, "x")?;
-        let xyz = queries.coordinates("x")?;
-        let n = xyz.len() / 3;
-        let mpu = &*self.mpu;
-        let (f, g) = detached(py, || {
-            let (mut f, mut g) = (vec![0.0; n], vec![0.0; 3 * n]);
-            evaluate_into(mpu, &xyz, &mut f, &mut g);
-            (f, g)
-        })?;
+        let (f, g) = evaluate(py, &self.mpu, queries.coordinates("x")?, true)?;
         Ok((queries.shaped(py, f, 1)?, queries.shaped(py, g, 3)?))
     }
 
@@ -355,13 +394,7 @@ impl Mpu {
     /// (...)); see `value_and_gradient`.
     fn value<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let queries = Queries::new(x, "x")?;
-        let xyz = queries.coordinates("x")?;
-        let mpu = &*self.mpu;
-        let f: Vec<f64> = detached(py, || {
-            xyz.par_chunks(3)
-                .map(|x| mpu.value(DVec3::new(x[0], x[1], x[2])))
-                .collect()
-        })?;
+        let (f, _) = evaluate(py, &self.mpu, queries.coordinates("x")?, false)?;
         queries.shaped(py, f, 1)
     }
 

@@ -195,3 +195,11 @@ def test_scene_brush(tmp_path):
         # Interrupted before its commit: the scene is as it was.
         after="assert scene.edits == 0, scene.edits",
     )
+
+
+def test_value_of_many_points(tmp_path):
+    interrupt(
+        "mpu = psi.Mpu(psi.builtin_model()); x = np.random.default_rng(4).uniform(-1.5, 1.5, (8_000_000, 3))",
+        "mpu.value_and_gradient(x)",
+        tmp_path,
+    )

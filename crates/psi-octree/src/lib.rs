@@ -44,7 +44,7 @@ mod support_cells;
 
 pub use error::OctreeError;
 pub use geometry::{Aabb, OrientedPoint};
-pub use monitor::{Interrupted, Monitor, Observer, StageCounter, StopFlag};
+pub use monitor::{Interrupted, Monitor, Observer, StopFlag};
 pub use octree::{
     Cell, CellView, DEPTH_LIMIT, KnownPartitions, NO_CELL, Octree, OctreeBuffers, OctreeBuild,
     OctreeParams, RootCube, root_cube,

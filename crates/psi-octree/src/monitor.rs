@@ -1,7 +1,7 @@
 //! Progress and interruption of long work: what a caller (a progress bar, the Python package's
 //! Ctrl-C handling) hands to the layers' long-running functions.
 
-use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU8, Ordering};
 
 use thiserror::Error;
 
@@ -155,60 +155,5 @@ impl<'a> Monitor<'a> {
         if let Some(observe) = self.observe {
             observe(stage, done, total);
         }
-    }
-
-    /// A stage of `total` steps finished from several threads: [`StageCounter::add`] counts
-    /// them and reports about every hundredth of the total; the stage's start (0) is reported
-    /// now and its end by [`StageCounter::finish`].
-    pub fn stage(&self, stage: &'static str, total: u64) -> StageCounter<'a> {
-        self.report(stage, 0, total);
-        StageCounter {
-            monitor: *self,
-            stage,
-            total,
-            step: (total / 100).max(1),
-            done: AtomicU64::new(0),
-        }
-    }
-}
-
-/// Progress of one stage counted from several threads ([`Monitor::stage`]).
-#[derive(Debug)]
-pub struct StageCounter<'a> {
-    monitor: Monitor<'a>,
-    stage: &'static str,
-    total: u64,
-    step: u64,
-    done: AtomicU64,
-}
-
-impl StageCounter<'_> {
-    /// Counts `n` more finished steps, reporting when a hundredth of the total is crossed.
-    /// Returns whether the caller asked the work to stop.
-    #[inline]
-    pub fn add(&self, n: u64) -> bool {
-        if self.monitor.observe.is_some() {
-            let before = self.done.fetch_add(n, Ordering::Relaxed);
-            let after = before + n;
-            if before / self.step != after / self.step {
-                self.monitor
-                    .report(self.stage, after.min(self.total), self.total);
-            }
-        }
-        self.monitor.stopped()
-    }
-
-    /// Whether the caller asked the work to stop.
-    #[inline]
-    pub fn stopped(&self) -> bool {
-        self.monitor.stopped()
-    }
-
-    /// Reports the stage complete (`total` of `total`) unless the work was stopped, and returns
-    /// `Err(Interrupted)` if it was.
-    pub fn finish(self) -> Result<(), Interrupted> {
-        self.monitor.check()?;
-        self.monitor.report(self.stage, self.total, self.total);
-        Ok(())
     }
 }

@@ -36,21 +36,15 @@ const COLLINEAR: f64 = 1e-12;
 /// assert_eq!(point_spread(&strip), Spread::Surface);
 /// ```
 pub fn point_spread(positions: &[DVec3]) -> Spread {
-    let finite: Vec<DVec3> = positions
-        .iter()
-        .copied()
-        .filter(|p| p.is_finite())
-        .collect();
-    let Some(&first) = finite.first() else {
+    let finite = || positions.iter().copied().filter(|p| p.is_finite());
+    let Some(first) = finite().next() else {
         return Spread::Coincident;
     };
-    if finite.iter().all(|&p| p == first) {
+    if finite().all(|p| p == first) {
         return Spread::Coincident;
     }
     let mut moments = Moments::around(first);
-    for &p in &finite {
-        moments.add(p);
-    }
+    finite().for_each(|p| moments.add(p));
     let cov = moments.covariance();
     let mut e: Vec<f64> = cov
         .symmetric_eigenvalues()

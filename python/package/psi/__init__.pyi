@@ -3,8 +3,9 @@
 Units: positions, distances, sigma and f are in the input's (world) units; the MPU error
 threshold ``error`` is relative to the input's bounding-box diagonal D. Arrays going in may have
 any real dtype and any C- or F-ordered layout (copied once; a float64 C-ordered query of
-``value`` or ``value_and_gradient`` is read in place); arrays coming out are new float64
-(uint8 for depth, uint32 for faces) arrays. Defaults are the ``psi`` command line's. Bad input
+``value`` or ``value_and_gradient`` of fewer than 65 536 points is read in place; more are
+copied once and can be stopped by Ctrl-C); arrays coming out are float64 (uint8 for depth,
+uint32 for faces); those of PointSet, Mpu and Particles are read-only and made once. Defaults are the ``psi`` command line's. Bad input
 raises ``ValueError``; a file that cannot be opened or written raises ``OSError``
 (``FileNotFoundError``, ``PermissionError``, ...); messages are the CLI's.
 
