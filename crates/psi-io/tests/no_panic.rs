@@ -5,6 +5,7 @@
 
 mod common;
 
+use common::mutation::{apply, text_mutation};
 use common::{
     ALL_ENCODINGS, Enc, TETRA_OBJ, UCHAR_INT, XYZ_FLOAT, cloud_ply, config, ply, tetrahedron_ply,
 };
@@ -104,70 +105,6 @@ fn seeds() -> Vec<Vec<u8>> {
     seeds
 }
 
-#[derive(Clone, Debug)]
-enum Mutation {
-    Set(usize, u8),
-    Insert(usize, u8),
-    Delete(usize),
-    Truncate(usize),
-    /// Replace the byte at the position with a run of digits (blows up counts in headers).
-    Digits(usize, String),
-    /// Copy a span elsewhere (duplicated lines and records).
-    Duplicate(usize, usize, usize),
-}
-
-fn mutation() -> impl Strategy<Value = Mutation> {
-    let pos = any::<usize>();
-    prop_oneof![
-        (pos, any::<u8>()).prop_map(|(p, b)| Mutation::Set(p, b)),
-        (pos, any::<u8>()).prop_map(|(p, b)| Mutation::Insert(p, b)),
-        pos.prop_map(Mutation::Delete),
-        pos.prop_map(Mutation::Truncate),
-        (pos, "[0-9]{1,22}").prop_map(|(p, d)| Mutation::Digits(p, d)),
-        (pos, 0usize..64, pos).prop_map(|(a, n, b)| Mutation::Duplicate(a, n, b)),
-    ]
-}
-
-fn apply(bytes: &mut Vec<u8>, m: &Mutation) {
-    if bytes.is_empty() {
-        return;
-    }
-    let at = |p: usize, len: usize| p % len;
-    match *m {
-        Mutation::Set(p, b) => {
-            let i = at(p, bytes.len());
-            bytes[i] = b;
-        }
-        Mutation::Insert(p, b) => {
-            let i = at(p, bytes.len() + 1);
-            bytes.insert(i, b);
-        }
-        Mutation::Delete(p) => {
-            let i = at(p, bytes.len());
-            bytes.remove(i);
-        }
-        Mutation::Truncate(p) => {
-            let i = at(p, bytes.len());
-            bytes.truncate(i);
-        }
-        Mutation::Digits(p, ref digits) => {
-            // Prefer positions that already hold a digit, so counts and indices change.
-            let i = at(p, bytes.len());
-            let i = (i..bytes.len())
-                .find(|&k| bytes[k].is_ascii_digit())
-                .unwrap_or(i);
-            bytes.splice(i..=i, digits.bytes());
-        }
-        Mutation::Duplicate(a, n, b) => {
-            let start = at(a, bytes.len());
-            let end = (start + n).min(bytes.len());
-            let span = bytes[start..end].to_vec();
-            let to = at(b, bytes.len() + 1);
-            bytes.splice(to..to, span);
-        }
-    }
-}
-
 proptest! {
     #![proptest_config(config())]
 
@@ -203,7 +140,7 @@ proptest! {
     #[test]
     fn mutated_valid_files_never_panic(
         seed in 0usize..1000,
-        mutations in prop::collection::vec(mutation(), 1..8),
+        mutations in prop::collection::vec(text_mutation(), 1..8),
     ) {
         let seeds = seeds();
         let mut bytes = seeds[seed % seeds.len()].clone();

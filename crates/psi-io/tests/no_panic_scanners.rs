@@ -12,6 +12,7 @@ use std::io::Cursor;
 use std::ops::ControlFlow;
 
 use common::config;
+use common::mutation::{apply, binary_mutation};
 use common::scans::{e57_file, e57_spherical, las_file, packed_rgb, pcd_file, scan_points};
 use proptest::prelude::*;
 use psi_io::{Format, NormalSource, PointCloudFile, PointStream, ReadOptions, read_points};
@@ -123,65 +124,6 @@ fn seeds() -> Vec<(&'static str, Vec<u8>)> {
     ]
 }
 
-#[derive(Clone, Debug)]
-enum Mutation {
-    Set(usize, u8),
-    Insert(usize, u8),
-    Delete(usize),
-    Truncate(usize),
-    /// Overwrite 8 bytes with an extreme little-endian value (counts, offsets, sizes).
-    Word(usize, u64),
-    /// Copy a span elsewhere.
-    Duplicate(usize, usize, usize),
-}
-
-fn mutation() -> impl Strategy<Value = Mutation> {
-    let pos = any::<usize>();
-    let extreme = prop_oneof![
-        Just(0u64),
-        Just(u64::MAX),
-        Just(u64::from(u32::MAX)),
-        Just(1u64 << 31),
-        any::<u64>(),
-        0u64..100_000,
-    ];
-    prop_oneof![
-        (pos, any::<u8>()).prop_map(|(p, b)| Mutation::Set(p, b)),
-        (pos, any::<u8>()).prop_map(|(p, b)| Mutation::Insert(p, b)),
-        pos.prop_map(Mutation::Delete),
-        pos.prop_map(Mutation::Truncate),
-        (pos, extreme).prop_map(|(p, w)| Mutation::Word(p, w)),
-        (pos, 0usize..64, pos).prop_map(|(a, n, b)| Mutation::Duplicate(a, n, b)),
-    ]
-}
-
-fn apply(bytes: &mut Vec<u8>, m: &Mutation) {
-    if bytes.is_empty() {
-        return;
-    }
-    let len = bytes.len();
-    match *m {
-        Mutation::Set(p, b) => bytes[p % len] = b,
-        Mutation::Insert(p, b) => bytes.insert(p % (len + 1), b),
-        Mutation::Delete(p) => {
-            bytes.remove(p % len);
-        }
-        Mutation::Truncate(p) => bytes.truncate(p % len),
-        Mutation::Word(p, w) => {
-            // Header fields lie mostly in the first few hundred bytes.
-            let at = (p % len.min(400)).min(len.saturating_sub(8));
-            let end = (at + 8).min(len);
-            bytes[at..end].copy_from_slice(&w.to_le_bytes()[..end - at]);
-        }
-        Mutation::Duplicate(a, n, b) => {
-            let start = a % len;
-            let span = bytes[start..(start + n).min(len)].to_vec();
-            let to = b % (len + 1);
-            bytes.splice(to..to, span);
-        }
-    }
-}
-
 /// The shared seeded config; `PSI_PROPTEST_CASES=n` runs `n` cases instead (a longer hunt).
 fn scanner_config() -> proptest::test_runner::Config {
     let mut c = config();
@@ -237,7 +179,7 @@ proptest! {
     #[test]
     fn e57_mutations_behind_valid_checksums_never_panic(
         spherical in any::<bool>(),
-        mutations in prop::collection::vec(mutation(), 0..4),
+        mutations in prop::collection::vec(binary_mutation(), 0..4),
         numbers in prop::collection::vec((any::<usize>(), "[0-9]{1,20}"), 0..4),
     ) {
         let seeds = seeds();
@@ -268,7 +210,7 @@ proptest! {
     #[test]
     fn mutated_valid_files_never_panic(
         seed in 0usize..1000,
-        mutations in prop::collection::vec(mutation(), 1..6),
+        mutations in prop::collection::vec(binary_mutation(), 1..6),
     ) {
         let seeds = seeds();
         let mut bytes = seeds[seed % seeds.len()].1.clone();

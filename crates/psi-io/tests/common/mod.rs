@@ -176,4 +176,5 @@ pub fn config() -> Config {
     }
 }
 
+pub mod mutation;
 pub mod scans;
