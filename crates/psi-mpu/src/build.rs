@@ -14,6 +14,7 @@ use psi_octree::{
 };
 use rayon::prelude::*;
 
+use crate::cell_table::CellTable;
 use crate::data_footprint::DataFootprint;
 use crate::eval_nodes::{NO_FIT, eval_nodes_into};
 use crate::fit_cell::{CellFit, CoarseIndex, FitInput, LeafFit, fit_cell, try_fit_cell};
@@ -56,6 +57,11 @@ pub struct BuildOptions<'a> {
     /// them reproduces that MPU bit for bit. A normal that is not unit is still refused by
     /// nothing: give only an MPU's own points.
     pub unit_normals: bool,
+    /// Decisions made already for every cell, by address (the tiles' [`crate::fit_region`]s
+    /// merged): the build takes each cell's split and fit from the table and fits nothing; a
+    /// cell the table lacks is an error ([`MpuError::BadParameter`]). The result is the build
+    /// the table's regions were decided for, bitwise.
+    pub known_cells: Option<&'a CellTable>,
     /// Progress (stage `"mpu"`: octree levels decided of `max_depth + 1`) and interruption:
     /// once its stop flag is set, no cell splits any more and the build returns
     /// [`MpuError::Interrupted`].
@@ -86,14 +92,14 @@ struct StoredLeaf {
 }
 
 /// The validated input: local-frame positions and the points with unit normals.
-struct Prepared {
-    positions: Vec<DVec3>,
-    points: Vec<OrientedPoint>,
+pub(crate) struct Prepared {
+    pub(crate) positions: Vec<DVec3>,
+    pub(crate) points: Vec<OrientedPoint>,
 }
 
 /// Validates the input and returns local-frame positions (written into `positions`) and the
 /// points with unit normals (owned points are normalised in place, borrowed ones copied).
-fn prepare(
+pub(crate) fn prepare(
     points: Cow<'_, [OrientedPoint]>,
     params: &MpuParams,
     frame: &MpuFrame,
@@ -157,6 +163,7 @@ fn prefit_marked(
                 points: &data.points,
                 index: None,
                 params,
+                population: positions.len(),
             };
             let early: Vec<Option<CellFit>> = marked
                 .par_iter()
@@ -177,6 +184,7 @@ fn prefit_marked(
         points: &data.points,
         index: Some(&index),
         params,
+        population: positions.len(),
     };
     monitor.check()?;
     // (A stop part-way leaves `None`s, and the whole is dropped.)
@@ -229,6 +237,7 @@ impl Mpu {
             reuse,
             buffers,
             unit_normals,
+            known_cells,
             monitor,
         } = options;
         let frame = match frame {
@@ -280,6 +289,7 @@ impl Mpu {
             points: &points,
             index: Some(&index),
             params,
+            population: n,
         };
         let oparams = OctreeParams {
             box_scale: params.box_scale,
@@ -302,7 +312,22 @@ impl Mpu {
             buffers: octree_buffers,
             on_level: Some(&on_level),
         };
+        let missing = std::sync::Mutex::new(None);
         let (octree, records) = Octree::build_with(positions, &oparams, octree_options, |v| {
+            if let Some(table) = known_cells {
+                let Some(d) = table.get(v.cell.depth, v.cell.key) else {
+                    missing
+                        .lock()
+                        .expect("not poisoned")
+                        .get_or_insert((v.cell.depth, v.cell.key));
+                    return (false, CellRecord::Reused(0));
+                };
+                let fitted = FittedCell {
+                    fit: d.leaf.clone(),
+                    fit_radius: d.fit_radius,
+                };
+                return (d.split, CellRecord::Fitted(Box::new(fitted)));
+            }
             if monitor.stopped() {
                 // Stopped: nothing splits any more, and the check after the octree discards
                 // this placeholder record.
@@ -333,6 +358,11 @@ impl Mpu {
             )
         })?;
         monitor.check()?;
+        if let Some((depth, key)) = missing.into_inner().expect("not poisoned") {
+            return Err(MpuError::BadParameter(format!(
+                "known cells: the table has no decision for the cell at depth {depth}, key {key:?}"
+            )));
+        }
         // A local rebuild shares the earlier MPU's function store when it reuses most of it.
         let share = reuse.is_some_and(|r| 2 * marked_old.len() < r.old.octree.cells().len());
         let mut fits = FitStoreBuilder::new(

@@ -22,6 +22,10 @@ pub(crate) struct FitInput<'a> {
     /// The points whose [`position_hash`] is a multiple of [`COARSE`], and their indices.
     pub(crate) coarse: &'a CoarseIndex,
     pub(crate) params: &'a MpuParams,
+    /// Points in the whole input (N): a fit grows its radius until it holds
+    /// min(N_min + 1, N) points. `positions.len()` for a build over the whole input; more for
+    /// a region built from its points and a halo ([`crate::fit_region`]).
+    pub(crate) population: usize,
 }
 
 impl<'a> FitInput<'a> {
@@ -66,7 +70,7 @@ impl CoarseIndex {
 }
 
 /// A local function with how it was chosen.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub(crate) struct LeafFit {
     pub(crate) function: LocalFunction,
     pub(crate) kind: FitKind,
@@ -104,7 +108,7 @@ struct Neighbourhood<'a> {
 /// points in B(c, R1) (all points when there are fewer), computed from the (N_min+1)-th
 /// nearest distance instead of Ohtake's loop, with the same result.
 fn fit_radius(index: &PointIndex, input: &FitInput<'_>, center: DVec3, r: f64) -> f64 {
-    let need = (input.params.n_min + 1).min(input.positions.len());
+    let need = (input.params.n_min + 1).min(input.population);
     let nearest = index.nearest(center, need);
     let Some(&(_, d2)) = nearest.last() else {
         return r;
@@ -160,7 +164,7 @@ pub(crate) fn try_fit_cell(
     // R1 = R when more than N_min points lie well within R — the coarse points suffice to tell
     // (the margin keeps rounding at the sphere out of it); otherwise the kd-tree decides.
     let mut coarse = input.coarse.within(center, r);
-    let need = (params.n_min + 1).min(input.positions.len());
+    let need = (params.n_min + 1).min(input.population);
     let inner = r * (1.0 - 1e-9);
     let inside = coarse
         .iter()
@@ -562,6 +566,7 @@ mod tests {
             index: Some(&mpu.index),
             coarse: &coarse,
             params: &params,
+            population: positions.len(),
         };
         let without = FitInput {
             index: None,

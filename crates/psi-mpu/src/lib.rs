@@ -29,6 +29,7 @@
 mod bspline_weight;
 mod buffers;
 mod build;
+mod cell_table;
 mod data_coverage;
 mod data_footprint;
 mod error;
@@ -37,6 +38,7 @@ mod evaluate;
 mod fit_bivariate;
 mod fit_cell;
 mod fit_general_quadric;
+mod fit_region;
 mod fit_sharp;
 mod fit_store;
 mod frame;
@@ -50,10 +52,12 @@ mod report;
 
 pub use buffers::MpuBuffers;
 pub use build::{BuildOptions, Reuse};
+pub use cell_table::{CellAddress, CellDecision, CellTable};
 pub use data_coverage::data_coverage;
 pub use data_footprint::{DataAnchor, FootprintTest};
 pub use error::MpuError;
 pub use evaluate::{BACKGROUND_WEIGHT, LeafEvaluation};
+pub use fit_region::{Region, RegionFit, fit_region};
 pub use frame::MpuFrame;
 pub use local_function::{FitKind, LocalFunction};
 pub use mpu::Mpu;

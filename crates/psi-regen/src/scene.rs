@@ -276,6 +276,7 @@ impl Scene {
             // The kept points' normals are the MPU's own and the edit's new ones are unit: no
             // renormalisation, so a build from `points()` repeats this MPU bit for bit.
             unit_normals: true,
+            known_cells: None,
             monitor: *monitor,
         };
         let mpu = Mpu::build_with(points, &self.mpu_params, options)?;

@@ -1,0 +1,177 @@
+//! The cells of one region of the octree (a tile: the cell at some depth and every cell below
+//! it), decided from the points near the region alone, bitwise as a build over the whole input
+//! decides them, provided the points cover the balls the fits read (the caller checks
+//! [`RegionFit::reach`] against the halo it gathered).
+//!
+//! Why it is exact: a cell's fit and split decision read only the points within its fit
+//! radius R1 (in increasing index order), the global count N (R1 grows until it holds
+//! min(N_min + 1, N) points), ε0 and the frame; cell geometry depends on the frame alone.
+//! Points given in increasing global index order keep every fit's summation order.
+
+use std::borrow::Cow;
+
+use glam::DVec3;
+use psi_octree::{Cell, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint, PointIndex};
+
+use crate::build::prepare;
+use crate::cell_table::{CellDecision, CellTable};
+use crate::fit_cell::{CoarseIndex, FitInput, fit_cell};
+use crate::{MpuError, MpuFrame, MpuParams};
+
+/// A region of the octree: the cell at `depth` with integer `key` and the cells below it down
+/// to, but not including, depth `until` (`None`: all the way down).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Region {
+    /// Depth of the region's top cell (0: the root).
+    pub depth: u8,
+    /// Integer key of the top cell at its depth.
+    pub key: [u32; 3],
+    /// Cells at this depth and below are left to other regions (the tiles under a top pass).
+    pub until: Option<u8>,
+}
+
+impl Region {
+    /// The whole octree down to, not including, depth `until`.
+    pub fn top(until: u8) -> Region {
+        Region {
+            depth: 0,
+            key: [0; 3],
+            until: Some(until),
+        }
+    }
+
+    /// The cell at `depth` with `key` and everything below it.
+    pub fn tile(depth: u8, key: [u32; 3]) -> Region {
+        Region {
+            depth,
+            key,
+            until: None,
+        }
+    }
+
+    /// Whether `cell` is in the region (at or below its top cell, above `until`).
+    pub fn holds(&self, cell: &Cell) -> bool {
+        cell.depth >= self.depth
+            && self.until.is_none_or(|u| cell.depth < u)
+            && (0..3).all(|a| cell.key[a] >> (cell.depth - self.depth) == self.key[a])
+    }
+
+    /// Whether `cell` is a strict ancestor of the region's top cell.
+    fn is_above(&self, cell: &Cell) -> bool {
+        cell.depth < self.depth
+            && (0..3).all(|a| self.key[a] >> (self.depth - cell.depth) == cell.key[a])
+    }
+
+    /// The top cell's cube in `frame`: centre (local frame) and half-edge (world units), by the
+    /// octree's own halving from the root, so bitwise its cell's.
+    pub fn cube(&self, frame: &MpuFrame) -> (DVec3, f64) {
+        let (mut center, mut half) = (frame.root_center, frame.root_half);
+        for level in (0..self.depth).rev() {
+            let h = 0.5 * half;
+            let bit = |a: usize| ((self.key[a] >> level) & 1) as f64 * 2.0 - 1.0;
+            center += h * DVec3::new(bit(0), bit(1), bit(2));
+            half = h;
+        }
+        (center, half)
+    }
+}
+
+/// What [`fit_region`] decided and how far it read.
+#[derive(Clone, Debug, Default)]
+pub struct RegionFit {
+    /// The region's cells and their decisions.
+    pub cells: CellTable,
+    /// How far beyond the region's cube (∞-norm, world units) the balls of its fits reach:
+    /// the decisions are exact when the points given hold every input point within this
+    /// distance of the cube. Infinite when fewer than min(N_min + 1, N) points were given.
+    pub reach: f64,
+    /// Fitted cells whose fit ball crosses the faces of the region's cube.
+    pub crossing: usize,
+}
+
+/// Decides the cells of `region` from `points` (shape: M oriented points, world units, any
+/// normal length, in increasing order of their index in the whole input, which has
+/// `population` ≥ M points), in `frame` with `params`: bitwise the decisions a build over the
+/// whole input in `frame` makes, when `points` hold every input point within
+/// [`RegionFit::reach`] of the region's cube. Cells above the region split along the path to
+/// it; other cells outside it are not fitted.
+///
+/// Errors: a bad parameter, fewer than N_min + 1 points in the whole input, a non-finite point
+/// or zero normal ([`MpuError::BadPoint`], index into `points`), a point outside the frame's
+/// root cube, or an interruption by `monitor`.
+pub fn fit_region(
+    points: &[OrientedPoint],
+    population: usize,
+    frame: &MpuFrame,
+    params: &MpuParams,
+    region: &Region,
+    monitor: &Monitor<'_>,
+) -> Result<RegionFit, MpuError> {
+    params.validate()?;
+    let need = params.n_min + 1;
+    if population < need {
+        return Err(MpuError::TooFewPoints {
+            got: population,
+            need,
+        });
+    }
+    if points.len() < need {
+        // Too few points to grow a fit radius as the whole input would: a larger halo is needed.
+        return Ok(RegionFit {
+            reach: f64::INFINITY,
+            ..Default::default()
+        });
+    }
+    let data = prepare(Cow::Borrowed(points), params, frame, Vec::new(), false)?;
+    let index = PointIndex::new(&data.positions);
+    let coarse = CoarseIndex::new(&data.positions);
+    let input = FitInput {
+        positions: &[],
+        points: &data.points,
+        index: Some(&index),
+        coarse: &coarse,
+        params,
+        population,
+    };
+    let eps0 = params.error_rel * frame.diagonal;
+    let oparams = OctreeParams {
+        box_scale: params.box_scale,
+        alpha: params.alpha,
+        max_depth: params.max_depth,
+    };
+    let options = OctreeBuild {
+        root: Some(frame.root()),
+        ..Default::default()
+    };
+    let (octree, decisions) = Octree::build_with(data.positions, &oparams, options, |v| {
+        let cell = v.cell;
+        if monitor.stopped() || !region.holds(cell) {
+            return (region.is_above(cell) && !monitor.stopped(), None);
+        }
+        // The same decision as the whole build's (crate::build).
+        let f = fit_cell(&input.over(v.positions), cell.center, cell.half, eps0);
+        let split = f.error > eps0 && cell.depth < params.max_depth;
+        let decision = CellDecision {
+            split,
+            fit_radius: f.fit_radius,
+            leaf: (!split).then_some(f.fit),
+        };
+        (split, Some(decision))
+    })?;
+    monitor.check()?;
+    let (rc, rh) = region.cube(frame);
+    let mut out = RegionFit::default();
+    for (cell, decision) in octree.cells().iter().zip(decisions) {
+        let Some(decision) = decision else { continue };
+        let beyond =
+            ((cell.center - rc).abs() + DVec3::splat(decision.fit_radius)).max_element() - rh;
+        if beyond > 0.0 {
+            out.crossing += 1;
+            out.reach = out.reach.max(beyond);
+        }
+        out.cells
+            .insert((cell.depth, cell.key), decision)
+            .expect("each cell is decided once");
+    }
+    Ok(out)
+}

@@ -1,0 +1,31 @@
+//! # psi-tiles
+//!
+//! The MPU build cut into spatial tiles (issue "Beyond one machine"): the octree's cells above
+//! a tile depth are decided by one pass over all points, and every tile — a cell at the tile
+//! depth with its subtree — from the points in its cube and a halo around it, grown until it
+//! holds every point the tile's fits read. A cell's fit reads only the points within its fit
+//! radius, in increasing index order, plus the frame, ε0 and the point count, so each tile's
+//! decisions are bitwise those of the build over all points, and the MPU assembled from them
+//! ([`psi_mpu::BuildOptions::known_cells`]) equals it.
+//!
+//! ```
+//! use psi_mpu::MpuParams;
+//! use psi_octree::Monitor;
+//! use psi_shapes::AnalyticShape;
+//! use psi_tiles::{TileParams, decide_tiled};
+//!
+//! let points = AnalyticShape::Torus { major: 1.0, minor: 0.4 }.sample(5000, 3);
+//! let d = decide_tiled(&points, &MpuParams::paper(), &TileParams::at_depth(2), &Monitor::silent()).unwrap();
+//! assert!(d.report.count >= 8 && d.report.crossing_cells > 0);
+//! ```
+
+mod decide_tiles;
+mod error;
+mod tile_buckets;
+mod tile_params;
+mod tile_report;
+
+pub use decide_tiles::{TiledDecisions, build_tiled, decide_tiled};
+pub use error::TileError;
+pub use tile_params::TileParams;
+pub use tile_report::TileReport;

@@ -1,0 +1,54 @@
+//! How the octree is cut into tiles.
+
+use serde::{Deserialize, Serialize};
+
+use crate::TileError;
+
+/// The tiling: tiles are the octree's cells at `depth` (at most 8^depth of them, those under
+/// cells that split), each decided from its points and a halo around it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TileParams {
+    /// Depth of the tile cells (≥ 1; the cells above are decided by one pass over all points).
+    pub depth: u8,
+    /// The first halo, as a fraction of the tile's edge (≥ 0): the points within this
+    /// ∞-distance of the tile's cube come with it. A tile whose fits read farther is decided
+    /// again with a halo that covers them (the report counts these).
+    pub halo: f64,
+}
+
+impl Default for TileParams {
+    /// Depth 2 (up to 64 tiles), a halo of a quarter tile edge.
+    fn default() -> Self {
+        TileParams {
+            depth: 2,
+            halo: 0.25,
+        }
+    }
+}
+
+impl TileParams {
+    /// Tiles at `depth` with the default halo.
+    pub fn at_depth(depth: u8) -> Self {
+        TileParams {
+            depth,
+            ..Default::default()
+        }
+    }
+
+    /// Checks the ranges: depth 1 to 10, a finite non-negative halo.
+    pub fn validate(&self) -> Result<(), TileError> {
+        if !(1..=10).contains(&self.depth) {
+            return Err(TileError::BadParameter(format!(
+                "the tile depth must be 1 to 10, not {}",
+                self.depth
+            )));
+        }
+        if !(self.halo.is_finite() && self.halo >= 0.0) {
+            return Err(TileError::BadParameter(format!(
+                "the halo must be a finite non-negative fraction of the tile edge, not {}",
+                self.halo
+            )));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,189 @@
+//! A tiled build equals the build over all points (the oracle): the same cells, bitwise the
+//! same local functions, f and ∇f, and the same particles; with at least 8 tiles, cells whose
+//! fit balls cross tile faces, and halos that had to grow.
+
+use glam::DVec3;
+use psi_mpu::{Mpu, MpuParams};
+use psi_octree::{Monitor, OrientedPoint};
+use psi_particles::{ParticleParams, sample};
+use psi_shapes::{AnalyticShape, assert_near, gaussian_vector, tolerance::EXACT};
+use psi_tiles::{TileParams, TileReport, build_tiled, decide_tiled};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+
+/// Asserts `tiled` is `whole`: cells, leaf functions, f and ∇f at `probes` points around it.
+fn assert_same_mpu(tiled: &Mpu, whole: &Mpu, probes: usize, seed: u64) {
+    assert_eq!(tiled.octree().cells(), whole.octree().cells());
+    for l in whole.leaves() {
+        assert_eq!(tiled.leaf_function(l), whole.leaf_function(l), "leaf {l}");
+        assert_eq!(tiled.fit_radius(l).to_bits(), whole.fit_radius(l).to_bits());
+    }
+    let b = whole.bounds();
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    for _ in 0..probes {
+        let t = DVec3::new(rng.random(), rng.random(), rng.random());
+        let x = b.min + t * (b.max - b.min) * 1.2 - 0.1 * (b.max - b.min);
+        let (f, g) = whole.value_and_gradient(x);
+        let (ft, gt) = tiled.value_and_gradient(x);
+        assert_near!(ft, f, EXACT);
+        assert_near!((gt - g).length(), 0.0, EXACT);
+    }
+}
+
+/// The tiling's own claims: enough tiles, faces crossed, halos grown when the first is 0.
+fn assert_tiling_exercised(report: &TileReport) {
+    assert!(report.count >= 8, "{} tiles", report.count);
+    assert!(report.crossing_cells > 0, "no fit crosses a tile face");
+    assert!(report.halos_grown > 0, "no halo had to grow");
+    assert_eq!(report.points_per_tile.len(), report.count);
+}
+
+fn run(points: &[OrientedPoint], tiles: &TileParams) -> (Mpu, Mpu, TileReport) {
+    let params = MpuParams::paper();
+    let whole = Mpu::build(points, &params).unwrap();
+    let (tiled, report) = build_tiled(points, &params, tiles, &Monitor::silent()).unwrap();
+    (whole, tiled, report)
+}
+
+#[test]
+fn a_noisy_sphere_tiled_is_the_whole_build_and_samples_the_same_particles() {
+    let mut points = AnalyticShape::Sphere { radius: 1.0 }.sample(20_000, 7);
+    let mut rng = Pcg64Mcg::seed_from_u64(8);
+    for p in &mut points {
+        p.p += 2e-3 * gaussian_vector(&mut rng);
+    }
+    // No first halo: every tile whose fits read outside its cube grows one.
+    let tiles = TileParams {
+        depth: 2,
+        halo: 0.0,
+    };
+    let (whole, tiled, report) = run(&points, &tiles);
+    assert_tiling_exercised(&report);
+    assert_same_mpu(&tiled, &whole, 2000, 1);
+    let params = ParticleParams::paper();
+    let a = sample(&whole, &params);
+    let b = sample(&tiled, &params);
+    assert_eq!(a.particles.len(), b.particles.len());
+    assert_eq!(
+        a.particles.positions, b.particles.positions,
+        "particles bitwise equal"
+    );
+}
+
+#[test]
+fn a_torus_at_depth_three_and_an_offset_frame_tile_exactly() {
+    // Far from the origin: the local frame must keep the tiles' fits exact too.
+    let mut points = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.3,
+    }
+    .sample(30_000, 11);
+    for p in &mut points {
+        p.p += DVec3::new(1e5, -2e5, 3e4);
+    }
+    let (whole, tiled, report) = run(&points, &TileParams::at_depth(3));
+    assert!(report.count >= 64, "{} tiles", report.count);
+    assert!(report.crossing_cells > 0);
+    assert_same_mpu(&tiled, &whole, 1000, 2);
+}
+
+#[test]
+fn random_clouds_with_random_normals_tile_exactly() {
+    // Inputs no surface explains: deep, irregular octrees and fits that read far.
+    for seed in 0..3 {
+        let mut rng = Pcg64Mcg::seed_from_u64(100 + seed);
+        let points: Vec<OrientedPoint> = (0..3000)
+            .map(|_| OrientedPoint {
+                p: DVec3::new(rng.random(), rng.random::<f64>().powi(2), rng.random()),
+                n: gaussian_vector(&mut rng),
+            })
+            .collect();
+        let tiles = TileParams {
+            depth: 2,
+            halo: 0.0,
+        };
+        let (whole, tiled, report) = run(&points, &tiles);
+        assert_tiling_exercised(&report);
+        assert_same_mpu(&tiled, &whole, 300, seed);
+    }
+}
+
+#[test]
+fn the_decisions_do_not_depend_on_the_thread_count() {
+    let points = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.4,
+    }
+    .sample(8000, 4);
+    let decide = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                decide_tiled(
+                    &points,
+                    &MpuParams::paper(),
+                    &TileParams::at_depth(2),
+                    &Monitor::silent(),
+                )
+                .unwrap()
+            })
+    };
+    let (one, two) = (decide(1), decide(2));
+    assert_eq!(one.cells, two.cells);
+    assert_eq!(one.report.points_per_tile, two.report.points_per_tile);
+}
+
+#[test]
+fn a_table_missing_a_cell_is_refused_not_refitted() {
+    let points = AnalyticShape::Sphere { radius: 1.0 }.sample(3000, 3);
+    let params = MpuParams::paper();
+    let d = decide_tiled(
+        &points,
+        &params,
+        &TileParams::at_depth(2),
+        &Monitor::silent(),
+    )
+    .unwrap();
+    let mut partial = psi_mpu::CellTable::default();
+    for (a, c) in d.cells.iter().filter(|(a, _)| a.0 < 3) {
+        partial.insert(*a, c.clone()).unwrap();
+    }
+    let options = psi_mpu::BuildOptions {
+        frame: Some(d.frame),
+        known_cells: Some(&partial),
+        ..Default::default()
+    };
+    let err = Mpu::build_with(&points, &params, options).unwrap_err();
+    assert!(
+        err.to_string().contains("no decision for the cell"),
+        "{err}"
+    );
+}
+
+#[test]
+fn bad_tiling_parameters_are_refused() {
+    let points = AnalyticShape::Sphere { radius: 1.0 }.sample(1000, 3);
+    for tiles in [
+        TileParams {
+            depth: 0,
+            halo: 0.1,
+        },
+        TileParams {
+            depth: 11,
+            halo: 0.1,
+        },
+        TileParams {
+            depth: 2,
+            halo: -1.0,
+        },
+        TileParams {
+            depth: 2,
+            halo: f64::NAN,
+        },
+    ] {
+        let r = decide_tiled(&points, &MpuParams::paper(), &tiles, &Monitor::silent());
+        assert!(matches!(r, Err(psi_tiles::TileError::BadParameter(_))));
+    }
+}
