@@ -64,4 +64,8 @@ pub enum MpuError {
     /// The caller stopped the build ([`psi_octree::Monitor`]).
     #[error("the MPU build was interrupted")]
     Interrupted(#[from] Interrupted),
+    /// The points a fit needed could not be fetched (a region decided from files whose
+    /// reading failed; the message names the file and the problem).
+    #[error("fetching the points of a fit: {0}")]
+    Fetch(String),
 }

@@ -36,6 +36,22 @@ impl MpuFrame {
             let index = points.iter().position(|p| !p.p.is_finite()).unwrap_or(0);
             return Err(MpuError::BadPoint { index });
         }
+        Self::for_bounds(&bounds, points.len(), params)
+    }
+
+    /// [`MpuFrame::for_points`] from what a pass over the points gathers: their bounding box
+    /// `bounds` (world units, finite) and their count (a streamed input's frame).
+    pub fn for_bounds(bounds: &Aabb, count: usize, params: &MpuParams) -> Result<Self, MpuError> {
+        params.validate()?;
+        let need = params.n_min + 1;
+        if count < need {
+            return Err(MpuError::TooFewPoints { got: count, need });
+        }
+        if !bounds.min.is_finite() || !bounds.max.is_finite() {
+            return Err(MpuError::BadParameter(format!(
+                "the bounding box {bounds:?} is not finite"
+            )));
+        }
         let origin = bounds.center();
         let local = Aabb {
             min: bounds.min - origin,

@@ -57,21 +57,7 @@ pub fn decide_tiled(
         monitor,
     )?;
     let top_seconds = t0.elapsed().as_secs_f64();
-    // The tiles: the children of the cells just above the tile depth that split.
-    let keys: Vec<[u32; 3]> = top
-        .cells
-        .iter()
-        .filter(|(a, d)| a.0 + 1 == tiles.depth && d.split())
-        .flat_map(|(a, _)| {
-            (0..8u32).map(move |o| {
-                [
-                    2 * a.1[0] + (o & 1),
-                    2 * a.1[1] + ((o >> 1) & 1),
-                    2 * a.1[2] + ((o >> 2) & 1),
-                ]
-            })
-        })
-        .collect();
+    let keys = tile_keys(&top.cells, tiles.depth);
     let t1 = Instant::now();
     let buckets = TileBuckets::new(points, &frame, tiles.depth);
     let done = AtomicU64::new(0);
@@ -142,11 +128,38 @@ fn decide_tile(
             });
         }
         grown += 1;
-        halo = if fit.reach.is_finite() {
-            (fit.reach + 2.0 * margin).max(1.25 * halo)
-        } else {
-            (2.0 * halo).max(half)
-        };
+        halo = grown_halo(fit.reach, halo, half, margin);
+    }
+}
+
+/// The tiles under the cells `top` decided: the children of the cells just above the tile
+/// depth that split, in key order.
+pub(crate) fn tile_keys(top: &CellTable, depth: u8) -> Vec<[u32; 3]> {
+    let mut keys: Vec<[u32; 3]> = top
+        .iter()
+        .filter(|(a, d)| a.0 + 1 == depth && d.split())
+        .flat_map(|(a, _)| {
+            (0..8u32).map(move |o| {
+                [
+                    2 * a.1[0] + (o & 1),
+                    2 * a.1[1] + ((o >> 1) & 1),
+                    2 * a.1[2] + ((o >> 2) & 1),
+                ]
+            })
+        })
+        .collect();
+    keys.sort_unstable();
+    keys
+}
+
+/// The next halo after a tile's fits reached `reach` beyond a halo of `halo` (half-edge
+/// `half`): enough for that reach, and at least a quarter more (infinite reach: too few
+/// points, doubled).
+pub(crate) fn grown_halo(reach: f64, halo: f64, half: f64, margin: f64) -> f64 {
+    if reach.is_finite() {
+        (reach + 2.0 * margin).max(1.25 * halo)
+    } else {
+        (2.0 * halo).max(half)
     }
 }
 

@@ -17,6 +17,10 @@ pub enum TileError {
     /// The MPU layer refused the input or a region (see [`MpuError`]).
     #[error(transparent)]
     Mpu(#[from] MpuError),
+    /// A store file could not be read or written, or failed its check (the message names the
+    /// file and the problem).
+    #[error("tile store: {0}")]
+    Store(String),
     /// Two regions decided the same cell differently (a bug: tiles overlap only in the cells
     /// above them, which the top pass alone decides).
     #[error("two regions disagree on the cell at depth {}, key {:?}", .0.0, .0.1)]

@@ -19,13 +19,19 @@
 //! assert!(d.report.count >= 8 && d.report.crossing_cells > 0);
 //! ```
 
+mod decide_store;
 mod decide_tiles;
 mod error;
 mod tile_buckets;
 mod tile_params;
 mod tile_report;
+mod tile_store;
+mod write_atomically;
 
+pub use decide_store::decide_store;
 pub use decide_tiles::{TiledDecisions, build_tiled, decide_tiled};
 pub use error::TileError;
 pub use tile_params::TileParams;
 pub use tile_report::TileReport;
+pub use tile_store::{StoreManifest, StoredTile, TileStore, TileWriter};
+use write_atomically::write_atomically;

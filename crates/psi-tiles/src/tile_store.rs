@@ -1,0 +1,395 @@
+//! Points partitioned into tile files on disk (the out-of-core input of a tiled build): one
+//! file per non-empty tile cube at the tile depth, each point with its index in the whole
+//! input, in increasing index order; the coarse points in a file of their own; a manifest with
+//! the frame, the counts and every file's SHA-256, written last (temporary file, then rename),
+//! so a store without a manifest is unfinished and one whose file fails its checksum is
+//! refused by name.
+//!
+//! Record layout (little endian, 56 bytes): input index u64, position 3 × f64 (world units),
+//! normal 3 × f64.
+
+use std::collections::BTreeMap;
+use std::fs::{self, File};
+use std::io::{BufWriter, Read, Write};
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use psi_mpu::{MpuFrame, is_coarse_point};
+use psi_octree::OrientedPoint;
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use crate::TileError;
+
+/// Bytes of one point record.
+const RECORD: usize = 56;
+/// The manifest's file name in a store directory.
+const MANIFEST: &str = "manifest.json";
+
+/// One tile file of a store.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StoredTile {
+    /// The tile's integer key at the store's depth.
+    pub key: [u32; 3],
+    /// Points in the file.
+    pub points: u64,
+    /// SHA-256 of the file, hexadecimal.
+    pub sha256: String,
+}
+
+/// What a store holds: the frame and count of the whole input, the depth, the files.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StoreManifest {
+    /// Format version (1).
+    pub version: u32,
+    /// The whole input's frame.
+    pub frame: MpuFrame,
+    /// Points in the whole input.
+    pub population: u64,
+    /// The depth whose cells the files hold.
+    pub depth: u8,
+    /// The non-empty tiles, by key.
+    pub tiles: Vec<StoredTile>,
+    /// The coarse points' file.
+    pub coarse: StoredTile,
+}
+
+/// A finished store, its manifest read and trusted; files are checked as they are read.
+#[derive(Clone, Debug)]
+pub struct TileStore {
+    dir: PathBuf,
+    manifest: StoreManifest,
+    by_key: BTreeMap<[u32; 3], usize>,
+}
+
+/// Writes points into a store, buffering at most about `buffer_points` of them in memory.
+pub struct TileWriter {
+    dir: PathBuf,
+    frame: MpuFrame,
+    depth: u8,
+    buffer_points: usize,
+    buffered: usize,
+    next_index: u64,
+    pending: BTreeMap<[u32; 3], Vec<u8>>,
+    counts: BTreeMap<[u32; 3], u64>,
+    coarse: BufWriter<File>,
+    coarse_count: u64,
+}
+
+fn io_error(path: &Path, e: impl std::fmt::Display) -> TileError {
+    TileError::Store(format!("{}: {e}", path.display()))
+}
+
+fn tile_path(dir: &Path, key: [u32; 3]) -> PathBuf {
+    dir.join(format!("tile-{}-{}-{}.pts", key[0], key[1], key[2]))
+}
+
+/// The key at `depth` of the tile cube holding world position `p` (clamped to the root cube;
+/// gathering filters by distance, so which of two tiles a point on a face lands in does not
+/// matter).
+pub(crate) fn tile_key(frame: &MpuFrame, depth: u8, p: DVec3) -> [u32; 3] {
+    let side = 1u32 << depth;
+    let low = frame.root_center - DVec3::splat(frame.root_half);
+    let edge = 2.0 * frame.root_half / f64::from(side);
+    let k = ((p - frame.origin - low) / edge).floor();
+    let clamp = |v: f64| (v.max(0.0) as u32).min(side - 1);
+    [clamp(k.x), clamp(k.y), clamp(k.z)]
+}
+
+fn push_record(out: &mut Vec<u8>, index: u64, p: &OrientedPoint) {
+    out.extend_from_slice(&index.to_le_bytes());
+    for v in [p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+}
+
+impl TileWriter {
+    /// Starts a store in `dir` (created; an earlier store there is replaced when this one
+    /// finishes) for an input whose frame is `frame`, tiles at `depth`.
+    pub fn create(
+        dir: &Path,
+        frame: MpuFrame,
+        depth: u8,
+        buffer_points: usize,
+    ) -> Result<TileWriter, TileError> {
+        fs::create_dir_all(dir).map_err(|e| io_error(dir, e))?;
+        // An unfinished store has no manifest: remove the old one first.
+        let manifest = dir.join(MANIFEST);
+        if manifest.exists() {
+            fs::remove_file(&manifest).map_err(|e| io_error(&manifest, e))?;
+        }
+        for entry in fs::read_dir(dir).map_err(|e| io_error(dir, e))? {
+            let path = entry.map_err(|e| io_error(dir, e))?.path();
+            if path.extension().is_some_and(|x| x == "pts") {
+                fs::remove_file(&path).map_err(|e| io_error(&path, e))?;
+            }
+        }
+        let coarse_path = dir.join("coarse.pts");
+        let coarse = File::create(&coarse_path).map_err(|e| io_error(&coarse_path, e))?;
+        Ok(TileWriter {
+            dir: dir.to_path_buf(),
+            frame,
+            depth,
+            buffer_points: buffer_points.max(1),
+            buffered: 0,
+            next_index: 0,
+            pending: BTreeMap::new(),
+            counts: BTreeMap::new(),
+            coarse: BufWriter::new(coarse),
+            coarse_count: 0,
+        })
+    }
+
+    /// Adds the next `points` of the input (their indices follow the points added before).
+    pub fn push(&mut self, points: &[OrientedPoint]) -> Result<(), TileError> {
+        let mut record = Vec::with_capacity(RECORD);
+        for p in points {
+            let index = self.next_index;
+            self.next_index += 1;
+            let key = tile_key(&self.frame, self.depth, p.p);
+            push_record(self.pending.entry(key).or_default(), index, p);
+            *self.counts.entry(key).or_default() += 1;
+            if is_coarse_point(&self.frame, p.p) {
+                record.clear();
+                push_record(&mut record, index, p);
+                let path = self.dir.join("coarse.pts");
+                self.coarse
+                    .write_all(&record)
+                    .map_err(|e| io_error(&path, e))?;
+                self.coarse_count += 1;
+            }
+            self.buffered += 1;
+            if self.buffered >= self.buffer_points {
+                self.flush()?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Appends the buffered records to their tile files.
+    fn flush(&mut self) -> Result<(), TileError> {
+        for (key, bytes) in std::mem::take(&mut self.pending) {
+            let path = tile_path(&self.dir, key);
+            let mut f = fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(&path)
+                .map_err(|e| io_error(&path, e))?;
+            f.write_all(&bytes).map_err(|e| io_error(&path, e))?;
+        }
+        self.buffered = 0;
+        Ok(())
+    }
+
+    /// Writes what is buffered, checksums every file and writes the manifest (last).
+    pub fn finish(mut self) -> Result<TileStore, TileError> {
+        self.flush()?;
+        let coarse_path = self.dir.join("coarse.pts");
+        self.coarse.flush().map_err(|e| io_error(&coarse_path, e))?;
+        let mut tiles = Vec::new();
+        for (&key, &points) in &self.counts {
+            let path = tile_path(&self.dir, key);
+            tiles.push(StoredTile {
+                key,
+                points,
+                sha256: file_sha256(&path)?,
+            });
+        }
+        let manifest = StoreManifest {
+            version: 1,
+            frame: self.frame,
+            population: self.next_index,
+            depth: self.depth,
+            tiles,
+            coarse: StoredTile {
+                key: [0; 3],
+                points: self.coarse_count,
+                sha256: file_sha256(&coarse_path)?,
+            },
+        };
+        let text = serde_json::to_string_pretty(&manifest).expect("serialisable");
+        let path = self.dir.join(MANIFEST);
+        crate::write_atomically(&path, text.as_bytes())?;
+        TileStore::open(&self.dir)
+    }
+}
+
+/// SHA-256 of a file's bytes, hexadecimal.
+fn file_sha256(path: &Path) -> Result<String, TileError> {
+    let mut f = File::open(path).map_err(|e| io_error(path, e))?;
+    let mut h = Sha256::new();
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        let n = f.read(&mut buf).map_err(|e| io_error(path, e))?;
+        if n == 0 {
+            break;
+        }
+        h.update(&buf[..n]);
+    }
+    Ok(hex(&h.finalize()))
+}
+
+pub(crate) fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+impl TileStore {
+    /// Opens the store in `dir`: its manifest must be there (an unfinished store has none).
+    pub fn open(dir: &Path) -> Result<TileStore, TileError> {
+        let path = dir.join(MANIFEST);
+        let text = fs::read_to_string(&path).map_err(|e| io_error(&path, e))?;
+        let manifest: StoreManifest =
+            serde_json::from_str(&text).map_err(|e| io_error(&path, e))?;
+        if manifest.version != 1 {
+            return Err(io_error(
+                &path,
+                format!("unknown version {}", manifest.version),
+            ));
+        }
+        let by_key = manifest
+            .tiles
+            .iter()
+            .enumerate()
+            .map(|(i, t)| (t.key, i))
+            .collect();
+        Ok(TileStore {
+            dir: dir.to_path_buf(),
+            manifest,
+            by_key,
+        })
+    }
+
+    /// The manifest.
+    pub fn manifest(&self) -> &StoreManifest {
+        &self.manifest
+    }
+
+    /// The store's directory.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Points in the tile `key`'s file (0 for a tile without one).
+    pub fn count(&self, key: [u32; 3]) -> u64 {
+        self.by_key
+            .get(&key)
+            .map_or(0, |&i| self.manifest.tiles[i].points)
+    }
+
+    /// Reads a file of records, checking its size and checksum against `entry`.
+    fn read_records(&self, path: &Path, entry: &StoredTile) -> Result<Vec<u8>, TileError> {
+        let bytes = fs::read(path).map_err(|e| io_error(path, e))?;
+        if bytes.len() as u64 != entry.points * RECORD as u64 {
+            return Err(io_error(
+                path,
+                format!(
+                    "{} bytes where the manifest says {} points ({} bytes): truncated or replaced",
+                    bytes.len(),
+                    entry.points,
+                    entry.points * RECORD as u64
+                ),
+            ));
+        }
+        let sum = hex(&Sha256::digest(&bytes));
+        if sum != entry.sha256 {
+            return Err(io_error(
+                path,
+                "its SHA-256 does not match the manifest: the file is corrupted",
+            ));
+        }
+        Ok(bytes)
+    }
+
+    /// The coarse points ([`is_coarse_point`]), in increasing input index order.
+    pub fn coarse_points(&self) -> Result<Vec<OrientedPoint>, TileError> {
+        let path = self.dir.join("coarse.pts");
+        let bytes = self.read_records(&path, &self.manifest.coarse)?;
+        Ok(decode(&bytes, &|_| true)
+            .into_iter()
+            .map(|(_, p)| p)
+            .collect())
+    }
+
+    /// Every point whose position (world units) satisfies `keep`, from the tiles whose keys
+    /// lie in `lo..=hi` per axis, in increasing input index order.
+    fn gather_keys(
+        &self,
+        lo: [u32; 3],
+        hi: [u32; 3],
+        keep: &dyn Fn(DVec3) -> bool,
+    ) -> Result<Vec<OrientedPoint>, TileError> {
+        let mut found: Vec<(u64, OrientedPoint)> = Vec::new();
+        for (&key, &i) in self.by_key.range(lo..=hi) {
+            if (0..3).any(|a| key[a] < lo[a] || key[a] > hi[a]) {
+                continue;
+            }
+            let path = tile_path(&self.dir, key);
+            let bytes = self.read_records(&path, &self.manifest.tiles[i])?;
+            found.extend(decode(&bytes, keep));
+        }
+        found.sort_unstable_by_key(|(i, _)| *i);
+        Ok(found.into_iter().map(|(_, p)| p).collect())
+    }
+
+    /// The points within ∞-distance `halo` of the cube with local centre `center` and
+    /// half-edge `half` (world units), in increasing input index order.
+    pub fn gather_box(
+        &self,
+        center: DVec3,
+        half: f64,
+        halo: f64,
+    ) -> Result<Vec<OrientedPoint>, TileError> {
+        let frame = self.manifest.frame;
+        let reach = half + halo;
+        let slack = 2.0 * frame.root_half / f64::from(1u32 << self.manifest.depth);
+        let world = center + frame.origin;
+        let lo = tile_key(
+            &frame,
+            self.manifest.depth,
+            world - DVec3::splat(reach + slack),
+        );
+        let hi = tile_key(
+            &frame,
+            self.manifest.depth,
+            world + DVec3::splat(reach + slack),
+        );
+        self.gather_keys(lo, hi, &|p| {
+            (p - frame.origin - center).abs().max_element() <= reach
+        })
+    }
+
+    /// The points within `radius` of world position `center` (and perhaps a few more), in
+    /// increasing input index order.
+    pub fn gather_ball(&self, center: DVec3, radius: f64) -> Result<Vec<OrientedPoint>, TileError> {
+        let frame = self.manifest.frame;
+        self.gather_box(center - frame.origin, 0.0, radius)
+            .map(|v| {
+                v.into_iter()
+                    .filter(|p| (p.p - center).length() <= radius)
+                    .collect()
+            })
+    }
+}
+
+/// The records of `bytes` whose position satisfies `keep`, with their input indices.
+fn decode(bytes: &[u8], keep: &dyn Fn(DVec3) -> bool) -> Vec<(u64, OrientedPoint)> {
+    let f = |r: &[u8], k: usize| {
+        f64::from_le_bytes(r[8 + 8 * k..16 + 8 * k].try_into().expect("8 bytes"))
+    };
+    bytes
+        .chunks_exact(RECORD)
+        .filter_map(|r| {
+            let p = DVec3::new(f(r, 0), f(r, 1), f(r, 2));
+            keep(p).then(|| {
+                let index = u64::from_le_bytes(r[..8].try_into().expect("8 bytes"));
+                (
+                    index,
+                    OrientedPoint {
+                        p,
+                        n: DVec3::new(f(r, 3), f(r, 4), f(r, 5)),
+                    },
+                )
+            })
+        })
+        .collect()
+}

@@ -1,0 +1,23 @@
+//! Files written whole or not at all: into a temporary file beside the target, synced, then
+//! renamed over it, so an interrupted run leaves the old file or none, never half of one.
+
+use std::fs;
+use std::io::Write;
+use std::path::Path;
+
+use crate::TileError;
+
+/// Writes `bytes` to `path` atomically (a temporary file in the same directory, renamed).
+pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), TileError> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let err = |p: &Path, e: std::io::Error| TileError::Store(format!("{}: {e}", p.display()));
+    let mut f = fs::File::create(&tmp).map_err(|e| err(&tmp, e))?;
+    f.write_all(bytes).map_err(|e| err(&tmp, e))?;
+    f.sync_all().map_err(|e| err(&tmp, e))?;
+    drop(f);
+    fs::rename(&tmp, path).map_err(|e| err(path, e))
+}

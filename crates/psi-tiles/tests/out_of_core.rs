@@ -1,0 +1,241 @@
+//! The out-of-core path: points partitioned into checksummed tile files, the cells above the
+//! tiles decided from the coarse points (fetching balls from the files), the tiles from their
+//! files; the decisions equal those of the build in memory, an interrupted run resumes
+//! without redoing finished tiles, and damaged files are refused or decided again.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use glam::DVec3;
+use psi_mpu::{
+    BuildOptions, Mpu, MpuFrame, MpuParams, Region, fit_region, fit_top, is_coarse_point,
+};
+use psi_octree::{Aabb, Monitor, OrientedPoint};
+use psi_shapes::{AnalyticShape, gaussian_vector};
+use psi_tiles::{TileParams, TileStore, TileWriter, decide_store, decide_tiled};
+use rand::SeedableRng;
+use rand_pcg::Pcg64Mcg;
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("psi-tiles-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn noisy_torus(n: usize, seed: u64) -> Vec<OrientedPoint> {
+    let mut points = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.35,
+    }
+    .sample(n, seed);
+    let mut rng = Pcg64Mcg::seed_from_u64(seed + 1);
+    for p in &mut points {
+        p.p += 3e-3 * gaussian_vector(&mut rng);
+    }
+    points
+}
+
+/// Streams `points` into a store at `depth` in chunks of 777, buffering 1000 points.
+fn store_of(points: &[OrientedPoint], depth: u8, dir: &PathBuf) -> TileStore {
+    let params = MpuParams::paper();
+    let bounds = Aabb::from_points(points.iter().map(|p| p.p)).unwrap();
+    let frame = MpuFrame::for_bounds(&bounds, points.len(), &params).unwrap();
+    assert_eq!(frame, MpuFrame::for_points(points, &params).unwrap());
+    let mut w = TileWriter::create(dir, frame, depth, 1000).unwrap();
+    for chunk in points.chunks(777) {
+        w.push(chunk).unwrap();
+    }
+    w.finish().unwrap()
+}
+
+#[test]
+fn a_store_gives_back_every_point_in_input_order_and_the_coarse_ones() {
+    let points = noisy_torus(12_000, 1);
+    let dir = scratch("roundtrip");
+    let store = store_of(&points, 2, &dir);
+    let m = store.manifest();
+    assert_eq!(m.population, points.len() as u64);
+    assert!(m.tiles.len() >= 8);
+    assert_eq!(
+        m.tiles.iter().map(|t| t.points).sum::<u64>(),
+        points.len() as u64
+    );
+    let all = store
+        .gather_box(m.frame.root_center, m.frame.root_half, 0.0)
+        .unwrap();
+    assert_eq!(all, points, "bitwise, in input order");
+    let coarse: Vec<OrientedPoint> = points
+        .iter()
+        .copied()
+        .filter(|p| is_coarse_point(&m.frame, p.p))
+        .collect();
+    assert_eq!(store.coarse_points().unwrap(), coarse);
+    // A ball gathered from the files is the brute-force ball.
+    let c = DVec3::new(0.9, 0.2, 0.1);
+    let ball = store.gather_ball(c, 0.3).unwrap();
+    let brute: Vec<OrientedPoint> = points
+        .iter()
+        .copied()
+        .filter(|p| (p.p - c).length() <= 0.3)
+        .collect();
+    assert_eq!(ball, brute);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_cells_above_the_tiles_from_the_coarse_points_are_those_from_all_points() {
+    let params = MpuParams::paper();
+    for (points, until) in [(noisy_torus(40_000, 2), 3u8), (noisy_torus(3_000, 3), 4)] {
+        let frame = MpuFrame::for_points(&points, &params).unwrap();
+        let all = fit_region(
+            &points,
+            points.len(),
+            &frame,
+            &params,
+            &Region::top(until),
+            &Monitor::silent(),
+        )
+        .unwrap();
+        let coarse: Vec<OrientedPoint> = points
+            .iter()
+            .copied()
+            .filter(|p| is_coarse_point(&frame, p.p))
+            .collect();
+        let fetched = AtomicUsize::new(0);
+        let fetch = |c: DVec3, r: f64| {
+            fetched.fetch_add(1, Ordering::Relaxed);
+            Ok(points
+                .iter()
+                .copied()
+                .filter(|p| (p.p - c).length() <= r)
+                .collect())
+        };
+        let top = fit_top(
+            &coarse,
+            points.len(),
+            &frame,
+            &params,
+            until,
+            &fetch,
+            &Monitor::silent(),
+        )
+        .unwrap();
+        assert_eq!(top.cells, all.cells);
+        assert!(
+            fetched.load(Ordering::Relaxed) > 0,
+            "no cell needed its whole ball"
+        );
+    }
+}
+
+#[test]
+fn decisions_from_the_store_equal_the_build_in_memory() {
+    let points = noisy_torus(30_000, 4);
+    let params = MpuParams::paper();
+    let dir = scratch("decide");
+    let store = store_of(&points, 2, &dir);
+    let from_store = decide_store(&store, &params, 0.0, &Monitor::silent()).unwrap();
+    let in_memory = decide_tiled(
+        &points,
+        &params,
+        &TileParams {
+            depth: 2,
+            halo: 0.0,
+        },
+        &Monitor::silent(),
+    )
+    .unwrap();
+    assert_eq!(from_store.cells, in_memory.cells);
+    assert_eq!(from_store.frame, in_memory.frame);
+    assert!(from_store.report.count >= 8 && from_store.report.halos_grown > 0);
+    assert!(from_store.report.crossing_cells > 0);
+    // Assembled, the MPU is the build over all points.
+    let options = BuildOptions {
+        frame: Some(from_store.frame),
+        known_cells: Some(&from_store.cells),
+        ..Default::default()
+    };
+    let tiled = Mpu::build_with(&points, &params, options).unwrap();
+    let whole = Mpu::build(&points, &params).unwrap();
+    assert_eq!(tiled.octree().cells(), whole.octree().cells());
+    for l in whole.leaves() {
+        assert_eq!(tiled.leaf_function(l), whole.leaf_function(l));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
+    use std::os::unix::fs::MetadataExt;
+    let points = noisy_torus(15_000, 5);
+    let params = MpuParams::paper();
+    let dir = scratch("resume");
+    let store = store_of(&points, 2, &dir);
+    let first = decide_store(&store, &params, 0.1, &Monitor::silent()).unwrap();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            p.file_name()
+                .unwrap()
+                .to_string_lossy()
+                .starts_with("cells-")
+        })
+        .collect();
+    files.sort();
+    assert_eq!(files.len(), first.report.count + 1);
+    let inode = |p: &PathBuf| std::fs::metadata(p).unwrap().ino();
+    let before: Vec<u64> = files.iter().map(inode).collect();
+    // As if killed before two tiles finished, and a third file damaged on disk.
+    std::fs::remove_file(&files[1]).unwrap();
+    std::fs::remove_file(&files[2]).unwrap();
+    let mut bytes = std::fs::read(&files[3]).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x40;
+    std::fs::write(&files[3], &bytes).unwrap();
+    let before3 = inode(&files[3]);
+    let again = decide_store(&store, &params, 0.1, &Monitor::silent()).unwrap();
+    assert_eq!(again.cells, first.cells);
+    for (i, f) in files.iter().enumerate() {
+        match i {
+            1 | 2 => assert!(f.exists()),
+            3 => assert_ne!(inode(f), before3, "the damaged file was decided again"),
+            _ => assert_eq!(inode(f), before[i], "{} was redone", f.display()),
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_damaged_or_truncated_tile_file_is_refused_by_name() {
+    let points = noisy_torus(8_000, 6);
+    let params = MpuParams::paper();
+    for damage in ["flip", "truncate"] {
+        let dir = scratch(&format!("damaged-{damage}"));
+        let store = store_of(&points, 2, &dir);
+        let t = &store.manifest().tiles[store.manifest().tiles.len() / 2];
+        let path = dir.join(format!("tile-{}-{}-{}.pts", t.key[0], t.key[1], t.key[2]));
+        let mut bytes = std::fs::read(&path).unwrap();
+        if damage == "flip" {
+            bytes[20] ^= 1;
+        } else {
+            bytes.truncate(bytes.len() - 10);
+        }
+        std::fs::write(&path, &bytes).unwrap();
+        let err = decide_store(&store, &params, 0.1, &Monitor::silent()).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains(&path.display().to_string()), "{msg}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
+
+#[test]
+fn a_store_without_its_manifest_is_unfinished_and_refused() {
+    let dir = scratch("unfinished");
+    let points = noisy_torus(2_000, 7);
+    let store = store_of(&points, 1, &dir);
+    std::fs::remove_file(store.dir().join("manifest.json")).unwrap();
+    let err = TileStore::open(&dir).unwrap_err();
+    assert!(err.to_string().contains("manifest.json"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
