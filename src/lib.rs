@@ -36,6 +36,7 @@ pub use psi_particles as particles;
 pub use psi_preprocess as preprocess;
 pub use psi_regen as regen;
 pub use psi_shapes as shapes;
+pub use psi_tiles as tiles;
 
 pub use error::PsiError;
 pub use files::{

@@ -19,6 +19,9 @@ use crate::{TileError, TileParams, TileReport, TileStore, TiledDecisions, write_
 /// What a decisions file holds: one region's decisions and how they were reached.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 struct RegionRecord {
+    /// What the decisions were made from ([`fingerprint`]): a file left by a run on other
+    /// points or parameters is not taken.
+    fingerprint: String,
     cells: CellTable,
     crossing: usize,
     grown: usize,
@@ -49,9 +52,10 @@ pub fn decide_store(
     tiles.validate()?;
     let frame = manifest.frame;
     let population = manifest.population as usize;
+    let print = fingerprint(store, params, halo);
     let t0 = Instant::now();
     let top_path = store.dir().join("cells-top.bin");
-    let top = match read_record(&top_path) {
+    let top = match read_record(&top_path, &print) {
         Some(r) => r,
         None => {
             let coarse = store.coarse_points()?;
@@ -66,6 +70,7 @@ pub fn decide_store(
                 monitor,
             )?;
             let record = RegionRecord {
+                fingerprint: print.clone(),
                 cells: fit.cells,
                 crossing: 0,
                 grown: 0,
@@ -82,23 +87,24 @@ pub fn decide_store(
     let done = AtomicU64::new(0);
     let total = keys.len() as u64;
     monitor.report("tiles", 0, total);
-    let records: Vec<Result<RegionRecord, TileError>> = keys
-        .par_iter()
-        .map(|&key| {
-            let path = store
-                .dir()
-                .join(format!("cells-{}-{}-{}.bin", key[0], key[1], key[2]));
-            let out = match read_record(&path) {
-                Some(r) => Ok(r),
-                None => decide_stored_tile(store, params, &tiles, key, monitor).and_then(|r| {
-                    write_record(&path, &r)?;
-                    Ok(r)
-                }),
-            };
-            monitor.report("tiles", done.fetch_add(1, Ordering::Relaxed) + 1, total);
-            out
-        })
-        .collect();
+    let records: Vec<Result<RegionRecord, TileError>> =
+        keys.par_iter()
+            .map(|&key| {
+                let path = store
+                    .dir()
+                    .join(format!("cells-{}-{}-{}.bin", key[0], key[1], key[2]));
+                let out = match read_record(&path, &print) {
+                    Some(r) => Ok(r),
+                    None => decide_stored_tile(store, params, &tiles, key, &print, monitor)
+                        .and_then(|r| {
+                            write_record(&path, &r)?;
+                            Ok(r)
+                        }),
+                };
+                monitor.report("tiles", done.fetch_add(1, Ordering::Relaxed) + 1, total);
+                out
+            })
+            .collect();
     let mut report = TileReport {
         count: keys.len(),
         depth: tiles.depth,
@@ -131,6 +137,7 @@ fn decide_stored_tile(
     params: &MpuParams,
     tiles: &TileParams,
     key: [u32; 3],
+    print: &str,
     monitor: &Monitor<'_>,
 ) -> Result<RegionRecord, TileError> {
     let frame = store.manifest().frame;
@@ -145,6 +152,7 @@ fn decide_stored_tile(
         let fit: RegionFit = fit_region(&points, population, &frame, params, &region, monitor)?;
         if fit.reach + margin <= halo || points.len() == population {
             return Ok(RegionRecord {
+                fingerprint: print.to_string(),
                 cells: fit.cells,
                 crossing: fit.crossing,
                 grown,
@@ -157,16 +165,36 @@ fn decide_stored_tile(
     }
 }
 
+/// What a run's decisions depend on: the store's files (their checksums), the parameters and
+/// the first halo, hashed.
+fn fingerprint(store: &TileStore, params: &MpuParams, halo: f64) -> String {
+    let mut h = Sha256::new();
+    let m = store.manifest();
+    h.update(format!(
+        "{:?}{}{}{:?}{}",
+        m.frame_bits,
+        m.population,
+        m.depth,
+        params,
+        halo.to_bits()
+    ));
+    for t in m.tiles.iter().chain([&m.coarse]) {
+        h.update(&t.sha256);
+    }
+    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+}
+
 /// A decisions file's record, if the file is there, whole and intact (its last 32 bytes the
-/// SHA-256 of the rest).
-fn read_record(path: &PathBuf) -> Option<RegionRecord> {
+/// SHA-256 of the rest) and made from what `print` names.
+fn read_record(path: &PathBuf, print: &str) -> Option<RegionRecord> {
     let bytes = std::fs::read(path).ok()?;
     let (body, sum) = bytes.split_at(bytes.len().checked_sub(32)?);
     if Sha256::digest(body).as_slice() != sum {
         tracing::warn!("{}: checksum mismatch, decided again", path.display());
         return None;
     }
-    postcard::from_bytes(body).ok()
+    let record: RegionRecord = postcard::from_bytes(body).ok()?;
+    (record.fingerprint == print).then_some(record)
 }
 
 fn write_record(path: &PathBuf, record: &RegionRecord) -> Result<(), TileError> {

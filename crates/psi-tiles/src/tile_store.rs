@@ -42,8 +42,11 @@ pub struct StoredTile {
 pub struct StoreManifest {
     /// Format version (1).
     pub version: u32,
-    /// The whole input's frame.
+    /// The whole input's frame (as JSON numbers, for reading; the build uses `frame_bits`).
     pub frame: MpuFrame,
+    /// The frame's eight numbers (origin, root centre, root half, diagonal) as their IEEE
+    /// bits: JSON numbers need not read back to the same bits, and every fit depends on them.
+    pub frame_bits: [u64; 8],
     /// Points in the whole input.
     pub population: u64,
     /// The depth whose cells the files hold.
@@ -120,7 +123,8 @@ impl TileWriter {
         }
         for entry in fs::read_dir(dir).map_err(|e| io_error(dir, e))? {
             let path = entry.map_err(|e| io_error(dir, e))?.path();
-            if path.extension().is_some_and(|x| x == "pts") {
+            // Point files and the decisions made from them.
+            if path.extension().is_some_and(|x| x == "pts" || x == "bin") {
                 fs::remove_file(&path).map_err(|e| io_error(&path, e))?;
             }
         }
@@ -198,6 +202,7 @@ impl TileWriter {
         let manifest = StoreManifest {
             version: 1,
             frame: self.frame,
+            frame_bits: frame_bits(&self.frame),
             population: self.next_index,
             depth: self.depth,
             tiles,
@@ -211,6 +216,30 @@ impl TileWriter {
         let path = self.dir.join(MANIFEST);
         crate::write_atomically(&path, text.as_bytes())?;
         TileStore::open(&self.dir)
+    }
+}
+
+fn frame_bits(f: &MpuFrame) -> [u64; 8] {
+    let v = [
+        f.origin.x,
+        f.origin.y,
+        f.origin.z,
+        f.root_center.x,
+        f.root_center.y,
+        f.root_center.z,
+        f.root_half,
+        f.diagonal,
+    ];
+    v.map(f64::to_bits)
+}
+
+fn frame_from_bits(b: [u64; 8]) -> MpuFrame {
+    let v = b.map(f64::from_bits);
+    MpuFrame {
+        origin: DVec3::new(v[0], v[1], v[2]),
+        root_center: DVec3::new(v[3], v[4], v[5]),
+        root_half: v[6],
+        diagonal: v[7],
     }
 }
 
@@ -238,8 +267,9 @@ impl TileStore {
     pub fn open(dir: &Path) -> Result<TileStore, TileError> {
         let path = dir.join(MANIFEST);
         let text = fs::read_to_string(&path).map_err(|e| io_error(&path, e))?;
-        let manifest: StoreManifest =
+        let mut manifest: StoreManifest =
             serde_json::from_str(&text).map_err(|e| io_error(&path, e))?;
+        manifest.frame = frame_from_bits(manifest.frame_bits);
         if manifest.version != 1 {
             return Err(io_error(
                 &path,

@@ -41,11 +41,15 @@ fn store_of(points: &[OrientedPoint], depth: u8, dir: &PathBuf) -> TileStore {
     let bounds = Aabb::from_points(points.iter().map(|p| p.p)).unwrap();
     let frame = MpuFrame::for_bounds(&bounds, points.len(), &params).unwrap();
     assert_eq!(frame, MpuFrame::for_points(points, &params).unwrap());
+    let frame_check = frame;
     let mut w = TileWriter::create(dir, frame, depth, 1000).unwrap();
     for chunk in points.chunks(777) {
         w.push(chunk).unwrap();
     }
-    w.finish().unwrap()
+    let store = w.finish().unwrap();
+    // Bitwise: every fit depends on the frame's last bits.
+    assert_eq!(store.manifest().frame, frame_check);
+    store
 }
 
 #[test]
@@ -203,6 +207,24 @@ fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
             _ => assert_eq!(inode(f), before[i], "{} was redone", f.display()),
         }
     }
+    // Decisions made with other parameters are not taken for these.
+    let other = MpuParams {
+        error_rel: 2.0 * params.error_rel,
+        ..params
+    };
+    let fresh = decide_store(&store, &other, 0.1, &Monitor::silent()).unwrap();
+    let expected = decide_tiled(
+        &points,
+        &other,
+        &TileParams {
+            depth: 2,
+            halo: 0.1,
+        },
+        &Monitor::silent(),
+    )
+    .unwrap();
+    assert_eq!(fresh.cells, expected.cells);
+    assert_ne!(fresh.cells, first.cells);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
