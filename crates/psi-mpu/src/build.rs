@@ -99,7 +99,7 @@ pub(crate) struct Prepared {
 
 /// Validates the input and returns local-frame positions (written into `positions`) and the
 /// points with unit normals (owned points are normalised in place, borrowed ones copied).
-pub(crate) fn prepare(
+fn prepare(
     points: Cow<'_, [OrientedPoint]>,
     params: &MpuParams,
     frame: &MpuFrame,

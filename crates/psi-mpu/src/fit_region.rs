@@ -8,14 +8,11 @@
 //! min(N_min + 1, N) points), ε0 and the frame; cell geometry depends on the frame alone.
 //! Points given in increasing global index order keep every fit's summation order.
 
-use std::borrow::Cow;
-
 use glam::DVec3;
 use psi_octree::{Cell, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint, PointIndex};
 
-use crate::build::prepare;
 use crate::cell_table::{CellDecision, CellTable};
-use crate::fit_cell::{CellFit, CoarseIndex, FitInput, fit_cell, try_fit_cell};
+use crate::fit_cell::{CellFit, CoarseIndex, FitInput, fit_cell};
 use crate::{MpuError, MpuFrame, MpuParams};
 
 /// A region of the octree: the cell at `depth` with integer `key` and the cells below it down
@@ -107,6 +104,64 @@ pub fn fit_region(
     region: &Region,
     monitor: &Monitor<'_>,
 ) -> Result<RegionFit, MpuError> {
+    let need = check_population(params, population)?;
+    if points.len() < need {
+        // Too few points to grow a fit radius as the whole input would: a larger halo is needed.
+        return Ok(RegionFit {
+            reach: f64::INFINITY,
+            ..Default::default()
+        });
+    }
+    let indexed = IndexedPoints::new(points, frame)?;
+    let input = indexed.input(params, population);
+    let eps0 = params.error_rel * frame.diagonal;
+    let fit = |cell: &Cell| Ok(fit_cell(&input, cell.center, cell.half, eps0));
+    decide_cells(
+        indexed.data.positions.clone(),
+        frame,
+        params,
+        region,
+        monitor,
+        &fit,
+    )
+}
+
+/// Points ready for fitting: unit normals, local positions, their kd-tree and coarse index.
+pub(crate) struct IndexedPoints {
+    data: crate::build::Prepared,
+    index: PointIndex,
+    coarse: CoarseIndex,
+}
+
+impl IndexedPoints {
+    /// `points` (world units, any normal length) in `frame`.
+    pub(crate) fn new(points: &[OrientedPoint], frame: &MpuFrame) -> Result<Self, MpuError> {
+        let data = prepare_any(points, frame)?;
+        let index = PointIndex::new(&data.positions);
+        let coarse = CoarseIndex::new(&data.positions);
+        Ok(IndexedPoints {
+            data,
+            index,
+            coarse,
+        })
+    }
+
+    /// The fits' input over these points, the whole input having `population` points.
+    pub(crate) fn input<'a>(&'a self, params: &'a MpuParams, population: usize) -> FitInput<'a> {
+        FitInput {
+            positions: &self.data.positions,
+            points: &self.data.points,
+            index: Some(&self.index),
+            coarse: &self.coarse,
+            params,
+            population,
+        }
+    }
+}
+
+/// Checks the parameters and that the whole input has more than N_min points; returns
+/// N_min + 1.
+pub(crate) fn check_population(params: &MpuParams, population: usize) -> Result<usize, MpuError> {
     params.validate()?;
     let need = params.n_min + 1;
     if population < need {
@@ -115,24 +170,20 @@ pub fn fit_region(
             need,
         });
     }
-    if points.len() < need {
-        // Too few points to grow a fit radius as the whole input would: a larger halo is needed.
-        return Ok(RegionFit {
-            reach: f64::INFINITY,
-            ..Default::default()
-        });
-    }
-    let data = prepare(Cow::Borrowed(points), params, frame, Vec::new(), false)?;
-    let index = PointIndex::new(&data.positions);
-    let coarse = CoarseIndex::new(&data.positions);
-    let input = FitInput {
-        positions: &[],
-        points: &data.points,
-        index: Some(&index),
-        coarse: &coarse,
-        params,
-        population,
-    };
+    Ok(need)
+}
+
+/// Runs the octree over `positions` (local frame) in `frame`, fitting each cell of `region` with
+/// `fit` and splitting it as a whole build would, the cells above the region along the path to
+/// it; returns the region's decisions and reach.
+pub(crate) fn decide_cells(
+    positions: Vec<DVec3>,
+    frame: &MpuFrame,
+    params: &MpuParams,
+    region: &Region,
+    monitor: &Monitor<'_>,
+    fit: &(dyn Fn(&Cell) -> Result<CellFit, MpuError> + Sync),
+) -> Result<RegionFit, MpuError> {
     let eps0 = params.error_rel * frame.diagonal;
     let oparams = OctreeParams {
         box_scale: params.box_scale,
@@ -143,13 +194,20 @@ pub fn fit_region(
         root: Some(frame.root()),
         ..Default::default()
     };
-    let (octree, decisions) = Octree::build_with(data.positions, &oparams, options, |v| {
+    let failure = std::sync::Mutex::new(None);
+    let (octree, decisions) = Octree::build_with(positions, &oparams, options, |v| {
         let cell = v.cell;
         if monitor.stopped() || !region.holds(cell) {
             return (region.is_above(cell) && !monitor.stopped(), None);
         }
+        let f = match fit(cell) {
+            Ok(f) => f,
+            Err(e) => {
+                failure.lock().expect("not poisoned").get_or_insert(e);
+                return (false, None);
+            }
+        };
         // The same decision as the whole build's (crate::build).
-        let f = fit_cell(&input.over(v.positions), cell.center, cell.half, eps0);
         let split = f.error > eps0 && cell.depth < params.max_depth;
         let decision = CellDecision {
             split,
@@ -158,6 +216,9 @@ pub fn fit_region(
         };
         (split, Some(decision))
     })?;
+    if let Some(e) = failure.into_inner().expect("not poisoned") {
+        return Err(e);
+    }
     monitor.check()?;
     let (rc, rh) = region.cube(frame);
     let mut out = RegionFit::default();
@@ -176,138 +237,9 @@ pub fn fit_region(
     Ok(out)
 }
 
-/// The points within a ball, fetched on demand: `fetch(centre, radius)` (world units) returns
-/// every input point within `radius` of `centre` (more is allowed), in increasing order of
-/// input index, or why it could not.
-pub type FetchBall<'a> = dyn Fn(DVec3, f64) -> Result<Vec<OrientedPoint>, String> + Sync + 'a;
-
-/// [`fit_region`] of the cells above depth `until` from the input's coarse points alone (the
-/// points whose position hash selects them, shape C, in increasing input index order; the
-/// only points an out-of-core build holds for these levels), fetching the ball of the few
-/// cells whose fit needs every point (a cell with few points, or one whose error stays under
-/// ε0 among the coarse ones) through `fetch`. Bitwise the decisions of a build over all
-/// `population` points in `frame`.
-///
-/// Errors as [`fit_region`], and [`MpuError::Fetch`] from `fetch`.
-pub fn fit_top(
-    coarse: &[OrientedPoint],
-    population: usize,
-    frame: &MpuFrame,
-    params: &MpuParams,
-    until: u8,
-    fetch: &FetchBall<'_>,
-    monitor: &Monitor<'_>,
-) -> Result<RegionFit, MpuError> {
-    params.validate()?;
-    let need = params.n_min + 1;
-    if population < need {
-        return Err(MpuError::TooFewPoints {
-            got: population,
-            need,
-        });
-    }
-    let data = prepare_any(coarse, frame)?;
-    let coarse_index = CoarseIndex::new(&data.positions);
-    let input = FitInput {
-        positions: &data.positions,
-        points: &data.points,
-        index: None,
-        coarse: &coarse_index,
-        params,
-        population,
-    };
-    let eps0 = params.error_rel * frame.diagonal;
-    let region = Region::top(until);
-    let failure = std::sync::Mutex::new(None);
-    let oparams = OctreeParams {
-        box_scale: params.box_scale,
-        alpha: params.alpha,
-        max_depth: params.max_depth,
-    };
-    let options = OctreeBuild {
-        root: Some(frame.root()),
-        ..Default::default()
-    };
-    let positions = data.positions.clone();
-    let (octree, decisions) = Octree::build_with(positions, &oparams, options, |v| {
-        let cell = v.cell;
-        if monitor.stopped() || !region.holds(cell) {
-            return (false, None);
-        }
-        let fitted = match try_fit_cell(&input, cell.center, cell.half, eps0) {
-            Some(f) => Ok(f),
-            None => fit_fetched(cell, frame, params, population, eps0, fetch),
-        };
-        let f = match fitted {
-            Ok(f) => f,
-            Err(e) => {
-                failure.lock().expect("not poisoned").get_or_insert(e);
-                return (false, None);
-            }
-        };
-        let split = f.error > eps0 && cell.depth < params.max_depth;
-        let decision = CellDecision {
-            split,
-            fit_radius: f.fit_radius,
-            leaf: (!split).then_some(f.fit),
-        };
-        (split, Some(decision))
-    })?;
-    if let Some(e) = failure.into_inner().expect("not poisoned") {
-        return Err(e);
-    }
-    monitor.check()?;
-    let mut out = RegionFit::default();
-    for (cell, decision) in octree.cells().iter().zip(decisions) {
-        if let Some(decision) = decision {
-            out.cells
-                .insert((cell.depth, cell.key), decision)
-                .expect("each cell is decided once");
-        }
-    }
-    Ok(out)
-}
-
-/// One cell fitted from the points `fetch` gives within a ball around it, the ball grown until
-/// it holds the fit's radius (then every point the fit reads was fetched).
-fn fit_fetched(
-    cell: &Cell,
-    frame: &MpuFrame,
-    params: &MpuParams,
-    population: usize,
-    eps0: f64,
-    fetch: &FetchBall<'_>,
-) -> Result<CellFit, MpuError> {
-    let margin = 1e-9 * frame.root_half;
-    let mut radius = cell.support_radius(params.alpha) * 1.5;
-    loop {
-        let points =
-            fetch(cell.center + frame.origin, radius + 2.0 * margin).map_err(MpuError::Fetch)?;
-        if points.len() >= (params.n_min + 1).min(population) {
-            let data = prepare_any(&points, frame)?;
-            let index = PointIndex::new(&data.positions);
-            let coarse = CoarseIndex::new(&data.positions);
-            let input = FitInput {
-                positions: &data.positions,
-                points: &data.points,
-                index: Some(&index),
-                coarse: &coarse,
-                params,
-                population,
-            };
-            let f = fit_cell(&input, cell.center, cell.half, eps0);
-            if f.fit_radius + margin <= radius || points.len() >= population {
-                return Ok(f);
-            }
-            radius = (f.fit_radius + margin).max(1.25 * radius);
-        } else {
-            radius *= 2.0;
-        }
-    }
-}
-
-/// [`prepare`] of any number of points (a region's share of the input may be below N_min).
-fn prepare_any(
+/// Validated points with unit normals and their local-frame positions (any number of them: a
+/// region's share of the input may be below N_min).
+pub(crate) fn prepare_any(
     points: &[OrientedPoint],
     frame: &MpuFrame,
 ) -> Result<crate::build::Prepared, MpuError> {

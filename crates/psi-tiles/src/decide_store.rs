@@ -4,29 +4,23 @@
 //! (checksummed, written atomically), so an interrupted run resumes without redoing finished
 //! tiles, and a damaged decisions file is decided again, never used.
 
-use std::path::PathBuf;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::path::Path;
 use std::time::Instant;
 
-use psi_mpu::{CellTable, MpuParams, Region, RegionFit, fit_region, fit_top};
+use psi_mpu::{MpuParams, fit_top};
 use psi_octree::Monitor;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
-use crate::{TileError, TileParams, TileReport, TileStore, TiledDecisions, write_atomically};
+use crate::decide_tile::{TileOutcome, decide_all, decide_tile};
+use crate::{TileError, TileParams, TileStore, TiledDecisions, write_atomically};
 
-/// What a decisions file holds: one region's decisions and how they were reached.
+/// What a decisions file holds: one region's decisions and what they were made from
+/// ([`fingerprint`]: a file left by a run on other points or parameters is not taken).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 struct RegionRecord {
-    /// What the decisions were made from ([`fingerprint`]): a file left by a run on other
-    /// points or parameters is not taken.
     fingerprint: String,
-    cells: CellTable,
-    crossing: usize,
-    grown: usize,
-    points: u64,
-    halo_points: usize,
+    outcome: TileOutcome,
 }
 
 /// Decides every cell of the MPU of the points in `store` with `params` (tiles at the store's
@@ -56,7 +50,7 @@ pub fn decide_store(
     let t0 = Instant::now();
     let top_path = store.dir().join("cells-top.bin");
     let top = match read_record(&top_path, &print) {
-        Some(r) => r,
+        Some(r) => r.cells,
         None => {
             let coarse = store.coarse_points()?;
             let fetch = |c, r| store.gather_ball(c, r).map_err(|e| e.to_string());
@@ -69,100 +63,40 @@ pub fn decide_store(
                 &fetch,
                 monitor,
             )?;
-            let record = RegionRecord {
-                fingerprint: print.clone(),
+            let outcome = TileOutcome {
                 cells: fit.cells,
                 crossing: 0,
                 grown: 0,
                 points: population as u64,
                 halo_points: coarse.len(),
             };
-            write_record(&top_path, &record)?;
-            record
+            write_record(&top_path, &print, &outcome)?;
+            outcome.cells
         }
     };
     let top_seconds = t0.elapsed().as_secs_f64();
-    let keys = crate::decide_tiles::tile_keys(&top.cells, tiles.depth);
-    let t1 = Instant::now();
-    let done = AtomicU64::new(0);
-    let total = keys.len() as u64;
-    monitor.report("tiles", 0, total);
-    let records: Vec<Result<RegionRecord, TileError>> =
-        keys.par_iter()
-            .map(|&key| {
-                let path = store
-                    .dir()
-                    .join(format!("cells-{}-{}-{}.bin", key[0], key[1], key[2]));
-                let out = match read_record(&path, &print) {
-                    Some(r) => Ok(r),
-                    None => decide_stored_tile(store, params, &tiles, key, &print, monitor)
-                        .and_then(|r| {
-                            write_record(&path, &r)?;
-                            Ok(r)
-                        }),
-                };
-                monitor.report("tiles", done.fetch_add(1, Ordering::Relaxed) + 1, total);
-                out
-            })
-            .collect();
-    let mut report = TileReport {
-        count: keys.len(),
-        depth: tiles.depth,
-        halo,
-        top_cells: top.cells.len(),
-        top_seconds,
-        ..Default::default()
+    let gather = |center, half, halo| store.gather_box(center, half, halo);
+    let decide = |key: [u32; 3]| {
+        let path = store
+            .dir()
+            .join(format!("cells-{}-{}-{}.bin", key[0], key[1], key[2]));
+        if let Some(outcome) = read_record(&path, &print) {
+            return Ok(outcome);
+        }
+        let count = store.count(key);
+        let outcome = decide_tile(
+            &frame, params, &tiles, key, population, count, &gather, monitor,
+        )?;
+        write_record(&path, &print, &outcome)?;
+        Ok(outcome)
     };
-    let mut cells = top.cells;
-    for r in records {
-        let r = r?;
-        report.points_per_tile.push(r.points as usize);
-        report.halo_points.push(r.halo_points);
-        report.halos_grown += r.grown;
-        report.crossing_cells += r.crossing;
-        cells.merge(r.cells).map_err(TileError::Conflict)?;
-    }
-    report.cells = cells.len();
-    report.tile_seconds = t1.elapsed().as_secs_f64();
+    let (cells, mut report) = decide_all(top, &tiles, monitor, &decide)?;
+    report.top_seconds = top_seconds;
     Ok(TiledDecisions {
         frame,
         cells,
         report,
     })
-}
-
-/// One tile from the store, its halo grown until it holds every point its fits read.
-fn decide_stored_tile(
-    store: &TileStore,
-    params: &MpuParams,
-    tiles: &TileParams,
-    key: [u32; 3],
-    print: &str,
-    monitor: &Monitor<'_>,
-) -> Result<RegionRecord, TileError> {
-    let frame = store.manifest().frame;
-    let population = store.manifest().population as usize;
-    let region = Region::tile(tiles.depth, key);
-    let (center, half) = region.cube(&frame);
-    let margin = 1e-9 * frame.root_half;
-    let mut halo = tiles.halo * 2.0 * half;
-    let mut grown = 0;
-    loop {
-        let points = store.gather_box(center, half, halo)?;
-        let fit: RegionFit = fit_region(&points, population, &frame, params, &region, monitor)?;
-        if fit.reach + margin <= halo || points.len() == population {
-            return Ok(RegionRecord {
-                fingerprint: print.to_string(),
-                cells: fit.cells,
-                crossing: fit.crossing,
-                grown,
-                points: store.count(key),
-                halo_points: points.len(),
-            });
-        }
-        grown += 1;
-        halo = crate::decide_tiles::grown_halo(fit.reach, halo, half, margin);
-    }
 }
 
 /// What a run's decisions depend on: the store's files (their checksums), the parameters and
@@ -186,7 +120,7 @@ fn fingerprint(store: &TileStore, params: &MpuParams, halo: f64) -> String {
 
 /// A decisions file's record, if the file is there, whole and intact (its last 32 bytes the
 /// SHA-256 of the rest) and made from what `print` names.
-fn read_record(path: &PathBuf, print: &str) -> Option<RegionRecord> {
+fn read_record(path: &Path, print: &str) -> Option<TileOutcome> {
     let bytes = std::fs::read(path).ok()?;
     let (body, sum) = bytes.split_at(bytes.len().checked_sub(32)?);
     if Sha256::digest(body).as_slice() != sum {
@@ -194,11 +128,15 @@ fn read_record(path: &PathBuf, print: &str) -> Option<RegionRecord> {
         return None;
     }
     let record: RegionRecord = postcard::from_bytes(body).ok()?;
-    (record.fingerprint == print).then_some(record)
+    (record.fingerprint == print).then_some(record.outcome)
 }
 
-fn write_record(path: &PathBuf, record: &RegionRecord) -> Result<(), TileError> {
-    let mut bytes = postcard::to_stdvec(record).expect("serialisable");
+fn write_record(path: &Path, print: &str, outcome: &TileOutcome) -> Result<(), TileError> {
+    let record = RegionRecord {
+        fingerprint: print.to_string(),
+        outcome: outcome.clone(),
+    };
+    let mut bytes = postcard::to_stdvec(&record).expect("serialisable");
     let sum = Sha256::digest(&bytes);
     bytes.extend_from_slice(&sum);
     write_atomically(path, &bytes)

@@ -20,6 +20,7 @@
 //! ```
 
 mod decide_store;
+mod decide_tile;
 mod decide_tiles;
 mod error;
 mod tile_buckets;

@@ -36,7 +36,7 @@ fn noisy_torus(n: usize, seed: u64) -> Vec<OrientedPoint> {
 }
 
 /// Streams `points` into a store at `depth` in chunks of 777, buffering 1000 points.
-fn store_of(points: &[OrientedPoint], depth: u8, dir: &PathBuf) -> TileStore {
+fn store_of(points: &[OrientedPoint], depth: u8, dir: &std::path::Path) -> TileStore {
     let params = MpuParams::paper();
     let bounds = Aabb::from_points(points.iter().map(|p| p.p)).unwrap();
     let frame = MpuFrame::for_bounds(&bounds, points.len(), &params).unwrap();

@@ -1,0 +1,136 @@
+//! One tile decided from its points and a halo, the halo grown until the tile's fits lie inside
+//! it; and the tiles of a build run in parallel and merged with the cells above them. Shared by
+//! the build in memory and the build from a tile store.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+use glam::DVec3;
+use psi_mpu::{CellTable, MpuFrame, MpuParams, Region, fit_region};
+use psi_octree::{Monitor, OrientedPoint};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::{TileError, TileParams, TileReport};
+
+/// One tile's decisions and how they were reached.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub(crate) struct TileOutcome {
+    pub(crate) cells: CellTable,
+    pub(crate) crossing: usize,
+    pub(crate) grown: usize,
+    /// Points in the tile's cube.
+    pub(crate) points: u64,
+    /// Points it was decided from (cube and final halo).
+    pub(crate) halo_points: usize,
+}
+
+/// The points within ∞-distance `halo` of the cube with local centre `center` and half-edge
+/// `half`, in increasing input index order.
+pub(crate) type Gather<'a> =
+    dyn Fn(DVec3, f64, f64) -> Result<Vec<OrientedPoint>, TileError> + Sync + 'a;
+
+/// Decides the tile `key` (at `tiles.depth`) of an input of `population` points, its points
+/// from `gather`, growing the halo from `tiles.halo` × the tile edge until the fits' reach lies
+/// inside it (or the halo holds every point). `points` is the count in its cube, for the report.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn decide_tile(
+    frame: &MpuFrame,
+    params: &MpuParams,
+    tiles: &TileParams,
+    key: [u32; 3],
+    population: usize,
+    points: u64,
+    gather: &Gather<'_>,
+    monitor: &Monitor<'_>,
+) -> Result<TileOutcome, TileError> {
+    let region = Region::tile(tiles.depth, key);
+    let (center, half) = region.cube(frame);
+    // Rounding of the reach and of the gathering test, far below any spacing.
+    let margin = 1e-9 * frame.root_half;
+    let mut halo = tiles.halo * 2.0 * half;
+    let mut grown = 0;
+    loop {
+        let local = gather(center, half, halo)?;
+        let fit = fit_region(&local, population, frame, params, &region, monitor)?;
+        if fit.reach + margin <= halo || local.len() == population {
+            return Ok(TileOutcome {
+                cells: fit.cells,
+                crossing: fit.crossing,
+                grown,
+                points,
+                halo_points: local.len(),
+            });
+        }
+        grown += 1;
+        // Enough for that reach and a quarter more; too few points (infinite reach): doubled.
+        halo = if fit.reach.is_finite() {
+            (fit.reach + 2.0 * margin).max(1.25 * halo)
+        } else {
+            (2.0 * halo).max(half)
+        };
+    }
+}
+
+/// The tiles under the cells `top` decided: the children of the cells just above the tile
+/// depth that split, in key order.
+pub(crate) fn tile_keys(top: &CellTable, depth: u8) -> Vec<[u32; 3]> {
+    let mut keys: Vec<[u32; 3]> = top
+        .iter()
+        .filter(|(a, d)| a.0 + 1 == depth && d.split())
+        .flat_map(|(a, _)| {
+            (0..8u32).map(move |o| {
+                [
+                    2 * a.1[0] + (o & 1),
+                    2 * a.1[1] + ((o >> 1) & 1),
+                    2 * a.1[2] + ((o >> 2) & 1),
+                ]
+            })
+        })
+        .collect();
+    keys.sort_unstable();
+    keys
+}
+
+/// Runs `decide` on every tile under `top` (in parallel; progress: stage `"tiles"`) and merges
+/// their decisions with `top`'s, in tile order; returns every cell's decision and the report
+/// (`top_seconds` is the caller's).
+pub(crate) fn decide_all(
+    top: CellTable,
+    tiles: &TileParams,
+    monitor: &Monitor<'_>,
+    decide: &(dyn Fn([u32; 3]) -> Result<TileOutcome, TileError> + Sync),
+) -> Result<(CellTable, TileReport), TileError> {
+    let t = Instant::now();
+    let keys = tile_keys(&top, tiles.depth);
+    let done = AtomicU64::new(0);
+    let total = keys.len() as u64;
+    monitor.report("tiles", 0, total);
+    let outcomes: Vec<Result<TileOutcome, TileError>> = keys
+        .par_iter()
+        .map(|&key| {
+            let out = decide(key);
+            monitor.report("tiles", done.fetch_add(1, Ordering::Relaxed) + 1, total);
+            out
+        })
+        .collect();
+    let mut report = TileReport {
+        count: keys.len(),
+        depth: tiles.depth,
+        halo: tiles.halo,
+        top_cells: top.len(),
+        ..Default::default()
+    };
+    let mut cells = top;
+    for outcome in outcomes {
+        let o = outcome?;
+        report.points_per_tile.push(o.points as usize);
+        report.halo_points.push(o.halo_points);
+        report.halos_grown += o.grown;
+        report.crossing_cells += o.crossing;
+        cells.merge(o.cells).map_err(TileError::Conflict)?;
+    }
+    report.cells = cells.len();
+    report.tile_seconds = t.elapsed().as_secs_f64();
+    Ok((cells, report))
+}
