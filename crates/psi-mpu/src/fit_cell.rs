@@ -133,15 +133,8 @@ fn fit_radius(index: &PointIndex, input: &FitInput<'_>, center: DVec3, r: f64) -
 /// neighbourhood identically.
 pub(crate) const MAX_FIT_POINTS: usize = 4096;
 
-/// Whether the point at world position `p` is one of the coarse points of an MPU in `frame`
-/// (about one in [`COARSE`], chosen by its local position's bits): the points an out-of-core
-/// build keeps in memory for the cells above its tiles ([`crate::fit_top`]).
-pub fn is_coarse_point(frame: &crate::MpuFrame, p: DVec3) -> bool {
-    position_hash(p - frame.origin).is_multiple_of(COARSE)
-}
-
 /// A hash of a position's bits (for identity-based thinning).
-fn position_hash(p: DVec3) -> u64 {
+pub(crate) fn position_hash(p: DVec3) -> u64 {
     let mut h = 0xcbf2_9ce4_8422_2325u64;
     for v in [p.x, p.y, p.z] {
         h ^= v.to_bits();

@@ -5,9 +5,18 @@
 use glam::DVec3;
 use psi_octree::{Cell, Monitor, OrientedPoint};
 
-use crate::fit_cell::{CellFit, CoarseIndex, FitInput, fit_cell, try_fit_cell};
+use crate::fit_cell::{
+    COARSE, CellFit, CoarseIndex, FitInput, fit_cell, position_hash, try_fit_cell,
+};
 use crate::fit_region::{IndexedPoints, check_population, decide_cells, prepare_any};
 use crate::{MpuError, MpuFrame, MpuParams, Region, RegionFit};
+
+/// Whether the point at world position `p` is one of the coarse points of an MPU in `frame`
+/// (about one in 16, chosen by its local position's bits): the points an out-of-core build
+/// keeps in memory for the cells above its tiles ([`fit_top`]).
+pub fn is_coarse_point(frame: &MpuFrame, p: DVec3) -> bool {
+    position_hash(p - frame.origin).is_multiple_of(COARSE)
+}
 
 /// The points within a ball, fetched on demand: `fetch(centre, radius)` (world units) returns
 /// every input point within `radius` of `centre` (more is allowed), in increasing order of
