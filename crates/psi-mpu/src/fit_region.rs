@@ -11,7 +11,7 @@
 use glam::DVec3;
 use psi_octree::{Cell, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint, PointIndex};
 
-use crate::cell_table::{CellDecision, CellTable};
+use crate::cell_table::{CellAddress, CellDecision, CellTable};
 use crate::fit_cell::{CellFit, CoarseIndex, FitInput, fit_cell};
 use crate::{MpuError, MpuFrame, MpuParams};
 
@@ -84,6 +84,33 @@ pub struct RegionFit {
     pub reach: f64,
     /// Fitted cells whose fit ball crosses the faces of the region's cube.
     pub crossing: usize,
+    /// The region's surface leaves (leaves whose cube holds input points: particles are
+    /// seeded there), in arena order.
+    pub surface: Vec<CellAddress>,
+}
+
+/// How [`decide_cells`] fits a cell: from the cell and the indices of the points in its cube,
+/// the fit and whether the whole input has points in the cube.
+pub(crate) type CellFitter<'a> =
+    dyn Fn(&Cell, &[u32]) -> Result<(CellFit, bool), MpuError> + Sync + 'a;
+
+/// The key at `depth` of the cell holding local position `x` by the octree's own rule (the
+/// octant comparisons from the root with its halving arithmetic), so a point on a face lands
+/// where the octree puts it.
+pub(crate) fn key_of_point(frame: &MpuFrame, x: DVec3, depth: u8) -> [u32; 3] {
+    let (mut center, mut half) = (frame.root_center, frame.root_half);
+    let mut key = [0u32; 3];
+    for _ in 0..depth {
+        let h = 0.5 * half;
+        let bits = [x.x >= center.x, x.y >= center.y, x.z >= center.z];
+        let sign = |b: bool| if b { 1.0 } else { -1.0 };
+        center += h * DVec3::new(sign(bits[0]), sign(bits[1]), sign(bits[2]));
+        for a in 0..3 {
+            key[a] = 2 * key[a] + u32::from(bits[a]);
+        }
+        half = h;
+    }
+    key
 }
 
 /// Decides the cells of `region` from `points` (shape: M oriented points, world units, any
@@ -115,7 +142,12 @@ pub fn fit_region(
     let indexed = IndexedPoints::new(points, frame)?;
     let input = indexed.input(params, population);
     let eps0 = params.error_rel * frame.diagonal;
-    let fit = |cell: &Cell| Ok(fit_cell(&input, cell.center, cell.half, eps0));
+    let fit = |cell: &Cell, inside: &[u32]| {
+        Ok((
+            fit_cell(&input, cell.center, cell.half, eps0),
+            !inside.is_empty(),
+        ))
+    };
     decide_cells(
         indexed.data.positions.clone(),
         frame,
@@ -174,15 +206,17 @@ pub(crate) fn check_population(params: &MpuParams, population: usize) -> Result<
 }
 
 /// Runs the octree over `positions` (local frame) in `frame`, fitting each cell of `region` with
-/// `fit` and splitting it as a whole build would, the cells above the region along the path to
-/// it; returns the region's decisions and reach.
+/// `fit` (given the cell and the indices of the points in its cube; returning the fit and
+/// whether the whole input has points in the cube) and splitting it as a whole build would, the
+/// cells above the region along the path to it; returns the region's decisions, reach and
+/// surface leaves.
 pub(crate) fn decide_cells(
     positions: Vec<DVec3>,
     frame: &MpuFrame,
     params: &MpuParams,
     region: &Region,
     monitor: &Monitor<'_>,
-    fit: &(dyn Fn(&Cell) -> Result<CellFit, MpuError> + Sync),
+    fit: &CellFitter<'_>,
 ) -> Result<RegionFit, MpuError> {
     let eps0 = params.error_rel * frame.diagonal;
     let oparams = OctreeParams {
@@ -200,7 +234,7 @@ pub(crate) fn decide_cells(
         if monitor.stopped() || !region.holds(cell) {
             return (region.is_above(cell) && !monitor.stopped(), None);
         }
-        let f = match fit(cell) {
+        let (f, surface) = match fit(cell, v.points) {
             Ok(f) => f,
             Err(e) => {
                 failure.lock().expect("not poisoned").get_or_insert(e);
@@ -214,7 +248,7 @@ pub(crate) fn decide_cells(
             fit_radius: f.fit_radius,
             leaf: (!split).then_some(f.fit),
         };
-        (split, Some(decision))
+        (split, Some((decision, surface)))
     })?;
     if let Some(e) = failure.into_inner().expect("not poisoned") {
         return Err(e);
@@ -223,7 +257,12 @@ pub(crate) fn decide_cells(
     let (rc, rh) = region.cube(frame);
     let mut out = RegionFit::default();
     for (cell, decision) in octree.cells().iter().zip(decisions) {
-        let Some(decision) = decision else { continue };
+        let Some((decision, surface)) = decision else {
+            continue;
+        };
+        if surface && !decision.split {
+            out.surface.push((cell.depth, cell.key));
+        }
         let beyond =
             ((cell.center - rc).abs() + DVec3::splat(decision.fit_radius)).max_element() - rh;
         if beyond > 0.0 {

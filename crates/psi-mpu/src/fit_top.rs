@@ -8,7 +8,7 @@ use psi_octree::{Cell, Monitor, OrientedPoint};
 use crate::fit_cell::{
     COARSE, CellFit, CoarseIndex, FitInput, fit_cell, position_hash, try_fit_cell,
 };
-use crate::fit_region::{IndexedPoints, check_population, decide_cells, prepare_any};
+use crate::fit_region::{IndexedPoints, check_population, decide_cells, key_of_point, prepare_any};
 use crate::{MpuError, MpuFrame, MpuParams, Region, RegionFit};
 
 /// Whether the point at world position `p` is one of the coarse points of an MPU in `frame`
@@ -52,8 +52,11 @@ pub fn fit_top(
         population,
     };
     let eps0 = params.error_rel * frame.diagonal;
-    let fit = |cell: &Cell| match try_fit_cell(&input, cell.center, cell.half, eps0) {
-        Some(f) => Ok(f),
+    // A fit that completes from the coarse points alone splits (its error exceeds ε0), so
+    // whether its cube holds points does not matter; a leaf's is told by its fetched ball.
+    let fit = |cell: &Cell, inside: &[u32]| match try_fit_cell(&input, cell.center, cell.half, eps0)
+    {
+        Some(f) => Ok((f, !inside.is_empty())),
         None => fit_fetched(cell, frame, params, population, eps0, fetch),
     };
     let mut out = decide_cells(
@@ -79,7 +82,7 @@ fn fit_fetched(
     population: usize,
     eps0: f64,
     fetch: &FetchBall<'_>,
-) -> Result<CellFit, MpuError> {
+) -> Result<(CellFit, bool), MpuError> {
     let margin = 1e-9 * frame.root_half;
     let mut radius = cell.support_radius(params.alpha) * 1.5;
     loop {
@@ -94,7 +97,11 @@ fn fit_fetched(
                 eps0,
             );
             if f.fit_radius + margin <= radius || points.len() >= population {
-                return Ok(f);
+                // The first ball already holds the cube (1.5 R > its circumradius).
+                let surface = points
+                    .iter()
+                    .any(|p| key_of_point(frame, p.p - frame.origin, cell.depth) == cell.key);
+                return Ok((f, surface));
             }
             radius = (f.fit_radius + margin).max(1.25 * radius);
         } else {

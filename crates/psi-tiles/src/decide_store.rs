@@ -50,7 +50,7 @@ pub fn decide_store(
     let t0 = Instant::now();
     let top_path = store.dir().join("cells-top.bin");
     let top = match read_record(&top_path, &print) {
-        Some(r) => r.cells,
+        Some(r) => r,
         None => {
             let coarse = store.coarse_points()?;
             let fetch = |c, r| store.gather_ball(c, r).map_err(|e| e.to_string());
@@ -69,9 +69,10 @@ pub fn decide_store(
                 grown: 0,
                 points: population as u64,
                 halo_points: coarse.len(),
+                surface: fit.surface,
             };
             write_record(&top_path, &print, &outcome)?;
-            outcome.cells
+            outcome
         }
     };
     let top_seconds = t0.elapsed().as_secs_f64();
@@ -90,11 +91,12 @@ pub fn decide_store(
         write_record(&path, &print, &outcome)?;
         Ok(outcome)
     };
-    let (cells, mut report) = decide_all(top, &tiles, monitor, &decide)?;
+    let (cells, surface, mut report) = decide_all(top, &tiles, monitor, &decide)?;
     report.top_seconds = top_seconds;
     Ok(TiledDecisions {
         frame,
         cells,
+        surface,
         report,
     })
 }

@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use glam::DVec3;
-use psi_mpu::{CellTable, MpuFrame, MpuParams, Region, fit_region};
+use psi_mpu::{CellAddress, CellTable, MpuFrame, MpuParams, Region, fit_region};
 use psi_octree::{Monitor, OrientedPoint};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -23,6 +23,8 @@ pub(crate) struct TileOutcome {
     pub(crate) points: u64,
     /// Points it was decided from (cube and final halo).
     pub(crate) halo_points: usize,
+    /// Its surface leaves.
+    pub(crate) surface: Vec<CellAddress>,
 }
 
 /// The points within ∞-distance `halo` of the cube with local centre `center` and half-edge
@@ -60,6 +62,7 @@ pub(crate) fn decide_tile(
                 grown,
                 points,
                 halo_points: local.len(),
+                surface: fit.surface,
             });
         }
         grown += 1;
@@ -96,11 +99,16 @@ pub(crate) fn tile_keys(top: &CellTable, depth: u8) -> Vec<[u32; 3]> {
 /// their decisions with `top`'s, in tile order; returns every cell's decision and the report
 /// (`top_seconds` is the caller's).
 pub(crate) fn decide_all(
-    top: CellTable,
+    top: TileOutcome,
     tiles: &TileParams,
     monitor: &Monitor<'_>,
     decide: &(dyn Fn([u32; 3]) -> Result<TileOutcome, TileError> + Sync),
-) -> Result<(CellTable, TileReport), TileError> {
+) -> Result<(CellTable, Vec<CellAddress>, TileReport), TileError> {
+    let TileOutcome {
+        cells: top,
+        mut surface,
+        ..
+    } = top;
     let t = Instant::now();
     let keys = tile_keys(&top, tiles.depth);
     let done = AtomicU64::new(0);
@@ -129,8 +137,10 @@ pub(crate) fn decide_all(
         report.halos_grown += o.grown;
         report.crossing_cells += o.crossing;
         cells.merge(o.cells).map_err(TileError::Conflict)?;
+        surface.extend(o.surface);
     }
+    surface.sort_unstable();
     report.cells = cells.len();
     report.tile_seconds = t.elapsed().as_secs_f64();
-    Ok((cells, report))
+    Ok((cells, surface, report))
 }

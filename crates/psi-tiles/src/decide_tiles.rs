@@ -5,10 +5,10 @@
 
 use std::time::Instant;
 
-use psi_mpu::{BuildOptions, CellTable, Mpu, MpuFrame, MpuParams, Region, fit_region};
+use psi_mpu::{BuildOptions, CellAddress, CellTable, Mpu, MpuFrame, MpuParams, Region, fit_region};
 use psi_octree::{Monitor, OrientedPoint};
 
-use crate::decide_tile::{decide_all, decide_tile};
+use crate::decide_tile::{TileOutcome, decide_all, decide_tile};
 use crate::tile_buckets::TileBuckets;
 use crate::{TileError, TileParams, TileReport};
 
@@ -19,6 +19,8 @@ pub struct TiledDecisions {
     pub frame: MpuFrame,
     /// Every cell's decision.
     pub cells: CellTable,
+    /// The surface leaves (leaves whose cube holds input points), in address order.
+    pub surface: Vec<CellAddress>,
     /// How the tiling went.
     pub report: TileReport,
 }
@@ -57,11 +59,20 @@ pub fn decide_tiled(
         let count = buckets.count(key) as u64;
         decide_tile(&frame, params, tiles, key, n, count, &gather, monitor)
     };
-    let (cells, mut report) = decide_all(top.cells, tiles, monitor, &decide)?;
+    let top = TileOutcome {
+        cells: top.cells,
+        crossing: 0,
+        grown: 0,
+        points: n as u64,
+        halo_points: n,
+        surface: top.surface,
+    };
+    let (cells, surface, mut report) = decide_all(top, tiles, monitor, &decide)?;
     report.top_seconds = top_seconds;
     Ok(TiledDecisions {
         frame,
         cells,
+        surface,
         report,
     })
 }
@@ -94,6 +105,7 @@ pub fn build_tiled(
         frame,
         cells,
         mut report,
+        ..
     } = decide_tiled(points, params, tiles, monitor)?;
     let t = Instant::now();
     let options = BuildOptions {

@@ -151,6 +151,7 @@ fn decisions_from_the_store_equal_the_build_in_memory() {
     .unwrap();
     assert_eq!(from_store.cells, in_memory.cells);
     assert_eq!(from_store.frame, in_memory.frame);
+    assert_eq!(from_store.surface, in_memory.surface);
     assert!(from_store.report.count >= 8 && from_store.report.halos_grown > 0);
     assert!(from_store.report.crossing_cells > 0);
     // Assembled, the MPU is the build over all points.
@@ -161,6 +162,18 @@ fn decisions_from_the_store_equal_the_build_in_memory() {
     };
     let tiled = Mpu::build_with(&points, &params, options).unwrap();
     let whole = Mpu::build(&points, &params).unwrap();
+    let mut surface: Vec<_> = whole
+        .surface_leaves()
+        .map(|l| {
+            let c = whole.octree().cell(l);
+            (c.depth, c.key)
+        })
+        .collect();
+    surface.sort_unstable();
+    assert_eq!(
+        from_store.surface, surface,
+        "the surface leaves, top ones included"
+    );
     assert_eq!(tiled.octree().cells(), whole.octree().cells());
     for l in whole.leaves() {
         assert_eq!(tiled.leaf_function(l), whole.leaf_function(l));
