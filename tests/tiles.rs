@@ -58,3 +58,51 @@ fn the_bunny_tiled_in_memory_and_from_disk_is_the_whole_build() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Particles tile by tile on the bunny: the seeds are bitwise the whole sampling's and the
+/// count the same; after relaxation and stitching every particle is on the surface, and the
+/// spacing is as even overall. Per level the CV is still up to about twice the whole
+/// sampling's (notes: tiles — the target of issue 26 is 1.05×; what is left is said there).
+#[test]
+fn the_bunny_sampled_tile_by_tile_has_the_whole_samplings_seeds_and_count() {
+    use psi::particles::{initialize, measure_quality};
+    use psi::tiles::{PointsInMemory, decide_tiled, sample_tiled};
+    let Some(path) = common::model("bunny.ply") else {
+        return;
+    };
+    let points = psi::load_points(&path, &ReadOptions::paper())
+        .unwrap()
+        .points;
+    let mparams = MpuParams::paper();
+    let pparams = ParticleParams::paper();
+    let whole = Mpu::build(&points, &mparams).unwrap();
+    let expected = sample(&whole, &pparams);
+    let tiles = TileParams {
+        depth: 2,
+        halo: 0.25,
+    };
+    let decisions = decide_tiled(&points, &mparams, &tiles, &Monitor::silent()).unwrap();
+    let source = PointsInMemory::new(&points, decisions.frame, tiles.depth);
+    let tiled = sample_tiled(&source, &decisions, &mparams, &pparams, &Monitor::silent()).unwrap();
+    assert_eq!(tiled.seeds, initialize(&whole, &pparams).particles);
+    assert_eq!(tiled.particles.len(), expected.particles.len());
+    assert!(tiled.report.regions >= 8 && tiled.report.band_particles > 0);
+    let a = measure_quality(&whole, &expected.particles);
+    let b = measure_quality(&whole, &tiled.particles);
+    assert!(
+        b.max_surface_distance < 1e-4,
+        "{} D",
+        b.max_surface_distance
+    );
+    assert!(
+        b.spacing.cv <= 1.05 * a.spacing.cv,
+        "{} vs {}",
+        b.spacing.cv,
+        a.spacing.cv
+    );
+    for (la, lb) in a.levels.iter().zip(&b.levels) {
+        if la.spacing.count >= 100 {
+            assert!(lb.spacing.cv <= 2.0 * la.spacing.cv, "level {}", la.depth);
+        }
+    }
+}

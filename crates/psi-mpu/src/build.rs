@@ -105,8 +105,13 @@ fn prepare(
     frame: &MpuFrame,
     mut positions: Vec<DVec3>,
     unit_normals: bool,
+    fits_known: bool,
 ) -> Result<Prepared, MpuError> {
-    check_input_size(&points, params)?;
+    // A build that takes every decision from a table fits nothing: any non-empty part of an
+    // input will do (a tile's points).
+    if !(fits_known && !points.is_empty()) {
+        check_input_size(&points, params)?;
+    }
     for (index, p) in points.iter().enumerate() {
         let len = p.n.length();
         if !p.p.is_finite() || !len.is_finite() || len <= 0.0 {
@@ -265,7 +270,14 @@ impl Mpu {
                 r.old.octree.cells().len()
             )));
         }
-        let data = prepare(points, params, &frame, positions, unit_normals)?;
+        let data = prepare(
+            points,
+            params,
+            &frame,
+            positions,
+            unit_normals,
+            known_cells.is_some(),
+        )?;
         let n = data.points.len();
         let eps0 = params.error_rel * frame.diagonal;
         let marked_old: Vec<u32> = reuse.map_or_else(Vec::new, |r| {

@@ -9,8 +9,7 @@ use psi_mpu::{BuildOptions, CellAddress, CellTable, Mpu, MpuFrame, MpuParams, Re
 use psi_octree::{Monitor, OrientedPoint};
 
 use crate::decide_tile::{TileOutcome, decide_all, decide_tile};
-use crate::tile_buckets::TileBuckets;
-use crate::{TileError, TileParams, TileReport};
+use crate::{PointSource, PointsInMemory, TileError, TileParams, TileReport};
 
 /// The decisions of every cell of a tiled build, in the frame they were made in.
 #[derive(Clone, Debug)]
@@ -50,13 +49,10 @@ pub fn decide_tiled(
         monitor,
     )?;
     let top_seconds = t0.elapsed().as_secs_f64();
-    let buckets = TileBuckets::new(points, &frame, tiles.depth);
-    let gather = |center, half, halo| {
-        let ids = buckets.gather(points, &frame, center, half, halo);
-        Ok(ids.iter().map(|&i| points[i as usize]).collect())
-    };
+    let source = PointsInMemory::new(points, frame, tiles.depth);
+    let gather = |center, half, halo| source.gather_box(center, half, halo);
     let decide = |key| {
-        let count = buckets.count(key) as u64;
+        let count = source.count(key) as u64;
         decide_tile(&frame, params, tiles, key, n, count, &gather, monitor)
     };
     let top = TileOutcome {

@@ -21,6 +21,9 @@ pub enum TileError {
     /// file and the problem).
     #[error("tile store: {0}")]
     Store(String),
+    /// A long call was stopped by its monitor.
+    #[error(transparent)]
+    Interrupted(#[from] psi_octree::Interrupted),
     /// Two regions decided the same cell differently (a bug: tiles overlap only in the cells
     /// above them, which the top pass alone decides).
     #[error("two regions disagree on the cell at depth {}, key {:?}", .0.0, .0.1)]

@@ -1,0 +1,91 @@
+//! Where a tiled build reads its points: the input in memory (bucketed by tile) or a tile
+//! store on disk; both give the points near a cube in input index order.
+
+use glam::DVec3;
+use psi_mpu::MpuFrame;
+use psi_octree::OrientedPoint;
+
+use crate::tile_buckets::TileBuckets;
+use crate::{TileError, TileStore};
+
+/// A source of the input's points by place.
+pub trait PointSource: Sync {
+    /// The whole input's frame.
+    fn frame(&self) -> MpuFrame;
+
+    /// Points in the whole input.
+    fn population(&self) -> usize;
+
+    /// The points within ∞-distance `halo` of the cube with local centre `center` and
+    /// half-edge `half` (world units), in increasing input index order.
+    fn gather_box(
+        &self,
+        center: DVec3,
+        half: f64,
+        halo: f64,
+    ) -> Result<Vec<OrientedPoint>, TileError>;
+}
+
+/// The input in memory, bucketed by the cubes at a depth for gathering.
+pub struct PointsInMemory<'a> {
+    points: &'a [OrientedPoint],
+    frame: MpuFrame,
+    buckets: TileBuckets,
+}
+
+impl<'a> PointsInMemory<'a> {
+    /// `points` (shape N, world units, inside `frame`'s root cube), bucketed at `depth`.
+    pub fn new(points: &'a [OrientedPoint], frame: MpuFrame, depth: u8) -> Self {
+        PointsInMemory {
+            points,
+            frame,
+            buckets: TileBuckets::new(points, &frame, depth),
+        }
+    }
+
+    /// Points in the bucket of tile `key`.
+    pub(crate) fn count(&self, key: [u32; 3]) -> usize {
+        self.buckets.count(key)
+    }
+}
+
+impl PointSource for PointsInMemory<'_> {
+    fn frame(&self) -> MpuFrame {
+        self.frame
+    }
+
+    fn population(&self) -> usize {
+        self.points.len()
+    }
+
+    fn gather_box(
+        &self,
+        center: DVec3,
+        half: f64,
+        halo: f64,
+    ) -> Result<Vec<OrientedPoint>, TileError> {
+        let ids = self
+            .buckets
+            .gather(self.points, &self.frame, center, half, halo);
+        Ok(ids.iter().map(|&i| self.points[i as usize]).collect())
+    }
+}
+
+impl PointSource for TileStore {
+    fn frame(&self) -> MpuFrame {
+        self.manifest().frame
+    }
+
+    fn population(&self) -> usize {
+        self.manifest().population as usize
+    }
+
+    fn gather_box(
+        &self,
+        center: DVec3,
+        half: f64,
+        halo: f64,
+    ) -> Result<Vec<OrientedPoint>, TileError> {
+        TileStore::gather_box(self, center, half, halo)
+    }
+}

@@ -1,0 +1,405 @@
+//! Particles tile by tile: each region (a tile, or a leaf above the tiles that holds points)
+//! seeds its own surface leaves exactly as the whole sampling does — its MPU is assembled from
+//! every cell's decision, so the octree, its leaf indices and f are the global ones, and its
+//! leaves hold all their points — and relaxes them together with the particles of a band of
+//! neighbouring leaves, seeded the same way, which it then drops. The particles come back in
+//! the whole sampling's order (by leaf index), the seeds bitwise the whole sampling's.
+
+use std::time::Instant;
+
+use glam::DVec3;
+use psi_mpu::{BuildOptions, CellAddress, Mpu, MpuParams, Region};
+use psi_octree::Monitor;
+use psi_particles::{
+    DensityField, ParticleParams, Particles, RelaxOptions, RelaxRegion, relax, seed_leaves,
+};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::decide_tile::tile_keys;
+use crate::{PointSource, TileError, TiledDecisions};
+
+/// The band a region relaxes with: the surface leaves outside it within this many of their own
+/// edges (about their particles' spacing) of its cube.
+pub const BAND: f64 = 3.0;
+
+/// Particles within this many of their spacings (2σ̂) of a region's faces are relaxed again
+/// with the neighbouring regions' particles fixed.
+pub const STITCH: f64 = 3.0;
+
+/// What a tiled sampling did.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TileSampleReport {
+    /// Regions sampled (tiles, and leaves above the tile depth holding points).
+    pub regions: usize,
+    /// The widest halo a region gathered, world units.
+    pub band: f64,
+    /// Particles seeded in the bands (relaxed as neighbours, then dropped), all regions.
+    pub band_particles: usize,
+    /// Seconds stitching.
+    pub stitch_seconds: f64,
+    /// Seconds.
+    pub seconds: f64,
+}
+
+/// The particles of a tiled sampling.
+#[derive(Clone, Debug)]
+pub struct TiledSampling {
+    /// The relaxed particles, in the whole sampling's order.
+    pub particles: Particles,
+    /// The seeds, before relaxation (bitwise those of the whole sampling).
+    pub seeds: Particles,
+    /// The density field (the whole sampling's).
+    pub field: DensityField,
+    /// What it did.
+    pub report: TileSampleReport,
+}
+
+/// One region's particles, with the leaf each was seeded in.
+struct RegionParticles {
+    leaves: Vec<u32>,
+    seeds: Particles,
+    relaxed: Particles,
+    band: usize,
+    halo: f64,
+}
+
+/// Samples the MPU `decisions` describe, region by region, reading points from `source`, with
+/// `params` (k particles per surface leaf; exact counts and uniform mode throw darts over the
+/// whole input and are refused here). Regions run in parallel; the result does not depend on
+/// their order or the thread count. Progress: stage `"sample tiles"`.
+///
+/// Errors: [`TileError::BadParameter`] for an exact count or uniform mode, the point source's
+/// errors, an interruption.
+pub fn sample_tiled(
+    source: &dyn PointSource,
+    decisions: &TiledDecisions,
+    mpu_params: &MpuParams,
+    params: &ParticleParams,
+    monitor: &Monitor<'_>,
+) -> Result<TiledSampling, TileError> {
+    if params.count.is_some() || params.density == psi_particles::DensityMode::Uniform {
+        return Err(TileError::BadParameter(
+            "a tiled sampling seeds k particles per leaf; an exact count or uniform spacing \
+             needs the whole input in memory"
+                .into(),
+        ));
+    }
+    let t0 = Instant::now();
+    let frame = decisions.frame;
+    let depth = decisions.report.depth;
+    let mut regions: Vec<Region> = tile_keys(&decisions.cells, depth)
+        .into_iter()
+        .map(|key| Region::tile(depth, key))
+        .collect();
+    regions.extend(
+        decisions
+            .surface
+            .iter()
+            .filter(|a| a.0 < depth)
+            .map(|&(d, key)| Region::tile(d, key)),
+    );
+    let depths = decisions.surface.iter().map(|a| a.0);
+    let mut field = DensityField {
+        d_min: depths.clone().min().unwrap_or(0),
+        d_max: depths.max().unwrap_or(0),
+        root_edge: 2.0 * frame.root_half,
+        scale: 1.0,
+        uniform: None,
+    };
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let total = regions.len() as u64;
+    let per_region = |region: &Region, field: &DensityField, relax_too: bool| {
+        let out = sample_region(
+            source, decisions, mpu_params, params, field, region, relax_too, monitor,
+        );
+        let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        monitor.report("sample tiles", k, total);
+        out
+    };
+    if params.k > 1 {
+        // σ̂'s scale is 1/√(seeds per leaf), and a leaf may give fewer than k seeds: count
+        // them first, as the whole sampling does.
+        let counts: Vec<Result<RegionParticles, TileError>> = regions
+            .par_iter()
+            .map(|r| per_region(r, &field, false))
+            .collect();
+        let mut seeds = 0usize;
+        for c in counts {
+            seeds += c?.seeds.len();
+        }
+        let per_leaf = seeds as f64 / decisions.surface.len().max(1) as f64;
+        field.scale = 1.0 / per_leaf.max(1e-12).sqrt();
+        done.store(0, std::sync::atomic::Ordering::Relaxed);
+    }
+    monitor.report("sample tiles", 0, total);
+    let outs: Vec<Result<RegionParticles, TileError>> = regions
+        .par_iter()
+        .map(|r| per_region(r, &field, true))
+        .collect();
+    // Back in the whole sampling's order: by leaf index, a leaf's particles in seeding order.
+    let mut all: Vec<(u32, usize, usize)> = Vec::new();
+    let mut parts = Vec::with_capacity(outs.len());
+    let (mut band_particles, mut band) = (0, 0.0f64);
+    for (r, out) in outs.into_iter().enumerate() {
+        let out = out?;
+        band_particles += out.band;
+        band = band.max(out.halo);
+        all.extend(out.leaves.iter().enumerate().map(|(i, &l)| (l, r, i)));
+        parts.push(out);
+    }
+    // Stitching, colour by colour: a region's face particles relaxed again with the others'
+    // current particles fixed; regions of one colour at once, each reading the state before
+    // its colour (the result does not depend on their order).
+    let t1 = Instant::now();
+    let mut state: Vec<Particles> = parts.iter().map(|p| p.relaxed.clone()).collect();
+    for c in 0..9 {
+        let members: Vec<usize> = (0..regions.len())
+            .filter(|&r| colour(&regions[r], depth) == c)
+            .collect();
+        let updates: Vec<Result<Option<Particles>, TileError>> = members
+            .par_iter()
+            .map(|&r| {
+                stitch_region(
+                    source, decisions, mpu_params, params, &field, &regions, r, &state, monitor,
+                )
+            })
+            .collect();
+        for (&r, u) in members.iter().zip(updates) {
+            if let Some(p) = u? {
+                state[r] = p;
+            }
+        }
+    }
+    for (part, p) in parts.iter_mut().zip(state) {
+        part.relaxed = p;
+    }
+    let stitch_seconds = t1.elapsed().as_secs_f64();
+    all.sort_unstable();
+    let mut seeds = Particles::default();
+    let mut particles = Particles::default();
+    for &(_, r, i) in &all {
+        copy_one(&parts[r].seeds, i, &mut seeds);
+        copy_one(&parts[r].relaxed, i, &mut particles);
+    }
+    Ok(TiledSampling {
+        particles,
+        seeds,
+        field,
+        report: TileSampleReport {
+            regions: regions.len(),
+            band,
+            band_particles,
+            stitch_seconds,
+            seconds: t0.elapsed().as_secs_f64(),
+        },
+    })
+}
+
+fn copy_one(from: &Particles, i: usize, to: &mut Particles) {
+    to.positions.push(from.positions[i]);
+    to.normals.push(from.normals[i]);
+    to.depth.push(from.depth[i]);
+    to.sigma.push(from.sigma[i]);
+    to.target.push(from.target[i]);
+}
+
+/// Whether the cell at `depth` with `key` lies inside `region`'s cube.
+fn inside(depth: u8, key: [u32; 3], region: &Region) -> bool {
+    depth >= region.depth && (0..3).all(|a| key[a] >> (depth - region.depth) == region.key[a])
+}
+
+/// One region: its band (the surface leaves within [`BAND`] of their edges of its cube), its
+/// MPU from the points of the region and the band's leaves with a margin of their edge, its
+/// surface leaves seeded, and (with `relax_too`) relaxed together with the band's particles,
+/// which are then dropped.
+#[allow(clippy::too_many_arguments)]
+fn sample_region(
+    source: &dyn PointSource,
+    decisions: &TiledDecisions,
+    mpu_params: &MpuParams,
+    params: &ParticleParams,
+    field: &DensityField,
+    region: &Region,
+    relax_too: bool,
+    monitor: &Monitor<'_>,
+) -> Result<RegionParticles, TileError> {
+    let (near, halo) = band_of(decisions, region);
+    let empty = || RegionParticles {
+        leaves: Vec::new(),
+        seeds: Particles::default(),
+        relaxed: Particles::default(),
+        band: 0,
+        halo,
+    };
+    let Some(mpu) = region_mpu(source, decisions, mpu_params, region, halo, monitor)? else {
+        return Ok(empty());
+    };
+    let tree = mpu.octree();
+    let own: Vec<u32> = mpu
+        .surface_leaves()
+        .filter(|&l| inside(tree.cell(l).depth, tree.cell(l).key, region))
+        .collect();
+    if own.is_empty() {
+        return Ok(empty());
+    }
+    let near: Vec<u32> = near
+        .iter()
+        .filter_map(|&(d, key)| tree.cell_at(d, key))
+        .collect();
+    // Seeds leaf by leaf, to know each particle's leaf (a leaf may give fewer than k).
+    let mut leaves = Vec::new();
+    let mut seeds = Particles::default();
+    for &l in &own {
+        let s = seed_leaves(&mpu, &[l], field, params);
+        leaves.extend(std::iter::repeat_n(l, s.len()));
+        seeds.extend(&s);
+    }
+    if !relax_too {
+        return Ok(RegionParticles {
+            leaves,
+            seeds,
+            ..empty()
+        });
+    }
+    let neighbours = seed_leaves(&mpu, &near, field, params);
+    let mut particles = seeds.clone();
+    particles.extend(&neighbours);
+    let options = RelaxOptions {
+        monitor: *monitor,
+        ..Default::default()
+    };
+    relax(&mpu, &mut particles, field, params, options);
+    monitor.check()?;
+    let n = seeds.len();
+    let keep: Vec<bool> = (0..particles.len()).map(|i| i < n).collect();
+    particles.retain_mask(&keep);
+    Ok(RegionParticles {
+        leaves,
+        seeds,
+        relaxed: particles,
+        band: neighbours.len(),
+        halo,
+    })
+}
+
+/// The band of `region`: the surface leaves outside it within [`BAND`] of their edges of its
+/// cube, and how far they reach beyond it with a margin of their edge for the footprint test.
+fn band_of(decisions: &TiledDecisions, region: &Region) -> (Vec<CellAddress>, f64) {
+    let frame = decisions.frame;
+    let (center, half) = region.cube(&frame);
+    let mut near = Vec::new();
+    let mut halo = 0.0f64;
+    for &(d, key) in &decisions.surface {
+        if inside(d, key, region) {
+            continue;
+        }
+        let (c, h) = Region::tile(d, key).cube(&frame);
+        let gap = ((c - center).abs() - DVec3::splat(h + half))
+            .max_element()
+            .max(0.0);
+        if gap < BAND * 2.0 * h {
+            near.push((d, key));
+            halo = halo.max(gap + 4.0 * h);
+        }
+    }
+    (near, halo)
+}
+
+/// The MPU of `region` and its `halo`: every cell from the decisions (so the global octree,
+/// leaf indices and f), the points gathered around it (`None` without any).
+fn region_mpu(
+    source: &dyn PointSource,
+    decisions: &TiledDecisions,
+    mpu_params: &MpuParams,
+    region: &Region,
+    halo: f64,
+    monitor: &Monitor<'_>,
+) -> Result<Option<Mpu>, TileError> {
+    let (center, half) = region.cube(&decisions.frame);
+    let points = source.gather_box(center, half, halo)?;
+    if points.is_empty() {
+        return Ok(None);
+    }
+    let options = BuildOptions {
+        frame: Some(decisions.frame),
+        known_cells: Some(&decisions.cells),
+        monitor: *monitor,
+        ..Default::default()
+    };
+    Ok(Some(Mpu::build_with(points, mpu_params, options)?))
+}
+
+/// The stitching colour of a region: tiles by the parity of their key (tiles of one colour do
+/// not touch), the leaves above the tiles last.
+fn colour(region: &Region, tile_depth: u8) -> usize {
+    if region.depth != tile_depth {
+        return 8;
+    }
+    let k = region.key;
+    ((k[0] & 1) | ((k[1] & 1) << 1) | ((k[2] & 1) << 2)) as usize
+}
+
+/// Stitching one region: its particles within [`STITCH`] spacings of its faces relaxed again
+/// with every other particle near it fixed (the others' current state).
+#[allow(clippy::too_many_arguments)]
+fn stitch_region(
+    source: &dyn PointSource,
+    decisions: &TiledDecisions,
+    mpu_params: &MpuParams,
+    params: &ParticleParams,
+    field: &DensityField,
+    regions: &[Region],
+    r: usize,
+    state: &[Particles],
+    monitor: &Monitor<'_>,
+) -> Result<Option<Particles>, TileError> {
+    let region = &regions[r];
+    let own = &state[r];
+    if own.is_empty() {
+        return Ok(None);
+    }
+    let frame = decisions.frame;
+    let (center, half) = region.cube(&frame);
+    let local = |x: DVec3| x - frame.origin - center;
+    let mut movable: Vec<bool> = (0..own.len())
+        .map(|i| {
+            let to_face = half - local(own.positions[i]).abs().max_element();
+            to_face < STITCH * 2.0 * own.target[i]
+        })
+        .collect();
+    if !movable.contains(&true) {
+        return Ok(None);
+    }
+    let (_, halo) = band_of(decisions, region);
+    let Some(mpu) = region_mpu(source, decisions, mpu_params, region, halo, monitor)? else {
+        return Ok(None);
+    };
+    let mut particles = own.clone();
+    for (q, other) in state.iter().enumerate() {
+        if q == r {
+            continue;
+        }
+        let near: Vec<bool> = other
+            .positions
+            .iter()
+            .map(|&x| local(x).abs().max_element() <= half + halo)
+            .collect();
+        let mut kept = other.clone();
+        kept.retain_mask(&near);
+        movable.extend(std::iter::repeat_n(false, kept.len()));
+        particles.extend(&kept);
+    }
+    let options = RelaxOptions {
+        region: RelaxRegion {
+            movable: Some(&movable),
+            ..Default::default()
+        },
+        monitor: *monitor,
+    };
+    relax(&mpu, &mut particles, field, params, options);
+    monitor.check()?;
+    let keep: Vec<bool> = (0..particles.len()).map(|i| i < own.len()).collect();
+    particles.retain_mask(&keep);
+    Ok(Some(particles))
+}
