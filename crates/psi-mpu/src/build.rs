@@ -109,7 +109,7 @@ fn prepare(
 ) -> Result<Prepared, MpuError> {
     // A build that takes every decision from a table fits nothing: any non-empty part of an
     // input will do (a tile's points).
-    if !(fits_known && !points.is_empty()) {
+    if !fits_known || points.is_empty() {
         check_input_size(&points, params)?;
     }
     for (index, p) in points.iter().enumerate() {
