@@ -66,4 +66,18 @@ pub enum PsiError {
         /// The reason.
         reason: std::io::Error,
     },
+    /// A run out of core could not be done as asked (the input lacks what it needs, the
+    /// memory budget is too small, or its scratch files failed); the message says which.
+    ///
+    /// ```
+    /// let err = psi::PsiError::OutOfCore { path: "big.las".into(), reason: "has no normals".into() };
+    /// assert_eq!(err.to_string(), "big.las: has no normals");
+    /// ```
+    #[error("{path}: {reason}")]
+    OutOfCore {
+        /// The input file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
 }

@@ -13,21 +13,21 @@ use psi_octree::PointAttributes;
 
 use crate::PsiError;
 
-fn open_error(path: &Path, reason: std::io::Error) -> PsiError {
+pub(crate) fn open_error(path: &Path, reason: std::io::Error) -> PsiError {
     PsiError::Open {
         path: path.to_path_buf(),
         reason,
     }
 }
 
-fn read_error(path: &Path) -> impl FnOnce(ReadError) -> PsiError + '_ {
+pub(crate) fn read_error(path: &Path) -> impl FnOnce(ReadError) -> PsiError + '_ {
     move |reason| PsiError::Read {
         path: path.to_path_buf(),
         reason,
     }
 }
 
-fn check_not_dir(path: &Path) -> Result<(), PsiError> {
+pub(crate) fn check_not_dir(path: &Path) -> Result<(), PsiError> {
     if path.is_dir() {
         return Err(open_error(
             path,
@@ -47,7 +47,7 @@ fn read_bytes(path: &Path) -> Result<Vec<u8>, PsiError> {
 
 /// The format its extension names (`ply`, `obj`, `xyz`/`pts`/`txt`, `las`, `laz`, `e57`,
 /// `pcd`, any case), if any.
-fn extension_format(path: &Path) -> Option<Format> {
+pub(crate) fn extension_format(path: &Path) -> Option<Format> {
     path.extension()
         .and_then(|e| e.to_str())
         .and_then(Format::from_extension)

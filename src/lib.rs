@@ -25,6 +25,7 @@
 
 mod error;
 mod files;
+mod out_of_core;
 mod prepare;
 pub mod render;
 pub mod report;
@@ -39,6 +40,7 @@ pub use psi_shapes as shapes;
 pub use psi_tiles as tiles;
 
 pub use error::PsiError;
+pub use out_of_core::{OutOfCore, OutOfCoreRun, sample_file_out_of_core};
 pub use files::{
     ParticleColumns, load_mesh, load_particles, load_points, load_points_as, same_file, save_json,
     save_mesh, save_particle_columns, save_particles, save_points, write_atomically,

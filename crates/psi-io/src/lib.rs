@@ -62,6 +62,7 @@
 //! ```
 
 mod attributes;
+mod chunk_points;
 mod error;
 mod format;
 mod las_checks;
@@ -84,6 +85,7 @@ mod write_las;
 mod write_ply;
 
 pub use attributes::{AttributeKinds, PointAttributes};
+pub use chunk_points::chunk_oriented_points;
 pub use error::{ReadError, WriteError};
 pub use format::Format;
 pub use model::{FileSummary, NormalSource, PointCloudFile, SourceInfo, TriangleMesh};

@@ -9,10 +9,12 @@
 //! Points given in increasing global index order keep every fit's summation order.
 
 use glam::DVec3;
-use psi_octree::{Cell, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint, PointIndex};
+use psi_octree::{Cell, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint};
 
 use crate::cell_table::{CellAddress, CellDecision, CellTable};
-use crate::fit_cell::{CellFit, CoarseIndex, FitInput, fit_cell};
+use crate::fit_cell::{CellFit, fit_cell};
+use crate::fit_fetched::{BallCache, FetchBall, fit_fetched};
+use crate::region_points::{IndexedPoints, check_population};
 use crate::{MpuError, MpuFrame, MpuParams};
 
 /// A region of the octree: the cell at `depth` with integer `key` and the cells below it down
@@ -84,33 +86,28 @@ pub struct RegionFit {
     pub reach: f64,
     /// Fitted cells whose fit ball crosses the faces of the region's cube.
     pub crossing: usize,
+    /// Of those, the cells fitted from their whole ball, fetched ([`FarBalls`]).
+    pub fetched: usize,
     /// The region's surface leaves (leaves whose cube holds input points: particles are
     /// seeded there), in arena order.
     pub surface: Vec<CellAddress>,
 }
 
 /// How [`decide_cells`] fits a cell: from the cell and the indices of the points in its cube,
-/// the fit and whether the whole input has points in the cube.
+/// the fit, whether the whole input has points in the cube, and whether the fit read its ball
+/// from elsewhere (then it does not count in the region's reach).
 pub(crate) type CellFitter<'a> =
-    dyn Fn(&Cell, &[u32]) -> Result<(CellFit, bool), MpuError> + Sync + 'a;
+    dyn Fn(&Cell, &[u32]) -> Result<(CellFit, bool, bool), MpuError> + Sync + 'a;
 
-/// The key at `depth` of the cell holding local position `x` by the octree's own rule (the
-/// octant comparisons from the root with its halving arithmetic), so a point on a face lands
-/// where the octree puts it.
-pub(crate) fn key_of_point(frame: &MpuFrame, x: DVec3, depth: u8) -> [u32; 3] {
-    let (mut center, mut half) = (frame.root_center, frame.root_half);
-    let mut key = [0u32; 3];
-    for _ in 0..depth {
-        let h = 0.5 * half;
-        let bits = [x.x >= center.x, x.y >= center.y, x.z >= center.z];
-        let sign = |b: bool| if b { 1.0 } else { -1.0 };
-        center += h * DVec3::new(sign(bits[0]), sign(bits[1]), sign(bits[2]));
-        for a in 0..3 {
-            key[a] = 2 * key[a] + u32::from(bits[a]);
-        }
-        half = h;
-    }
-    key
+/// How a region's cells whose fits read beyond its halo are fitted: from their whole ball,
+/// fetched (a tile's empty cells, whose fit radius grows to the nearest data, would otherwise
+/// make the whole tile's halo that wide).
+#[derive(Clone, Copy)]
+pub struct FarBalls<'a> {
+    /// The halo the region's points hold: ∞-distance beyond its cube, world units.
+    pub halo: f64,
+    /// Where the balls come from.
+    pub fetch: &'a FetchBall<'a>,
 }
 
 /// Decides the cells of `region` from `points` (shape: M oriented points, world units, any
@@ -118,7 +115,9 @@ pub(crate) fn key_of_point(frame: &MpuFrame, x: DVec3, depth: u8) -> [u32; 3] {
 /// `population` ≥ M points), in `frame` with `params`: bitwise the decisions a build over the
 /// whole input in `frame` makes, when `points` hold every input point within
 /// [`RegionFit::reach`] of the region's cube. Cells above the region split along the path to
-/// it; other cells outside it are not fitted.
+/// it; other cells outside it are not fitted. Cells of the region that `known` decides already
+/// (the upper levels of a tile, decided by the pass above the tiles) are taken from it, not
+/// fitted, and are not part of the result.
 ///
 /// Errors: a bad parameter, fewer than N_min + 1 points in the whole input, a non-finite point
 /// or zero normal ([`MpuError::BadPoint`], index into `points`), a point outside the frame's
@@ -129,10 +128,12 @@ pub fn fit_region(
     frame: &MpuFrame,
     params: &MpuParams,
     region: &Region,
+    known: Option<&CellTable>,
+    far: Option<FarBalls<'_>>,
     monitor: &Monitor<'_>,
 ) -> Result<RegionFit, MpuError> {
     let need = check_population(params, population)?;
-    if points.len() < need {
+    if points.len() < need && far.is_none() {
         // Too few points to grow a fit radius as the whole input would: a larger halo is needed.
         return Ok(RegionFit {
             reach: f64::INFINITY,
@@ -142,67 +143,39 @@ pub fn fit_region(
     let indexed = IndexedPoints::new(points, frame)?;
     let input = indexed.input(params, population);
     let eps0 = params.error_rel * frame.diagonal;
+    let (rc, rh) = region.cube(frame);
+    let margin = 1e-9 * frame.root_half;
+    let cache = BallCache::default();
     let fit = |cell: &Cell, inside: &[u32]| {
-        Ok((
-            fit_cell(&input, cell.center, cell.half, eps0),
-            !inside.is_empty(),
-        ))
+        let local = (points.len() >= need).then(|| fit_cell(&input, cell.center, cell.half, eps0));
+        match (local, far) {
+            (Some(f), Some(far))
+                if ((cell.center - rc).abs() + DVec3::splat(f.fit_radius)).max_element() - rh
+                    + margin
+                    > far.halo =>
+            {
+                let (f, surface) =
+                    fit_fetched(cell, frame, params, population, eps0, far.fetch, &cache)?;
+                Ok((f, surface, true))
+            }
+            (Some(f), _) => Ok((f, !inside.is_empty(), false)),
+            (None, Some(far)) => {
+                let (f, surface) =
+                    fit_fetched(cell, frame, params, population, eps0, far.fetch, &cache)?;
+                Ok((f, surface, true))
+            }
+            (None, None) => unreachable!("returned above"),
+        }
     };
     decide_cells(
-        indexed.data.positions.clone(),
+        indexed.positions().to_vec(),
         frame,
         params,
         region,
+        known,
         monitor,
         &fit,
     )
-}
-
-/// Points ready for fitting: unit normals, local positions, their kd-tree and coarse index.
-pub(crate) struct IndexedPoints {
-    data: crate::build::Prepared,
-    index: PointIndex,
-    coarse: CoarseIndex,
-}
-
-impl IndexedPoints {
-    /// `points` (world units, any normal length) in `frame`.
-    pub(crate) fn new(points: &[OrientedPoint], frame: &MpuFrame) -> Result<Self, MpuError> {
-        let data = prepare_any(points, frame)?;
-        let index = PointIndex::new(&data.positions);
-        let coarse = CoarseIndex::new(&data.positions);
-        Ok(IndexedPoints {
-            data,
-            index,
-            coarse,
-        })
-    }
-
-    /// The fits' input over these points, the whole input having `population` points.
-    pub(crate) fn input<'a>(&'a self, params: &'a MpuParams, population: usize) -> FitInput<'a> {
-        FitInput {
-            positions: &self.data.positions,
-            points: &self.data.points,
-            index: Some(&self.index),
-            coarse: &self.coarse,
-            params,
-            population,
-        }
-    }
-}
-
-/// Checks the parameters and that the whole input has more than N_min points; returns
-/// N_min + 1.
-pub(crate) fn check_population(params: &MpuParams, population: usize) -> Result<usize, MpuError> {
-    params.validate()?;
-    let need = params.n_min + 1;
-    if population < need {
-        return Err(MpuError::TooFewPoints {
-            got: population,
-            need,
-        });
-    }
-    Ok(need)
 }
 
 /// Runs the octree over `positions` (local frame) in `frame`, fitting each cell of `region` with
@@ -215,6 +188,7 @@ pub(crate) fn decide_cells(
     frame: &MpuFrame,
     params: &MpuParams,
     region: &Region,
+    known: Option<&CellTable>,
     monitor: &Monitor<'_>,
     fit: &CellFitter<'_>,
 ) -> Result<RegionFit, MpuError> {
@@ -234,7 +208,10 @@ pub(crate) fn decide_cells(
         if monitor.stopped() || !region.holds(cell) {
             return (region.is_above(cell) && !monitor.stopped(), None);
         }
-        let (f, surface) = match fit(cell, v.points) {
+        if let Some(d) = known.and_then(|t| t.get(cell.depth, cell.key)) {
+            return (d.split, None);
+        }
+        let (f, surface, fetched) = match fit(cell, v.points) {
             Ok(f) => f,
             Err(e) => {
                 failure.lock().expect("not poisoned").get_or_insert(e);
@@ -248,7 +225,7 @@ pub(crate) fn decide_cells(
             fit_radius: f.fit_radius,
             leaf: (!split).then_some(f.fit),
         };
-        (split, Some((decision, surface)))
+        (split, Some((decision, surface, fetched)))
     })?;
     if let Some(e) = failure.into_inner().expect("not poisoned") {
         return Err(e);
@@ -257,7 +234,7 @@ pub(crate) fn decide_cells(
     let (rc, rh) = region.cube(frame);
     let mut out = RegionFit::default();
     for (cell, decision) in octree.cells().iter().zip(decisions) {
-        let Some((decision, surface)) = decision else {
+        let Some((decision, surface, fetched)) = decision else {
             continue;
         };
         if surface && !decision.split {
@@ -267,34 +244,14 @@ pub(crate) fn decide_cells(
             ((cell.center - rc).abs() + DVec3::splat(decision.fit_radius)).max_element() - rh;
         if beyond > 0.0 {
             out.crossing += 1;
-            out.reach = out.reach.max(beyond);
+            if !fetched {
+                out.reach = out.reach.max(beyond);
+            }
+            out.fetched += usize::from(fetched);
         }
         out.cells
             .insert((cell.depth, cell.key), decision)
             .expect("each cell is decided once");
     }
     Ok(out)
-}
-
-/// Validated points with unit normals and their local-frame positions (any number of them: a
-/// region's share of the input may be below N_min).
-pub(crate) fn prepare_any(
-    points: &[OrientedPoint],
-    frame: &MpuFrame,
-) -> Result<crate::build::Prepared, MpuError> {
-    for (index, p) in points.iter().enumerate() {
-        let len = p.n.length();
-        if !p.p.is_finite() || !len.is_finite() || len <= 0.0 {
-            return Err(MpuError::BadPoint { index });
-        }
-    }
-    let points: Vec<OrientedPoint> = points
-        .iter()
-        .map(|p| OrientedPoint {
-            p: p.p,
-            n: p.n / p.n.length(),
-        })
-        .collect();
-    let positions = points.iter().map(|p| p.p - frame.origin).collect();
-    Ok(crate::build::Prepared { positions, points })
 }

@@ -24,7 +24,7 @@ struct RegionRecord {
 }
 
 /// Decides every cell of the MPU of the points in `store` with `params` (tiles at the store's
-/// depth, first halo `halo` × the tile edge): bitwise the decisions of a build over all the
+/// depth, as `tiles` says): bitwise the decisions of a build over all the
 /// points in memory. Memory: the coarse points (about 1 in 16) and, per thread, one tile with
 /// its halo. Decisions files go to the store's directory; those already there and intact are
 /// taken as they are ([`TileReport::halos_grown`] and the rest still count them). Progress:
@@ -35,18 +35,22 @@ struct RegionRecord {
 pub fn decide_store(
     store: &TileStore,
     params: &MpuParams,
-    halo: f64,
+    tiles: &TileParams,
     monitor: &Monitor<'_>,
 ) -> Result<TiledDecisions, TileError> {
     let manifest = store.manifest();
-    let tiles = TileParams {
-        depth: manifest.depth,
-        halo,
-    };
     tiles.validate()?;
+    if tiles.depth != manifest.depth {
+        return Err(TileError::BadParameter(format!(
+            "the store {} holds tiles at depth {}, not {}",
+            store.dir().display(),
+            manifest.depth,
+            tiles.depth
+        )));
+    }
     let frame = manifest.frame;
     let population = manifest.population as usize;
-    let print = fingerprint(store, params, halo);
+    let print = fingerprint(store, params, tiles);
     let t0 = Instant::now();
     let top_path = store.dir().join("cells-top.bin");
     let top = match read_record(&top_path, &print) {
@@ -59,13 +63,14 @@ pub fn decide_store(
                 population,
                 &frame,
                 params,
-                tiles.depth,
+                tiles.depth + tiles.shared_levels,
                 &fetch,
                 monitor,
             )?;
             let outcome = TileOutcome {
                 cells: fit.cells,
                 crossing: 0,
+                fetched: 0,
                 grown: 0,
                 points: population as u64,
                 halo_points: coarse.len(),
@@ -76,7 +81,6 @@ pub fn decide_store(
         }
     };
     let top_seconds = t0.elapsed().as_secs_f64();
-    let gather = |center, half, halo| store.gather_box(center, half, halo);
     let decide = |key: [u32; 3]| {
         let path = store
             .dir()
@@ -86,12 +90,12 @@ pub fn decide_store(
         }
         let count = store.count(key);
         let outcome = decide_tile(
-            &frame, params, &tiles, key, population, count, &gather, monitor,
+            &frame, params, tiles, key, population, count, &top.cells, store, monitor,
         )?;
         write_record(&path, &print, &outcome)?;
         Ok(outcome)
     };
-    let (cells, surface, mut report) = decide_all(top, &tiles, monitor, &decide)?;
+    let (cells, surface, mut report) = decide_all(&top, tiles, monitor, &decide)?;
     report.top_seconds = top_seconds;
     Ok(TiledDecisions {
         frame,
@@ -103,7 +107,7 @@ pub fn decide_store(
 
 /// What a run's decisions depend on: the store's files (their checksums), the parameters and
 /// the first halo, hashed.
-fn fingerprint(store: &TileStore, params: &MpuParams, halo: f64) -> String {
+fn fingerprint(store: &TileStore, params: &MpuParams, tiles: &TileParams) -> String {
     let mut h = Sha256::new();
     let m = store.manifest();
     h.update(format!(
@@ -112,7 +116,7 @@ fn fingerprint(store: &TileStore, params: &MpuParams, halo: f64) -> String {
         m.population,
         m.depth,
         params,
-        halo.to_bits()
+        format!("{:?}{}", tiles.halo.to_bits(), tiles.shared_levels)
     ));
     for t in m.tiles.iter().chain([&m.coarse]) {
         h.update(&t.sha256);

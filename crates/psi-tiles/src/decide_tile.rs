@@ -5,19 +5,20 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
-use glam::DVec3;
-use psi_mpu::{CellAddress, CellTable, MpuFrame, MpuParams, Region, fit_region};
-use psi_octree::{Monitor, OrientedPoint};
+use psi_mpu::{CellAddress, CellTable, FarBalls, MpuFrame, MpuParams, Region, fit_region};
+use psi_octree::Monitor;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::{TileError, TileParams, TileReport};
+use crate::{PointSource, TileError, TileParams, TileReport};
 
 /// One tile's decisions and how they were reached.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub(crate) struct TileOutcome {
     pub(crate) cells: CellTable,
     pub(crate) crossing: usize,
+    /// Cells that fetched their ball beyond the halo.
+    pub(crate) fetched: usize,
     pub(crate) grown: usize,
     /// Points in the tile's cube.
     pub(crate) points: u64,
@@ -27,13 +28,8 @@ pub(crate) struct TileOutcome {
     pub(crate) surface: Vec<CellAddress>,
 }
 
-/// The points within ∞-distance `halo` of the cube with local centre `center` and half-edge
-/// `half`, in increasing input index order.
-pub(crate) type Gather<'a> =
-    dyn Fn(DVec3, f64, f64) -> Result<Vec<OrientedPoint>, TileError> + Sync + 'a;
-
 /// Decides the tile `key` (at `tiles.depth`) of an input of `population` points, its points
-/// from `gather`, growing the halo from `tiles.halo` × the tile edge until the fits' reach lies
+/// from `gather` (the tile's upper levels taken from `top`), growing the halo from `tiles.halo` × the tile edge until the fits' reach lies
 /// inside it (or the halo holds every point). `points` is the count in its cube, for the report.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn decide_tile(
@@ -43,7 +39,8 @@ pub(crate) fn decide_tile(
     key: [u32; 3],
     population: usize,
     points: u64,
-    gather: &Gather<'_>,
+    top: &CellTable,
+    source: &dyn PointSource,
     monitor: &Monitor<'_>,
 ) -> Result<TileOutcome, TileError> {
     let region = Region::tile(tiles.depth, key);
@@ -53,12 +50,29 @@ pub(crate) fn decide_tile(
     let mut halo = tiles.halo * 2.0 * half;
     let mut grown = 0;
     loop {
-        let local = gather(center, half, halo)?;
-        let fit = fit_region(&local, population, frame, params, &region, monitor)?;
+        let local = source.gather_box(center, half, halo)?;
+        // A cell whose fit reads beyond the halo (an empty cell's radius grows to the nearest
+        // data) fetches its own ball instead of widening the whole tile's halo.
+        let fetch = |c, r| source.gather_ball(c, r).map_err(|e| e.to_string());
+        let far = FarBalls {
+            halo: halo - margin,
+            fetch: &fetch,
+        };
+        let fit = fit_region(
+            &local,
+            population,
+            frame,
+            params,
+            &region,
+            Some(top),
+            Some(far),
+            monitor,
+        )?;
         if fit.reach + margin <= halo || local.len() == population {
             return Ok(TileOutcome {
                 cells: fit.cells,
                 crossing: fit.crossing,
+                fetched: fit.fetched,
                 grown,
                 points,
                 halo_points: local.len(),
@@ -99,16 +113,13 @@ pub(crate) fn tile_keys(top: &CellTable, depth: u8) -> Vec<[u32; 3]> {
 /// their decisions with `top`'s, in tile order; returns every cell's decision and the report
 /// (`top_seconds` is the caller's).
 pub(crate) fn decide_all(
-    top: TileOutcome,
+    top: &TileOutcome,
     tiles: &TileParams,
     monitor: &Monitor<'_>,
     decide: &(dyn Fn([u32; 3]) -> Result<TileOutcome, TileError> + Sync),
 ) -> Result<(CellTable, Vec<CellAddress>, TileReport), TileError> {
-    let TileOutcome {
-        cells: top,
-        mut surface,
-        ..
-    } = top;
+    let mut surface = top.surface.clone();
+    let top = top.cells.clone();
     let t = Instant::now();
     let keys = tile_keys(&top, tiles.depth);
     let done = AtomicU64::new(0);
@@ -136,6 +147,7 @@ pub(crate) fn decide_all(
         report.halo_points.push(o.halo_points);
         report.halos_grown += o.grown;
         report.crossing_cells += o.crossing;
+        report.balls_fetched += o.fetched;
         cells.merge(o.cells).map_err(TileError::Conflict)?;
         surface.extend(o.surface);
     }

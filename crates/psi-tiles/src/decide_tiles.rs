@@ -9,7 +9,7 @@ use psi_mpu::{BuildOptions, CellAddress, CellTable, Mpu, MpuFrame, MpuParams, Re
 use psi_octree::{Monitor, OrientedPoint};
 
 use crate::decide_tile::{TileOutcome, decide_all, decide_tile};
-use crate::{PointSource, PointsInMemory, TileError, TileParams, TileReport};
+use crate::{PointsInMemory, TileError, TileParams, TileReport};
 
 /// The decisions of every cell of a tiled build, in the frame they were made in.
 #[derive(Clone, Debug)]
@@ -45,25 +45,29 @@ pub fn decide_tiled(
         n,
         &frame,
         params,
-        &Region::top(tiles.depth),
+        &Region::top(tiles.depth + tiles.shared_levels),
+        None,
+        None,
         monitor,
     )?;
     let top_seconds = t0.elapsed().as_secs_f64();
-    let source = PointsInMemory::new(points, frame, tiles.depth);
-    let gather = |center, half, halo| source.gather_box(center, half, halo);
-    let decide = |key| {
-        let count = source.count(key) as u64;
-        decide_tile(&frame, params, tiles, key, n, count, &gather, monitor)
-    };
     let top = TileOutcome {
         cells: top.cells,
         crossing: 0,
+        fetched: 0,
         grown: 0,
         points: n as u64,
         halo_points: n,
         surface: top.surface,
     };
-    let (cells, surface, mut report) = decide_all(top, tiles, monitor, &decide)?;
+    let source = PointsInMemory::new(points, frame, tiles.depth);
+    let decide = |key| {
+        let count = source.count(key) as u64;
+        decide_tile(
+            &frame, params, tiles, key, n, count, &top.cells, &source, monitor,
+        )
+    };
+    let (cells, surface, mut report) = decide_all(&top, tiles, monitor, &decide)?;
     report.top_seconds = top_seconds;
     Ok(TiledDecisions {
         frame,

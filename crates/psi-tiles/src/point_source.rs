@@ -24,6 +24,14 @@ pub trait PointSource: Sync {
         half: f64,
         halo: f64,
     ) -> Result<Vec<OrientedPoint>, TileError>;
+
+    /// The points within `radius` of world position `center`, in increasing input index order.
+    fn gather_ball(&self, center: DVec3, radius: f64) -> Result<Vec<OrientedPoint>, TileError> {
+        let frame = self.frame();
+        let mut points = self.gather_box(center - frame.origin, 0.0, radius)?;
+        points.retain(|p| (p.p - center).length() <= radius);
+        Ok(points)
+    }
 }
 
 /// The input in memory, bucketed by the cubes at a depth for gathering.
@@ -87,5 +95,9 @@ impl PointSource for TileStore {
         halo: f64,
     ) -> Result<Vec<OrientedPoint>, TileError> {
         TileStore::gather_box(self, center, half, halo)
+    }
+
+    fn gather_ball(&self, center: DVec3, radius: f64) -> Result<Vec<OrientedPoint>, TileError> {
+        TileStore::gather_ball(self, center, radius)
     }
 }

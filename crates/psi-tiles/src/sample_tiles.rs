@@ -55,6 +55,14 @@ pub struct TiledSampling {
     pub report: TileSampleReport,
 }
 
+/// What [`sample_region`] does: seed only, or seed and relax (with the σ scale adapting, or
+/// held at the given value).
+#[derive(Clone, Copy)]
+enum Pass {
+    Seed,
+    Relax(Option<f64>),
+}
+
 /// One region's particles, with the leaf each was seeded in.
 struct RegionParticles {
     leaves: Vec<u32>,
@@ -109,9 +117,9 @@ pub fn sample_tiled(
     };
     let done = std::sync::atomic::AtomicU64::new(0);
     let total = regions.len() as u64;
-    let per_region = |region: &Region, field: &DensityField, relax_too: bool| {
+    let per_region = |region: &Region, field: &DensityField, pass: Pass| {
         let out = sample_region(
-            source, decisions, mpu_params, params, field, region, relax_too, monitor,
+            source, decisions, mpu_params, params, field, region, pass, monitor,
         );
         let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         monitor.report("sample tiles", k, total);
@@ -122,7 +130,7 @@ pub fn sample_tiled(
         // them first, as the whole sampling does.
         let counts: Vec<Result<RegionParticles, TileError>> = regions
             .par_iter()
-            .map(|r| per_region(r, &field, false))
+            .map(|r| per_region(r, &field, Pass::Seed))
             .collect();
         let mut seeds = 0usize;
         for c in counts {
@@ -132,10 +140,27 @@ pub fn sample_tiled(
         field.scale = 1.0 / per_leaf.max(1e-12).sqrt();
         done.store(0, std::sync::atomic::Ordering::Relaxed);
     }
+    // The σ scale c adapts toward one energy over all particles; relaxed alone, each region
+    // settles on its own c (0.75 to 1.2 over the bunny's tiles), which would make the spacing
+    // differ from tile to tile. So: a first pass for the scale, its mean over all particles,
+    // then every region relaxed again from its seeds with that scale held.
     monitor.report("sample tiles", 0, total);
+    let first: Vec<Result<RegionParticles, TileError>> = regions
+        .par_iter()
+        .map(|r| per_region(r, &field, Pass::Relax(None)))
+        .collect();
+    let (mut sum, mut count) = (0.0, 0usize);
+    for out in first {
+        let p = out?.relaxed;
+        // (Summed in region order, each region's particles in order: no thread dependence.)
+        sum += (0..p.len()).map(|i| p.sigma[i] / p.target[i]).sum::<f64>();
+        count += p.len();
+    }
+    let scale = if count > 0 { sum / count as f64 } else { 1.0 };
+    done.store(0, std::sync::atomic::Ordering::Relaxed);
     let outs: Vec<Result<RegionParticles, TileError>> = regions
         .par_iter()
-        .map(|r| per_region(r, &field, true))
+        .map(|r| per_region(r, &field, Pass::Relax(Some(scale))))
         .collect();
     // Back in the whole sampling's order: by leaf index, a leaf's particles in seeding order.
     let mut all: Vec<(u32, usize, usize)> = Vec::new();
@@ -211,7 +236,7 @@ fn inside(depth: u8, key: [u32; 3], region: &Region) -> bool {
 
 /// One region: its band (the surface leaves within [`BAND`] of their edges of its cube), its
 /// MPU from the points of the region and the band's leaves with a margin of their edge, its
-/// surface leaves seeded, and (with `relax_too`) relaxed together with the band's particles,
+/// surface leaves seeded, and (unless `pass` only seeds) relaxed together with the band's particles,
 /// which are then dropped.
 #[allow(clippy::too_many_arguments)]
 fn sample_region(
@@ -221,7 +246,7 @@ fn sample_region(
     params: &ParticleParams,
     field: &DensityField,
     region: &Region,
-    relax_too: bool,
+    pass: Pass,
     monitor: &Monitor<'_>,
 ) -> Result<RegionParticles, TileError> {
     let (near, halo) = band_of(decisions, region);
@@ -255,21 +280,28 @@ fn sample_region(
         leaves.extend(std::iter::repeat_n(l, s.len()));
         seeds.extend(&s);
     }
-    if !relax_too {
+    let Pass::Relax(scale) = pass else {
         return Ok(RegionParticles {
             leaves,
             seeds,
             ..empty()
         });
-    }
+    };
     let neighbours = seed_leaves(&mpu, &near, field, params);
     let mut particles = seeds.clone();
     particles.extend(&neighbours);
+    let mut params = *params;
+    if let Some(c) = scale {
+        for i in 0..particles.len() {
+            particles.sigma[i] = c * particles.target[i];
+        }
+        params.adapt_sigma = false;
+    }
     let options = RelaxOptions {
         monitor: *monitor,
         ..Default::default()
     };
-    relax(&mpu, &mut particles, field, params, options);
+    relax(&mpu, &mut particles, field, &params, options);
     monitor.check()?;
     let n = seeds.len();
     let keep: Vec<bool> = (0..particles.len()).map(|i| i < n).collect();

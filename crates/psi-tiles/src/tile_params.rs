@@ -14,14 +14,21 @@ pub struct TileParams {
     /// ∞-distance of the tile's cube come with it. A tile whose fits read farther is decided
     /// again with a halo that covers them (the report counts these).
     pub halo: f64,
+    /// Levels of each tile decided by the pass above the tiles (0 to 4): a cell's fit reads
+    /// a ball about 1.3 of its edges wide around its centre, so a tile fitting its own top
+    /// cell needs a halo of most of a tile edge; with its first 2 levels decided above (from
+    /// the coarse points out of core, where those fits thin their balls anyway) a quarter
+    /// edge suffices.
+    pub shared_levels: u8,
 }
 
 impl Default for TileParams {
-    /// Depth 2 (up to 64 tiles), a halo of a quarter tile edge.
+    /// Depth 2 (up to 64 tiles), a halo of a quarter tile edge, 2 shared levels.
     fn default() -> Self {
         TileParams {
             depth: 2,
             halo: 0.25,
+            shared_levels: 2,
         }
     }
 }
@@ -35,12 +42,18 @@ impl TileParams {
         }
     }
 
-    /// Checks the ranges: depth 1 to 10, a finite non-negative halo.
+    /// Checks the ranges: depth 1 to 10, a finite non-negative halo, 0 to 4 shared levels.
     pub fn validate(&self) -> Result<(), TileError> {
         if !(1..=10).contains(&self.depth) {
             return Err(TileError::BadParameter(format!(
                 "the tile depth must be 1 to 10, not {}",
                 self.depth
+            )));
+        }
+        if self.shared_levels > 4 {
+            return Err(TileError::BadParameter(format!(
+                "the levels shared above the tiles must be 0 to 4, not {}",
+                self.shared_levels
             )));
         }
         if !(self.halo.is_finite() && self.halo >= 0.0) {

@@ -19,6 +19,8 @@ pub struct TileReport {
     pub halos_grown: usize,
     /// Cells whose fit ball crosses a face of their tile's cube.
     pub crossing_cells: usize,
+    /// Of those, cells whose ball reached beyond the tile's halo and was fetched whole.
+    pub balls_fetched: usize,
     /// Cells decided by the pass over all points above the tiles.
     pub top_cells: usize,
     /// Cells in all.

@@ -42,6 +42,9 @@ pub struct StoredTile {
 pub struct StoreManifest {
     /// Format version (1).
     pub version: u32,
+    /// What the points came from, as the writer's caller described it (a file's path, size
+    /// and time): a run finds its own store by it and resumes.
+    pub source: String,
     /// The whole input's frame (as JSON numbers, for reading; the build uses `frame_bits`).
     pub frame: MpuFrame,
     /// The frame's eight numbers (origin, root centre, root half, diagonal) as their IEEE
@@ -68,6 +71,7 @@ pub struct TileStore {
 /// Writes points into a store, buffering at most about `buffer_points` of them in memory.
 pub struct TileWriter {
     dir: PathBuf,
+    source: String,
     frame: MpuFrame,
     depth: u8,
     buffer_points: usize,
@@ -108,12 +112,14 @@ fn push_record(out: &mut Vec<u8>, index: u64, p: &OrientedPoint) {
 
 impl TileWriter {
     /// Starts a store in `dir` (created; an earlier store there is replaced when this one
-    /// finishes) for an input whose frame is `frame`, tiles at `depth`.
+    /// finishes) for an input whose frame is `frame`, tiles at `depth`, described by `source`
+    /// ([`StoreManifest::source`]).
     pub fn create(
         dir: &Path,
         frame: MpuFrame,
         depth: u8,
         buffer_points: usize,
+        source: &str,
     ) -> Result<TileWriter, TileError> {
         fs::create_dir_all(dir).map_err(|e| io_error(dir, e))?;
         // An unfinished store has no manifest: remove the old one first.
@@ -132,6 +138,7 @@ impl TileWriter {
         let coarse = File::create(&coarse_path).map_err(|e| io_error(&coarse_path, e))?;
         Ok(TileWriter {
             dir: dir.to_path_buf(),
+            source: source.to_owned(),
             frame,
             depth,
             buffer_points: buffer_points.max(1),
@@ -201,6 +208,7 @@ impl TileWriter {
         }
         let manifest = StoreManifest {
             version: 1,
+            source: self.source.clone(),
             frame: self.frame,
             frame_bits: frame_bits(&self.frame),
             population: self.next_index,

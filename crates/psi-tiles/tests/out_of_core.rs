@@ -42,7 +42,7 @@ fn store_of(points: &[OrientedPoint], depth: u8, dir: &std::path::Path) -> TileS
     let frame = MpuFrame::for_bounds(&bounds, points.len(), &params).unwrap();
     assert_eq!(frame, MpuFrame::for_points(points, &params).unwrap());
     let frame_check = frame;
-    let mut w = TileWriter::create(dir, frame, depth, 1000).unwrap();
+    let mut w = TileWriter::create(dir, frame, depth, 1000, "test").unwrap();
     for chunk in points.chunks(777) {
         w.push(chunk).unwrap();
     }
@@ -97,6 +97,8 @@ fn the_cells_above_the_tiles_from_the_coarse_points_are_those_from_all_points() 
             &frame,
             &params,
             &Region::top(until),
+            None,
+            None,
             &Monitor::silent(),
         )
         .unwrap();
@@ -138,13 +140,24 @@ fn decisions_from_the_store_equal_the_build_in_memory() {
     let params = MpuParams::paper();
     let dir = scratch("decide");
     let store = store_of(&points, 2, &dir);
-    let from_store = decide_store(&store, &params, 0.0, &Monitor::silent()).unwrap();
+    let from_store = decide_store(
+        &store,
+        &params,
+        &TileParams {
+            depth: 2,
+            halo: 0.0,
+            ..TileParams::default()
+        },
+        &Monitor::silent(),
+    )
+    .unwrap();
     let in_memory = decide_tiled(
         &points,
         &params,
         &TileParams {
             depth: 2,
             halo: 0.0,
+            ..TileParams::default()
         },
         &Monitor::silent(),
     )
@@ -188,7 +201,17 @@ fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
     let params = MpuParams::paper();
     let dir = scratch("resume");
     let store = store_of(&points, 2, &dir);
-    let first = decide_store(&store, &params, 0.1, &Monitor::silent()).unwrap();
+    let first = decide_store(
+        &store,
+        &params,
+        &TileParams {
+            depth: 2,
+            halo: 0.1,
+            ..TileParams::default()
+        },
+        &Monitor::silent(),
+    )
+    .unwrap();
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -211,7 +234,17 @@ fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
     bytes[mid] ^= 0x40;
     std::fs::write(&files[3], &bytes).unwrap();
     let before3 = inode(&files[3]);
-    let again = decide_store(&store, &params, 0.1, &Monitor::silent()).unwrap();
+    let again = decide_store(
+        &store,
+        &params,
+        &TileParams {
+            depth: 2,
+            halo: 0.1,
+            ..TileParams::default()
+        },
+        &Monitor::silent(),
+    )
+    .unwrap();
     assert_eq!(again.cells, first.cells);
     for (i, f) in files.iter().enumerate() {
         match i {
@@ -225,13 +258,24 @@ fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
         error_rel: 2.0 * params.error_rel,
         ..params
     };
-    let fresh = decide_store(&store, &other, 0.1, &Monitor::silent()).unwrap();
+    let fresh = decide_store(
+        &store,
+        &other,
+        &TileParams {
+            depth: 2,
+            halo: 0.1,
+            ..TileParams::default()
+        },
+        &Monitor::silent(),
+    )
+    .unwrap();
     let expected = decide_tiled(
         &points,
         &other,
         &TileParams {
             depth: 2,
             halo: 0.1,
+            ..TileParams::default()
         },
         &Monitor::silent(),
     )
@@ -257,7 +301,17 @@ fn a_damaged_or_truncated_tile_file_is_refused_by_name() {
             bytes.truncate(bytes.len() - 10);
         }
         std::fs::write(&path, &bytes).unwrap();
-        let err = decide_store(&store, &params, 0.1, &Monitor::silent()).unwrap_err();
+        let err = decide_store(
+            &store,
+            &params,
+            &TileParams {
+                depth: 2,
+                halo: 0.1,
+                ..TileParams::default()
+            },
+            &Monitor::silent(),
+        )
+        .unwrap_err();
         let msg = err.to_string();
         assert!(msg.contains(&path.display().to_string()), "{msg}");
         std::fs::remove_dir_all(&dir).unwrap();

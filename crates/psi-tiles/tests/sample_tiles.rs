@@ -50,7 +50,11 @@ fn check(points: &[OrientedPoint], depth: u8, seam: bool) {
     let whole = Mpu::build(points, &mparams).unwrap();
     let expected_seeds = initialize(&whole, &pparams).particles;
     let expected = sample(&whole, &pparams);
-    let tiles = TileParams { depth, halo: 0.25 };
+    let tiles = TileParams {
+        depth,
+        halo: 0.25,
+        ..TileParams::default()
+    };
     let decisions = decide_tiled(points, &mparams, &tiles, &Monitor::silent()).unwrap();
     let source = PointsInMemory::new(points, decisions.frame, depth);
     let tiled = sample_tiled(&source, &decisions, &mparams, &pparams, &Monitor::silent()).unwrap();

@@ -52,10 +52,12 @@ fn a_noisy_sphere_tiled_is_the_whole_build_and_samples_the_same_particles() {
     for p in &mut points {
         p.p += 2e-3 * gaussian_vector(&mut rng);
     }
-    // No first halo: every tile whose fits read outside its cube grows one.
+    // No first halo and no shared levels (the sphere's octree is shallow): every tile whose
+    // fits read outside its cube grows a halo.
     let tiles = TileParams {
         depth: 2,
         halo: 0.0,
+        shared_levels: 0,
     };
     let (whole, tiled, report) = run(&points, &tiles);
     assert_tiling_exercised(&report);
@@ -101,6 +103,7 @@ fn random_clouds_with_random_normals_tile_exactly() {
         let tiles = TileParams {
             depth: 2,
             halo: 0.0,
+            ..TileParams::default()
         };
         let (whole, tiled, report) = run(&points, &tiles);
         assert_tiling_exercised(&report);
@@ -169,18 +172,22 @@ fn bad_tiling_parameters_are_refused() {
         TileParams {
             depth: 0,
             halo: 0.1,
+            ..TileParams::default()
         },
         TileParams {
             depth: 11,
             halo: 0.1,
+            ..TileParams::default()
         },
         TileParams {
             depth: 2,
             halo: -1.0,
+            ..TileParams::default()
         },
         TileParams {
             depth: 2,
             halo: f64::NAN,
+            ..TileParams::default()
         },
     ] {
         let r = decide_tiled(&points, &MpuParams::paper(), &tiles, &Monitor::silent());

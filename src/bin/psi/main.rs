@@ -14,6 +14,7 @@ mod run_info;
 mod run_mesh;
 mod run_render;
 mod run_sample;
+mod sample_out_of_core;
 mod strokes;
 mod ui;
 

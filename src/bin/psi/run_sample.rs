@@ -51,9 +51,22 @@ pub(crate) struct SampleArgs {
     /// that floor (`particles.value_and_gradient_seconds`, `particles.evaluation_floor_ratio`).
     #[arg(long)]
     evaluation_floor: bool,
+    /// Work out of core within this much memory (e.g. 4GiB, 512MiB): the input streamed into
+    /// tile files, the MPU and the particles made tile by tile. The points are used as given
+    /// (with their normals; no outlier search or noise estimate yet).
+    #[arg(long, value_parser = crate::sample_out_of_core::memory_size,
+        conflicts_with_all = ["count", "uniform", "png", "points_out", "evaluation_floor"])]
+    max_memory: Option<u64>,
+    /// Where the tile files of --max-memory go (default: `<output>.psi-scratch` beside the
+    /// output); a run finds the files of an earlier run on the same input there and resumes.
+    #[arg(long, requires = "max_memory")]
+    scratch: Option<PathBuf>,
 }
 
 pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
+    if let Some(max_memory) = args.max_memory {
+        return run_out_of_core(args, max_memory, ui);
+    }
     let loaded = load(&args.input, ui)?;
     for (path, flag) in [
         (&args.output, "-o"),
@@ -150,4 +163,39 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
             .unwrap_or_default()
     ));
     Ok(())
+}
+
+/// `--max-memory`: the same parameters, out of core.
+fn run_out_of_core(args: &SampleArgs, max_memory: u64, ui: crate::ui::Ui) -> Result<(), Failure> {
+    let Some(input) = args.input.input.as_deref() else {
+        return Err(Failure {
+            error: anyhow::anyhow!("--max-memory needs an input file"),
+            code: 2,
+        });
+    };
+    for (path, flag) in [(&args.output, "-o"), (&args.json, "--json")] {
+        if let Some(path) = path {
+            crate::input::check_output(Some(input), path, flag)?;
+        }
+    }
+    let relative = args
+        .mpu
+        .mpu_error
+        .unwrap_or(psi::MpuParams::paper().error_rel);
+    let request = crate::sample_out_of_core::Request {
+        input,
+        format: args.input.format,
+        mpu: args.mpu.params(relative),
+        particles: ParticleParams {
+            k: args.k,
+            iterations: args.iterations,
+            seed: args.seed,
+            ..ParticleParams::paper()
+        },
+        max_memory,
+        scratch: args.scratch.as_deref(),
+        output: args.output.as_deref(),
+        json: args.json.as_deref(),
+    };
+    crate::sample_out_of_core::run(&request, ui)
 }

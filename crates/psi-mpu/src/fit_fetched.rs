@@ -1,0 +1,103 @@
+//! A cell fitted from the points fetched within a ball around it, the ball grown until it
+//! holds the fit's radius: then every point the fit reads was fetched, and the fit is the
+//! whole build's (cells above the tiles, and a tile's cells whose fits read beyond its halo).
+
+use std::sync::{Arc, Mutex};
+
+use glam::DVec3;
+use psi_octree::{Cell, OrientedPoint};
+
+use crate::fit_cell::{CellFit, fit_cell};
+use crate::region_points::{IndexedPoints, key_of_point};
+use crate::{MpuError, MpuFrame, MpuParams};
+
+/// The points within a ball, fetched on demand: `fetch(centre, radius)` (world units) returns
+/// every input point within `radius` of `centre` (more is allowed), in increasing order of
+/// input index, or why it could not.
+pub type FetchBall<'a> = dyn Fn(DVec3, f64) -> Result<Vec<OrientedPoint>, String> + Sync + 'a;
+
+/// Balls fetched before, each with its points indexed: a cell whose ball lies inside one of
+/// them fits from it without a fetch (neighbouring far cells read nearly the same ball, and
+/// indexing a ball costs more than fitting from it). Any superset of a ball gives the same fit.
+#[derive(Default)]
+pub(crate) struct BallCache {
+    balls: Mutex<Vec<FetchedBall>>,
+}
+
+/// A fetched ball: every input point within `radius` of `center` (local frame) is in `points`.
+struct FetchedBall {
+    center: DVec3,
+    radius: f64,
+    points: Arc<(IndexedPoints, usize)>,
+}
+
+impl BallCache {
+    /// Indexed points holding every input point within `radius` of local `center`, and how
+    /// many they are: from a cached ball, or fetched (a ball twice as wide, kept for the next).
+    fn ball(
+        &self,
+        center: DVec3,
+        radius: f64,
+        frame: &MpuFrame,
+        fetch: &FetchBall<'_>,
+    ) -> Result<Arc<(IndexedPoints, usize)>, MpuError> {
+        {
+            let balls = self.balls.lock().expect("not poisoned");
+            if let Some(b) = balls
+                .iter()
+                .find(|b| (b.center - center).length() + radius <= b.radius)
+            {
+                return Ok(Arc::clone(&b.points));
+            }
+        }
+        let wide = 2.0 * radius;
+        let points = fetch(center + frame.origin, wide).map_err(MpuError::Fetch)?;
+        let n = points.len();
+        let indexed = Arc::new((IndexedPoints::new(&points, frame)?, n));
+        self.balls.lock().expect("not poisoned").push(FetchedBall {
+            center,
+            radius: wide,
+            points: Arc::clone(&indexed),
+        });
+        Ok(indexed)
+    }
+}
+
+/// One cell fitted from the points within a ball around it (from `cache`, or fetched), the
+/// ball grown until it holds the fit's radius (then every point the fit reads was there).
+/// Returns the fit and whether the cell's cube holds input points.
+pub(crate) fn fit_fetched(
+    cell: &Cell,
+    frame: &MpuFrame,
+    params: &MpuParams,
+    population: usize,
+    eps0: f64,
+    fetch: &FetchBall<'_>,
+    cache: &BallCache,
+) -> Result<(CellFit, bool), MpuError> {
+    let margin = 1e-9 * frame.root_half;
+    let mut radius = cell.support_radius(params.alpha) * 1.5;
+    loop {
+        let ball = cache.ball(cell.center, radius + 2.0 * margin, frame, fetch)?;
+        let (indexed, n) = (&ball.0, ball.1);
+        if n >= (params.n_min + 1).min(population) {
+            let f = fit_cell(
+                &indexed.input(params, population),
+                cell.center,
+                cell.half,
+                eps0,
+            );
+            if f.fit_radius + margin <= radius || n >= population {
+                // The first ball already holds the cube (1.5 R > its circumradius).
+                let surface = indexed
+                    .positions()
+                    .iter()
+                    .any(|&x| key_of_point(frame, x, cell.depth) == cell.key);
+                return Ok((f, surface));
+            }
+            radius = (f.fit_radius + margin).max(1.25 * radius);
+        } else {
+            radius *= 2.0;
+        }
+    }
+}

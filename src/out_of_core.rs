@@ -1,0 +1,257 @@
+//! Sampling a file larger than memory (issue "Beyond one machine"): its points streamed into
+//! tile files in a scratch directory, the MPU decided tile by tile from them
+//! ([`psi_tiles::decide_store`]), the particles seeded and relaxed tile by tile
+//! ([`psi_tiles::sample_tiled`]). The CLI's `--max-memory` and Python's `sample_files` both
+//! run this.
+//!
+//! The preprocessing steps that read the whole input (the outlier search, the noise estimate,
+//! the inward-normals check) are not done tile by tile yet: a run out of core takes oriented
+//! points as they are, and says so up front when asked for those steps.
+
+use std::fs;
+use std::io::BufReader;
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use psi_io::{Format, PointStream, ReadOptions, chunk_oriented_points};
+use psi_mpu::{MpuFrame, MpuParams};
+use psi_octree::{Aabb, Monitor, OrientedPoint};
+use psi_particles::{ParticleParams, Particles};
+use psi_tiles::{
+    TileParams, TileReport, TileSampleReport, TileStore, TileWriter, decide_store, sample_tiled,
+};
+
+use crate::PsiError;
+use crate::files::{check_not_dir, extension_format, open_error, read_error};
+
+/// Bytes a tile's build holds per point of the tile: its points with their halo (about three
+/// times the tile's own, measured) in the MPU's arrays, kd-tree and footprint table (about 300
+/// bytes a point).
+const BYTES_PER_TILE_POINT: u64 = 1000;
+/// Bytes a point of the whole input costs wherever it is: its coarse copy (1 in 16 of 56
+/// bytes) and its share of the cell table.
+const BYTES_PER_INPUT_POINT: u64 = 8;
+/// Points streamed per chunk.
+const CHUNK: usize = 1 << 18;
+
+/// How a run out of core may use the machine.
+#[derive(Clone, Debug)]
+pub struct OutOfCore {
+    /// Bytes psi may allocate at once (the process's own baseline aside).
+    pub max_memory: u64,
+    /// Where the tile files go (created; a run finds its earlier files there and resumes).
+    pub scratch: PathBuf,
+    /// Tiles at this depth instead of the one `max_memory` gives.
+    pub tile_depth: Option<u8>,
+}
+
+/// What a run out of core made.
+#[derive(Clone, Debug)]
+pub struct OutOfCoreRun {
+    /// The particles.
+    pub particles: Particles,
+    /// Points read (zero normals dropped).
+    pub points: u64,
+    /// Points dropped for a zero normal.
+    pub dropped: u64,
+    /// The tiling of the MPU's decisions.
+    pub tiles: TileReport,
+    /// The tiled sampling.
+    pub sampling: TileSampleReport,
+    /// Whether the tile files of an earlier run were used as they were.
+    pub resumed: bool,
+    /// Seconds: reading and partitioning, deciding the cells, sampling.
+    pub seconds: [f64; 3],
+}
+
+impl OutOfCore {
+    /// The tile depth for `points` input points: the shallowest (at least 1, at most 8)
+    /// whose tiles, about `points / 4^depth` each on a surface, fit the budget with two
+    /// built at once; an error naming the memory needed when even the whole input's share
+    /// (coarse points, cell table) would not fit.
+    pub fn tile_depth_for(&self, points: u64) -> Result<u8, String> {
+        if let Some(d) = self.tile_depth {
+            return Ok(d);
+        }
+        let shared = points * BYTES_PER_INPUT_POINT;
+        if 2 * shared > self.max_memory {
+            return Err(format!(
+                "{} points need at least {} MiB out of core (their coarse copy and cell table), \
+                 more than --max-memory {} MiB allows",
+                points,
+                (2 * shared).div_ceil(1 << 20),
+                self.max_memory >> 20
+            ));
+        }
+        let per_tile = (self.max_memory - shared) / (2 * BYTES_PER_TILE_POINT);
+        let depth = (1..=8u8)
+            .find(|&d| points / 4u64.pow(u32::from(d)) <= per_tile)
+            .unwrap_or(8);
+        Ok(depth)
+    }
+}
+
+/// Calls `visit` with the oriented points of the file at `path`, chunk by chunk in file
+/// order: the scanner formats streamed, PLY, OBJ and XYZ read whole first. Returns the
+/// points dropped for a zero normal.
+fn for_each_points(
+    path: &Path,
+    format: Option<Format>,
+    mut visit: impl FnMut(&[OrientedPoint]) -> Result<(), PsiError>,
+) -> Result<u64, PsiError> {
+    check_not_dir(path)?;
+    let no_normals = || PsiError::OutOfCore {
+        path: path.to_path_buf(),
+        reason: "has no normals: a run out of core takes oriented points (estimating normals \
+                 tile by tile is not done yet); run without --max-memory to estimate them"
+            .into(),
+    };
+    match format.or_else(|| extension_format(path)) {
+        Some(format) if format.is_streamed() => {
+            let file = fs::File::open(path).map_err(|e| open_error(path, e))?;
+            let stream =
+                PointStream::open(BufReader::new(file), format).map_err(read_error(path))?;
+            let (mut first, mut dropped) = (0u64, 0u64);
+            let mut failure = None;
+            stream
+                .for_each_chunk(CHUNK, |chunk| {
+                    let result = match chunk_oriented_points(&chunk, first) {
+                        None => Err(no_normals()),
+                        Some(Err(e)) => Err(read_error(path)(e)),
+                        Some(Ok((points, d))) => {
+                            dropped += d as u64;
+                            visit(&points)
+                        }
+                    };
+                    first += chunk.len() as u64;
+                    match result {
+                        Ok(()) => ControlFlow::Continue(()),
+                        Err(e) => {
+                            failure = Some(e);
+                            ControlFlow::Break(())
+                        }
+                    }
+                })
+                .map_err(read_error(path))?;
+            failure.map_or(Ok(dropped), Err)
+        }
+        _ => {
+            let file = crate::load_points_as(path, format, &ReadOptions::paper())?;
+            if file.normals == psi_io::NormalSource::Missing {
+                return Err(no_normals());
+            }
+            for chunk in file.points.chunks(CHUNK) {
+                visit(chunk)?;
+            }
+            Ok(file.dropped_points as u64)
+        }
+    }
+}
+
+/// Samples the file at `path` (read as `format`, or as its extension says) out of core:
+/// the MPU with `mpu_params` decided tile by tile, bitwise the in-core build of the same
+/// points, and particles with `particle_params` (k per leaf: the in-core seeds and count;
+/// relaxed tile by tile and stitched). Tile files go to `options.scratch`; a run that finds
+/// the files of an earlier run on the same file there resumes from them. Progress: stages
+/// `"read"`, `"tiles"`, `"sample tiles"`.
+///
+/// # Errors
+///
+/// [`PsiError::Open`] / [`PsiError::Read`] for the input; [`PsiError::OutOfCore`] when it has
+/// no normals, the budget is too small, an exact count or uniform mode is asked for, or a
+/// scratch file fails (named).
+pub fn sample_file_out_of_core(
+    path: &Path,
+    format: Option<Format>,
+    mpu_params: &MpuParams,
+    particle_params: &ParticleParams,
+    options: &OutOfCore,
+    monitor: &Monitor<'_>,
+) -> Result<OutOfCoreRun, PsiError> {
+    let fail = |reason: String| PsiError::OutOfCore {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let t0 = Instant::now();
+    let source = source_of(path)?;
+    let dir = options.scratch.join("tiles");
+    let (store, points, dropped, resumed) = match TileStore::open(&dir) {
+        Ok(store) if store.manifest().source == source => {
+            let m = store.manifest();
+            (store.clone(), m.population, 0, true)
+        }
+        _ => {
+            // Pass 1: the frame and the count.
+            let mut bounds: Option<Aabb> = None;
+            let mut count = 0u64;
+            monitor.report("read", 0, 2);
+            for_each_points(path, format, |chunk| {
+                count += chunk.len() as u64;
+                let b = Aabb::from_points(chunk.iter().map(|p| p.p));
+                bounds = match (bounds, b) {
+                    (Some(a), Some(b)) => Some(Aabb {
+                        min: a.min.min(b.min),
+                        max: a.max.max(b.max),
+                    }),
+                    (a, b) => a.or(b),
+                };
+                monitor.check().map_err(|_| fail("interrupted".into()))
+            })?;
+            let bounds = bounds.ok_or_else(|| fail("holds no points".into()))?;
+            let frame = MpuFrame::for_bounds(&bounds, count as usize, mpu_params)
+                .map_err(|e| fail(e.to_string()))?;
+            let depth = options.tile_depth_for(count).map_err(fail)?;
+            // Pass 2: the points into tile files.
+            monitor.report("read", 1, 2);
+            let buffer = (options.max_memory / 4 / 56).max(1 << 16) as usize;
+            let mut writer = TileWriter::create(&dir, frame, depth, buffer, &source)
+                .map_err(|e| fail(e.to_string()))?;
+            let dropped = for_each_points(path, format, |chunk| {
+                writer.push(chunk).map_err(|e| fail(e.to_string()))?;
+                monitor.check().map_err(|_| fail("interrupted".into()))
+            })?;
+            let store = writer.finish().map_err(|e| fail(e.to_string()))?;
+            monitor.report("read", 2, 2);
+            (store, count, dropped, false)
+        }
+    };
+    let read_seconds = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let tiles = TileParams {
+        depth: store.manifest().depth,
+        ..TileParams::default()
+    };
+    let decisions = decide_store(&store, mpu_params, &tiles, monitor)
+        .map_err(|e| fail(e.to_string()))?;
+    let decide_seconds = t1.elapsed().as_secs_f64();
+    let t2 = Instant::now();
+    let sampled = sample_tiled(&store, &decisions, mpu_params, particle_params, monitor)
+        .map_err(|e| fail(e.to_string()))?;
+    Ok(OutOfCoreRun {
+        particles: sampled.particles,
+        points,
+        dropped,
+        tiles: decisions.report,
+        sampling: sampled.report,
+        resumed,
+        seconds: [read_seconds, decide_seconds, t2.elapsed().as_secs_f64()],
+    })
+}
+
+/// What identifies the input of a run: its path, size and modification time.
+fn source_of(path: &Path) -> Result<String, PsiError> {
+    let meta = fs::metadata(path).map_err(|e| open_error(path, e))?;
+    let modified = meta
+        .modified()
+        .ok()
+        .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+        .map_or(0, |d| d.as_nanos());
+    let canonical = fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    Ok(format!(
+        "{} {} {}",
+        canonical.display(),
+        meta.len(),
+        modified
+    ))
+}
