@@ -40,12 +40,12 @@ pub use psi_shapes as shapes;
 pub use psi_tiles as tiles;
 
 pub use error::PsiError;
-pub use out_of_core::{OutOfCore, OutOfCoreRun, sample_file_out_of_core};
 pub use files::{
     ParticleColumns, load_mesh, load_particles, load_points, load_points_as, same_file, save_json,
     save_mesh, save_particle_columns, save_particles, save_points, write_atomically,
 };
 pub use glam::DVec3;
+pub use out_of_core::{OutOfCore, OutOfCoreRun, sample_file_out_of_core};
 pub use prepare::{PreparedInput, builtin_file, builtin_file_with, prepare_input, prepare_points};
 pub use psi_io::{MeshSampling, PointCloudFile, ReadOptions, TriangleMesh};
 pub use psi_mpu::{

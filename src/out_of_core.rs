@@ -222,8 +222,8 @@ pub fn sample_file_out_of_core(
         depth: store.manifest().depth,
         ..TileParams::default()
     };
-    let decisions = decide_store(&store, mpu_params, &tiles, monitor)
-        .map_err(|e| fail(e.to_string()))?;
+    let decisions =
+        decide_store(&store, mpu_params, &tiles, monitor).map_err(|e| fail(e.to_string()))?;
     let decide_seconds = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
     let sampled = sample_tiled(&store, &decisions, mpu_params, particle_params, monitor)

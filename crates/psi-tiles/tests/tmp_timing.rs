@@ -11,7 +11,11 @@ fn timing() {
     let points = if std::env::var("TB").is_ok() {
         psi_shapes::sample_builtin(n, 1)
     } else {
-        AnalyticShape::Torus { major: 1.0, minor: 0.35 }.sample(n, 9)
+        AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.35,
+        }
+        .sample(n, 9)
     };
     let mp = MpuParams::paper();
     let t = Instant::now();
@@ -29,7 +33,11 @@ fn timing() {
         s.particles.len()
     );
     let t = Instant::now();
-    let tp = TileParams { depth: std::env::var("TD").map_or(2, |v| v.parse().unwrap()), halo: std::env::var("TH").map_or(0.25, |v| v.parse().unwrap()), shared_levels: std::env::var("TS").map_or(2, |v| v.parse().unwrap()) };
+    let tp = TileParams {
+        depth: std::env::var("TD").map_or(2, |v| v.parse().unwrap()),
+        halo: std::env::var("TH").map_or(0.25, |v| v.parse().unwrap()),
+        shared_levels: std::env::var("TS").map_or(2, |v| v.parse().unwrap()),
+    };
     let d = decide_tiled(&points, &mp, &tp, &Monitor::silent()).unwrap();
     eprintln!(
         "decide tiled {:.3}s {:?}",

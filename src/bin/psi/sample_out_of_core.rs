@@ -28,13 +28,19 @@ pub(crate) fn memory_size(text: &str) -> Result<u64, String> {
         "mb" => 1_000_000,
         "gb" => 1_000_000_000,
         "tb" => 1_000_000_000_000,
-        other => return Err(format!("{text}: unknown unit `{other}` (use KiB, MiB, GiB, TiB)")),
+        other => {
+            return Err(format!(
+                "{text}: unknown unit `{other}` (use KiB, MiB, GiB, TiB)"
+            ));
+        }
     };
     let bytes = n
         .checked_mul(factor)
         .ok_or_else(|| format!("{text} is too large"))?;
     if bytes < 64 << 20 {
-        return Err(format!("{text} is below the 64 MiB a run out of core needs"));
+        return Err(format!(
+            "{text} is below the 64 MiB a run out of core needs"
+        ));
     }
     Ok(bytes)
 }

@@ -1,0 +1,176 @@
+//! `psi sample --max-memory`: out of core on the bunny, from a PLY (read whole) and from a
+//! PCD (streamed), against the in-core run of the same points (the oracle: the same count,
+//! the same MPU); resuming from the scratch files; damaged files decided again; bad input
+//! refused without touching the output.
+
+mod common;
+
+use std::path::Path;
+
+use serde_json::Value;
+
+fn json(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// `points` as an ASCII PCD with normals.
+fn write_pcd(path: &Path, points: &[psi::OrientedPoint]) {
+    let mut s = format!(
+        "VERSION 0.7\nFIELDS x y z normal_x normal_y normal_z\nSIZE 8 8 8 8 8 8\nTYPE F F F F F F\n\
+         COUNT 1 1 1 1 1 1\nWIDTH {n}\nHEIGHT 1\nPOINTS {n}\nDATA ascii\n",
+        n = points.len()
+    );
+    for p in points {
+        s += &format!(
+            "{:?} {:?} {:?} {:?} {:?} {:?}\n",
+            p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
+        );
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+#[test]
+fn the_bunny_out_of_core_has_the_in_core_count_and_resumes_from_its_tiles() {
+    let Some(bunny) = common::model("bunny.ply") else {
+        return;
+    };
+    let dir = common::scratch("out-of-core");
+    let b = bunny.to_str().unwrap();
+    let run = |input: &str, out: &str, report: &str| {
+        let out = common::psi(&[
+            "sample",
+            input,
+            "--max-memory",
+            "256MiB",
+            "-o",
+            out,
+            "--json",
+            report,
+            "-q",
+        ]);
+        common::assert_success(&out);
+    };
+    let (o1, j1) = (dir.join("a.ply"), dir.join("a.json"));
+    run(b, o1.to_str().unwrap(), j1.to_str().unwrap());
+    let a = json(&j1);
+    assert!(a["tiles"]["count"].as_u64().unwrap() >= 8, "{a}");
+    assert_eq!(a["tiles"]["resumed"], false);
+    // The in-core run of the same points (nothing removed or added).
+    let jc = dir.join("core.json");
+    let out = common::psi(&[
+        "sample",
+        b,
+        "--keep-outliers",
+        "--no-noise-estimate",
+        "--keep-inward-normals",
+        "--no-densify",
+        "--json",
+        jc.to_str().unwrap(),
+        "-q",
+    ]);
+    common::assert_success(&out);
+    let core = json(&jc);
+    assert_eq!(a["particles"]["count"], core["particles"]["count"]);
+    assert_eq!(a["tiles"]["cells"], core["mpu"]["report"]["cells"]);
+
+    // Again: the tile and decision files are found and used; the particles are the same.
+    let (o2, j2) = (dir.join("b.ply"), dir.join("b.json"));
+    let scratch = dir.join("a.ply.psi-scratch");
+    let out = common::psi(&[
+        "sample",
+        b,
+        "--max-memory",
+        "256MiB",
+        "-o",
+        o2.to_str().unwrap(),
+        "--json",
+        j2.to_str().unwrap(),
+        "--scratch",
+        scratch.to_str().unwrap(),
+        "-q",
+    ]);
+    common::assert_success(&out);
+    assert_eq!(json(&j2)["tiles"]["resumed"], true);
+    assert_eq!(std::fs::read(&o1).unwrap(), std::fs::read(&o2).unwrap());
+
+    // A damaged decisions file is decided again, to the same particles.
+    let tiles = scratch.join("tiles");
+    let victim = std::fs::read_dir(&tiles)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| {
+            p.file_name()
+                .unwrap()
+                .to_string_lossy()
+                .starts_with("cells-0")
+        })
+        .unwrap();
+    let mut bytes = std::fs::read(&victim).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x10;
+    std::fs::write(&victim, &bytes).unwrap();
+    let o3 = dir.join("c.ply");
+    let out = common::psi(&[
+        "sample",
+        b,
+        "--max-memory",
+        "256MiB",
+        "-o",
+        o3.to_str().unwrap(),
+        "--scratch",
+        scratch.to_str().unwrap(),
+        "-q",
+    ]);
+    common::assert_success(&out);
+    assert_eq!(std::fs::read(&o1).unwrap(), std::fs::read(&o3).unwrap());
+
+    // The same points streamed from a PCD: the same count.
+    let points = psi::load_points(&bunny, &psi::ReadOptions::paper())
+        .unwrap()
+        .points;
+    let pcd = dir.join("bunny.pcd");
+    write_pcd(&pcd, &points);
+    let j4 = dir.join("d.json");
+    run(
+        pcd.to_str().unwrap(),
+        dir.join("d.ply").to_str().unwrap(),
+        j4.to_str().unwrap(),
+    );
+    assert_eq!(json(&j4)["particles"]["count"], core["particles"]["count"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn out_of_core_refuses_points_without_normals_and_bad_sizes() {
+    let dir = common::scratch("out-of-core-bad");
+    let xyz = dir.join("plain.xyz");
+    std::fs::write(&xyz, "0 0 0\n1 0 0\n0 1 0\n0 0 1\n").unwrap();
+    let kept = dir.join("kept.ply");
+    std::fs::write(&kept, "precious").unwrap();
+    let out = common::psi(&[
+        "sample",
+        xyz.to_str().unwrap(),
+        "--max-memory",
+        "1GiB",
+        "-o",
+        kept.to_str().unwrap(),
+    ]);
+    common::assert_rejected(&out, "plain.xyz", &kept, "no normals");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no normals"));
+    for size in ["12XB", "lots", "1MiB"] {
+        let out = common::psi(&[
+            "sample",
+            xyz.to_str().unwrap(),
+            "--max-memory",
+            size,
+            "-o",
+            kept.to_str().unwrap(),
+        ]);
+        assert_eq!(out.status.code(), Some(2), "{size}");
+        assert_eq!(std::fs::read(&kept).unwrap(), b"precious");
+    }
+    let out = common::psi(&["sample", xyz.to_str().unwrap(), "--max-memory", "1GiB"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--scratch"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
