@@ -45,7 +45,10 @@ pub use files::{
     save_mesh, save_particle_columns, save_particles, save_points, write_atomically,
 };
 pub use glam::DVec3;
-pub use out_of_core::{OutOfCore, OutOfCoreRun, sample_file_out_of_core};
+pub use out_of_core::{
+    OutOfCore, OutOfCoreRun, out_of_core_json, parse_memory_size, sample_file_out_of_core,
+    sample_files_out_of_core,
+};
 pub use prepare::{PreparedInput, builtin_file, builtin_file_with, prepare_input, prepare_points};
 pub use psi_io::{MeshSampling, PointCloudFile, ReadOptions, TriangleMesh};
 pub use psi_mpu::{

@@ -149,7 +149,8 @@ fn for_each_points(
     }
 }
 
-/// Samples the file at `path` (read as `format`, or as its extension says) out of core:
+/// Samples the files at `paths` (one input, their points in this order, as a survey's tiles
+/// come; each read as `format`, or as its extension says) out of core:
 /// the MPU with `mpu_params` decided tile by tile, bitwise the in-core build of the same
 /// points, and particles with `particle_params` (k per leaf: the in-core seeds and count;
 /// relaxed tile by tile and stitched). Tile files go to `options.scratch`; a run that finds
@@ -161,20 +162,28 @@ fn for_each_points(
 /// [`PsiError::Open`] / [`PsiError::Read`] for the input; [`PsiError::OutOfCore`] when it has
 /// no normals, the budget is too small, an exact count or uniform mode is asked for, or a
 /// scratch file fails (named).
-pub fn sample_file_out_of_core(
-    path: &Path,
+pub fn sample_files_out_of_core(
+    paths: &[PathBuf],
     format: Option<Format>,
     mpu_params: &MpuParams,
     particle_params: &ParticleParams,
     options: &OutOfCore,
     monitor: &Monitor<'_>,
 ) -> Result<OutOfCoreRun, PsiError> {
+    let first = paths.first().ok_or_else(|| PsiError::OutOfCore {
+        path: PathBuf::new(),
+        reason: "no input files given".into(),
+    })?;
     let fail = |reason: String| PsiError::OutOfCore {
-        path: path.to_path_buf(),
+        path: first.clone(),
         reason,
     };
     let t0 = Instant::now();
-    let source = source_of(path)?;
+    let source = paths
+        .iter()
+        .map(|p| source_of(p))
+        .collect::<Result<Vec<_>, _>>()?
+        .join("\n");
     let dir = options.scratch.join("tiles");
     let (store, points, dropped, resumed) = match TileStore::open(&dir) {
         Ok(store) if store.manifest().source == source => {
@@ -186,7 +195,7 @@ pub fn sample_file_out_of_core(
             let mut bounds: Option<Aabb> = None;
             let mut count = 0u64;
             monitor.report("read", 0, 2);
-            for_each_points(path, format, |chunk| {
+            for_each_input(paths, format, |chunk| {
                 count += chunk.len() as u64;
                 let b = Aabb::from_points(chunk.iter().map(|p| p.p));
                 bounds = match (bounds, b) {
@@ -207,7 +216,7 @@ pub fn sample_file_out_of_core(
             let buffer = (options.max_memory / 4 / 56).max(1 << 16) as usize;
             let mut writer = TileWriter::create(&dir, frame, depth, buffer, &source)
                 .map_err(|e| fail(e.to_string()))?;
-            let dropped = for_each_points(path, format, |chunk| {
+            let dropped = for_each_input(paths, format, |chunk| {
                 writer.push(chunk).map_err(|e| fail(e.to_string()))?;
                 monitor.check().map_err(|_| fail("interrupted".into()))
             })?;
@@ -239,6 +248,39 @@ pub fn sample_file_out_of_core(
     })
 }
 
+/// [`sample_files_out_of_core`] of one file.
+pub fn sample_file_out_of_core(
+    path: &Path,
+    format: Option<Format>,
+    mpu_params: &MpuParams,
+    particle_params: &ParticleParams,
+    options: &OutOfCore,
+    monitor: &Monitor<'_>,
+) -> Result<OutOfCoreRun, PsiError> {
+    let paths = [path.to_path_buf()];
+    sample_files_out_of_core(
+        &paths,
+        format,
+        mpu_params,
+        particle_params,
+        options,
+        monitor,
+    )
+}
+
+/// [`for_each_points`] of every file in `paths`, in order; returns the points dropped.
+fn for_each_input(
+    paths: &[PathBuf],
+    format: Option<Format>,
+    mut visit: impl FnMut(&[OrientedPoint]) -> Result<(), PsiError>,
+) -> Result<u64, PsiError> {
+    let mut dropped = 0;
+    for path in paths {
+        dropped += for_each_points(path, format, &mut visit)?;
+    }
+    Ok(dropped)
+}
+
 /// What identifies the input of a run: its path, size and modification time.
 fn source_of(path: &Path) -> Result<String, PsiError> {
     let meta = fs::metadata(path).map_err(|e| open_error(path, e))?;
@@ -254,4 +296,93 @@ fn source_of(path: &Path) -> Result<String, PsiError> {
         meta.len(),
         modified
     ))
+}
+
+/// Parses a memory size: a whole number of bytes, or with a unit KiB, MiB, GiB, TiB (powers of
+/// 1024; K, M, G, T alike) or KB, MB, GB, TB (powers of 1000); at least 64 MiB.
+///
+/// ```
+/// assert_eq!(psi::parse_memory_size("4GiB"), Ok(4 << 30));
+/// assert!(psi::parse_memory_size("12XB").is_err());
+/// ```
+pub fn parse_memory_size(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let split = t.find(|c: char| !c.is_ascii_digit()).unwrap_or(t.len());
+    let (digits, unit) = t.split_at(split);
+    let n: u64 = digits
+        .parse()
+        .map_err(|_| format!("{text} is not a size such as 4GiB or 512MiB"))?;
+    let factor: u64 = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 1,
+        "kib" | "k" => 1 << 10,
+        "mib" | "m" => 1 << 20,
+        "gib" | "g" => 1 << 30,
+        "tib" | "t" => 1 << 40,
+        "kb" => 1_000,
+        "mb" => 1_000_000,
+        "gb" => 1_000_000_000,
+        "tb" => 1_000_000_000_000,
+        other => {
+            return Err(format!(
+                "{text}: unknown unit `{other}` (use KiB, MiB, GiB, TiB)"
+            ));
+        }
+    };
+    let bytes = n
+        .checked_mul(factor)
+        .ok_or_else(|| format!("{text} is too large"))?;
+    if bytes < 64 << 20 {
+        return Err(format!(
+            "{text} is below the 64 MiB a run out of core needs"
+        ));
+    }
+    Ok(bytes)
+}
+
+/// The JSON report of a run out of core (what `psi sample --max-memory --json` writes and
+/// Python's `sample_files` returns): the inputs, the parameters, the particle count and the
+/// `tiles` object.
+pub fn out_of_core_json(
+    inputs: &[PathBuf],
+    mpu_params: &MpuParams,
+    particle_params: &ParticleParams,
+    options: &OutOfCore,
+    run: &OutOfCoreRun,
+) -> serde_json::Value {
+    serde_json::json!({
+        "input": {
+            "paths": inputs.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+            "points": run.points,
+            "dropped_zero_normals": run.dropped,
+        },
+        "mpu": { "error_rel": mpu_params.error_rel, "max_depth": mpu_params.max_depth },
+        "particles": {
+            "count": run.particles.len(),
+            "k": particle_params.k,
+            "iterations": particle_params.iterations,
+        },
+        "tiles": {
+            "count": run.tiles.count,
+            "depth": run.tiles.depth,
+            "halo": run.tiles.halo,
+            "points_per_tile": run.tiles.points_per_tile,
+            "halo_points": run.tiles.halo_points,
+            "halos_grown": run.tiles.halos_grown,
+            "balls_fetched": run.tiles.balls_fetched,
+            "crossing_cells": run.tiles.crossing_cells,
+            "cells": run.tiles.cells,
+            "resumed": run.resumed,
+            "scratch": options.scratch.display().to_string(),
+            "max_memory_bytes": options.max_memory,
+            "seconds": {
+                "read": run.seconds[0],
+                "decide": run.seconds[1],
+                "sample": run.seconds[2],
+                "stitch": run.sampling.stitch_seconds,
+            },
+            "sampling": run.sampling,
+            "preprocessing": "none (points used as given)",
+        },
+        "peak_memory_bytes": crate::report::peak_memory_bytes(),
+    })
 }

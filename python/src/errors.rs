@@ -50,7 +50,9 @@ pub(crate) fn psi_error(py: Python<'_>, error: psi::PsiError, context: Option<&s
         psi::PsiError::Open { reason, .. } | psi::PsiError::Write { reason, .. } => {
             os_error(py, message, reason)
         }
-        psi::PsiError::Read { .. } | psi::PsiError::Render { .. } => value_error(message),
+        psi::PsiError::Read { .. }
+        | psi::PsiError::Render { .. }
+        | psi::PsiError::OutOfCore { .. } => value_error(message),
     }
 }
 

@@ -15,6 +15,7 @@ mod errors;
 mod json;
 mod monitor;
 mod mpu;
+mod out_of_core;
 mod pickle;
 mod points;
 mod render;
@@ -35,6 +36,7 @@ fn psi_python(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sample::sample, m)?)?;
     m.add_function(wrap_pyfunction!(sample::save_particles, m)?)?;
     m.add_function(wrap_pyfunction!(sample::load_particles, m)?)?;
+    m.add_function(wrap_pyfunction!(out_of_core::sample_files, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(render::render_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(mpu::_rust_loop_seconds, m)?)?;

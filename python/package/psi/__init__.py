@@ -3,7 +3,7 @@
 Read and prepare points (``load_points``, ``PointSet``, ``builtin_model``), build the MPU
 implicit (``Mpu``), sample particles (``sample``), edit locally (``Scene``), save, read and
 draw particles (``save_particles``, ``load_particles``, ``Particles``, ``render``,
-``render_mesh``). NumPy arrays in and out; every result equals the ``psi`` command line's for
+``render_mesh``), and sample files larger than memory (``sample_files``). NumPy arrays in and out; every result equals the ``psi`` command line's for
 the same input and options. See ``help(psi.Mpu)`` and the others.
 """
 
@@ -19,6 +19,7 @@ from ._psi import (
     render,
     render_mesh,
     sample,
+    sample_files,
     save_particles,
 )
 
@@ -34,5 +35,6 @@ __all__ = [
     "render",
     "render_mesh",
     "sample",
+    "sample_files",
     "save_particles",
 ]

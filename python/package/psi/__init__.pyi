@@ -26,6 +26,7 @@ from os import PathLike
 from typing import (
     Any,
     Callable,
+    Dict,
     List,
     Literal,
     Mapping,
@@ -53,6 +54,7 @@ __all__ = [
     "render",
     "render_mesh",
     "sample",
+    "sample_files",
     "save_particles",
 ]
 
@@ -330,6 +332,29 @@ def save_particles(path: _Path, particles: Particles) -> None:
     """Writes binary PLY ``x y z nx ny nz depth sigma`` (float64), as ``psi sample -o``, with
     only the columns the particles have (no ``depth``/``sigma`` when they are ``None``);
     ``OSError`` when it cannot (an existing file is then untouched)."""
+
+def sample_files(
+    inputs: Union[_Path, List[_Path]],
+    output: _Path,
+    *,
+    max_memory: Union[int, str],
+    scratch: Optional[_Path] = None,
+    k: int = 1,
+    iterations: int = 20,
+    seed: int = 2007,
+    mpu_error: Optional[float] = None,
+    progress: _Progress = None,
+) -> Dict[str, Any]:
+    """Samples ``inputs`` (a path, or a list of paths read as one input in that order) out of
+    core within ``max_memory`` (bytes, or a size such as ``"4GiB"``; at least 64 MiB): the
+    points streamed into tile files in ``scratch`` (default ``<output>.psi-scratch``), the MPU
+    and the particles made tile by tile, the particles written to ``output`` (PLY, or LAS/LAZ by
+    extension). As ``psi sample INPUT --max-memory SIZE``: bitwise its particles. The points are
+    used as given (they need normals; no outlier search or noise estimate out of core yet). A
+    rerun with the same scratch resumes from its files. Returns the CLI's ``--json`` report
+    (``tiles``: count, depth, points per tile, halos, seconds, ...). Stages ``"read"``,
+    ``"tiles"``, ``"sample tiles"``. ``ValueError`` for inputs without normals, a bad size, a
+    budget too small (naming what is needed); ``OSError`` when a file cannot be read."""
 
 def load_particles(path: _Path) -> Particles:
     """Reads particles from a PLY (as ``save_particles`` and ``psi sample -o`` write it,

@@ -54,7 +54,7 @@ pub(crate) struct SampleArgs {
     /// Work out of core within this much memory (e.g. 4GiB, 512MiB): the input streamed into
     /// tile files, the MPU and the particles made tile by tile. The points are used as given
     /// (with their normals; no outlier search or noise estimate yet).
-    #[arg(long, value_parser = crate::sample_out_of_core::memory_size,
+    #[arg(long, value_parser = psi::parse_memory_size,
         conflicts_with_all = ["count", "uniform", "png", "points_out", "evaluation_floor"])]
     max_memory: Option<u64>,
     /// Where the tile files of --max-memory go (default: `<output>.psi-scratch` beside the

@@ -5,45 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, anyhow};
 use psi::{MpuParams, OutOfCore, ParticleParams};
-use serde_json::json;
 
 use crate::Failure;
-
-/// Parses a memory size: a whole number of bytes, or with a unit KiB, MiB, GiB, TiB (powers of
-/// 1024) or KB, MB, GB, TB (powers of 1000).
-pub(crate) fn memory_size(text: &str) -> Result<u64, String> {
-    let t = text.trim();
-    let split = t.find(|c: char| !c.is_ascii_digit()).unwrap_or(t.len());
-    let (digits, unit) = t.split_at(split);
-    let n: u64 = digits
-        .parse()
-        .map_err(|_| format!("{text} is not a size such as 4GiB or 512MiB"))?;
-    let factor: u64 = match unit.trim().to_ascii_lowercase().as_str() {
-        "" | "b" => 1,
-        "kib" | "k" => 1 << 10,
-        "mib" | "m" => 1 << 20,
-        "gib" | "g" => 1 << 30,
-        "tib" | "t" => 1 << 40,
-        "kb" => 1_000,
-        "mb" => 1_000_000,
-        "gb" => 1_000_000_000,
-        "tb" => 1_000_000_000_000,
-        other => {
-            return Err(format!(
-                "{text}: unknown unit `{other}` (use KiB, MiB, GiB, TiB)"
-            ));
-        }
-    };
-    let bytes = n
-        .checked_mul(factor)
-        .ok_or_else(|| format!("{text} is too large"))?;
-    if bytes < 64 << 20 {
-        return Err(format!(
-            "{text} is below the 64 MiB a run out of core needs"
-        ));
-    }
-    Ok(bytes)
-}
 
 /// The scratch directory: `--scratch`, else `<output>.psi-scratch` beside the output.
 fn scratch_dir(scratch: Option<&Path>, output: Option<&Path>) -> Result<PathBuf, Failure> {
@@ -83,7 +46,7 @@ pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
     );
     let options = OutOfCore {
         max_memory: req.max_memory,
-        scratch: scratch.clone(),
+        scratch,
         tile_depth: None,
     };
     let bar = ui.bar("tiles", 1);
@@ -107,32 +70,8 @@ pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
         psi::save_particles(out, &run.particles, &psi::io::PointAttributes::default())?;
     }
     if let Some(path) = req.json {
-        let report = json!({
-            "input": { "path": req.input.display().to_string(), "points": run.points,
-                       "dropped_zero_normals": run.dropped },
-            "mpu": { "error_rel": req.mpu.error_rel, "max_depth": req.mpu.max_depth },
-            "particles": { "count": run.particles.len(), "k": req.particles.k,
-                           "iterations": req.particles.iterations },
-            "tiles": {
-                "count": run.tiles.count,
-                "depth": run.tiles.depth,
-                "halo": run.tiles.halo,
-                "points_per_tile": run.tiles.points_per_tile,
-                "halo_points": run.tiles.halo_points,
-                "halos_grown": run.tiles.halos_grown,
-                "balls_fetched": run.tiles.balls_fetched,
-                "crossing_cells": run.tiles.crossing_cells,
-                "cells": run.tiles.cells,
-                "resumed": run.resumed,
-                "scratch": scratch.display().to_string(),
-                "max_memory_bytes": req.max_memory,
-                "seconds": { "read": run.seconds[0], "decide": run.seconds[1],
-                             "sample": run.seconds[2], "stitch": run.sampling.stitch_seconds },
-                "sampling": run.sampling,
-                "preprocessing": "none (points used as given)",
-            },
-            "peak_memory_bytes": psi::report::peak_memory_bytes(),
-        });
+        let inputs = [req.input.to_path_buf()];
+        let report = psi::out_of_core_json(&inputs, &req.mpu, &req.particles, &options, &run);
         psi::save_json(path, &report)?;
     }
     ui.summary(&format!(

@@ -1,0 +1,60 @@
+"""``psi.sample_files``: out of core as ``psi sample --max-memory``, bit for bit; a list of
+files read as one input; resuming from the scratch files; bad sizes and points without normals
+refused with the CLI's messages."""
+
+import numpy as np
+import pytest
+
+import psi
+from conftest import cli_error, model, run_cli
+
+
+def write_xyz(path, points, normals):
+    with open(path, "w") as f:
+        for p, n in zip(points, normals):
+            f.write(" ".join(repr(float(v)) for v in (*p, *n)) + "\n")
+
+
+def test_sample_files_equals_the_cli_out_of_core_bitwise(cli, tmp_path):
+    bunny = model("bunny.ply")
+    out_py = tmp_path / "py.ply"
+    report = psi.sample_files(bunny, out_py, max_memory="256MiB", scratch=tmp_path / "s1")
+    out_cli = tmp_path / "cli.ply"
+    run_cli(cli, "sample", bunny, "--max-memory", "256MiB", "-o", out_cli,
+            "--scratch", tmp_path / "s2")
+    assert out_py.read_bytes() == out_cli.read_bytes()
+    tiles = report["tiles"]
+    assert tiles["count"] >= 8 and tiles["resumed"] is False
+    assert report["particles"]["count"] == len(psi.load_particles(out_py))
+    # Again in the same scratch: resumed, the same file.
+    again = psi.sample_files(bunny, tmp_path / "again.ply", max_memory=256 << 20,
+                             scratch=tmp_path / "s1")
+    assert again["tiles"]["resumed"] is True
+    assert (tmp_path / "again.ply").read_bytes() == out_py.read_bytes()
+
+
+def test_a_list_of_files_is_one_input_in_order(tmp_path):
+    ps = psi.builtin_model(20_000)
+    pts, nrm = np.asarray(ps.points), np.asarray(ps.normals)
+    whole, a, b = tmp_path / "whole.xyz", tmp_path / "a.xyz", tmp_path / "b.xyz"
+    write_xyz(whole, pts, nrm)
+    write_xyz(a, pts[:7000], nrm[:7000])
+    write_xyz(b, pts[7000:], nrm[7000:])
+    one = psi.sample_files(whole, tmp_path / "one.ply", max_memory="128MiB")
+    two = psi.sample_files([a, b], tmp_path / "two.ply", max_memory="128MiB")
+    assert one["input"]["points"] == two["input"]["points"] == len(pts)
+    assert (tmp_path / "one.ply").read_bytes() == (tmp_path / "two.ply").read_bytes()
+
+
+def test_bad_sizes_and_missing_normals_are_refused_as_the_cli_refuses_them(cli, tmp_path):
+    plain = tmp_path / "plain.xyz"
+    plain.write_text("0 0 0\n1 0 0\n0 1 0\n0 0 1\n")
+    with pytest.raises(ValueError, match="unknown unit"):
+        psi.sample_files(plain, tmp_path / "x.ply", max_memory="12XB")
+    with pytest.raises(ValueError, match="64 MiB"):
+        psi.sample_files(plain, tmp_path / "x.ply", max_memory=1 << 20)
+    with pytest.raises(ValueError) as e:
+        psi.sample_files(plain, tmp_path / "x.ply", max_memory="1GiB")
+    message = cli_error(cli, "sample", plain, "--max-memory", "1GiB", "-o", tmp_path / "y.ply")
+    assert str(e.value) == message
+    assert not (tmp_path / "x.ply").exists()
