@@ -99,6 +99,34 @@ pub struct RegionFit {
 pub(crate) type CellFitter<'a> =
     dyn Fn(&Cell, &[u32]) -> Result<(CellFit, bool, bool), MpuError> + Sync + 'a;
 
+/// What [`fit_region`] decides a region from.
+#[derive(Clone, Copy)]
+pub struct RegionPoints<'a> {
+    /// The points (shape: M oriented points, world units, any normal length) in increasing
+    /// order of their index in the whole input.
+    pub points: &'a [OrientedPoint],
+    /// Points in the whole input (N ≥ M).
+    pub population: usize,
+    /// Decisions made already for some of the region's cells (a tile's upper levels, decided
+    /// by the pass above the tiles): taken, not fitted, and not part of the result.
+    pub known: Option<&'a CellTable>,
+    /// Where the balls of cells reaching beyond the region's halo come from (`None`: such
+    /// cells are fitted from `points` and the reach says the result is not exact).
+    pub far: Option<FarBalls<'a>>,
+}
+
+impl<'a> RegionPoints<'a> {
+    /// All `points` of an input of `population`, nothing known, nothing fetched.
+    pub fn new(points: &'a [OrientedPoint], population: usize) -> Self {
+        RegionPoints {
+            points,
+            population,
+            known: None,
+            far: None,
+        }
+    }
+}
+
 /// How a region's cells whose fits read beyond its halo are fitted: from their whole ball,
 /// fetched (a tile's empty cells, whose fit radius grows to the nearest data, would otherwise
 /// make the whole tile's halo that wide).
@@ -110,28 +138,27 @@ pub struct FarBalls<'a> {
     pub fetch: &'a FetchBall<'a>,
 }
 
-/// Decides the cells of `region` from `points` (shape: M oriented points, world units, any
-/// normal length, in increasing order of their index in the whole input, which has
-/// `population` ≥ M points), in `frame` with `params`: bitwise the decisions a build over the
-/// whole input in `frame` makes, when `points` hold every input point within
-/// [`RegionFit::reach`] of the region's cube. Cells above the region split along the path to
-/// it; other cells outside it are not fitted. Cells of the region that `known` decides already
-/// (the upper levels of a tile, decided by the pass above the tiles) are taken from it, not
-/// fitted, and are not part of the result.
+/// Decides the cells of `region` from `input` ([`RegionPoints`]) in `frame` with `params`:
+/// bitwise the decisions a build over the whole input in `frame` makes, when the points hold
+/// every input point within [`RegionFit::reach`] of the region's cube. Cells above the region
+/// split along the path to it; other cells outside it are not fitted.
 ///
 /// Errors: a bad parameter, fewer than N_min + 1 points in the whole input, a non-finite point
 /// or zero normal ([`MpuError::BadPoint`], index into `points`), a point outside the frame's
 /// root cube, or an interruption by `monitor`.
 pub fn fit_region(
-    points: &[OrientedPoint],
-    population: usize,
+    input: &RegionPoints<'_>,
     frame: &MpuFrame,
     params: &MpuParams,
     region: &Region,
-    known: Option<&CellTable>,
-    far: Option<FarBalls<'_>>,
     monitor: &Monitor<'_>,
 ) -> Result<RegionFit, MpuError> {
+    let RegionPoints {
+        points,
+        population,
+        known,
+        far,
+    } = *input;
     let need = check_population(params, population)?;
     if points.len() < need && far.is_none() {
         // Too few points to grow a fit radius as the whole input would: a larger halo is needed.

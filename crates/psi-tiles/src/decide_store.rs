@@ -111,12 +111,13 @@ fn fingerprint(store: &TileStore, params: &MpuParams, tiles: &TileParams) -> Str
     let mut h = Sha256::new();
     let m = store.manifest();
     h.update(format!(
-        "{:?}{}{}{:?}{}",
+        "{:?} {} {} {:?} {} {}",
         m.frame_bits,
         m.population,
         m.depth,
         params,
-        format!("{:?}{}", tiles.halo.to_bits(), tiles.shared_levels)
+        tiles.halo.to_bits(),
+        tiles.shared_levels
     ));
     for t in m.tiles.iter().chain([&m.coarse]) {
         h.update(&t.sha256);

@@ -5,7 +5,9 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
-use psi_mpu::{CellAddress, CellTable, FarBalls, MpuFrame, MpuParams, Region, fit_region};
+use psi_mpu::{
+    CellAddress, CellTable, FarBalls, MpuFrame, MpuParams, Region, RegionPoints, fit_region,
+};
 use psi_octree::Monitor;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -58,16 +60,13 @@ pub(crate) fn decide_tile(
             halo: halo - margin,
             fetch: &fetch,
         };
-        let fit = fit_region(
-            &local,
+        let input = RegionPoints {
+            points: &local,
             population,
-            frame,
-            params,
-            &region,
-            Some(top),
-            Some(far),
-            monitor,
-        )?;
+            known: Some(top),
+            far: Some(far),
+        };
+        let fit = fit_region(&input, frame, params, &region, monitor)?;
         if fit.reach + margin <= halo || local.len() == population {
             return Ok(TileOutcome {
                 cells: fit.cells,

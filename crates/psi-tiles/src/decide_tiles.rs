@@ -5,7 +5,10 @@
 
 use std::time::Instant;
 
-use psi_mpu::{BuildOptions, CellAddress, CellTable, Mpu, MpuFrame, MpuParams, Region, fit_region};
+use psi_mpu::{
+    BuildOptions, CellAddress, CellTable, Mpu, MpuFrame, MpuParams, Region, RegionPoints,
+    fit_region,
+};
 use psi_octree::{Monitor, OrientedPoint};
 
 use crate::decide_tile::{TileOutcome, decide_all, decide_tile};
@@ -41,13 +44,10 @@ pub fn decide_tiled(
     let n = points.len();
     let t0 = Instant::now();
     let top = fit_region(
-        points,
-        n,
+        &RegionPoints::new(points, n),
         &frame,
         params,
         &Region::top(tiles.depth + tiles.shared_levels),
-        None,
-        None,
         monitor,
     )?;
     let top_seconds = t0.elapsed().as_secs_f64();

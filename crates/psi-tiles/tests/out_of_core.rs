@@ -8,7 +8,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use glam::DVec3;
 use psi_mpu::{
-    BuildOptions, Mpu, MpuFrame, MpuParams, Region, fit_region, fit_top, is_coarse_point,
+    BuildOptions, Mpu, MpuFrame, MpuParams, Region, RegionPoints, fit_region, fit_top,
+    is_coarse_point,
 };
 use psi_octree::{Aabb, Monitor, OrientedPoint};
 use psi_shapes::{AnalyticShape, gaussian_vector};
@@ -92,13 +93,10 @@ fn the_cells_above_the_tiles_from_the_coarse_points_are_those_from_all_points() 
     for (points, until) in [(noisy_torus(40_000, 2), 3u8), (noisy_torus(3_000, 3), 4)] {
         let frame = MpuFrame::for_points(&points, &params).unwrap();
         let all = fit_region(
-            &points,
-            points.len(),
+            &RegionPoints::new(&points, points.len()),
             &frame,
             &params,
             &Region::top(until),
-            None,
-            None,
             &Monitor::silent(),
         )
         .unwrap();
