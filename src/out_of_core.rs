@@ -170,82 +170,135 @@ pub fn sample_files_out_of_core(
     options: &OutOfCore,
     monitor: &Monitor<'_>,
 ) -> Result<OutOfCoreRun, PsiError> {
+    let t0 = Instant::now();
+    let part = partition_files(paths, format, mpu_params, options, monitor)?;
+    let read_seconds = t0.elapsed().as_secs_f64();
+    let fail = failure(&paths[0]);
+    let t1 = Instant::now();
+    let store = &part.store;
+    let tiles = out_of_core_tiles(store);
+    let decisions =
+        decide_store(store, mpu_params, &tiles, monitor).map_err(|e| fail(e.to_string()))?;
+    let decide_seconds = t1.elapsed().as_secs_f64();
+    let t2 = Instant::now();
+    let sampled = sample_tiled(store, &decisions, mpu_params, particle_params, monitor)
+        .map_err(|e| fail(e.to_string()))?;
+    Ok(OutOfCoreRun {
+        particles: sampled.particles,
+        points: part.points,
+        dropped: part.dropped,
+        tiles: decisions.report,
+        sampling: sampled.report,
+        resumed: part.resumed,
+        seconds: [read_seconds, decide_seconds, t2.elapsed().as_secs_f64()],
+    })
+}
+
+/// The input's points in tile files: what [`partition_files`] made or found.
+#[derive(Clone, Debug)]
+pub struct Partition {
+    /// The tile store (in `<scratch>/tiles`).
+    pub store: TileStore,
+    /// Points in it.
+    pub points: u64,
+    /// Points dropped for a zero normal (0 when the store was found).
+    pub dropped: u64,
+    /// Whether the store of an earlier run on the same files was found and used.
+    pub resumed: bool,
+}
+
+/// The first step of a run out of core (a cluster runs it as one task): the files' points
+/// streamed into tile files in `options.scratch` (two passes: the frame and count, then the
+/// points), or the store an earlier run on the same files left there. The tile depth follows
+/// the budget ([`OutOfCore::tile_depth_for`]).
+///
+/// # Errors
+///
+/// As [`sample_files_out_of_core`].
+pub fn partition_files(
+    paths: &[PathBuf],
+    format: Option<Format>,
+    mpu_params: &MpuParams,
+    options: &OutOfCore,
+    monitor: &Monitor<'_>,
+) -> Result<Partition, PsiError> {
     let first = paths.first().ok_or_else(|| PsiError::OutOfCore {
         path: PathBuf::new(),
         reason: "no input files given".into(),
     })?;
-    let fail = |reason: String| PsiError::OutOfCore {
-        path: first.clone(),
-        reason,
-    };
-    let t0 = Instant::now();
+    let fail = failure(first);
     let source = paths
         .iter()
         .map(|p| source_of(p))
         .collect::<Result<Vec<_>, _>>()?
         .join("\n");
     let dir = options.scratch.join("tiles");
-    let (store, points, dropped, resumed) = match TileStore::open(&dir) {
-        Ok(store) if store.manifest().source == source => {
-            let m = store.manifest();
-            (store.clone(), m.population, 0, true)
-        }
-        _ => {
-            // Pass 1: the frame and the count.
-            let mut bounds: Option<Aabb> = None;
-            let mut count = 0u64;
-            monitor.report("read", 0, 2);
-            for_each_input(paths, format, |chunk| {
-                count += chunk.len() as u64;
-                let b = Aabb::from_points(chunk.iter().map(|p| p.p));
-                bounds = match (bounds, b) {
-                    (Some(a), Some(b)) => Some(Aabb {
-                        min: a.min.min(b.min),
-                        max: a.max.max(b.max),
-                    }),
-                    (a, b) => a.or(b),
-                };
-                monitor.check().map_err(|_| fail("interrupted".into()))
-            })?;
-            let bounds = bounds.ok_or_else(|| fail("holds no points".into()))?;
-            let frame = MpuFrame::for_bounds(&bounds, count as usize, mpu_params)
-                .map_err(|e| fail(e.to_string()))?;
-            let depth = options.tile_depth_for(count).map_err(fail)?;
-            // Pass 2: the points into tile files.
-            monitor.report("read", 1, 2);
-            let buffer = (options.max_memory / 4 / 56).max(1 << 16) as usize;
-            let mut writer = TileWriter::create(&dir, frame, depth, buffer, &source)
-                .map_err(|e| fail(e.to_string()))?;
-            let dropped = for_each_input(paths, format, |chunk| {
-                writer.push(chunk).map_err(|e| fail(e.to_string()))?;
-                monitor.check().map_err(|_| fail("interrupted".into()))
-            })?;
-            let store = writer.finish().map_err(|e| fail(e.to_string()))?;
-            monitor.report("read", 2, 2);
-            (store, count, dropped, false)
-        }
-    };
-    let read_seconds = t0.elapsed().as_secs_f64();
-    let t1 = Instant::now();
-    let tiles = TileParams {
+    if let Ok(store) = TileStore::open(&dir)
+        && store.manifest().source == source
+    {
+        let points = store.manifest().population;
+        return Ok(Partition {
+            store,
+            points,
+            dropped: 0,
+            resumed: true,
+        });
+    }
+    // Pass 1: the frame and the count.
+    let mut bounds: Option<Aabb> = None;
+    let mut count = 0u64;
+    monitor.report("read", 0, 2);
+    for_each_input(paths, format, |chunk| {
+        count += chunk.len() as u64;
+        let b = Aabb::from_points(chunk.iter().map(|p| p.p));
+        bounds = match (bounds, b) {
+            (Some(a), Some(b)) => Some(Aabb {
+                min: a.min.min(b.min),
+                max: a.max.max(b.max),
+            }),
+            (a, b) => a.or(b),
+        };
+        monitor.check().map_err(|_| fail("interrupted".into()))
+    })?;
+    let bounds = bounds.ok_or_else(|| fail("holds no points".into()))?;
+    let frame = MpuFrame::for_bounds(&bounds, count as usize, mpu_params)
+        .map_err(|e| fail(e.to_string()))?;
+    let depth = options.tile_depth_for(count).map_err(&fail)?;
+    // Pass 2: the points into tile files.
+    monitor.report("read", 1, 2);
+    let buffer = (options.max_memory / 4 / 56).max(1 << 16) as usize;
+    let mut writer =
+        TileWriter::create(&dir, frame, depth, buffer, &source).map_err(|e| fail(e.to_string()))?;
+    let dropped = for_each_input(paths, format, |chunk| {
+        writer.push(chunk).map_err(|e| fail(e.to_string()))?;
+        monitor.check().map_err(|_| fail("interrupted".into()))
+    })?;
+    let store = writer.finish().map_err(|e| fail(e.to_string()))?;
+    monitor.report("read", 2, 2);
+    Ok(Partition {
+        store,
+        points: count,
+        dropped,
+        resumed: false,
+    })
+}
+
+/// The tiling a run out of core uses on `store`: its depth, the default halo and shared
+/// levels (what [`psi_tiles::decide_store_top_keys`] and [`psi_tiles::decide_store_tile`]
+/// take on a cluster).
+pub fn out_of_core_tiles(store: &TileStore) -> TileParams {
+    TileParams {
         depth: store.manifest().depth,
         ..TileParams::default()
-    };
-    let decisions =
-        decide_store(&store, mpu_params, &tiles, monitor).map_err(|e| fail(e.to_string()))?;
-    let decide_seconds = t1.elapsed().as_secs_f64();
-    let t2 = Instant::now();
-    let sampled = sample_tiled(&store, &decisions, mpu_params, particle_params, monitor)
-        .map_err(|e| fail(e.to_string()))?;
-    Ok(OutOfCoreRun {
-        particles: sampled.particles,
-        points,
-        dropped,
-        tiles: decisions.report,
-        sampling: sampled.report,
-        resumed,
-        seconds: [read_seconds, decide_seconds, t2.elapsed().as_secs_f64()],
-    })
+    }
+}
+
+/// The error of a run out of core on `path`.
+fn failure(path: &Path) -> impl Fn(String) -> PsiError + '_ {
+    move |reason| PsiError::OutOfCore {
+        path: path.to_path_buf(),
+        reason,
+    }
 }
 
 /// [`sample_files_out_of_core`] of one file.

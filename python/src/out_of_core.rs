@@ -59,22 +59,8 @@ pub(crate) fn sample_files<'py>(
     let inputs = inputs_arg(inputs)?;
     let max_memory = memory_arg(max_memory)?;
     let particle_params = crate::sample::particle_params(iterations, Some(k), None, false, seed)?;
-    let error_rel = match mpu_error {
-        Some(e) if e > 0.0 && e < 1.0 => e,
-        Some(e) => return Err(value_error(format!("mpu_error: {e} is not in (0, 1)"))),
-        None => psi::MpuParams::paper().error_rel,
-    };
-    let mpu_params = psi::MpuParams {
-        error_rel,
-        ..psi::MpuParams::paper()
-    };
-    let scratch = scratch.unwrap_or_else(|| {
-        let name = output
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "particles".into());
-        output.with_file_name(format!("{name}.psi-scratch"))
-    });
+    let mpu_params = mpu_params(mpu_error)?;
+    let scratch = scratch.unwrap_or_else(|| default_scratch(&output));
     let options = psi::OutOfCore {
         max_memory,
         scratch,
@@ -103,4 +89,107 @@ pub(crate) fn sample_files<'py>(
     .map_err(|e| psi_error(py, e, Some("sampling out of core")))?;
     let report = psi::out_of_core_json(&inputs, &mpu_params, &particle_params, &options, &run);
     crate::json::to_python(py, &report)
+}
+
+/// The MPU parameters of a run out of core: the paper's, with `mpu_error` as ε when given.
+fn mpu_params(mpu_error: Option<f64>) -> PyResult<psi::MpuParams> {
+    let error_rel = match mpu_error {
+        Some(e) if e > 0.0 && e < 1.0 => e,
+        Some(e) => return Err(value_error(format!("mpu_error: {e} is not in (0, 1)"))),
+        None => psi::MpuParams::paper().error_rel,
+    };
+    Ok(psi::MpuParams {
+        error_rel,
+        ..psi::MpuParams::paper()
+    })
+}
+
+/// `<output>.psi-scratch` beside `output` (the CLI's default).
+fn default_scratch(output: &std::path::Path) -> PathBuf {
+    let name = output
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "particles".into());
+    output.with_file_name(format!("{name}.psi-scratch"))
+}
+
+/// The tile store in `scratch` that [`_ooc_partition`] made.
+fn open_store(scratch: &std::path::Path) -> PyResult<psi::tiles::TileStore> {
+    psi::tiles::TileStore::open(&scratch.join("tiles")).map_err(|e| value_error(e.to_string()))
+}
+
+/// Task of `psi.distributed.sample_files` (not API): the inputs streamed into the tile files
+/// in `scratch` (or the store of an earlier run found there); returns the point count.
+#[pyfunction]
+#[pyo3(signature = (inputs, max_memory, scratch, mpu_error=None))]
+pub(crate) fn _ooc_partition(
+    py: Python<'_>,
+    inputs: &Bound<'_, PyAny>,
+    max_memory: &Bound<'_, PyAny>,
+    scratch: PathBuf,
+    mpu_error: Option<f64>,
+) -> PyResult<u64> {
+    let inputs = inputs_arg(inputs)?;
+    let options = psi::OutOfCore {
+        max_memory: memory_arg(max_memory)?,
+        scratch,
+        tile_depth: None,
+    };
+    let params = mpu_params(mpu_error)?;
+    let part = crate::errors::detached(py, move || {
+        psi::partition_files(
+            &inputs,
+            None,
+            &params,
+            &options,
+            &psi::octree::Monitor::silent(),
+        )
+    })?
+    .map_err(|e| psi_error(py, e, Some("sampling out of core")))?;
+    Ok(part.points)
+}
+
+/// Task of `psi.distributed.sample_files` (not API): the cells above the tiles decided (or
+/// found); returns the tiles' keys.
+#[pyfunction]
+#[pyo3(signature = (scratch, mpu_error=None))]
+pub(crate) fn _ooc_top(
+    py: Python<'_>,
+    scratch: PathBuf,
+    mpu_error: Option<f64>,
+) -> PyResult<Vec<(u32, u32, u32)>> {
+    let store = open_store(&scratch)?;
+    let params = mpu_params(mpu_error)?;
+    let keys = crate::errors::detached(py, move || {
+        let tiles = psi::out_of_core_tiles(&store);
+        psi::tiles::decide_store_top_keys(&store, &params, &tiles, &psi::octree::Monitor::silent())
+    })?
+    .map_err(|e| value_error(e.to_string()))?;
+    Ok(keys.into_iter().map(|k| (k[0], k[1], k[2])).collect())
+}
+
+/// Task of `psi.distributed.sample_files` (not API): one tile decided and its decisions file
+/// written (or found intact).
+#[pyfunction]
+#[pyo3(signature = (scratch, key, mpu_error=None))]
+pub(crate) fn _ooc_tile(
+    py: Python<'_>,
+    scratch: PathBuf,
+    key: (u32, u32, u32),
+    mpu_error: Option<f64>,
+) -> PyResult<()> {
+    let store = open_store(&scratch)?;
+    let params = mpu_params(mpu_error)?;
+    crate::errors::detached(py, move || {
+        let tiles = psi::out_of_core_tiles(&store);
+        let key = [key.0, key.1, key.2];
+        psi::tiles::decide_store_tile(
+            &store,
+            &params,
+            &tiles,
+            key,
+            &psi::octree::Monitor::silent(),
+        )
+    })?
+    .map_err(|e| value_error(e.to_string()))
 }

@@ -38,71 +38,133 @@ pub fn decide_store(
     tiles: &TileParams,
     monitor: &Monitor<'_>,
 ) -> Result<TiledDecisions, TileError> {
-    let manifest = store.manifest();
-    tiles.validate()?;
-    if tiles.depth != manifest.depth {
-        return Err(TileError::BadParameter(format!(
-            "the store {} holds tiles at depth {}, not {}",
-            store.dir().display(),
-            manifest.depth,
-            tiles.depth
-        )));
-    }
-    let frame = manifest.frame;
-    let population = manifest.population as usize;
-    let print = fingerprint(store, params, tiles);
     let t0 = Instant::now();
-    let top_path = store.dir().join("cells-top.bin");
-    let top = match read_record(&top_path, &print) {
-        Some(r) => r,
-        None => {
-            let coarse = store.coarse_points()?;
-            let fetch = |c, r| store.gather_ball(c, r).map_err(|e| e.to_string());
-            let fit = fit_top(
-                &coarse,
-                population,
-                &frame,
-                params,
-                tiles.depth + tiles.shared_levels,
-                &fetch,
-                monitor,
-            )?;
-            let outcome = TileOutcome {
-                cells: fit.cells,
-                crossing: 0,
-                fetched: 0,
-                grown: 0,
-                points: population as u64,
-                halo_points: coarse.len(),
-                surface: fit.surface,
-            };
-            write_record(&top_path, &print, &outcome)?;
-            outcome
-        }
-    };
+    let top = decide_store_top(store, params, tiles, monitor)?;
     let top_seconds = t0.elapsed().as_secs_f64();
-    let decide = |key: [u32; 3]| {
-        let path = store
-            .dir()
-            .join(format!("cells-{}-{}-{}.bin", key[0], key[1], key[2]));
-        if let Some(outcome) = read_record(&path, &print) {
-            return Ok(outcome);
-        }
-        let count = store.count(key);
-        let outcome = decide_tile(
-            &frame, params, tiles, key, population, count, &top.cells, store, monitor,
-        )?;
-        write_record(&path, &print, &outcome)?;
-        Ok(outcome)
-    };
+    let decide = |key: [u32; 3]| decide_store_tile_with(store, params, tiles, &top, key, monitor);
     let (cells, surface, mut report) = decide_all(&top, tiles, monitor, &decide)?;
     report.top_seconds = top_seconds;
     Ok(TiledDecisions {
-        frame,
+        frame: store.manifest().frame,
         cells,
         surface,
         report,
     })
+}
+
+/// The first task of [`decide_store`] (a cluster runs it alone): the cells above the tiles,
+/// decided from the coarse points (or taken from an intact decisions file). Returns the
+/// tiles' keys, in order, for [`decide_store_tile`].
+///
+/// Errors as [`decide_store`].
+pub fn decide_store_top_keys(
+    store: &TileStore,
+    params: &MpuParams,
+    tiles: &TileParams,
+    monitor: &Monitor<'_>,
+) -> Result<Vec<[u32; 3]>, TileError> {
+    let top = decide_store_top(store, params, tiles, monitor)?;
+    Ok(crate::decide_tile::tile_keys(&top.cells, tiles.depth))
+}
+
+/// One tile of [`decide_store`] (a cluster's task): decided and its decisions file written,
+/// unless an intact one is there. Needs the file of [`decide_store_top_keys`].
+///
+/// Errors as [`decide_store`].
+pub fn decide_store_tile(
+    store: &TileStore,
+    params: &MpuParams,
+    tiles: &TileParams,
+    key: [u32; 3],
+    monitor: &Monitor<'_>,
+) -> Result<(), TileError> {
+    let top = decide_store_top(store, params, tiles, monitor)?;
+    decide_store_tile_with(store, params, tiles, &top, key, monitor).map(|_| ())
+}
+
+/// Checks that `tiles` suit `store`.
+fn check_tiles(store: &TileStore, tiles: &TileParams) -> Result<(), TileError> {
+    tiles.validate()?;
+    let depth = store.manifest().depth;
+    if tiles.depth != depth {
+        return Err(TileError::BadParameter(format!(
+            "the store {} holds tiles at depth {depth}, not {}",
+            store.dir().display(),
+            tiles.depth
+        )));
+    }
+    Ok(())
+}
+
+/// The cells above the tiles: from their decisions file, or decided and written.
+fn decide_store_top(
+    store: &TileStore,
+    params: &MpuParams,
+    tiles: &TileParams,
+    monitor: &Monitor<'_>,
+) -> Result<TileOutcome, TileError> {
+    check_tiles(store, tiles)?;
+    let manifest = store.manifest();
+    let population = manifest.population as usize;
+    let print = fingerprint(store, params, tiles);
+    let top_path = store.dir().join("cells-top.bin");
+    if let Some(r) = read_record(&top_path, &print) {
+        return Ok(r);
+    }
+    let coarse = store.coarse_points()?;
+    let fetch = |c, r| store.gather_ball(c, r).map_err(|e| e.to_string());
+    let fit = fit_top(
+        &coarse,
+        population,
+        &manifest.frame,
+        params,
+        tiles.depth + tiles.shared_levels,
+        &fetch,
+        monitor,
+    )?;
+    let outcome = TileOutcome {
+        cells: fit.cells,
+        crossing: 0,
+        fetched: 0,
+        grown: 0,
+        points: population as u64,
+        halo_points: coarse.len(),
+        surface: fit.surface,
+    };
+    write_record(&top_path, &print, &outcome)?;
+    Ok(outcome)
+}
+
+/// One tile, under the cells `top` decided: from its decisions file, or decided and written.
+fn decide_store_tile_with(
+    store: &TileStore,
+    params: &MpuParams,
+    tiles: &TileParams,
+    top: &TileOutcome,
+    key: [u32; 3],
+    monitor: &Monitor<'_>,
+) -> Result<TileOutcome, TileError> {
+    let print = fingerprint(store, params, tiles);
+    let path = store
+        .dir()
+        .join(format!("cells-{}-{}-{}.bin", key[0], key[1], key[2]));
+    if let Some(outcome) = read_record(&path, &print) {
+        return Ok(outcome);
+    }
+    let manifest = store.manifest();
+    let outcome = decide_tile(
+        &manifest.frame,
+        params,
+        tiles,
+        key,
+        manifest.population as usize,
+        store.count(key),
+        &top.cells,
+        store,
+        monitor,
+    )?;
+    write_record(&path, &print, &outcome)?;
+    Ok(outcome)
 }
 
 /// What a run's decisions depend on: the store's files (their checksums), the parameters and

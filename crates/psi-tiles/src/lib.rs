@@ -31,7 +31,7 @@ mod tile_report;
 mod tile_store;
 mod write_atomically;
 
-pub use decide_store::decide_store;
+pub use decide_store::{decide_store, decide_store_tile, decide_store_top_keys};
 pub use decide_tiles::{TiledDecisions, build_tiled, decide_tiled};
 pub use error::TileError;
 pub use point_source::{PointSource, PointsInMemory};

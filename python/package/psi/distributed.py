@@ -1,0 +1,74 @@
+"""The same tiles on a Dask cluster: ``sample_files`` runs a run out of core (``psi sample
+--max-memory``) as Dask tasks on a ``dask.distributed.Client`` — the partition of the inputs
+into tile files, the cells above the tiles, one task per tile, then the sampling and the
+writing — and writes bitwise the particles the command line writes.
+
+Needs ``dask[distributed]`` (``pip install "./python[dask]"``). Every task reads and writes the
+scratch directory, so on a real cluster it must be on a file system every worker sees. Each
+task is a pure function of the inputs, the budget and its tile: a worker lost while it runs one
+costs a retry (the files are written whole or not at all), never a different result; a rerun
+with the same scratch resumes from the files there.
+"""
+
+from os import PathLike, fspath
+from typing import Any, Dict, List, Optional, Union
+
+from . import _psi
+
+_Path = Union[str, "PathLike[str]"]
+
+#: How often Dask retries a task whose worker died.
+RETRIES = 3
+
+
+def _scratch_for(output: _Path) -> str:
+    path = fspath(output)
+    return path + ".psi-scratch"
+
+
+def sample_files(
+    inputs: Union[_Path, List[_Path]],
+    output: _Path,
+    client: Optional[Any] = None,
+    *,
+    max_memory: Union[int, str],
+    scratch: Optional[_Path] = None,
+    k: int = 1,
+    iterations: int = 20,
+    seed: int = 2007,
+    mpu_error: Optional[float] = None,
+) -> Dict[str, Any]:
+    """``psi.sample_files`` as Dask tasks on ``client`` (a ``LocalCluster`` of worker
+    processes when ``None``, closed afterwards). The tiling is a function of the inputs and
+    ``max_memory`` alone, so the particles written to ``output`` are bitwise those of
+    ``psi sample INPUT --max-memory SIZE`` and of ``psi.sample_files``; ``max_memory`` bounds
+    what psi allocates in a task, not the worker's own baseline. Returns the run's report."""
+    from dask.distributed import Client, LocalCluster
+
+    paths = [fspath(p) for p in ([inputs] if isinstance(inputs, (str, PathLike)) else inputs)]
+    scratch_dir = fspath(scratch) if scratch is not None else _scratch_for(output)
+    own = None
+    if client is None:
+        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True)
+        client = Client(cluster)
+        own = (client, cluster)
+    try:
+        submit = lambda f, *a, **kw: client.submit(f, *a, pure=False, retries=RETRIES, **kw)
+        submit(_psi._ooc_partition, paths, max_memory, scratch_dir, mpu_error).result()
+        keys = submit(_psi._ooc_top, scratch_dir, mpu_error).result()
+        client.gather([submit(_psi._ooc_tile, scratch_dir, key, mpu_error) for key in keys])
+        return submit(
+            _psi.sample_files,
+            paths,
+            fspath(output),
+            max_memory=max_memory,
+            scratch=scratch_dir,
+            k=k,
+            iterations=iterations,
+            seed=seed,
+            mpu_error=mpu_error,
+        ).result()
+    finally:
+        if own is not None:
+            own[0].close()
+            own[1].close()
