@@ -10,10 +10,12 @@ costs a retry (the files are written whole or not at all), never a different res
 with the same scratch resumes from the files there.
 """
 
+import importlib
 from os import PathLike, fspath
 from typing import Any, Dict, List, Optional, Union
 
-from . import _psi
+# The extension's task functions are not part of the typed API (psi/__init__.pyi).
+_psi: Any = importlib.import_module("psi._psi")
 
 _Path = Union[str, "PathLike[str]"]
 
@@ -47,17 +49,20 @@ def sample_files(
 
     paths = [fspath(p) for p in ([inputs] if isinstance(inputs, (str, PathLike)) else inputs)]
     scratch_dir = fspath(scratch) if scratch is not None else _scratch_for(output)
-    own = None
+    own: Any = None
     if client is None:
         cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True)
         client = Client(cluster)
         own = (client, cluster)
     try:
-        submit = lambda f, *a, **kw: client.submit(f, *a, pure=False, retries=RETRIES, **kw)
+
+        def submit(f: Any, *a: Any, **kw: Any) -> Any:
+            return client.submit(f, *a, pure=False, retries=RETRIES, **kw)
+
         submit(_psi._ooc_partition, paths, max_memory, scratch_dir, mpu_error).result()
         keys = submit(_psi._ooc_top, scratch_dir, mpu_error).result()
         client.gather([submit(_psi._ooc_tile, scratch_dir, key, mpu_error) for key in keys])
-        return submit(
+        report: Dict[str, Any] = submit(
             _psi.sample_files,
             paths,
             fspath(output),
@@ -68,6 +73,7 @@ def sample_files(
             seed=seed,
             mpu_error=mpu_error,
         ).result()
+        return report
     finally:
         if own is not None:
             own[0].close()
