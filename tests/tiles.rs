@@ -79,7 +79,7 @@ fn the_bunny_sampled_tile_by_tile_has_the_whole_samplings_seeds_and_count() {
     let whole = Mpu::build(&points, &mparams).unwrap();
     let expected = sample(&whole, &pparams);
     let tiles = TileParams {
-        depth: std::env::var("TD").map_or(2, |v| v.parse().unwrap()),
+        depth: 2,
         halo: 0.25,
         ..TileParams::default()
     };
@@ -102,52 +102,6 @@ fn the_bunny_sampled_tile_by_tile_has_the_whole_samplings_seeds_and_count() {
         b.spacing.cv,
         a.spacing.cv
     );
-    for (la, lb) in a.levels.iter().zip(&b.levels) {
-        eprintln!(
-            "DBG level {} {} / {} cv {} vs {}",
-            la.depth, la.spacing.count, lb.spacing.count, la.spacing.cv, lb.spacing.cv
-        );
-    }
-    eprintln!("DBG overall {} vs {}", a.spacing.cv, b.spacing.cv);
-    {
-        use psi::particles::nearest_neighbour_distances;
-        let frame = decisions.frame;
-        let edge = 2.0 * frame.root_half / f64::from(1u32 << tiles.depth);
-        let low = frame.root_center - psi::DVec3::splat(frame.root_half) + frame.origin;
-        let split = |p: &psi::particles::Particles, lvl: u8| {
-            let nn = nearest_neighbour_distances(&p.positions);
-            let (mut inner, mut outer) = (Vec::new(), Vec::new());
-            for i in 0..p.len() {
-                if p.depth[i] != lvl {
-                    continue;
-                }
-                let t = (p.positions[i] - low) / edge;
-                let to_face = (t - t.round()).abs().min_element() * edge;
-                if to_face > 4.0 * p.target[i] * 2.0 {
-                    inner.push(nn[i])
-                } else {
-                    outer.push(nn[i])
-                }
-            }
-            let cv = |v: &[f64]| {
-                let n = v.len() as f64;
-                let m = v.iter().sum::<f64>() / n;
-                (
-                    (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n).sqrt() / m,
-                    v.len(),
-                    m,
-                )
-            };
-            (cv(&inner), cv(&outer))
-        };
-        for lvl in [5u8, 6, 7] {
-            eprintln!(
-                "DBG lvl {lvl} whole {:?} tiled {:?}",
-                split(&expected.particles, lvl),
-                split(&tiled.particles, lvl)
-            );
-        }
-    }
     for (la, lb) in a.levels.iter().zip(&b.levels) {
         if la.spacing.count >= 100 {
             assert!(lb.spacing.cv <= 2.0 * la.spacing.cv, "level {}", la.depth);

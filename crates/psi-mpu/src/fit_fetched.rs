@@ -24,6 +24,10 @@ pub(crate) struct BallCache {
     balls: Mutex<Vec<FetchedBall>>,
 }
 
+/// The cache holds at most about this many points (then it starts again): what a region's
+/// fetched balls may keep in memory.
+const CACHED_POINTS: usize = 1 << 21;
+
 /// A fetched ball: every input point within `radius` of `center` (local frame) is in `points`.
 struct FetchedBall {
     center: DVec3,
@@ -54,7 +58,11 @@ impl BallCache {
         let points = fetch(center + frame.origin, wide).map_err(MpuError::Fetch)?;
         let n = points.len();
         let indexed = Arc::new((IndexedPoints::new(&points, frame)?, n));
-        self.balls.lock().expect("not poisoned").push(FetchedBall {
+        let mut balls = self.balls.lock().expect("not poisoned");
+        if balls.iter().map(|b| b.points.1).sum::<usize>() + n > CACHED_POINTS {
+            balls.clear();
+        }
+        balls.push(FetchedBall {
             center,
             radius: wide,
             points: Arc::clone(&indexed),

@@ -35,7 +35,7 @@ pub use decide_store::{decide_store, decide_store_tile, decide_store_top_keys};
 pub use decide_tiles::{TiledDecisions, build_tiled, decide_tiled};
 pub use error::TileError;
 pub use point_source::{PointSource, PointsInMemory};
-pub use sample_tiles::{BAND, STITCH, TileSampleReport, TiledSampling, sample_tiled};
+pub use sample_tiles::{BAND, BAND_HALO, STITCH, TileSampleReport, TiledSampling, sample_tiled};
 pub use tile_params::TileParams;
 pub use tile_report::TileReport;
 pub use tile_store::{StoreManifest, StoredTile, TileStore, TileWriter};

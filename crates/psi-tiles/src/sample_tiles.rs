@@ -23,6 +23,9 @@ use crate::{PointSource, TileError, TiledDecisions};
 /// edges (about their particles' spacing) of its cube.
 pub const BAND: f64 = 3.0;
 
+/// A region gathers the points within at most this fraction of its edge around it for its band.
+pub const BAND_HALO: f64 = 0.5;
+
 /// Particles within this many of their spacings (2σ̂) of a region's faces are relaxed again
 /// with the neighbouring regions' particles fixed.
 pub const STITCH: f64 = 3.0;
@@ -316,10 +319,15 @@ fn sample_region(
 }
 
 /// The band of `region`: the surface leaves outside it within [`BAND`] of their edges of its
-/// cube, and how far they reach beyond it with a margin of their edge for the footprint test.
+/// cube (and within [`BAND_HALO`] of its edge, with a margin of their own edge for the footprint
+/// test), and how far they reach beyond it.
 fn band_of(decisions: &TiledDecisions, region: &Region) -> (Vec<CellAddress>, f64) {
     let frame = decisions.frame;
     let (center, half) = region.cube(&frame);
+    // The points gathered stay within a fraction of the region's size (the memory a region
+    // takes is what bounds a run out of core): a coarse leaf that would need more is left out
+    // of the band.
+    let cap = BAND_HALO * 2.0 * half;
     let mut near = Vec::new();
     let mut halo = 0.0f64;
     for &(d, key) in &decisions.surface {
@@ -330,9 +338,10 @@ fn band_of(decisions: &TiledDecisions, region: &Region) -> (Vec<CellAddress>, f6
         let gap = ((c - center).abs() - DVec3::splat(h + half))
             .max_element()
             .max(0.0);
-        if gap < BAND * 2.0 * h {
+        let reach = gap + 4.0 * h;
+        if gap < BAND * 2.0 * h && reach <= cap {
             near.push((d, key));
-            halo = halo.max(gap + 4.0 * h);
+            halo = halo.max(reach);
         }
     }
     (near, halo)
