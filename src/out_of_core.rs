@@ -94,7 +94,8 @@ impl OutOfCore {
 }
 
 /// Calls `visit` with the oriented points of the file at `path`, chunk by chunk in file
-/// order: the scanner formats streamed, PLY, OBJ and XYZ read whole first. Returns the
+/// order: the scanner formats, XYZ and PLY point clouds streamed, PLY meshes and OBJ read
+/// whole first. Returns the
 /// points dropped for a zero normal.
 fn for_each_points(
     path: &Path,
@@ -108,8 +109,18 @@ fn for_each_points(
                  tile by tile is not done yet); run without --max-memory to estimate them"
             .into(),
     };
-    match format.or_else(|| extension_format(path)) {
-        Some(format) if format.is_streamed() => {
+    let format = format.or_else(|| extension_format(path));
+    // A PLY point cloud streams; a PLY mesh (its faces need every vertex) is read whole.
+    let streams = match format {
+        Some(Format::Ply) => {
+            let file = fs::File::open(path).map_err(|e| open_error(path, e))?;
+            PointStream::open(BufReader::new(file), Format::Ply).is_ok()
+        }
+        Some(f) => f.is_streamed() || f == Format::Xyz,
+        None => false,
+    };
+    match format {
+        Some(format) if streams => {
             let file = fs::File::open(path).map_err(|e| open_error(path, e))?;
             let stream =
                 PointStream::open(BufReader::new(file), format).map_err(read_error(path))?;

@@ -1,5 +1,5 @@
-//! `psi sample --max-memory`: out of core on the bunny, from a PLY (read whole) and from a
-//! PCD (streamed), against the in-core run of the same points (the oracle: the same count,
+//! `psi sample --max-memory`: out of core on the bunny, from a PLY mesh (read whole) and from
+//! a PCD, a PLY point cloud and an XYZ file (streamed), against the in-core run of the same points (the oracle: the same count,
 //! the same MPU); resuming from the scratch files; damaged files decided again; bad input
 //! refused without touching the output.
 
@@ -137,6 +137,25 @@ fn the_bunny_out_of_core_has_the_in_core_count_and_resumes_from_its_tiles() {
         j4.to_str().unwrap(),
     );
     assert_eq!(json(&j4)["particles"]["count"], core["particles"]["count"]);
+    // And from a binary PLY point cloud (streamed) and an XYZ file (streamed): the same bytes.
+    let ply = dir.join("bunny-points.ply");
+    psi::save_points(&ply, &points).unwrap();
+    let (o5, o6) = (dir.join("e.ply"), dir.join("f.ply"));
+    run(
+        ply.to_str().unwrap(),
+        o5.to_str().unwrap(),
+        dir.join("e.json").to_str().unwrap(),
+    );
+    let xyz = dir.join("bunny.xyz");
+    common::write_xyz(&xyz, &points);
+    run(
+        xyz.to_str().unwrap(),
+        o6.to_str().unwrap(),
+        dir.join("f.json").to_str().unwrap(),
+    );
+    let d = std::fs::read(dir.join("d.ply")).unwrap();
+    assert_eq!(std::fs::read(&o5).unwrap(), d);
+    assert_eq!(std::fs::read(&o6).unwrap(), d);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

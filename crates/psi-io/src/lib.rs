@@ -80,6 +80,8 @@ mod read_ply;
 mod read_scalars;
 mod read_xyz;
 mod stream;
+mod stream_ply;
+mod stream_xyz;
 mod text;
 mod write_las;
 mod write_ply;

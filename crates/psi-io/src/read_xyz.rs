@@ -12,11 +12,40 @@ pub(crate) fn read_xyz(bytes: &[u8]) -> Result<Parsed, ReadError> {
     if is_blank(bytes) {
         return Err(ReadError::Empty);
     }
+    let mut state = XyzState::default();
+    let (vertices, normals) = read_xyz_block(bytes, &mut state)?;
+    Ok(Parsed {
+        vertices,
+        normals: (state.columns != Some(3)).then_some(normals),
+        faces: Vec::new(),
+        ..Parsed::default()
+    })
+}
+
+/// What parsing carries from one block of lines to the next (a file read in blocks).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct XyzState {
+    /// Columns per point line, set by the first one (6, or 3 for positions only).
+    pub(crate) columns: Option<usize>,
+    /// Lines before the block.
+    pub(crate) lines: usize,
+    /// Points before the block.
+    pub(crate) points: usize,
+}
+
+/// Parses `bytes`, whole lines of an XYZ file after `state.lines` lines and `state.points`
+/// points (line numbers and point indices in errors are the file's), into positions and
+/// normals (zero without normal columns); advances `state`.
+pub(crate) fn read_xyz_block(
+    bytes: &[u8],
+    state: &mut XyzState,
+) -> Result<(Vec<DVec3>, Vec<DVec3>), ReadError> {
     let mut vertices = Vec::new();
     let mut normals = Vec::new();
-    // Columns per line: set by the first point line (6, or 3 for positions only).
-    let mut columns = None;
-    for (number, raw) in numbered_lines(bytes) {
+    let mut last = 0;
+    for (local, raw) in numbered_lines(bytes) {
+        let number = state.lines + local;
+        last = local;
         let text = line_str(raw, number)?.trim();
         if text.is_empty() || text.starts_with('#') {
             continue;
@@ -29,9 +58,9 @@ pub(crate) fn read_xyz(bytes: &[u8]) -> Result<Parsed, ReadError> {
             }
             count += 1;
         }
-        let expected = match columns {
+        let expected = match state.columns {
             Some(c) => c,
-            None if count == 3 || count == 6 => *columns.insert(count),
+            None if count == 3 || count == 6 => *state.columns.insert(count),
             None => 0,
         };
         if count != expected {
@@ -45,7 +74,7 @@ pub(crate) fn read_xyz(bytes: &[u8]) -> Result<Parsed, ReadError> {
                 reason: format!("expected {what}, found {count} tokens"),
             });
         }
-        let index = vertices.len();
+        let index = state.points + vertices.len();
         let p = DVec3::new(values[0], values[1], values[2]);
         let n = DVec3::new(values[3], values[4], values[5]);
         let checked: &[(&str, DVec3)] = if expected == 6 {
@@ -66,10 +95,12 @@ pub(crate) fn read_xyz(bytes: &[u8]) -> Result<Parsed, ReadError> {
         vertices.push(p);
         normals.push(n);
     }
-    Ok(Parsed {
-        vertices,
-        normals: (columns != Some(3)).then_some(normals),
-        faces: Vec::new(),
-        ..Parsed::default()
-    })
+    // A block ends with its newline: the empty piece after it is no line of the file.
+    state.lines += if bytes.last() == Some(&b'\n') {
+        last - 1
+    } else {
+        last
+    };
+    state.points += vertices.len();
+    Ok((vertices, normals))
 }

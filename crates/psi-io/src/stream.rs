@@ -1,5 +1,6 @@
-//! Reading the scanner formats (LAS/LAZ, E57, PCD) in bounded chunks, so that a file larger
-//! than memory can be processed batch by batch; [`read_points_from`] collects the chunks.
+//! Reading the scanner formats (LAS/LAZ, E57, PCD), XYZ and PLY point clouds in bounded chunks, so that a file
+//! larger than memory can be processed batch by batch; [`read_points_from`] collects the
+//! chunks.
 
 use std::io::{Read, Seek, SeekFrom};
 use std::ops::ControlFlow;
@@ -11,7 +12,7 @@ use crate::mesh_to_points;
 use crate::model::{Parsed, PointCloudFile, SourceInfo};
 use crate::options::ReadOptions;
 use crate::point_chunk::{PointChunk, StreamEnd, StreamHeader, io_error};
-use crate::{read_e57, read_las, read_pcd};
+use crate::{read_e57, read_las, read_pcd, stream_ply, stream_xyz};
 
 /// The batch size [`read_points_from`] reads with.
 pub(crate) const COLLECT_CHUNK: usize = 1 << 18;
@@ -20,6 +21,8 @@ enum Inner<R: Read + Seek> {
     Las(read_las::LasStream),
     E57(Box<read_e57::E57Stream<R>>),
     Pcd(Box<read_pcd::PcdStream<R>>),
+    Xyz(Box<stream_xyz::XyzStream<R>>),
+    Ply(Box<stream_ply::PlyStream<R>>),
 }
 
 /// A LAS/LAZ, E57 or PCD file opened for reading in chunks: the header is read and checked
@@ -56,7 +59,9 @@ impl<R: Read + Seek> std::fmt::Debug for PointStream<R> {
 
 impl<R: Read + Seek + Send + Sync + 'static> PointStream<R> {
     /// Opens `input` (positioned anywhere; read from its start) as `format`, one of
-    /// [`Format::Las`], [`Format::Laz`] (the same reader: the header tells), [`Format::E57`]
+    /// [`Format::Las`], [`Format::Laz`] (the same reader: the header tells), [`Format::E57`],
+    /// [`Format::Xyz`] (blocks of whole lines; the first point line says whether there are
+    /// normals), [`Format::Ply`] (a point cloud only: a mesh is refused, to be read whole)
     /// or [`Format::Pcd`], and reads and checks its header.
     ///
     /// # Errors
@@ -64,7 +69,7 @@ impl<R: Read + Seek + Send + Sync + 'static> PointStream<R> {
     /// [`ReadError::Empty`] for an empty input; the format's header errors
     /// ([`ReadError::Las`], [`ReadError::UnsupportedPointFormat`], [`ReadError::E57`],
     /// [`ReadError::E57NoCoordinates`], [`ReadError::PcdHeader`], ...); a
-    /// [`ReadError::Header`] naming PLY, OBJ and XYZ, which are not read as streams.
+    /// [`ReadError::Header`] for OBJ and PLY meshes, which are not read as streams.
     pub fn open(mut input: R, format: Format) -> Result<Self, ReadError> {
         let len = input.seek(SeekFrom::End(0)).map_err(io_error)?;
         input.seek(SeekFrom::Start(0)).map_err(io_error)?;
@@ -84,7 +89,15 @@ impl<R: Read + Seek + Send + Sync + 'static> PointStream<R> {
                 let (h, s) = read_pcd::open(input, len)?;
                 (h, Inner::Pcd(Box::new(s)))
             }
-            Format::Ply | Format::Obj | Format::Xyz => {
+            Format::Xyz => {
+                let (h, s) = stream_xyz::open(input)?;
+                (h, Inner::Xyz(Box::new(s)))
+            }
+            Format::Ply => {
+                let (h, s) = stream_ply::open(input)?;
+                (h, Inner::Ply(Box::new(s)))
+            }
+            Format::Obj => {
                 return Err(ReadError::Header {
                     reason: format!(
                         "{} files are read whole (read_points), not as a point stream",
@@ -126,6 +139,8 @@ impl<R: Read + Seek> PointStream<R> {
             Inner::Las(s) => s.for_each_chunk(&header, max_points, &mut visit),
             Inner::E57(s) => s.for_each_chunk(&header, max_points, &mut visit),
             Inner::Pcd(s) => s.for_each_chunk(&header, max_points, &mut visit),
+            Inner::Xyz(s) => s.for_each_chunk(&header, max_points, &mut visit),
+            Inner::Ply(s) => s.for_each_chunk(&header, max_points, &mut visit),
         }
     }
 }
