@@ -25,6 +25,7 @@
 
 mod error;
 mod files;
+mod memory_estimate;
 mod out_of_core;
 mod prepare;
 pub mod render;
@@ -45,6 +46,9 @@ pub use files::{
     save_mesh, save_particle_columns, save_particles, save_points, write_atomically,
 };
 pub use glam::DVec3;
+pub use memory_estimate::{
+    available_memory_bytes, check_fits_in_memory, estimate_in_core_bytes, estimate_points,
+};
 pub use out_of_core::{
     OutOfCore, OutOfCoreRun, Partition, out_of_core_json, out_of_core_tiles, parse_memory_size,
     partition_files, sample_file_out_of_core, sample_files_out_of_core,

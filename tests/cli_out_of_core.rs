@@ -193,3 +193,33 @@ fn out_of_core_refuses_points_without_normals_and_bad_sizes() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--scratch"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn an_input_that_would_not_fit_in_memory_is_refused_before_it_is_read() {
+    let dir = common::scratch("would-not-fit");
+    let pcd = dir.join("cloud.pcd");
+    let points = psi::AnalyticShape::Sphere { radius: 1.0 }.sample(20_000, 3);
+    write_pcd(&pcd, &points);
+    let kept = dir.join("kept.ply");
+    std::fs::write(&kept, "precious").unwrap();
+    let args = [
+        "sample",
+        pcd.to_str().unwrap(),
+        "-o",
+        kept.to_str().unwrap(),
+    ];
+    // 20 000 points take about 45 MiB in core: with 30 MiB available the run is refused.
+    let out = common::psi_env(&args, &[("PSI_AVAILABLE_MEMORY", "31457280")]);
+    common::assert_rejected(&out, "cloud.pcd", &kept, "would not fit");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--max-memory"));
+    // With 60 MiB it runs.
+    let out = common::psi_env(&args, &[("PSI_AVAILABLE_MEMORY", "62914560")]);
+    common::assert_success(&out);
+    let est = psi::estimate_in_core_bytes(20_000, true);
+    assert!((40 << 20..50 << 20).contains(&est), "{est}");
+    assert_eq!(
+        psi::estimate_points(&pcd, None).unwrap(),
+        (20_000, Some(true))
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

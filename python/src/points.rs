@@ -425,7 +425,11 @@ pub(crate) fn load_points(
     };
     let progress = Progress::from_arg(py, progress)?;
     let name = path.display().to_string();
-    let read = move |_: &Monitor<'_>| psi::load_points(&path, &ReadOptions { sampling });
+    let read = move |_: &Monitor<'_>| {
+        // An input that would not fit says so before it is read (use sample_files).
+        psi::check_fits_in_memory(&path, None)?;
+        psi::load_points(&path, &ReadOptions { sampling })
+    };
     Ok(PointSet::of(prepare(py, name, read, params, &progress)?))
 }
 

@@ -67,6 +67,9 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     if let Some(max_memory) = args.max_memory {
         return run_out_of_core(args, max_memory, ui);
     }
+    if let Some(input) = &args.input.input {
+        psi::check_fits_in_memory(input, args.input.format)?;
+    }
     let loaded = load(&args.input, ui)?;
     for (path, flag) in [
         (&args.output, "-o"),
