@@ -10,7 +10,8 @@
 //! * `level-cv [MODEL] [p,q ...]`: the per-level nearest-neighbour CV split into a level's
 //!   inside and its boundaries;
 //! * `formats [POINTS]`: decoding speed of LAZ and LAS files written by psi (a survey-like
-//!   tile, 10 M points by default), read through the streaming reader.
+//!   tile, 10 M points by default), read through the streaming reader;
+//! * `scale [N,N,...] [MAX_MEMORY]`: in core against out of core at growing sizes.
 //!
 //! MODEL (a path relative to the workspace root, or absolute) defaults to
 //! `../shared/models/bunny.ply`.
@@ -22,6 +23,7 @@ mod eval;
 mod formats;
 mod level_cv;
 mod relax;
+mod scale;
 mod tune;
 mod tune_shapes;
 
@@ -52,12 +54,13 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         return Ok(());
     }
     let (program, rest) = args.split_first().context(
-        "bench needs a program: relax, eval, edit, tune, tune-shapes, level-cv or formats",
+        "bench needs a program: relax, eval, edit, tune, tune-shapes, level-cv, formats or scale",
     )?;
     match program.as_str() {
         "relax" => relax::run(rest),
         "eval" => eval::run(rest),
         "edit" => edit::run(rest),
+        "scale" => scale::run(rest),
         "tune" => tune::run(rest),
         "tune-shapes" => tune_shapes::run(),
         "level-cv" => level_cv::run(rest),

@@ -26,7 +26,7 @@ pub(crate) struct BallCache {
 
 /// The cache holds at most about this many points (then it starts again): what a region's
 /// fetched balls may keep in memory.
-const CACHED_POINTS: usize = 1 << 20;
+const CACHED_POINTS: usize = 1 << 18;
 
 /// A fetched ball: every input point within `radius` of `center` (local frame) is in `points`.
 struct FetchedBall {
