@@ -92,3 +92,33 @@ pub(crate) fn io_error(e: std::io::Error) -> ReadError {
         reason: e.to_string(),
     }
 }
+
+/// Hands `chunk` to `visit` once it holds `max` points, a fresh chunk for `header` taking its
+/// place, and counts its points in `end`; true when the visitor stopped the stream.
+pub(crate) fn emit_if_full<F: FnMut(PointChunk) -> std::ops::ControlFlow<()>>(
+    chunk: &mut PointChunk,
+    header: &StreamHeader,
+    max: usize,
+    end: &mut StreamEnd,
+    visit: &mut F,
+) -> bool {
+    if chunk.len() < max {
+        return false;
+    }
+    end.points += chunk.len() as u64;
+    let full = std::mem::replace(chunk, PointChunk::for_header(header, max.min(1 << 20)));
+    visit(full).is_break()
+}
+
+/// Hands the last, partly filled `chunk` to `visit` (none when empty) and returns `end`.
+pub(crate) fn emit_rest<F: FnMut(PointChunk) -> std::ops::ControlFlow<()>>(
+    chunk: PointChunk,
+    mut end: StreamEnd,
+    visit: &mut F,
+) -> StreamEnd {
+    if !chunk.is_empty() {
+        end.points += chunk.len() as u64;
+        let _ = visit(chunk);
+    }
+    end
+}

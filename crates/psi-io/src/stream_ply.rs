@@ -10,7 +10,7 @@ use glam::DVec3;
 
 use crate::error::ReadError;
 use crate::format::Format;
-use crate::point_chunk::{PointChunk, StreamEnd, StreamHeader, io_error};
+use crate::point_chunk::{PointChunk, StreamEnd, StreamHeader, emit_if_full, emit_rest, io_error};
 
 /// A scalar property type and its size in bytes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -267,20 +267,11 @@ impl<R: Read> PlyStream<R> {
             if let Some(n) = chunk.normals.as_mut() {
                 n.push(DVec3::new(v[3], v[4], v[5]));
             }
-            if chunk.len() >= max {
-                end.points += chunk.len() as u64;
-                let full =
-                    std::mem::replace(&mut chunk, PointChunk::for_header(header, max.min(1 << 20)));
-                if visit(full).is_break() {
-                    return Ok(end);
-                }
+            if emit_if_full(&mut chunk, header, max, &mut end, visit) {
+                return Ok(end);
             }
         }
-        if !chunk.is_empty() {
-            end.points += chunk.len() as u64;
-            let _ = visit(chunk);
-        }
-        Ok(end)
+        Ok(emit_rest(chunk, end, visit))
     }
 }
 

@@ -6,7 +6,7 @@ use std::ops::ControlFlow;
 
 use crate::error::ReadError;
 use crate::format::Format;
-use crate::point_chunk::{PointChunk, StreamEnd, StreamHeader, io_error};
+use crate::point_chunk::{PointChunk, StreamEnd, StreamHeader, emit_if_full, emit_rest, io_error};
 use crate::read_xyz::{XyzState, read_xyz_block};
 use crate::text::is_blank;
 
@@ -81,15 +81,8 @@ impl<R: Read> XyzStream<R> {
                     if let Some(ns) = chunk.normals.as_mut() {
                         ns.push(n);
                     }
-                    if chunk.len() >= max {
-                        end.points += chunk.len() as u64;
-                        let full = std::mem::replace(
-                            &mut chunk,
-                            PointChunk::for_header(header, max.min(1 << 20)),
-                        );
-                        if visit(full).is_break() {
-                            return Ok(end);
-                        }
+                    if emit_if_full(&mut chunk, header, max, &mut end, visit) {
+                        return Ok(end);
                     }
                 }
             }
@@ -97,11 +90,7 @@ impl<R: Read> XyzStream<R> {
                 break;
             }
         }
-        if !chunk.is_empty() {
-            end.points += chunk.len() as u64;
-            let _ = visit(chunk);
-        }
-        Ok(end)
+        Ok(emit_rest(chunk, end, visit))
     }
 }
 

@@ -23,6 +23,15 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
+/// Tiles at `depth` with a first halo of `halo` tile edges.
+fn tiles(depth: u8, halo: f64) -> TileParams {
+    TileParams {
+        depth,
+        halo,
+        ..TileParams::default()
+    }
+}
+
 fn noisy_torus(n: usize, seed: u64) -> Vec<OrientedPoint> {
     let mut points = AnalyticShape::Torus {
         major: 1.0,
@@ -138,28 +147,8 @@ fn decisions_from_the_store_equal_the_build_in_memory() {
     let params = MpuParams::paper();
     let dir = scratch("decide");
     let store = store_of(&points, 2, &dir);
-    let from_store = decide_store(
-        &store,
-        &params,
-        &TileParams {
-            depth: 2,
-            halo: 0.0,
-            ..TileParams::default()
-        },
-        &Monitor::silent(),
-    )
-    .unwrap();
-    let in_memory = decide_tiled(
-        &points,
-        &params,
-        &TileParams {
-            depth: 2,
-            halo: 0.0,
-            ..TileParams::default()
-        },
-        &Monitor::silent(),
-    )
-    .unwrap();
+    let from_store = decide_store(&store, &params, &tiles(2, 0.0), &Monitor::silent()).unwrap();
+    let in_memory = decide_tiled(&points, &params, &tiles(2, 0.0), &Monitor::silent()).unwrap();
     assert_eq!(from_store.cells, in_memory.cells);
     assert_eq!(from_store.frame, in_memory.frame);
     assert_eq!(from_store.surface, in_memory.surface);
@@ -199,17 +188,7 @@ fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
     let params = MpuParams::paper();
     let dir = scratch("resume");
     let store = store_of(&points, 2, &dir);
-    let first = decide_store(
-        &store,
-        &params,
-        &TileParams {
-            depth: 2,
-            halo: 0.1,
-            ..TileParams::default()
-        },
-        &Monitor::silent(),
-    )
-    .unwrap();
+    let first = decide_store(&store, &params, &tiles(2, 0.1), &Monitor::silent()).unwrap();
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -232,17 +211,7 @@ fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
     bytes[mid] ^= 0x40;
     std::fs::write(&files[3], &bytes).unwrap();
     let before3 = inode(&files[3]);
-    let again = decide_store(
-        &store,
-        &params,
-        &TileParams {
-            depth: 2,
-            halo: 0.1,
-            ..TileParams::default()
-        },
-        &Monitor::silent(),
-    )
-    .unwrap();
+    let again = decide_store(&store, &params, &tiles(2, 0.1), &Monitor::silent()).unwrap();
     assert_eq!(again.cells, first.cells);
     for (i, f) in files.iter().enumerate() {
         match i {
@@ -256,28 +225,8 @@ fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
         error_rel: 2.0 * params.error_rel,
         ..params
     };
-    let fresh = decide_store(
-        &store,
-        &other,
-        &TileParams {
-            depth: 2,
-            halo: 0.1,
-            ..TileParams::default()
-        },
-        &Monitor::silent(),
-    )
-    .unwrap();
-    let expected = decide_tiled(
-        &points,
-        &other,
-        &TileParams {
-            depth: 2,
-            halo: 0.1,
-            ..TileParams::default()
-        },
-        &Monitor::silent(),
-    )
-    .unwrap();
+    let fresh = decide_store(&store, &other, &tiles(2, 0.1), &Monitor::silent()).unwrap();
+    let expected = decide_tiled(&points, &other, &tiles(2, 0.1), &Monitor::silent()).unwrap();
     assert_eq!(fresh.cells, expected.cells);
     assert_ne!(fresh.cells, first.cells);
     std::fs::remove_dir_all(&dir).unwrap();
@@ -299,17 +248,7 @@ fn a_damaged_or_truncated_tile_file_is_refused_by_name() {
             bytes.truncate(bytes.len() - 10);
         }
         std::fs::write(&path, &bytes).unwrap();
-        let err = decide_store(
-            &store,
-            &params,
-            &TileParams {
-                depth: 2,
-                halo: 0.1,
-                ..TileParams::default()
-            },
-            &Monitor::silent(),
-        )
-        .unwrap_err();
+        let err = decide_store(&store, &params, &tiles(2, 0.1), &Monitor::silent()).unwrap_err();
         let msg = err.to_string();
         assert!(msg.contains(&path.display().to_string()), "{msg}");
         std::fs::remove_dir_all(&dir).unwrap();
