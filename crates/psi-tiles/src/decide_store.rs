@@ -27,7 +27,7 @@ struct RegionRecord {
 /// depth, as `tiles` says): bitwise the decisions of a build over all the
 /// points in memory. Memory: the coarse points (about 1 in 16) and, per thread, one tile with
 /// its halo. Decisions files go to the store's directory; those already there and intact are
-/// taken as they are ([`TileReport::halos_grown`] and the rest still count them). Progress:
+/// taken as they are ([`crate::TileReport::halos_grown`] and the rest still count them). Progress:
 /// stage `"tiles"`.
 ///
 /// Errors: the MPU layer's, a store file that is missing, truncated or corrupted (named), an

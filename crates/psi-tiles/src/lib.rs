@@ -1,12 +1,16 @@
 //! # psi-tiles
 //!
-//! The MPU build cut into spatial tiles (issue "Beyond one machine"): the octree's cells above
-//! a tile depth are decided by one pass over all points, and every tile — a cell at the tile
-//! depth with its subtree — from the points in its cube and a halo around it, grown until it
-//! holds every point the tile's fits read. A cell's fit reads only the points within its fit
-//! radius, in increasing index order, plus the frame, ε0 and the point count, so each tile's
-//! decisions are bitwise those of the build over all points, and the MPU assembled from them
-//! ([`psi_mpu::BuildOptions::known_cells`]) equals it.
+//! Out of core (issue "Beyond one machine"): the octree's cells above a tile depth (and each
+//! tile's first levels) are decided once, and every tile — a cell at the tile depth with its
+//! subtree — from the points in its cube and a halo around it; a cell whose fit reads beyond
+//! the halo fetches its whole ball. A cell's fit reads only the points within its fit radius,
+//! in increasing index order, plus the frame, ε0 and the point count, so each tile's decisions
+//! are bitwise those of the build over all points, and the MPU assembled from them
+//! ([`psi_mpu::BuildOptions::known_cells`]) equals it. In memory: [`decide_tiled`],
+//! [`build_tiled`]; on disk: [`TileWriter`] and [`TileStore`] (checksummed tile files),
+//! [`decide_store`] (one decisions file per tile, so a run resumes; its two tasks
+//! [`decide_store_top_keys`] and [`decide_store_tile`] for a cluster); particles:
+//! [`sample_tiled`] (seeds exactly the whole sampling's; relaxed per region and stitched).
 //!
 //! ```
 //! use psi_mpu::MpuParams;
