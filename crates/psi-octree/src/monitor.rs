@@ -115,6 +115,15 @@ impl<'a> Monitor<'a> {
         Monitor { observe, stop }
     }
 
+    /// The same stop flag without the observer: for the inner calls of a long call that
+    /// reports its own stages (their stages would interleave with it).
+    pub fn quiet(&self) -> Monitor<'a> {
+        Monitor {
+            observe: None,
+            stop: self.stop,
+        }
+    }
+
     /// Whether the caller asked the work to stop.
     #[inline]
     pub fn stopped(&self) -> bool {

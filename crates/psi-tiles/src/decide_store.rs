@@ -120,7 +120,7 @@ fn decide_store_top(
         params,
         tiles.depth + tiles.shared_levels,
         &fetch,
-        monitor,
+        &monitor.quiet(),
     )?;
     let outcome = TileOutcome {
         cells: fit.cells,

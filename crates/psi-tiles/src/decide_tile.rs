@@ -66,7 +66,7 @@ pub(crate) fn decide_tile(
             known: Some(top),
             far: Some(far),
         };
-        let fit = fit_region(&input, frame, params, &region, monitor)?;
+        let fit = fit_region(&input, frame, params, &region, &monitor.quiet())?;
         if fit.reach + margin <= halo || local.len() == population {
             return Ok(TileOutcome {
                 cells: fit.cells,

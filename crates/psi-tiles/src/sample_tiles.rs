@@ -301,7 +301,7 @@ fn sample_region(
         params.adapt_sigma = false;
     }
     let options = RelaxOptions {
-        monitor: *monitor,
+        monitor: monitor.quiet(),
         ..Default::default()
     };
     relax(&mpu, &mut particles, field, &params, options);
@@ -365,7 +365,7 @@ fn region_mpu(
     let options = BuildOptions {
         frame: Some(decisions.frame),
         known_cells: Some(&decisions.cells),
-        monitor: *monitor,
+        monitor: monitor.quiet(),
         ..Default::default()
     };
     Ok(Some(Mpu::build_with(points, mpu_params, options)?))
@@ -436,7 +436,7 @@ fn stitch_region(
             movable: Some(&movable),
             ..Default::default()
         },
-        monitor: *monitor,
+        monitor: monitor.quiet(),
     };
     relax(&mpu, &mut particles, field, params, options);
     monitor.check()?;

@@ -49,9 +49,16 @@ pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
         scratch,
         tile_depth: None,
     };
-    let bar = ui.bar("tiles", 1);
+    let bar = ui.bar_with_eta("out of core", 1);
+    let stage_now = std::sync::Mutex::new(String::new());
     let observe = |stage: &str, done: u64, total: u64| {
-        bar.set_message(stage.to_owned());
+        let mut now = stage_now.lock().expect("not poisoned");
+        if *now != stage {
+            // A new stage: its own clock, so the time left is the stage's.
+            now.replace_range(.., stage);
+            bar.reset();
+            bar.set_message(stage.to_owned());
+        }
         bar.set_length(total.max(1));
         bar.set_position(done);
     };

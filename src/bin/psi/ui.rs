@@ -22,14 +22,28 @@ impl Ui {
 
     /// A bar over `total` steps labelled `what`, or a hidden one.
     pub(crate) fn bar(&self, what: &str, total: u64) -> ProgressBar {
+        self.bar_with(
+            what,
+            total,
+            "{prefix:>12} [{bar:30}] {pos}/{len} {msg} ({elapsed})",
+        )
+    }
+
+    /// [`Ui::bar`] that also shows the time left in the current stage (long runs out of core:
+    /// tiles done of all, with the time left).
+    pub(crate) fn bar_with_eta(&self, what: &str, total: u64) -> ProgressBar {
+        let template = "{prefix:>12} [{bar:30}] {pos}/{len} {msg} ({elapsed}, about {eta} left)";
+        self.bar_with(what, total, template)
+    }
+
+    fn bar_with(&self, what: &str, total: u64, template: &str) -> ProgressBar {
         if !self.bars() {
             return ProgressBar::hidden();
         }
         let bar = ProgressBar::new(total);
-        let style =
-            ProgressStyle::with_template("{prefix:>12} [{bar:30}] {pos}/{len} {msg} ({elapsed})")
-                .map(|s| s.progress_chars("=> "))
-                .unwrap_or_else(|_| ProgressStyle::default_bar());
+        let style = ProgressStyle::with_template(template)
+            .map(|s| s.progress_chars("=> "))
+            .unwrap_or_else(|_| ProgressStyle::default_bar());
         bar.set_style(style);
         bar.set_prefix(what.to_owned());
         bar.enable_steady_tick(Duration::from_millis(200));
