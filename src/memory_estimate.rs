@@ -53,7 +53,7 @@ pub fn estimate_in_core_bytes(points: u64, normals: bool) -> u64 {
     } else {
         BYTES_PER_BARE_POINT
     };
-    BASE_BYTES + points * per
+    BASE_BYTES.saturating_add(points.saturating_mul(per))
 }
 
 /// The memory available to a new run (Linux `MemAvailable`), bytes; `PSI_AVAILABLE_MEMORY`

@@ -73,9 +73,12 @@ impl OutOfCore {
     /// (coarse points, cell table) would not fit.
     pub fn tile_depth_for(&self, points: u64) -> Result<u8, String> {
         if let Some(d) = self.tile_depth {
+            if !(1..=8).contains(&d) {
+                return Err(format!("the tile depth must be 1 to 8, not {d}"));
+            }
             return Ok(d);
         }
-        let shared = points * BYTES_PER_INPUT_POINT;
+        let shared = points.saturating_mul(BYTES_PER_INPUT_POINT);
         if 2 * shared > self.max_memory {
             return Err(format!(
                 "{} points need at least {} MiB out of core (their coarse copy and cell table), \
@@ -86,10 +89,15 @@ impl OutOfCore {
             ));
         }
         let per_tile = (self.max_memory - shared) / (2 * BYTES_PER_TILE_POINT);
-        let depth = (1..=8u8)
+        (1..=8u8)
             .find(|&d| points / 4u64.pow(u32::from(d)) <= per_tile)
-            .unwrap_or(8);
-        Ok(depth)
+            .ok_or_else(|| {
+                format!(
+                    "{points} points need tiles deeper than 8 levels within --max-memory {} MiB; \
+                     give more memory",
+                    self.max_memory >> 20
+                )
+            })
     }
 }
 
@@ -245,8 +253,11 @@ pub fn partition_files(
         .collect::<Result<Vec<_>, _>>()?
         .join("\n");
     let dir = options.scratch.join("tiles");
+    // An earlier run's store is used when it holds the same files, tiled as this budget
+    // tiles them (the particles depend on the tiling).
     if let Ok(store) = TileStore::open(&dir)
         && store.manifest().source == source
+        && options.tile_depth_for(store.manifest().population) == Ok(store.manifest().depth)
     {
         let points = store.manifest().population;
         return Ok(Partition {
@@ -286,6 +297,17 @@ pub fn partition_files(
         monitor.check().map_err(|_| fail("interrupted".into()))
     })?;
     let store = writer.finish().map_err(|e| fail(e.to_string()))?;
+    // The files must not have changed between the two passes.
+    let now = paths
+        .iter()
+        .map(|p| source_of(p))
+        .collect::<Result<Vec<_>, _>>()?
+        .join("\n");
+    if now != source || store.manifest().population != count {
+        return Err(fail(
+            "the input changed while it was being read; run again".into(),
+        ));
+    }
     monitor.report("read", 2, 2);
     Ok(Partition {
         store,

@@ -163,6 +163,9 @@ pub(crate) fn open<R: Read>(input: R) -> Result<(StreamHeader, PlyStream<R>), Re
                     .iter()
                     .position(|n| n == name)
                     .unwrap_or(6);
+                if slot < 6 && properties.iter().any(|p: &(Scalar, usize)| p.1 == slot) {
+                    return Err(refuse(format!("property {name} repeated: read whole")));
+                }
                 properties.push((scalar, slot));
             }
             _ => {}

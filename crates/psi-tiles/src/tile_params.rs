@@ -42,11 +42,11 @@ impl TileParams {
         }
     }
 
-    /// Checks the ranges: depth 1 to 10, a finite non-negative halo, 0 to 4 shared levels.
+    /// Checks the ranges: depth 1 to 8, a finite non-negative halo, 0 to 4 shared levels.
     pub fn validate(&self) -> Result<(), TileError> {
-        if !(1..=10).contains(&self.depth) {
+        if !(1..=8).contains(&self.depth) {
             return Err(TileError::BadParameter(format!(
-                "the tile depth must be 1 to 10, not {}",
+                "the tile depth must be 1 to 8, not {}",
                 self.depth
             )));
         }

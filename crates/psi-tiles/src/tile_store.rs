@@ -87,6 +87,26 @@ fn io_error(path: &Path, e: impl std::fmt::Display) -> TileError {
     TileError::Store(format!("{}: {e}", path.display()))
 }
 
+/// Whether `name` is one of the files a store writes: `tile-X-Y-Z.pts`, `coarse.pts`,
+/// `cells-top.bin`, `cells-X-Y-Z.bin`.
+fn is_store_file(name: &str) -> bool {
+    let keyed = |prefix: &str, ext: &str| {
+        name.strip_prefix(prefix)
+            .and_then(|r| r.strip_suffix(ext))
+            .is_some_and(|k| {
+                let parts: Vec<&str> = k.split('-').collect();
+                parts.len() == 3
+                    && parts
+                        .iter()
+                        .all(|p| !p.is_empty() && p.bytes().all(|b| b.is_ascii_digit()))
+            })
+    };
+    name == "coarse.pts"
+        || name == "cells-top.bin"
+        || keyed("tile-", ".pts")
+        || keyed("cells-", ".bin")
+}
+
 fn tile_path(dir: &Path, key: [u32; 3]) -> PathBuf {
     dir.join(format!("tile-{}-{}-{}.pts", key[0], key[1], key[2]))
 }
@@ -129,8 +149,12 @@ impl TileWriter {
         }
         for entry in fs::read_dir(dir).map_err(|e| io_error(dir, e))? {
             let path = entry.map_err(|e| io_error(dir, e))?.path();
-            // Point files and the decisions made from them.
-            if path.extension().is_some_and(|x| x == "pts" || x == "bin") {
+            // Only the files a store writes (its point files and the decisions made from them):
+            // whatever else the directory holds is the user's.
+            if path
+                .file_name()
+                .is_some_and(|n| is_store_file(&n.to_string_lossy()))
+            {
                 fs::remove_file(&path).map_err(|e| io_error(&path, e))?;
             }
         }

@@ -13,11 +13,26 @@ pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), TileErro
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    // Unique across processes and hosts sharing the directory (a cluster's scratch), and
+    // across threads of one process.
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    let thread = format!("{:?}", std::thread::current().id());
+    let tag: String = thread.chars().filter(char::is_ascii_digit).collect();
+    let tmp = path.with_file_name(format!(".{name}.{}.{tag}.{nanos}.tmp", std::process::id()));
     let err = |p: &Path, e: std::io::Error| TileError::Store(format!("{}: {e}", p.display()));
-    let mut f = fs::File::create(&tmp).map_err(|e| err(&tmp, e))?;
-    f.write_all(bytes).map_err(|e| err(&tmp, e))?;
-    f.sync_all().map_err(|e| err(&tmp, e))?;
-    drop(f);
-    fs::rename(&tmp, path).map_err(|e| err(path, e))
+    let write = || -> Result<(), TileError> {
+        let mut f = fs::File::create(&tmp).map_err(|e| err(&tmp, e))?;
+        f.write_all(bytes).map_err(|e| err(&tmp, e))?;
+        f.sync_all().map_err(|e| err(&tmp, e))?;
+        drop(f);
+        fs::rename(&tmp, path).map_err(|e| err(path, e))
+    };
+    let done = write();
+    if done.is_err() {
+        // Nothing half-written is left behind.
+        let _ = fs::remove_file(&tmp);
+    }
+    done
 }

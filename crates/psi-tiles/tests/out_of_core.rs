@@ -256,6 +256,22 @@ fn a_damaged_or_truncated_tile_file_is_refused_by_name() {
 }
 
 #[test]
+fn a_new_store_removes_only_the_files_a_store_writes() {
+    let dir = scratch("own-files");
+    std::fs::create_dir_all(&dir).unwrap();
+    // The user's files beside an old store: an XYZ scan named .pts, some binary file.
+    std::fs::write(dir.join("scan.pts"), "0 0 0\n").unwrap();
+    std::fs::write(dir.join("notes.bin"), "mine").unwrap();
+    std::fs::write(dir.join("tile-1-2-3.pts"), "old").unwrap();
+    std::fs::write(dir.join("cells-0-1-1.bin"), "old").unwrap();
+    let points = noisy_torus(2_000, 8);
+    store_of(&points, 1, &dir);
+    assert!(dir.join("scan.pts").is_file() && dir.join("notes.bin").is_file());
+    assert!(!dir.join("tile-1-2-3.pts").exists() && !dir.join("cells-0-1-1.bin").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn a_store_without_its_manifest_is_unfinished_and_refused() {
     let dir = scratch("unfinished");
     let points = noisy_torus(2_000, 7);

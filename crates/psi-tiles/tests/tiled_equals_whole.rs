@@ -175,7 +175,7 @@ fn bad_tiling_parameters_are_refused() {
             ..TileParams::default()
         },
         TileParams {
-            depth: 11,
+            depth: 9,
             halo: 0.1,
             ..TileParams::default()
         },

@@ -55,7 +55,8 @@ pub(crate) struct SampleArgs {
     /// tile files, the MPU and the particles made tile by tile. The points are used as given
     /// (with their normals; no outlier search or noise estimate yet).
     #[arg(long, value_parser = psi::parse_memory_size,
-        conflicts_with_all = ["count", "uniform", "png", "points_out", "evaluation_floor"])]
+        conflicts_with_all = ["count", "uniform", "png", "points_out", "evaluation_floor",
+            "per_vertex", "orient_normals", "viewpoint"])]
     max_memory: Option<u64>,
     /// Where the tile files of --max-memory go (default: `<output>.psi-scratch` beside the
     /// output); a run finds the files of an earlier run on the same input there and resumes.
