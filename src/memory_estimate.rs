@@ -13,10 +13,11 @@ use crate::files::{extension_format, open_error};
 
 /// Bytes of an in-core run beyond its points (the program, the tables of a small input).
 const BASE_BYTES: u64 = 40 << 20;
-/// Bytes a point with normals costs in core (measured 227–252: the built-in model at 1 M and
-/// 3 M points, the dragon at 10 M; docs/notes/2026-11-25-tiles.md).
+/// Bytes a point with normals costs in core (from measured peaks:
+/// docs/results/2026-11-25-scale, `cargo xtask bench scale`).
 const BYTES_PER_POINT: u64 = 240;
-/// Bytes a point without normals costs (normals estimated and oriented: 346 measured at 30 M).
+/// Bytes a point without normals costs (normals estimated and oriented; issue 30's 30 M-point
+/// measurement).
 const BYTES_PER_BARE_POINT: u64 = 350;
 /// Bytes of a line of XYZ text, for a count from the file's size.
 const XYZ_LINE_BYTES: u64 = 40;

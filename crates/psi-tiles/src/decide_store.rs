@@ -38,10 +38,14 @@ pub fn decide_store(
     tiles: &TileParams,
     monitor: &Monitor<'_>,
 ) -> Result<TiledDecisions, TileError> {
+    check_tiles(store, tiles)?;
+    // What every decisions file must have been made from, hashed once for all of them.
+    let print = fingerprint(store, params, tiles);
     let t0 = Instant::now();
-    let top = decide_store_top(store, params, tiles, monitor)?;
+    let top = decide_store_top(store, params, tiles, &print, monitor)?;
     let top_seconds = t0.elapsed().as_secs_f64();
-    let decide = |key: [u32; 3]| decide_store_tile_with(store, params, tiles, &top, key, monitor);
+    let decide =
+        |key: [u32; 3]| decide_store_tile_with(store, params, tiles, &top, key, &print, monitor);
     let (cells, surface, mut report) = decide_all(&top, tiles, monitor, &decide)?;
     report.top_seconds = top_seconds;
     Ok(TiledDecisions {
@@ -63,7 +67,9 @@ pub fn decide_store_top_keys(
     tiles: &TileParams,
     monitor: &Monitor<'_>,
 ) -> Result<Vec<[u32; 3]>, TileError> {
-    let top = decide_store_top(store, params, tiles, monitor)?;
+    check_tiles(store, tiles)?;
+    let print = fingerprint(store, params, tiles);
+    let top = decide_store_top(store, params, tiles, &print, monitor)?;
     Ok(crate::decide_tile::tile_keys(&top.cells, tiles.depth))
 }
 
@@ -78,8 +84,10 @@ pub fn decide_store_tile(
     key: [u32; 3],
     monitor: &Monitor<'_>,
 ) -> Result<(), TileError> {
-    let top = decide_store_top(store, params, tiles, monitor)?;
-    decide_store_tile_with(store, params, tiles, &top, key, monitor).map(|_| ())
+    check_tiles(store, tiles)?;
+    let print = fingerprint(store, params, tiles);
+    let top = decide_store_top(store, params, tiles, &print, monitor)?;
+    decide_store_tile_with(store, params, tiles, &top, key, &print, monitor).map(|_| ())
 }
 
 /// Checks that `tiles` suit `store`.
@@ -101,14 +109,13 @@ fn decide_store_top(
     store: &TileStore,
     params: &MpuParams,
     tiles: &TileParams,
+    print: &str,
     monitor: &Monitor<'_>,
 ) -> Result<TileOutcome, TileError> {
-    check_tiles(store, tiles)?;
     let manifest = store.manifest();
     let population = manifest.population as usize;
-    let print = fingerprint(store, params, tiles);
     let top_path = store.dir().join("cells-top.bin");
-    if let Some(r) = read_record(&top_path, &print) {
+    if let Some(r) = read_record(&top_path, print) {
         return Ok(r);
     }
     let coarse = store.coarse_points()?;
@@ -131,7 +138,7 @@ fn decide_store_top(
         halo_points: coarse.len(),
         surface: fit.surface,
     };
-    write_record(&top_path, &print, &outcome)?;
+    write_record(&top_path, print, &outcome)?;
     Ok(outcome)
 }
 
@@ -142,13 +149,13 @@ fn decide_store_tile_with(
     tiles: &TileParams,
     top: &TileOutcome,
     key: [u32; 3],
+    print: &str,
     monitor: &Monitor<'_>,
 ) -> Result<TileOutcome, TileError> {
-    let print = fingerprint(store, params, tiles);
     let path = store
         .dir()
         .join(format!("cells-{}-{}-{}.bin", key[0], key[1], key[2]));
-    if let Some(outcome) = read_record(&path, &print) {
+    if let Some(outcome) = read_record(&path, print) {
         return Ok(outcome);
     }
     let manifest = store.manifest();
@@ -163,7 +170,7 @@ fn decide_store_tile_with(
         store,
         monitor,
     )?;
-    write_record(&path, &print, &outcome)?;
+    write_record(&path, print, &outcome)?;
     Ok(outcome)
 }
 

@@ -144,7 +144,7 @@ pub fn sample_tiled(
         done.store(0, std::sync::atomic::Ordering::Relaxed);
     }
     // The σ scale c adapts toward one energy over all particles; relaxed alone, each region
-    // settles on its own c (0.75 to 1.2 over the bunny's tiles), which would make the spacing
+    // settles on its own c (docs/notes/2026-11-25-tiles.md), which would make the spacing
     // differ from tile to tile. So: a first pass for the scale, its mean over all particles,
     // then every region relaxed again from its seeds with that scale held.
     monitor.report("sample tiles", 0, total);

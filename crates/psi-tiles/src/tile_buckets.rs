@@ -5,51 +5,43 @@ use glam::DVec3;
 use psi_mpu::MpuFrame;
 use psi_octree::OrientedPoint;
 
+use crate::tile_store::tile_key;
+
 /// Per tile key (at one depth), the indices of the points whose tile it is, increasing.
 pub(crate) struct TileBuckets {
     depth: u8,
-    /// The root cube's low corner (local frame) and the tile edge (world units).
-    low: DVec3,
+    frame: MpuFrame,
+    /// The tile edge, world units.
     edge: f64,
     /// Per bucket (x + n·(y + n·z), n = 2^depth): indices into the points.
     buckets: Vec<Vec<u32>>,
 }
 
 impl TileBuckets {
-    /// Buckets `points` (shape N, world units, inside `frame`'s root cube) at `depth`.
+    /// Buckets `points` (shape N, world units, inside `frame`'s root cube) at `depth`, by the
+    /// rule the tile store files them ([`tile_key`]).
     pub(crate) fn new(points: &[OrientedPoint], frame: &MpuFrame, depth: u8) -> Self {
         let n = 1usize << depth;
-        let low = frame.root_center - DVec3::splat(frame.root_half);
-        let edge = 2.0 * frame.root_half / n as f64;
-        let mut buckets = vec![Vec::new(); n * n * n];
-        let this = TileBuckets {
+        let mut this = TileBuckets {
             depth,
-            low,
-            edge,
-            buckets: Vec::new(),
+            frame: *frame,
+            edge: 2.0 * frame.root_half / n as f64,
+            buckets: vec![Vec::new(); n * n * n],
         };
         for (i, p) in points.iter().enumerate() {
-            let k = this.key_of(p.p - frame.origin);
-            buckets[this.slot(k)].push(i as u32);
+            let slot = this.slot(tile_key(frame, depth, p.p));
+            this.buckets[slot].push(i as u32);
         }
-        TileBuckets { buckets, ..this }
+        this
     }
 
-    /// Tiles per axis.
-    fn side(&self) -> u32 {
-        1 << self.depth
-    }
-
-    /// The tile key holding local position `x` (clamped to the root cube; the bucket is only a
-    /// coarse filter, so which of two tiles a point on a face lands in does not matter).
+    /// The tile key holding local position `x` (clamped to the root cube).
     fn key_of(&self, x: DVec3) -> [u32; 3] {
-        let k = ((x - self.low) / self.edge).floor();
-        let clamp = |v: f64| (v.max(0.0) as u32).min(self.side() - 1);
-        [clamp(k.x), clamp(k.y), clamp(k.z)]
+        tile_key(&self.frame, self.depth, x + self.frame.origin)
     }
 
     fn slot(&self, k: [u32; 3]) -> usize {
-        let n = self.side() as usize;
+        let n = 1usize << self.depth;
         k[0] as usize + n * (k[1] as usize + n * k[2] as usize)
     }
 
