@@ -106,7 +106,7 @@ pub(crate) fn emit_if_full<F: FnMut(PointChunk) -> std::ops::ControlFlow<()>>(
         return false;
     }
     end.points += chunk.len() as u64;
-    let full = std::mem::replace(chunk, PointChunk::for_header(header, max.min(1 << 20)));
+    let full = std::mem::replace(chunk, PointChunk::for_header(header, max.min(1 << 16)));
     visit(full).is_break()
 }
 

@@ -16,7 +16,7 @@ use glam::DVec3;
 use crate::attributes::{AttributeKinds, channel_from_unit};
 use crate::error::ReadError;
 use crate::format::Format;
-use crate::point_chunk::{PointChunk, StreamEnd, StreamHeader, io_error};
+use crate::point_chunk::{PointChunk, StreamEnd, StreamHeader, emit_if_full, emit_rest, io_error};
 
 /// An opened E57 file: the reader and its scans' descriptions.
 pub(crate) struct E57Stream<R: Read + Seek> {
@@ -144,20 +144,11 @@ impl<R: Read + Seek> E57Stream<R> {
                 if let Some(values) = attributes.intensity.as_mut() {
                     values.push(point.intensity.filter(|v| v.is_finite()).unwrap_or(0.0));
                 }
-                if chunk.len() >= max {
-                    end.points += chunk.len() as u64;
-                    let next = PointChunk::for_header(header, max.min(1 << 16));
-                    let full = std::mem::replace(&mut chunk, next);
-                    if visit(full).is_break() {
-                        return Ok(end);
-                    }
+                if emit_if_full(&mut chunk, header, max, &mut end, visit) {
+                    return Ok(end);
                 }
             }
         }
-        if !chunk.is_empty() {
-            end.points += chunk.len() as u64;
-            let _ = visit(chunk);
-        }
-        Ok(end)
+        Ok(emit_rest(chunk, end, visit))
     }
 }

@@ -24,7 +24,7 @@ use crate::error::ReadError;
 use crate::format::Format;
 use crate::lzf;
 use crate::pcd_header::{Encoding, Kind, PcdHeader, Slot, read_header};
-use crate::point_chunk::{PointChunk, StreamEnd, StreamHeader, io_error};
+use crate::point_chunk::{PointChunk, StreamEnd, StreamHeader, emit_if_full, emit_rest, io_error};
 
 /// The largest batch buffer of binary records, in bytes.
 const MAX_BATCH_BYTES: usize = 64 << 20;
@@ -225,12 +225,8 @@ impl<R: Read> PcdStream<R> {
             };
             self.push(v, &mut chunk, &mut end);
             point += 1;
-            if chunk.len() >= max {
-                end.points += chunk.len() as u64;
-                let next = PointChunk::for_header(header, max.min(1 << 16));
-                if visit(std::mem::replace(&mut chunk, next)).is_break() {
-                    return Ok(end);
-                }
+            if emit_if_full(&mut chunk, header, max, &mut end, visit) {
+                return Ok(end);
             }
         }
         // Nothing but blank lines may follow the announced points.
@@ -250,11 +246,7 @@ impl<R: Read> PcdStream<R> {
                 ));
             }
         }
-        if !chunk.is_empty() {
-            end.points += chunk.len() as u64;
-            let _ = visit(chunk);
-        }
-        Ok(end)
+        Ok(emit_rest(chunk, end, visit))
     }
 
     fn binary<F: FnMut(PointChunk) -> ControlFlow<()>>(
