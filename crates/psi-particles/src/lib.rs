@@ -49,7 +49,7 @@ pub use particles::Particles;
 pub use quality::{
     LevelStats, Quality, SpacingStats, measure_quality, nearest_neighbour_distances,
 };
-pub use relax::{RelaxOptions, RelaxRegion, relax};
+pub use relax::{RelaxOptions, RelaxRegion, Relaxation, relax};
 pub use sample::{
     SampleReport, Sampling, Seeding, initialize, sample, sample_with, seed_leaves, surface_area,
 };

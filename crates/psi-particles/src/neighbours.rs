@@ -11,6 +11,7 @@ use crate::particle_grid::ParticleGrid;
 
 /// The particles that do not move during a relaxation (local regeneration's fixed neighbours),
 /// indexed once.
+#[derive(Clone)]
 pub(crate) struct FixedSet {
     grid: ParticleGrid,
     ids: Vec<u32>,

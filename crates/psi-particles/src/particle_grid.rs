@@ -7,6 +7,7 @@
 use glam::DVec3;
 
 /// A uniform grid over point positions (world units); items are indices into them.
+#[derive(Clone)]
 pub struct ParticleGrid {
     min: DVec3,
     inv_edge: f64,

@@ -31,8 +31,10 @@ mod edit;
 mod error;
 mod mark_cells;
 mod scene;
+mod settle;
 
 pub use edit::Edit;
 pub use error::RegenError;
 pub use mark_cells::{mark_cells, mark_cells_brute_force};
 pub use scene::{RegenReport, Scene};
+pub use settle::{FRAME_ITERATIONS, SettleReport};

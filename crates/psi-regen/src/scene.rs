@@ -6,13 +6,14 @@ use glam::DVec3;
 use psi_mpu::{BuildOptions, Mpu, MpuBuffers, MpuFrame, MpuParams, Reuse};
 use psi_octree::{Aabb, Monitor, OrientedPoint, PointAttributes};
 use psi_particles::{
-    DensityField, ParticleParams, Particles, RelaxOptions, RelaxRegion, SampleReport,
-    measure_quality, relax, seed_leaves, separate_close_pairs, transfer_attributes,
+    DensityField, ParticleParams, Particles, SampleReport, measure_quality, seed_leaves,
+    transfer_attributes,
 };
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::{Edit, RegenError, mark_cells};
+use crate::settle::{Pending, cpu_now};
+use crate::{Edit, RegenError, SettleReport, mark_cells};
 
 /// What one edit cost and touched.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -31,10 +32,19 @@ pub struct RegenReport {
     pub full_rebuild: bool,
     /// Seconds marking and rebuilding the MPU.
     pub mpu_seconds: f64,
-    /// Seconds regenerating particles.
+    /// Seconds regenerating particles (seeding and the relaxation iterations run in this call,
+    /// the finish included when none is left).
     pub particle_seconds: f64,
-    /// Total seconds.
+    /// Seconds spent first finishing the previous stroke's relaxation (its iterations left to
+    /// settle: [`Scene::apply_deferred`]); part of `seconds`.
+    pub settle_seconds: f64,
+    /// Total seconds (wall clock) of the call.
     pub seconds: f64,
+    /// CPU seconds of the whole process over the call (every thread).
+    pub cpu_seconds: f64,
+    /// Relaxation iterations this stroke's particles still have to run ([`Scene::settle`]);
+    /// 0 for an eager edit.
+    pub pending_iterations: usize,
 }
 
 /// Control points, MPU and particles kept consistent under edits.
@@ -53,6 +63,8 @@ pub struct Scene {
     /// fresh ones touched when the scene was made, so that no edit (the first included) pays
     /// for new pages (the price: one more MPU's worth of memory; notes: local regeneration).
     spare: MpuBuffers,
+    /// The last stroke's relaxation when it is still settling ([`Scene::apply_deferred`]).
+    pending: Option<Pending>,
 }
 
 impl Scene {
@@ -95,6 +107,7 @@ impl Scene {
         let field = run.report.density;
         let spare = MpuBuffers::like(&mpu);
         let scene = Scene {
+            pending: None,
             spare,
             mpu,
             attributes,
@@ -132,6 +145,7 @@ impl Scene {
         };
         let mpu = Mpu::build_with(points, mpu_params, options)?;
         Ok(Scene {
+            pending: None,
             spare: MpuBuffers::like(&mpu),
             mpu,
             particles,
@@ -227,7 +241,89 @@ impl Scene {
         added: &PointAttributes,
         monitor: &Monitor<'_>,
     ) -> Result<RegenReport, RegenError> {
+        self.apply_stroke(edit, added, usize::MAX, monitor)
+    }
+
+    /// [`Scene::apply_attributed`] for an interactive frame: the previous stroke's relaxation
+    /// is first finished if it is still settling, then the points are edited, the MPU rebuilt
+    /// locally and the regenerated particles seeded, and only `frame_iterations` of their
+    /// relaxation run (e.g. [`crate::FRAME_ITERATIONS`]); [`Scene::settle`] runs the rest over
+    /// the following frames. Settling is counted in iterations, never in time: a session of
+    /// deferred strokes and settles gives bitwise the particles of the same session applied
+    /// eagerly, for any thread count. Until settled, [`Scene::particles`] shows the stroke's
+    /// particles part-way and their attributes are the defaults.
+    pub fn apply_deferred(
+        &mut self,
+        edit: &Edit,
+        added: &PointAttributes,
+        frame_iterations: usize,
+        monitor: &Monitor<'_>,
+    ) -> Result<RegenReport, RegenError> {
+        self.apply_stroke(edit, added, frame_iterations, monitor)
+    }
+
+    /// Relaxation iterations the last stroke's particles still have to run (0 when settled).
+    pub fn pending_iterations(&self) -> usize {
+        self.pending
+            .as_ref()
+            .map_or(0, |p| p.remaining(&self.particle_params))
+    }
+
+    /// Runs up to `iterations` more iterations of the last stroke's relaxation, and finishes
+    /// it (polish, close pairs, attributes) once none is left. Does nothing when settled.
+    pub fn settle(&mut self, iterations: usize) -> SettleReport {
+        let t0 = Instant::now();
+        let c0 = cpu_now();
+        let ran = self.settle_quietly(iterations, &Monitor::silent());
+        SettleReport {
+            iterations: ran,
+            pending_iterations: self.pending_iterations(),
+            seconds: t0.elapsed().as_secs_f64(),
+            cpu_seconds: cpu_now() - c0,
+        }
+    }
+
+    /// [`Scene::settle`] without the timing; returns the iterations run.
+    fn settle_quietly(&mut self, iterations: usize, monitor: &Monitor<'_>) -> usize {
+        let Some(pending) = self.pending.as_mut() else {
+            return 0;
+        };
+        let ran = pending.run(
+            &self.mpu,
+            &mut self.particles,
+            &self.field,
+            &self.particle_params,
+            iterations,
+            monitor,
+        );
+        if pending.remaining(&self.particle_params) == 0 && !monitor.stopped() {
+            let pending = self.pending.take().expect("present");
+            pending.finish(
+                &self.mpu,
+                &mut self.particles,
+                &self.field,
+                &self.particle_params,
+                &self.attributes,
+                &mut self.particle_attributes,
+            );
+        }
+        ran
+    }
+
+    /// An edit whose relaxation runs `frame_iterations` now and the rest when settled.
+    fn apply_stroke(
+        &mut self,
+        edit: &Edit,
+        added: &PointAttributes,
+        frame_iterations: usize,
+        monitor: &Monitor<'_>,
+    ) -> Result<RegenReport, RegenError> {
         check_attributes(added, edit.added())?;
+        let c0 = cpu_now();
+        let t_settle = Instant::now();
+        // The previous stroke finishes first, as it would have eagerly.
+        self.settle_quietly(usize::MAX, &Monitor::silent());
+        let settle_seconds = t_settle.elapsed().as_secs_f64();
         // (No pass over the points when there are no attributes to carry.)
         let mut attributes = PointAttributes::default();
         if !(self.attributes.is_empty() && added.is_empty()) {
@@ -257,7 +353,9 @@ impl Scene {
                 particles_regenerated: scene.particles.len(),
                 points: scene.points().len(),
                 full_rebuild: true,
-                seconds: t0.elapsed().as_secs_f64(),
+                settle_seconds,
+                seconds: t0.elapsed().as_secs_f64() + settle_seconds,
+                cpu_seconds: cpu_now() - c0,
                 ..Default::default()
             };
             monitor.claim_commit()?;
@@ -328,46 +426,50 @@ impl Scene {
             .collect();
         let fresh = seed_leaves(&mpu, &leaves, &self.field, &self.particle_params);
         particles.extend(&fresh);
+        // Defaults for the regenerated particles' attributes until they settle.
+        particle_attributes.extend(kept, &PointAttributes::default(), fresh.len());
         // Relax only the new particles; the kept ones are fixed neighbours (relax indexes them
-        // once and skips their updates).
-        let movable: Vec<bool> = (0..particles.len()).map(|i| i >= kept).collect();
-        let accept = |x: DVec3| mpu.leaf_containing(x).is_some_and(|l| refit[l as usize]);
-        // The refitted leaves, which hold every position `accept` accepts (world units).
+        // once and skips their updates). Moves must stay in refitted leaves, which the box of
+        // those leaves bounds (world units).
         let bounds = refit_box.map(|b| Aabb {
             min: b.min + origin,
             max: b.max + origin,
         });
-        let region = RelaxRegion {
-            movable: Some(&movable),
-            accept: Some(&accept),
+        let mut pending = Pending::start(
+            &mpu,
+            &mut particles,
+            &self.field,
+            &self.particle_params,
+            refit.clone(),
             bounds,
-        };
-        let options = RelaxOptions {
-            region,
-            monitor: *monitor,
-        };
-        relax(
+            kept,
+        );
+        pending.run(
             &mpu,
             &mut particles,
             &self.field,
             &self.particle_params,
-            options,
+            frame_iterations,
+            monitor,
         );
-        // Uniform mode: the new particles' close pairs pushed apart, as a full run does.
-        separate_close_pairs(
-            &mpu,
-            &mut particles,
-            &self.field,
-            &self.particle_params,
-            region,
-        );
-        if !attributes.is_empty() {
-            let mut fresh_particles = particles.clone();
-            let fresh_ids: Vec<bool> = (0..particles.len()).map(|i| i >= kept).collect();
-            fresh_particles.retain_mask(&fresh_ids);
-            let fresh_attributes = transfer_attributes(&mpu, &fresh_particles, &attributes);
-            particle_attributes.extend(kept, &fresh_attributes, fresh_particles.len());
+        monitor.check()?;
+        let mut pending = Some(pending);
+        if pending
+            .as_ref()
+            .is_some_and(|p| p.remaining(&self.particle_params) == 0)
+        {
+            pending.take().expect("present").finish(
+                &mpu,
+                &mut particles,
+                &self.field,
+                &self.particle_params,
+                &attributes,
+                &mut particle_attributes,
+            );
         }
+        let pending_iterations = pending
+            .as_ref()
+            .map_or(0, |p| p.remaining(&self.particle_params));
         let particle_seconds = t1.elapsed().as_secs_f64();
         monitor.check()?;
         // From here on the edit is committed: a stop request now comes too late.
@@ -382,12 +484,16 @@ impl Scene {
             full_rebuild: false,
             mpu_seconds,
             particle_seconds,
-            seconds: t0.elapsed().as_secs_f64(),
+            settle_seconds,
+            seconds: t0.elapsed().as_secs_f64() + settle_seconds,
+            cpu_seconds: cpu_now() - c0,
+            pending_iterations,
         };
         self.spare = std::mem::replace(&mut self.mpu, mpu).into_buffers();
         self.particles = particles;
         self.attributes = attributes;
         self.particle_attributes = particle_attributes;
+        self.pending = pending;
         Ok(report)
     }
 
