@@ -187,3 +187,76 @@ fn an_edit_failing_midway_names_the_strokes_file_and_writes_nothing() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("edit 1") && err.contains("folds"), "{err}");
 }
+
+/// `--frame-iterations` with `settle` steps: the particles written are byte for byte those of
+/// the same strokes applied eagerly, and the report tells frame, settle and CPU time apart.
+#[test]
+fn deferred_strokes_write_the_eager_particles_and_report_their_settling() {
+    let dir = scratch("strokes-deferred");
+    let points = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.4,
+    }
+    .sample(6000, 3);
+    let input = dir.join("torus.xyz");
+    write_xyz(&input, &points);
+    let brush = |x: f64| serde_json::json!({"brush": {"centre": [x, 0.0, 0.4], "radius": 0.3, "displacement": [0.0, 0.0, 0.03]}});
+    let settle = |n: u64| serde_json::json!({"settle": {"iterations": n}});
+    let eager = serde_json::json!([brush(0.9), brush(1.0), brush(1.1)]);
+    let deferred = serde_json::json!([brush(0.9), settle(2), brush(1.0), brush(1.1), settle(1)]);
+    let run = |name: &str, strokes: &serde_json::Value, extra: &[&str]| {
+        let path = dir.join(format!("{name}.json"));
+        std::fs::write(&path, strokes.to_string()).unwrap();
+        let (out, report) = (
+            dir.join(format!("{name}.ply")),
+            dir.join(format!("{name}-report.json")),
+        );
+        let mut args = vec![
+            "edit",
+            input.to_str().unwrap(),
+            "--strokes",
+            path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--json",
+            report.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        assert_success(&psi(&args));
+        let j: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+        (std::fs::read(&out).unwrap(), j)
+    };
+    let (eager_ply, eager_json) = run("eager", &eager, &[]);
+    let (deferred_ply, j) = run("deferred", &deferred, &["--frame-iterations", "2"]);
+    assert!(eager_ply == deferred_ply, "deferred particles differ");
+    let local = &j["local"];
+    assert_eq!(local["frame_iterations"], 2);
+    let edits = local["edits"].as_array().unwrap();
+    assert_eq!(edits.len(), 3);
+    // 20 iterations: 2 in the frame, the rest pending.
+    for e in edits {
+        assert_eq!(e["pending_iterations"], 18);
+    }
+    // The first stroke settled 2 between strokes and its remaining 16 at the start of the
+    // second; the third settled 1 and then the rest before writing.
+    let settles = local["settles"].as_array().unwrap();
+    let iterations: Vec<(u64, u64)> = settles
+        .iter()
+        .map(|s| {
+            (
+                s["after_edit"].as_u64().unwrap(),
+                s["report"]["iterations"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(iterations, vec![(0, 2), (2, 1), (2, 17)]);
+    assert!(edits[0]["settle_seconds"].as_f64().unwrap() == 0.0);
+    assert!(edits[1]["settle_seconds"].as_f64().unwrap() > 0.0);
+    assert_eq!(local["cpu_seconds_per_edit"].as_array().unwrap().len(), 3);
+    assert_eq!(local["frame_seconds_per_edit"].as_array().unwrap().len(), 3);
+    // Eager strokes leave nothing pending.
+    for e in eager_json["local"]["edits"].as_array().unwrap() {
+        assert_eq!(e["pending_iterations"], 0);
+    }
+}

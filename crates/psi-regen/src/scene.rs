@@ -42,6 +42,8 @@ pub struct RegenReport {
     pub seconds: f64,
     /// CPU seconds of the whole process over the call (every thread).
     pub cpu_seconds: f64,
+    /// The part of `cpu_seconds` spent finishing the previous stroke's relaxation.
+    pub settle_cpu_seconds: f64,
     /// Relaxation iterations this stroke's particles still have to run ([`Scene::settle`]);
     /// 0 for an eager edit.
     pub pending_iterations: usize,
@@ -322,8 +324,13 @@ impl Scene {
         let c0 = cpu_now();
         let t_settle = Instant::now();
         // The previous stroke finishes first, as it would have eagerly.
+        let settled = self.pending.is_some();
         self.settle_quietly(usize::MAX, &Monitor::silent());
-        let settle_seconds = t_settle.elapsed().as_secs_f64();
+        let (settle_seconds, settle_cpu_seconds) = if settled {
+            (t_settle.elapsed().as_secs_f64(), cpu_now() - c0)
+        } else {
+            (0.0, 0.0)
+        };
         // (No pass over the points when there are no attributes to carry.)
         let mut attributes = PointAttributes::default();
         if !(self.attributes.is_empty() && added.is_empty()) {
@@ -354,6 +361,7 @@ impl Scene {
                 points: scene.points().len(),
                 full_rebuild: true,
                 settle_seconds,
+                settle_cpu_seconds,
                 seconds: t0.elapsed().as_secs_f64() + settle_seconds,
                 cpu_seconds: cpu_now() - c0,
                 ..Default::default()
@@ -485,6 +493,7 @@ impl Scene {
             mpu_seconds,
             particle_seconds,
             settle_seconds,
+            settle_cpu_seconds,
             seconds: t0.elapsed().as_secs_f64() + settle_seconds,
             cpu_seconds: cpu_now() - c0,
             pending_iterations,

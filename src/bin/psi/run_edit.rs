@@ -10,6 +10,7 @@ use psi::{DVec3, ParticleParams};
 use serde_json::json;
 
 use crate::input::load;
+use crate::strokes::Step;
 use crate::{Failure, InputArgs};
 
 #[derive(Args)]
@@ -19,8 +20,9 @@ pub(crate) struct EditArgs {
     #[command(flatten)]
     mpu: crate::MpuArgs,
     /// A session of edits applied in order: a JSON list of `{"brush": {"centre": [x,y,z],
-    /// "radius": r, "displacement": [dx,dy,dz]}}`, `{"remove": {"centre": [x,y,z], "radius": r}}`
-    /// and `{"insert": {"points": [[x,y,z],…], "normals": [[nx,ny,nz],…]}}`.
+    /// "radius": r, "displacement": [dx,dy,dz]}}`, `{"remove": {"centre": [x,y,z], "radius": r}}`,
+    /// `{"insert": {"points": [[x,y,z],…], "normals": [[nx,ny,nz],…]}}` and
+    /// `{"settle": {"iterations": n}}` (with --frame-iterations).
     #[arg(long, value_name = "FILE.json", conflicts_with_all = ["brush", "remove"])]
     strokes: Option<PathBuf>,
     /// A brush: centre, radius and displacement, `cx,cy,cz,r,dx,dy,dz` (repeatable, in order).
@@ -41,6 +43,12 @@ pub(crate) struct EditArgs {
     /// Relaxation iterations.
     #[arg(long, default_value_t = 20, value_parser = crate::iterations)]
     iterations: usize,
+    /// Apply each stroke as an interactive frame: only N of its relaxation iterations, the
+    /// rest settling at the strokes file's `settle` steps or before the next stroke (the
+    /// particles are bitwise those of eager strokes; the report tells frame, settle and CPU
+    /// time apart).
+    #[arg(long, value_name = "N")]
+    frame_iterations: Option<usize>,
     /// Write the report as JSON.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -50,7 +58,7 @@ fn numbers(text: &str, n: usize, what: &str) -> anyhow::Result<Vec<f64>> {
     crate::numbers(text, n).map_err(|e| anyhow::anyhow!("--{what} {e}"))
 }
 
-fn edits(args: &EditArgs) -> Result<Vec<Edit>, Failure> {
+fn edits(args: &EditArgs) -> Result<Vec<Step>, Failure> {
     let usage = |e: anyhow::Error| Failure { error: e, code: 2 };
     if let Some(path) = &args.strokes {
         return crate::strokes::read_strokes(path).map_err(usage);
@@ -79,7 +87,7 @@ fn edits(args: &EditArgs) -> Result<Vec<Edit>, Failure> {
     for e in &out {
         e.validate().map_err(|e| usage(e.into()))?;
     }
-    Ok(out)
+    Ok(out.into_iter().map(Step::Edit).collect())
 }
 
 pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
@@ -121,14 +129,29 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         )
     });
     let mut reports = Vec::new();
-    for (i, e) in edits.iter().enumerate() {
-        let r = scene.apply(e).map_err(|e| Failure {
-            error: anyhow::Error::new(e).context(match &args.strokes {
-                Some(path) => format!("{}: applying edit {i}", path.display()),
-                None => format!("applying edit {i}"),
-            }),
-            code: 2,
-        })?;
+    // Settles: after which stroke, and what they did.
+    let mut settles: Vec<(usize, psi::regen::SettleReport)> = Vec::new();
+    let none = psi::octree::PointAttributes::default();
+    let silent = psi::octree::Monitor::silent();
+    for (i, step) in edits.iter().enumerate() {
+        let e = match step {
+            Step::Edit(e) => e,
+            Step::Settle(n) => {
+                let s = scene.settle(*n);
+                settles.push((reports.len().saturating_sub(1), s));
+                continue;
+            }
+        };
+        let frame = args.frame_iterations.unwrap_or(usize::MAX);
+        let r = scene
+            .apply_deferred(e, &none, frame, &silent)
+            .map_err(|e| Failure {
+                error: anyhow::Error::new(e).context(match &args.strokes {
+                    Some(path) => format!("{}: applying edit {i}", path.display()),
+                    None => format!("applying edit {i}"),
+                }),
+                code: 2,
+            })?;
         if ui.verbose {
             eprintln!(
                 "psi: edit {i}: {:.2} ms, {} cells marked, {} particles regenerated",
@@ -138,6 +161,30 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
             );
         }
         reports.push(r);
+    }
+    // The last stroke settles before anything is written.
+    let last = scene.settle(usize::MAX);
+    if last.iterations > 0 {
+        settles.push((reports.len().saturating_sub(1), last));
+    }
+    // Per stroke: its frame (without the previous stroke's settling), and the CPU time of its
+    // frame and of every settle of its particles (those after it, and the start of the next
+    // stroke).
+    let frame_seconds: Vec<f64> = reports
+        .iter()
+        .map(|r| r.seconds - r.settle_seconds)
+        .collect();
+    let mut cpu_per_stroke: Vec<f64> = reports
+        .iter()
+        .map(|r| r.cpu_seconds - r.settle_cpu_seconds)
+        .collect();
+    for (k, r) in reports.iter().enumerate().skip(1) {
+        cpu_per_stroke[k - 1] += r.settle_cpu_seconds;
+    }
+    for (k, s) in &settles {
+        if let Some(c) = cpu_per_stroke.get_mut(*k) {
+            *c += s.cpu_seconds;
+        }
     }
     // Written only once every edit has succeeded.
     if let (Some(path), Some((before, attributes))) = (&args.before, &before) {
@@ -159,6 +206,11 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         "local": {
             "seconds": local_seconds,
             "seconds_per_edit": reports.iter().map(|r| r.seconds).collect::<Vec<_>>(),
+            "frame_iterations": args.frame_iterations,
+            "frame_seconds_per_edit": frame_seconds,
+            "settle_seconds_per_edit": reports.iter().map(|r| r.settle_seconds).collect::<Vec<_>>(),
+            "cpu_seconds_per_edit": cpu_per_stroke,
+            "settles": settles.iter().map(|(k, s)| json!({"after_edit": k, "report": s})).collect::<Vec<_>>(),
             "marked_cells_per_edit": reports.iter().map(|r| r.marked_cells).collect::<Vec<_>>(),
             "particles_regenerated_per_edit": reports.iter().map(|r| r.particles_regenerated).collect::<Vec<_>>(),
             "marked_cells": reports.iter().map(|r| r.marked_cells).sum::<usize>(),
@@ -177,7 +229,7 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     ui.summary(&format!(
         "{}: {} edit(s) regenerated {} particles in {:.4} s (full rebuild and sampling: {:.3} s); wrote {}",
         loaded.input.name,
-        edits.len(),
+        reports.len(),
         report["local"]["particles_regenerated"],
         local_seconds,
         full_seconds,

@@ -5,9 +5,13 @@
 //! [
 //!   {"brush": {"centre": [x, y, z], "radius": r, "displacement": [dx, dy, dz]}},
 //!   {"remove": {"centre": [x, y, z], "radius": r}},
-//!   {"insert": {"points": [[x, y, z], …], "normals": [[nx, ny, nz], …]}}
+//!   {"insert": {"points": [[x, y, z], …], "normals": [[nx, ny, nz], …]}},
+//!   {"settle": {"iterations": n}}
 //! ]
 //! ```
+//!
+//! A `settle` runs up to n more relaxation iterations of the last stroke when strokes are
+//! applied deferred (`--frame-iterations`), as an editor does between frames; nothing otherwise.
 
 use std::path::Path;
 
@@ -50,12 +54,18 @@ fn only(fields: &Map<String, Value>, known: &[&str], kind: &str) -> Result<()> {
     Ok(())
 }
 
+/// One step of a session: an edit, or settling the last stroke for some iterations.
+#[derive(Debug)]
+pub(crate) enum Step {
+    Edit(Edit),
+    Settle(usize),
+}
+
 /// One edit from its JSON object.
 fn edit(value: &Value) -> Result<Edit> {
-    let object = value
-        .as_object()
-        .filter(|o| o.len() == 1)
-        .ok_or_else(|| anyhow!("an edit is an object with one key: brush, remove or insert"))?;
+    let object = value.as_object().filter(|o| o.len() == 1).ok_or_else(|| {
+        anyhow!("an edit is an object with one key: brush, remove, insert or settle")
+    })?;
     let (kind, fields) = object.iter().next().expect("one key");
     let fields = fields
         .as_object()
@@ -109,7 +119,7 @@ fn edit(value: &Value) -> Result<Edit> {
                 .collect::<Result<_>>()?;
             Ok(Edit::Insert { points })
         }
-        other => bail!("unknown edit `{other}` (brush, remove or insert)"),
+        other => bail!("unknown edit `{other}` (brush, remove, insert or settle)"),
     }
 }
 
@@ -120,9 +130,28 @@ fn checked_edit(value: &Value) -> Result<Edit> {
     Ok(edit)
 }
 
-/// The edits of the strokes file at `path`, in order; every error names the file and, for an
+/// One step from its JSON object: `{"settle": {"iterations": n}}` or a checked edit.
+fn step(value: &Value) -> Result<Step> {
+    let Some(fields) = value.get("settle") else {
+        return checked_edit(value).map(Step::Edit);
+    };
+    let fields = fields
+        .as_object()
+        .filter(|_| value.as_object().is_some_and(|o| o.len() == 1))
+        .ok_or_else(|| anyhow!("a settle is `{{\"settle\": {{\"iterations\": n}}}}`"))?;
+    only(fields, &["iterations"], "settle")?;
+    let n = fields
+        .get("iterations")
+        .ok_or_else(|| anyhow!("`iterations` is missing"))?;
+    let n = n
+        .as_u64()
+        .ok_or_else(|| anyhow!("`iterations` must be a whole number ≥ 0, not {n}"))?;
+    Ok(Step::Settle(usize::try_from(n).unwrap_or(usize::MAX)))
+}
+
+/// The steps of the strokes file at `path`, in order; every error names the file and, for an
 /// edit, its index.
-pub(crate) fn read_strokes(path: &Path) -> Result<Vec<Edit>> {
+pub(crate) fn read_strokes(path: &Path) -> Result<Vec<Step>> {
     let name = path.display();
     let text = std::fs::read(path).with_context(|| format!("{name}: cannot read"))?;
     let value: Value =
@@ -135,7 +164,7 @@ pub(crate) fn read_strokes(path: &Path) -> Result<Vec<Edit>> {
     }
     list.iter()
         .enumerate()
-        .map(|(i, v)| checked_edit(v).map_err(|e| anyhow!("{name}: edit {i}: {e}")))
+        .map(|(i, v)| step(v).map_err(|e| anyhow!("{name}: edit {i}: {e}")))
         .collect()
 }
 
@@ -194,6 +223,25 @@ mod tests {
         ];
         for (value, expected) in faults {
             let err = checked_edit(&value).unwrap_err().to_string();
+            assert!(err.contains(expected), "{value}: {err}");
+        }
+        assert!(matches!(
+            step(&serde_json::json!({"settle": {"iterations": 3}})).unwrap(),
+            Step::Settle(3)
+        ));
+        for (value, expected) in [
+            (
+                serde_json::json!({"settle": {"iterations": -1}}),
+                "whole number",
+            ),
+            (serde_json::json!({"settle": {}}), "missing"),
+            (serde_json::json!({"settle": 3}), "a settle is"),
+            (
+                serde_json::json!({"settle": {"iterations": 1, "ms": 2}}),
+                "unknown field",
+            ),
+        ] {
+            let err = step(&value).unwrap_err().to_string();
             assert!(err.contains(expected), "{value}: {err}");
         }
     }
