@@ -9,7 +9,7 @@ use psi::mpu::MpuFrame;
 use psi::octree::PointAttributes;
 use psi::particles::DensityField;
 use psi::preprocess::ErrorThreshold;
-use psi::regen::{Edit, RegenError};
+use psi::regen::{Edit, FRAME_ITERATIONS, RegenError};
 use psi::{MpuParams, OrientedPoint, ParticleParams, SampleReport};
 use pyo3::prelude::*;
 
@@ -32,7 +32,8 @@ use crate::sample::{Particles, particle_params};
 /// of `psi.sample` (`psi edit` uses their defaults but for `iterations`). Building and every
 /// edit release the interpreter; Ctrl-C stops the build. Each edit returns its report as a
 /// dict (`RegenReport`: marked and refitted cells, particles removed and regenerated, points,
-/// whether the edit left the root cube and forced a full rebuild, seconds; `edit`: the edit's
+/// whether the edit left the root cube and forced a full rebuild, seconds, CPU seconds,
+/// pending iterations; `edit`: the edit's
 /// place in the scene's sequence, from 0); a refused edit raises `ValueError` and leaves the
 /// scene unchanged.
 ///
@@ -74,6 +75,10 @@ struct SceneState {
     attributes: [PointAttributes; 2],
 }
 
+// The signatures below spell `frame_iterations=4` out (a literal shows in the stub);
+// it must stay psi's frame.
+const _: () = assert!(FRAME_ITERATIONS == 4);
+
 fn edit_error(e: RegenError) -> PyErr {
     value_error(format!("applying an edit: {e}"))
 }
@@ -104,7 +109,10 @@ impl Scene {
         py: Python<'py>,
         edit: Edit,
         added: PointAttributes,
+        settle: bool,
+        frame_iterations: usize,
     ) -> PyResult<Bound<'py, PyAny>> {
+        let frame = if settle { usize::MAX } else { frame_iterations };
         let shared = self.state.clone();
         let (report, index) = monitored(py, &Progress::Silent, move |monitor| {
             let mut state = shared.lock().unwrap_or_else(PoisonError::into_inner);
@@ -112,7 +120,7 @@ impl Scene {
             monitor.check().map_err(|e| edit_error(e.into()))?;
             let report = state
                 .scene
-                .apply_attributed(&edit, &added, monitor)
+                .apply_deferred(&edit, &added, frame, monitor)
                 .map_err(edit_error)?;
             let index = state.edits;
             state.edits += 1;
@@ -184,41 +192,87 @@ impl Scene {
 
     /// Moves the points within `radius` of `centre` (3,) by `displacement` (3,) × (1 − t²)²,
     /// t = distance / radius (world units; the normals follow the deformation); returns the
-    /// edit's report.
+    /// edit's report. With `settle=False` the edit is an interactive frame: only
+    /// `frame_iterations` of the regenerated particles' relaxation run, `settle()` runs the
+    /// rest (the next edit first finishes it), bitwise as `settle=True` would have.
+    #[pyo3(signature = (centre, radius, displacement, *, settle=true, frame_iterations=4))]
     fn brush<'py>(
         &self,
         py: Python<'py>,
         centre: &Bound<'py, PyAny>,
         radius: f64,
         displacement: &Bound<'py, PyAny>,
+        settle: bool,
+        frame_iterations: usize,
     ) -> PyResult<Bound<'py, PyAny>> {
         let edit = Edit::Brush {
             center: vector3(centre, "centre")?,
             radius,
             displacement: vector3(displacement, "displacement")?,
         };
-        self.apply(py, edit, PointAttributes::default())
+        self.apply(
+            py,
+            edit,
+            PointAttributes::default(),
+            settle,
+            frame_iterations,
+        )
     }
 
     /// Removes the points within `radius` of `centre` (3,); returns the edit's report.
+    /// `settle` and `frame_iterations` as for `brush`.
+    #[pyo3(signature = (centre, radius, *, settle=true, frame_iterations=4))]
     fn remove<'py>(
         &self,
         py: Python<'py>,
         centre: &Bound<'py, PyAny>,
         radius: f64,
+        settle: bool,
+        frame_iterations: usize,
     ) -> PyResult<Bound<'py, PyAny>> {
         let edit = Edit::Remove {
             center: vector3(centre, "centre")?,
             radius,
         };
-        self.apply(py, edit, PointAttributes::default())
+        self.apply(
+            py,
+            edit,
+            PointAttributes::default(),
+            settle,
+            frame_iterations,
+        )
+    }
+
+    /// Runs up to `iterations` (default: all) more relaxation iterations of the last edit's
+    /// particles when it was made with `settle=False`, finishing it once none is left; returns
+    /// a dict (`iterations` run, `pending_iterations` left, `seconds`, `cpu_seconds`).
+    #[pyo3(signature = (iterations=None))]
+    fn settle<'py>(
+        &self,
+        py: Python<'py>,
+        iterations: Option<usize>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let mut state = self.lock(py)?;
+        let n = iterations.unwrap_or(usize::MAX);
+        let scene = &mut state.scene;
+        let report = py.detach(|| scene.settle(n));
+        drop(state);
+        crate::json::report(py, &report)
+    }
+
+    /// Relaxation iterations the last edit's particles still have to run (0 when settled).
+    #[getter]
+    fn pending_iterations(&self, py: Python<'_>) -> PyResult<usize> {
+        Ok(self.lock(py)?.scene.pending_iterations())
     }
 
     /// Adds oriented points: `points` and `normals` (N, 3), normals normalised here (rows with
     /// a zero normal dropped), with their `colors`, `intensity` and `classification` (or the
     /// defaults — black, 0, class 0 — where the scene has such attributes); returns the edit's
-    /// report.
-    #[pyo3(signature = (points, normals, *, colors=None, intensity=None, classification=None))]
+    /// report. `settle` and `frame_iterations` as for `brush`.
+    #[pyo3(signature = (points, normals, *, colors=None, intensity=None, classification=None,
+        settle=true, frame_iterations=4))]
+    #[allow(clippy::too_many_arguments)]
     fn insert<'py>(
         &self,
         py: Python<'py>,
@@ -227,6 +281,8 @@ impl Scene {
         colors: Option<&Bound<'py, PyAny>>,
         intensity: Option<&Bound<'py, PyAny>>,
         classification: Option<&Bound<'py, PyAny>>,
+        settle: bool,
+        frame_iterations: usize,
     ) -> PyResult<Bound<'py, PyAny>> {
         let n = crate::arrays::rows(points, "points")?;
         let attributes = attributes_of(colors, intensity, classification, n)?;
@@ -238,6 +294,8 @@ impl Scene {
                 points: file.points,
             },
             added,
+            settle,
+            frame_iterations,
         )
     }
 
@@ -294,7 +352,10 @@ impl Scene {
     }
 
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let state = self.lock(py)?;
+        let mut state = self.lock(py)?;
+        // A pickle holds settled particles: the last edit's settling finishes first.
+        let scene = &mut state.scene;
+        py.detach(|| scene.settle(usize::MAX));
         let scene = &state.scene;
         let saved = SceneState {
             name: self.name.clone(),

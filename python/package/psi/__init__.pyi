@@ -394,12 +394,32 @@ class Scene:
         progress: _Progress = None,
     ) -> Scene: ...
     def brush(
-        self, centre: _Points, radius: float, displacement: _Points
+        self,
+        centre: _Points,
+        radius: float,
+        displacement: _Points,
+        *,
+        settle: bool = True,
+        frame_iterations: int = 4,
     ) -> dict[str, Any]:
         """Moves the points within ``radius`` of ``centre`` (3,) by ``displacement`` (3,) ×
-        (1 − t²)², t = distance / radius."""
-    def remove(self, centre: _Points, radius: float) -> dict[str, Any]:
+        (1 − t²)², t = distance / radius. ``settle=False``: only ``frame_iterations`` of the
+        relaxation run now, ``settle()`` runs the rest."""
+    def remove(
+        self,
+        centre: _Points,
+        radius: float,
+        *,
+        settle: bool = True,
+        frame_iterations: int = 4,
+    ) -> dict[str, Any]:
         """Removes the points within ``radius`` of ``centre`` (3,)."""
+    def settle(self, iterations: Optional[int] = None) -> dict[str, Any]:
+        """Runs up to ``iterations`` (default all) more relaxation iterations of the last
+        edit made with ``settle=False``."""
+    @property
+    def pending_iterations(self) -> int:
+        """Relaxation iterations the last edit still has to run."""
     def insert(
         self,
         points: _Points,
@@ -408,6 +428,8 @@ class Scene:
         colors: Optional[npt.ArrayLike] = None,
         intensity: Optional[npt.ArrayLike] = None,
         classification: Optional[npt.ArrayLike] = None,
+        settle: bool = True,
+        frame_iterations: int = 4,
     ) -> dict[str, Any]:
         """Adds oriented points, (N, 3) each, with their attributes (or the defaults)."""
     @property
