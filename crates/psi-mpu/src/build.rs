@@ -15,9 +15,10 @@ use psi_octree::{
 use rayon::prelude::*;
 
 use crate::cell_table::CellTable;
+use crate::coarse_index::CoarseIndex;
 use crate::data_footprint::DataFootprint;
 use crate::eval_nodes::{NO_FIT, eval_nodes_into};
-use crate::fit_cell::{CellFit, CoarseIndex, FitInput, LeafFit, fit_cell, try_fit_cell};
+use crate::fit_cell::{CellFit, FitInput, LeafFit, fit_cell, try_fit_cell};
 use crate::fit_store::FitStoreBuilder;
 use crate::frame::check_input_size;
 use crate::{BuildReport, FitKind, Mpu, MpuBuffers, MpuError, MpuFrame, MpuParams};
@@ -35,6 +36,10 @@ pub struct Reuse<'a> {
     /// Whether every point the edit left unchanged kept its index (a brush or an insertion;
     /// a removal renumbers): then unmarked cells' partitions are taken from `old` too.
     pub indices_kept: bool,
+    /// When the edit kept every index and the number of points (a brush): the indices of the
+    /// points whose position it changed. The kd-trees are then derived from `old`'s in the
+    /// time of the points moved instead of built again over all points.
+    pub moved: Option<&'a [u32]>,
 }
 
 /// How [`Mpu::build_with`] runs beyond its parameters. `BuildOptions::default()` is a plain
@@ -133,7 +138,7 @@ fn prepare(
 /// reuse), in the order of `marked`.
 struct Prefit {
     index: Arc<PointIndex>,
-    coarse: CoarseIndex,
+    coarse: Arc<CoarseIndex>,
     fits: Vec<CellFit>,
 }
 
@@ -158,31 +163,44 @@ fn prefit_marked(
             .cell(c)
     };
     let positions = &data.positions;
-    let (index, (coarse, early)) = rayon::join(
-        || Arc::new(PointIndex::new(positions)),
-        || {
-            let coarse = CoarseIndex::new(positions);
-            let input = FitInput {
-                coarse: &coarse,
-                positions,
-                points: &data.points,
-                index: None,
-                params,
-                population: positions.len(),
-            };
-            let early: Vec<Option<CellFit>> = marked
-                .par_iter()
-                .map(|&c| {
-                    if monitor.stopped() {
-                        return None;
-                    }
-                    let cell = old_cell(c);
-                    try_fit_cell(&input, cell.center, cell.half, eps0)
-                })
-                .collect();
-            (coarse, early)
-        },
-    );
+    // After a brush the earlier MPU's kd-trees are brought up to date (no early fits needed).
+    let derived = reuse.and_then(|r| {
+        let moved = r.moved?;
+        (r.old.points.len() == positions.len()).then(|| {
+            rayon::join(
+                || Arc::new(r.old.index.with_moved(moved, positions, |_| true)),
+                || Arc::new(r.old.coarse.with_moved(moved, positions)),
+            )
+        })
+    });
+    let (index, (coarse, early)) = match derived {
+        Some((index, coarse)) => (index, (coarse, vec![None; marked.len()])),
+        None => rayon::join(
+            || Arc::new(PointIndex::new(positions)),
+            || {
+                let coarse = Arc::new(CoarseIndex::new(positions));
+                let input = FitInput {
+                    coarse: &coarse,
+                    positions,
+                    points: &data.points,
+                    index: None,
+                    params,
+                    population: positions.len(),
+                };
+                let early: Vec<Option<CellFit>> = marked
+                    .par_iter()
+                    .map(|&c| {
+                        if monitor.stopped() {
+                            return None;
+                        }
+                        let cell = old_cell(c);
+                        try_fit_cell(&input, cell.center, cell.half, eps0)
+                    })
+                    .collect();
+                (coarse, early)
+            },
+        ),
+    };
     let input = FitInput {
         coarse: &coarse,
         positions,
@@ -468,6 +486,7 @@ impl Mpu {
             params: *params,
             report,
             index,
+            coarse,
             footprint: DataFootprint::new_in(input_local, n),
         })
     }

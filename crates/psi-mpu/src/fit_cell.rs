@@ -6,6 +6,7 @@ use glam::DVec3;
 use psi_octree::PointIndex;
 
 use crate::bspline_weight::bspline;
+use crate::coarse_index::{COARSE, CoarseIndex, position_hash};
 use crate::fit_bivariate::fit_bivariate;
 use crate::fit_general_quadric::{auxiliary_points, fit_general_quadric};
 use crate::fit_sharp::{fit_corner, fit_edge, weighted_frame};
@@ -36,36 +37,6 @@ impl<'a> FitInput<'a> {
         'a: 'b,
     {
         FitInput { positions, ..*self }
-    }
-}
-
-/// One point in [`COARSE`] (by position hash) in a kd-tree: large neighbourhoods are thinned to
-/// a subset of these without visiting the whole ball.
-pub(crate) const COARSE: u64 = 16;
-
-/// The coarse point subset and its kd-tree.
-pub(crate) struct CoarseIndex {
-    index: PointIndex,
-    ids: Vec<u32>,
-}
-
-impl CoarseIndex {
-    pub(crate) fn new(positions: &[DVec3]) -> Self {
-        let ids: Vec<u32> = (0..positions.len() as u32)
-            .filter(|&i| position_hash(positions[i as usize]).is_multiple_of(COARSE))
-            .collect();
-        let pts: Vec<DVec3> = ids.iter().map(|&i| positions[i as usize]).collect();
-        Self {
-            index: PointIndex::new(&pts),
-            ids,
-        }
-    }
-
-    /// Indices (into the full set) of the coarse points within `r` of `c`.
-    fn within(&self, c: DVec3, r: f64) -> Vec<u32> {
-        let mut out = Vec::new();
-        self.index.within(c, r, &mut out);
-        out.iter().map(|&k| self.ids[k as usize]).collect()
     }
 }
 
@@ -132,16 +103,6 @@ fn fit_radius(index: &PointIndex, input: &FitInput<'_>, center: DVec3, r: f64) -
 /// so the choice depends on the point set only — a rebuild after an edit thins an unchanged
 /// neighbourhood identically.
 pub(crate) const MAX_FIT_POINTS: usize = 4096;
-
-/// A hash of a position's bits (for identity-based thinning).
-pub(crate) fn position_hash(p: DVec3) -> u64 {
-    let mut h = 0xcbf2_9ce4_8422_2325u64;
-    for v in [p.x, p.y, p.z] {
-        h ^= v.to_bits();
-        h = h.wrapping_mul(0x0100_0000_01b3).rotate_left(29);
-    }
-    h ^ (h >> 31)
-}
 
 /// Fits the cell with centre `center` and half-edge `half` (local frame). The error is the
 /// largest Taubin distance within the nominal radius, except that its computation stops once

@@ -5,7 +5,8 @@
 use glam::DVec3;
 use psi_octree::{Cell, Monitor, OrientedPoint};
 
-use crate::fit_cell::{COARSE, CoarseIndex, FitInput, position_hash, try_fit_cell};
+use crate::coarse_index::{CoarseIndex, is_coarse};
+use crate::fit_cell::{FitInput, try_fit_cell};
 use crate::fit_fetched::{BallCache, FetchBall, fit_fetched};
 use crate::fit_region::decide_cells;
 use crate::region_points::{check_population, prepare_any};
@@ -15,7 +16,7 @@ use crate::{MpuError, MpuFrame, MpuParams, Region, RegionFit};
 /// (about one in 16, chosen by its local position's bits): the points an out-of-core build
 /// keeps in memory for the cells above its tiles ([`fit_top`]).
 pub fn is_coarse_point(frame: &MpuFrame, p: DVec3) -> bool {
-    position_hash(p - frame.origin).is_multiple_of(COARSE)
+    is_coarse(p - frame.origin)
 }
 
 /// [`fit_region`] of the cells above depth `until` from the input's coarse points alone (the

@@ -30,6 +30,7 @@ mod bspline_weight;
 mod buffers;
 mod build;
 mod cell_table;
+mod coarse_index;
 mod data_coverage;
 mod data_footprint;
 mod error;

@@ -6,6 +6,7 @@ use std::sync::{Arc, OnceLock};
 use glam::DVec3;
 use psi_octree::{Aabb, Octree, OrientedPoint, PointIndex};
 
+use crate::coarse_index::CoarseIndex;
 use crate::data_footprint::{DataFootprint, FootprintTest, InputData};
 use crate::eval_nodes::{EvalNode, NO_FIT};
 use crate::fit_store::FitStore;
@@ -36,6 +37,8 @@ pub struct Mpu {
     pub(crate) report: BuildReport,
     /// A kd-tree over the octree's (local-frame) positions.
     pub(crate) index: Arc<PointIndex>,
+    /// The coarse points' kd-tree (kept for the next local rebuild to derive its own).
+    pub(crate) coarse: Arc<CoarseIndex>,
     pub(crate) footprint: DataFootprint,
 }
 

@@ -4,7 +4,8 @@
 use glam::DVec3;
 use psi_octree::{OrientedPoint, PointIndex};
 
-use crate::fit_cell::{CoarseIndex, FitInput};
+use crate::coarse_index::CoarseIndex;
+use crate::fit_cell::FitInput;
 use crate::{MpuError, MpuFrame, MpuParams};
 
 /// Points ready for fitting: unit normals, local positions, their kd-tree and coarse index.

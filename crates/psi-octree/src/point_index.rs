@@ -1,8 +1,12 @@
-//! A kd-tree over point positions (kiddo 6), the alternative to [`crate::Octree::points_within`].
+//! A kd-tree over point positions (kiddo 6), the alternative to [`crate::Octree::points_within`],
+//! and its version after some points moved: the earlier tree, shared, with the moved points'
+//! entries set aside and a small tree of their new positions beside it (an edit's cost follows
+//! the points it moves, not the model; `docs/notes/2026-11-25-edit-index.md`).
 //!
 //! All kiddo calls of the workspace live in this file, so a change of kiddo's API touches only it.
 
 use std::num::NonZeroUsize;
+use std::sync::Arc;
 
 use glam::DVec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
@@ -12,39 +16,147 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 /// models with 1 and 2 threads).
 const PARALLEL_FROM: usize = 32_768;
 
-/// An immutable kd-tree over positions (shape: N, world units); items are indices into them.
+/// A version keeps at most `MOVED_FLOOR + n / MOVED_SHARE` moved points beside its base tree
+/// (n the base's entries); past that the base is built again (the unit tests cross the line
+/// often with a lower floor).
+const MOVED_FLOOR: usize = if cfg!(test) { 100 } else { 4096 };
+const MOVED_SHARE: usize = 32;
+
+/// A kd-tree over positions (shape: N, world units); its items are indices into them, or the
+/// ids given with them ([`PointIndex::with_items`]). Queries answer with the same sets, in some
+/// order, whether the index was built afresh or derived by [`PointIndex::with_moved`].
 pub struct PointIndex {
-    tree: Option<ImmutableKdTree<f64, 3>>,
+    /// The base tree (shared between versions).
+    tree: Option<Arc<ImmutableKdTree<f64, 3>>>,
+    /// The id of each base entry, ascending; `None`: entry k is id k.
+    items: Option<Arc<[u32]>>,
+    /// Ids moved since the base was built, ascending, and the same as a bit set: their base
+    /// entries are stale.
+    moved: Vec<u32>,
+    stale: Vec<u64>,
+    /// The moved ids' current entries (those the filter kept).
+    overlay: Option<ImmutableKdTree<f64, 3>>,
+    /// Live entries.
+    len: usize,
 }
 
 impl std::fmt::Debug for PointIndex {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("PointIndex")
             .field("len", &self.len())
+            .field("moved", &self.moved.len())
             .finish()
     }
+}
+
+/// A kiddo tree over `points` whose item k is `item(k)`; `None` when empty or too large.
+fn tree_of(points: &[DVec3], item: impl Fn(usize) -> u32) -> Option<ImmutableKdTree<f64, 3>> {
+    if points.is_empty() || points.len() >= u32::MAX as usize {
+        return None;
+    }
+    // Built straight from the positions (no coordinate copy: 1.7 MB for the bunny, which a
+    // local regeneration would page in afresh).
+    ImmutableKdTree::builder()
+        .with_parallel_construction_threshold(PARALLEL_FROM)
+        .build_from_source(points, |p: &DVec3, d| p[d], |i, _| item(i))
+        .ok()
 }
 
 impl PointIndex {
     /// Builds the index. Non-finite positions are indexed as given; an empty slice gives an
     /// empty index whose queries return nothing.
     pub fn new(points: &[DVec3]) -> Self {
-        // Built straight from the positions (no coordinate copy: 1.7 MB for the bunny, which a
-        // local regeneration would page in afresh).
-        let tree = if points.is_empty() || points.len() >= u32::MAX as usize {
-            None
-        } else {
-            ImmutableKdTree::builder()
-                .with_parallel_construction_threshold(PARALLEL_FROM)
-                .build_from_source(points, |p: &DVec3, d| p[d], |i, _| i as u32)
-                .ok()
+        let tree = tree_of(points, |i| i as u32);
+        Self::based(tree, None)
+    }
+
+    /// Builds the index of `points` (shape: K) whose items are `items` (shape: K, ascending
+    /// ids, e.g. the indices of a subset in a larger set).
+    ///
+    /// # Panics
+    ///
+    /// When the lengths differ or the ids do not ascend.
+    pub fn with_items(points: &[DVec3], items: Vec<u32>) -> Self {
+        assert_eq!(points.len(), items.len(), "one item per point");
+        assert!(items.is_sorted(), "items ascend");
+        let tree = tree_of(points, |i| items[i]);
+        Self::based(tree, Some(items.into()))
+    }
+
+    fn based(tree: Option<ImmutableKdTree<f64, 3>>, items: Option<Arc<[u32]>>) -> Self {
+        let len = tree.as_ref().map_or(0, |t| t.size());
+        Self {
+            tree: tree.map(Arc::new),
+            items,
+            moved: Vec::new(),
+            stale: Vec::new(),
+            overlay: None,
+            len,
+        }
+    }
+
+    /// The index after the points `moved` (ids) took new positions: `positions` (shape: N,
+    /// every id's current position), an id indexed when `keep(position)` (always true for an
+    /// index of all points; a subset's membership test otherwise). Costs time in the number
+    /// of points moved since the base tree was built, which is built again (over the ids
+    /// `0..N` that `keep` accepts) once they are many.
+    pub fn with_moved(
+        &self,
+        moved: &[u32],
+        positions: &[DVec3],
+        keep: impl Fn(DVec3) -> bool,
+    ) -> PointIndex {
+        let mut all = self.moved.clone();
+        all.extend_from_slice(moved);
+        all.sort_unstable();
+        all.dedup();
+        let base_len = self.tree.as_ref().map_or(0, |t| t.size());
+        if all.len() > MOVED_FLOOR + base_len / MOVED_SHARE {
+            return match &self.items {
+                None => PointIndex::new(positions),
+                Some(_) => {
+                    let ids: Vec<u32> = (0..positions.len() as u32)
+                        .filter(|&i| keep(positions[i as usize]))
+                        .collect();
+                    let pts: Vec<DVec3> = ids.iter().map(|&i| positions[i as usize]).collect();
+                    PointIndex::with_items(&pts, ids)
+                }
+            };
+        }
+        let mut stale = self.stale.clone();
+        for &id in moved {
+            let (word, bit) = ((id / 64) as usize, id % 64);
+            if stale.len() <= word {
+                stale.resize(word + 1, 0);
+            }
+            stale[word] |= 1 << bit;
+        }
+        let overlay_ids: Vec<u32> = all
+            .iter()
+            .copied()
+            .filter(|&i| keep(positions[i as usize]))
+            .collect();
+        let pts: Vec<DVec3> = overlay_ids.iter().map(|&i| positions[i as usize]).collect();
+        let overlay = tree_of(&pts, |k| overlay_ids[k]);
+        // Live base entries: those of ids not moved.
+        let in_base = |id: u32| match &self.items {
+            None => (id as usize) < base_len,
+            Some(items) => items.binary_search(&id).is_ok(),
         };
-        Self { tree }
+        let stale_in_base = all.iter().filter(|&&id| in_base(id)).count();
+        PointIndex {
+            tree: self.tree.clone(),
+            items: self.items.clone(),
+            len: base_len - stale_in_base + overlay_ids.len(),
+            moved: all,
+            stale,
+            overlay,
+        }
     }
 
     /// Number of indexed points.
     pub fn len(&self) -> usize {
-        self.tree.as_ref().map_or(0, |t| t.size())
+        self.len
     }
 
     /// Whether nothing is indexed.
@@ -52,40 +164,195 @@ impl PointIndex {
         self.len() == 0
     }
 
+    /// Whether id `id`'s base entry is stale.
+    #[inline]
+    fn is_stale(&self, id: u32) -> bool {
+        self.stale
+            .get((id / 64) as usize)
+            .is_some_and(|w| w & (1 << (id % 64)) != 0)
+    }
+
     /// Appends to `out` the indices of points with |p − x| ≤ `radius` (plain radius; kiddo is
     /// given the squared radius), in no particular order.
     pub fn within(&self, x: DVec3, radius: f64, out: &mut Vec<u32>) {
+        self.each_within(x, radius * radius, |id, _| out.push(id));
+    }
+
+    /// Calls `f(id, squared distance)` for every live entry with squared distance ≤ `r2`.
+    fn each_within(&self, x: DVec3, r2: f64, mut f: impl FnMut(u32, f64)) {
         if let Some(t) = &self.tree {
             let found = t
                 .query(&x.to_array())
-                .within::<SquaredEuclidean<f64>>(radius * radius)
+                .within::<SquaredEuclidean<f64>>(r2)
                 .unsorted()
                 .execute();
-            out.extend(found.iter().map(|n| n.item));
+            for n in &found {
+                if self.moved.is_empty() || !self.is_stale(n.item) {
+                    f(n.item, n.distance);
+                }
+            }
+        }
+        if let Some(t) = &self.overlay {
+            let found = t
+                .query(&x.to_array())
+                .within::<SquaredEuclidean<f64>>(r2)
+                .unsorted()
+                .execute();
+            for n in &found {
+                f(n.item, n.distance);
+            }
         }
     }
 
     /// The nearest point to `x` as `(index, squared distance)`; `None` for an empty index.
     pub fn nearest_one(&self, x: DVec3) -> Option<(u32, f64)> {
-        let t = self.tree.as_ref()?;
-        let n = t
-            .query(&x.to_array())
-            .nearest_one::<SquaredEuclidean<f64>>()
-            .execute();
-        Some((n.item, n.distance))
+        if self.moved.is_empty() {
+            let t = self.tree.as_ref()?;
+            let n = t
+                .query(&x.to_array())
+                .nearest_one::<SquaredEuclidean<f64>>()
+                .execute();
+            return Some((n.item, n.distance));
+        }
+        self.nearest(x, 1).first().copied()
     }
 
     /// The `k` nearest points to `x` as `(index, squared distance)`, nearest first.
     pub fn nearest(&self, x: DVec3, k: usize) -> Vec<(u32, f64)> {
-        match (&self.tree, NonZeroUsize::new(k)) {
-            (Some(t), Some(k)) => t
-                .query(&x.to_array())
+        let Some(want) = NonZeroUsize::new(k) else {
+            return Vec::new();
+        };
+        let query = |t: &ImmutableKdTree<f64, 3>, k: NonZeroUsize| -> Vec<(u32, f64)> {
+            t.query(&x.to_array())
                 .nearest_n::<SquaredEuclidean<f64>>(k)
                 .execute()
                 .iter()
                 .map(|n| (n.item, n.distance))
-                .collect(),
-            _ => Vec::new(),
+                .collect()
+        };
+        let Some(base) = &self.tree else {
+            return self
+                .overlay
+                .as_ref()
+                .map_or_else(Vec::new, |o| query(o, want));
+        };
+        if self.moved.is_empty() {
+            return query(base, want);
+        }
+        // The base's k nearest, the stale ones left out, and the overlay's k nearest.
+        let found = query(base, want);
+        let exhausted = found.len() < k;
+        let mut out: Vec<(u32, f64)> = found
+            .into_iter()
+            .filter(|&(id, _)| !self.is_stale(id))
+            .collect();
+        let complete = out.len() == k || exhausted;
+        if let Some(o) = &self.overlay {
+            out.extend(query(o, want));
+        }
+        if !complete {
+            // Stale entries hid some of the base's nearest live ones, all within the k-th
+            // distance of what was found (moved points are dense where they moved, so the
+            // overlay usually supplies k): gather the ball of that radius instead of asking
+            // the base for ever more neighbours.
+            out.sort_by(|a, b| a.1.total_cmp(&b.1));
+            let bound = if out.len() >= k {
+                out[k - 1].1
+            } else {
+                f64::INFINITY
+            };
+            out.clear();
+            // (Fewer than k live entries found at all: every entry.)
+            let r2 = if bound.is_finite() { bound } else { f64::MAX };
+            self.each_within(x, r2, |id, d2| out.push((id, d2)));
+        }
+        out.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+        out.truncate(k);
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Brute force: the ids within `r` of `x` and the sorted squared distances of all points.
+    fn brute(points: &[DVec3], live: &[u32], x: DVec3, r: f64) -> (Vec<u32>, Vec<f64>) {
+        let mut within: Vec<u32> = live
+            .iter()
+            .copied()
+            .filter(|&i| (points[i as usize] - x).length_squared() <= r * r)
+            .collect();
+        within.sort_unstable();
+        let mut d: Vec<f64> = live
+            .iter()
+            .map(|&i| (points[i as usize] - x).length_squared())
+            .collect();
+        d.sort_by(f64::total_cmp);
+        (within, d)
+    }
+
+    /// A seeded stream of pseudo-random numbers in [0, 1).
+    fn numbers(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
+            s = s
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    #[test]
+    fn moved_versions_answer_as_a_fresh_tree_and_brute_force() {
+        let mut rnd = numbers(3);
+        let n = 3000;
+        let mut points: Vec<DVec3> = (0..n).map(|_| DVec3::new(rnd(), rnd(), rnd())).collect();
+        // Every other id in a subset index (the coarse points' kind).
+        let keep = |p: DVec3| (p.x * 1e6) as u64 % 2 == 0;
+        let subset = |points: &[DVec3]| -> Vec<u32> {
+            (0..points.len() as u32)
+                .filter(|&i| keep(points[i as usize]))
+                .collect()
+        };
+        let mut all = PointIndex::new(&points);
+        let ids = subset(&points);
+        let pts: Vec<DVec3> = ids.iter().map(|&i| points[i as usize]).collect();
+        let mut part = PointIndex::with_items(&pts, ids);
+        // Many small moves: the versions pass the rebuild threshold on the way.
+        for round in 0..40 {
+            let c = DVec3::new(rnd(), rnd(), rnd());
+            let moved: Vec<u32> = (0..n as u32)
+                .filter(|&i| (points[i as usize] - c).length() < 0.15)
+                .collect();
+            for &i in &moved {
+                points[i as usize] += 0.05 * DVec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
+            }
+            all = all.with_moved(&moved, &points, |_| true);
+            part = part.with_moved(&moved, &points, keep);
+            let every: Vec<u32> = (0..n as u32).collect();
+            let live = subset(&points);
+            assert_eq!(all.len(), n, "round {round}");
+            assert_eq!(part.len(), live.len(), "round {round}");
+            for q in 0..30 {
+                let x = DVec3::new(rnd(), rnd(), rnd());
+                let r = 0.02 + 0.2 * rnd();
+                for (index, ids) in [(&all, &every), (&part, &live)] {
+                    let (want, dist) = brute(&points, ids, x, r);
+                    let mut got = Vec::new();
+                    index.within(x, r, &mut got);
+                    got.sort_unstable();
+                    assert_eq!(got, want, "round {round} query {q}");
+                    let k = 1 + q % 17;
+                    let near = index.nearest(x, k);
+                    let d: Vec<f64> = near.iter().map(|n| n.1).collect();
+                    assert_eq!(d, dist[..k.min(dist.len())], "round {round} query {q}");
+                    for (id, d2) in near {
+                        assert_eq!((points[id as usize] - x).length_squared(), d2);
+                    }
+                    assert_eq!(index.nearest_one(x).map(|n| n.1), dist.first().copied());
+                }
+            }
         }
     }
 }

@@ -151,18 +151,29 @@ impl Edit {
     pub fn apply_into(
         &self,
         points: &[OrientedPoint],
-        mut out: Vec<OrientedPoint>,
+        out: Vec<OrientedPoint>,
     ) -> Result<(Vec<OrientedPoint>, Vec<DVec3>), RegenError> {
+        self.apply_tracked(points, out).map(|(p, c, _)| (p, c))
+    }
+
+    /// [`Edit::apply_into`], also returning the indices of the points a brush moved (empty for
+    /// the other edits).
+    pub(crate) fn apply_tracked(
+        &self,
+        points: &[OrientedPoint],
+        mut out: Vec<OrientedPoint>,
+    ) -> Result<(Vec<OrientedPoint>, Vec<DVec3>, Vec<u32>), RegenError> {
         self.validate()?;
         out.clear();
         let mut changed = Vec::new();
+        let mut moved = Vec::new();
         match self {
             Edit::Brush {
                 center,
                 radius,
                 displacement,
             } => {
-                for p in points {
+                for (i, p) in points.iter().enumerate() {
                     let (w, gw) = falloff(p.p - *center, *radius);
                     if w == 0.0 {
                         out.push(*p);
@@ -188,9 +199,10 @@ impl Edit {
                     };
                     changed.push(p.p);
                     changed.push(q.p);
+                    moved.push(i as u32);
                     out.push(q);
                 }
-                Ok((out, changed))
+                Ok((out, changed, moved))
             }
             Edit::Remove { center, radius } => {
                 let r2 = radius * radius;
@@ -201,7 +213,7 @@ impl Edit {
                         out.push(*p);
                     }
                 }
-                Ok((out, changed))
+                Ok((out, changed, moved))
             }
             Edit::Replace {
                 center,
@@ -222,7 +234,7 @@ impl Edit {
                         .map(|p| OrientedPoint::new_normalized(p.p, p.n).expect("checked")),
                 );
                 changed.extend(added);
-                Ok((out, changed))
+                Ok((out, changed, moved))
             }
             Edit::Insert { points: new } => {
                 out.extend_from_slice(points);
@@ -230,7 +242,7 @@ impl Edit {
                     new.iter()
                         .map(|p| OrientedPoint::new_normalized(p.p, p.n).expect("checked")),
                 );
-                Ok((out, new.iter().map(|p| p.p).collect()))
+                Ok((out, new.iter().map(|p| p.p).collect(), moved))
             }
         }
     }

@@ -340,7 +340,8 @@ impl Scene {
         }
         let _span = tracing::info_span!("local_regeneration").entered();
         let t0 = Instant::now();
-        let (points, changed) = edit.apply_into(self.mpu.points(), self.spare.take_points())?;
+        let (points, changed, moved) =
+            edit.apply_tracked(self.mpu.points(), self.spare.take_points())?;
         let root = *self.mpu.octree().root();
         let origin = self.mpu.frame_origin();
         let inside = points.iter().all(|p| root.contains(p.p - origin));
@@ -371,12 +372,14 @@ impl Scene {
             return Ok(report);
         }
         let marked_old = mark_cells(&self.mpu, &changed);
+
         let options = BuildOptions {
             frame: Some(*self.mpu.frame()),
             reuse: Some(Reuse {
                 old: &self.mpu,
                 marked: &marked_old,
                 indices_kept: edit.keeps_indices(),
+                moved: matches!(edit, Edit::Brush { .. }).then_some(&moved[..]),
             }),
             buffers: std::mem::take(&mut self.spare),
             // The kept points' normals are the MPU's own and the edit's new ones are unit: no
