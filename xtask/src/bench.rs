@@ -4,7 +4,7 @@
 //!
 //! * `relax [MODEL] [ROUNDS] [warm|prefill]`: medians of the relaxation on fresh MPUs;
 //! * `eval [MODEL]`: one `value_and_gradient` near the surface;
-//! * `edit [MODEL] [ROUNDS]`: one local regeneration, a brush applied forth and back;
+//! * `edit [MODELS] [SEEDS] [STROKES]`: editing sessions, seeded drags, frames and settling;
 //! * `tune [MODEL]`: relaxation constants varied one at a time;
 //! * `tune-shapes`: step sizes and σ adaptation on a sphere and a torus;
 //! * `level-cv [MODEL] [p,q ...]`: the per-level nearest-neighbour CV split into a level's

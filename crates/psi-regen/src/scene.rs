@@ -30,8 +30,12 @@ pub struct RegenReport {
     pub points: usize,
     /// Whether the edit left the root cube and forced a full rebuild in a new frame.
     pub full_rebuild: bool,
-    /// Seconds marking and rebuilding the MPU.
+    /// Seconds marking and rebuilding the MPU (from the start of the edit).
     pub mpu_seconds: f64,
+    /// Of which: editing the points (and checking they stay in the root cube).
+    pub edit_seconds: f64,
+    /// Of which: marking the cells.
+    pub mark_seconds: f64,
     /// Seconds regenerating particles (seeding and the relaxation iterations run in this call,
     /// the finish included when none is left).
     pub particle_seconds: f64,
@@ -371,7 +375,9 @@ impl Scene {
             *self = scene;
             return Ok(report);
         }
+        let edit_seconds = t0.elapsed().as_secs_f64();
         let marked_old = mark_cells(&self.mpu, &changed);
+        let mark_seconds = t0.elapsed().as_secs_f64() - edit_seconds;
 
         let options = BuildOptions {
             frame: Some(*self.mpu.frame()),
@@ -494,6 +500,8 @@ impl Scene {
             points: mpu.points().len(),
             full_rebuild: false,
             mpu_seconds,
+            edit_seconds,
+            mark_seconds,
             particle_seconds,
             settle_seconds,
             settle_cpu_seconds,

@@ -1,48 +1,298 @@
-//! `bench edit`: the cost of one local regeneration (`Scene::apply`) on a model, a brush applied
-//! forth and back many times (for profiling with `perf record`): the small brush of the issue
-//! "Local regeneration" (about 1 % of the bunny), or with `big` the one covering 5 % of it.
+//! `bench edit`: editing sessions as a user drags a brush (issue "Edits at any size"). Each
+//! session is a drag of strokes generated from a seed: a start point and a direction on the
+//! surface, each stroke a step along it (a quarter of the radius), pushing the points out by
+//! 0.32 % D along the normal; the radius is chosen per model so that a brush holds about the
+//! same number of points as the bunny's at 4.8 % D. Every stroke is applied as a frame
+//! (`Scene::apply_deferred`, the first iterations of its relaxation) and then settled
+//! (`Scene::settle`), as an editor does between frames. Reports per model: the frame's median,
+//! worst and first-stroke times, the settle time, the total CPU time per stroke (frame and
+//! settle), and the median time by phase; and the bunny's 5 % brush (the one of
+//! `reproduce-tables`) applied forth and back, warm. Writes `target/xtask/edit/edit.md` and
+//! `edit.json`.
 //!
-//! `cargo xtask bench edit ../shared/models/bunny.ply 40 [big]`
+//! `cargo xtask bench edit [MODEL,MODEL,…] [SEEDS] [STROKES]`
+//! (defaults: bunny, igea and the David stand-in; 3 seeds; 20 strokes)
 
+use std::io::Write;
 use std::time::Instant;
 
-use psi::regen::{Edit, Scene};
-use psi::{DVec3, MpuParams, ParticleParams};
+use anyhow::{Context, Result};
+use psi::octree::{Monitor, PointAttributes, PointIndex};
+use psi::regen::{Edit, FRAME_ITERATIONS, RegenReport, Scene};
+use psi::{DVec3, MpuParams, OrientedPoint, ParticleParams};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+use serde_json::{Value, json};
 
-pub(crate) fn run(args: &[String]) -> anyhow::Result<()> {
-    let mut args = args.iter().cloned();
-    let points = super::load_model(args.next().as_ref())?;
-    let rounds: usize = args.next().map_or(Ok(20), |a| a.parse())?;
-    let (mut scene, _) = Scene::new(points, &MpuParams::paper(), &ParticleParams::paper())?;
-    // The brushes of `cargo xtask reproduce-tables`: the small one, or with `big` the 5 % one.
-    let big = args.next().is_some_and(|a| a == "big");
-    let b = crate::edits::BRUSHES[usize::from(big)].1;
-    let brush = |sign: f64| Edit::Brush {
-        center: DVec3::new(b[0], b[1], b[2]),
-        radius: b[3],
-        displacement: DVec3::new(b[4], b[5], b[6]) * sign,
-    };
-    let mut times = Vec::new();
-    let mut particle_times = Vec::new();
-    for k in 0..rounds {
-        let t = Instant::now();
-        let r = scene.apply(&brush(if k % 2 == 0 { 1.0 } else { -1.0 }))?;
-        times.push(t.elapsed().as_secs_f64());
-        particle_times.push(r.particle_seconds);
-        if k == 0 {
-            println!("{r:?}");
+use crate::median::median;
+
+/// Brush radius on the bunny, as a fraction of the diagonal D (the issue's sessions).
+const BUNNY_RADIUS: f64 = 0.048;
+/// How far a stroke pushes the points at its centre, as a fraction of D.
+const DEPTH: f64 = 0.0032;
+/// A stroke's step along the drag, as a fraction of the radius.
+const STEP: f64 = 0.25;
+/// Random input points over which a radius's median brush population is taken.
+const PROBES: usize = 60;
+
+/// The diagonal of the points' bounding box.
+fn diagonal(points: &[OrientedPoint]) -> f64 {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for p in points {
+        lo = lo.min(p.p);
+        hi = hi.max(p.p);
+    }
+    (hi - lo).length()
+}
+
+/// The median number of points within `radius` of `PROBES` input points drawn with a fixed
+/// seed.
+fn brush_population(points: &[OrientedPoint], index: &PointIndex, radius: f64) -> f64 {
+    let mut rng = Pcg64::seed_from_u64(99);
+    let counts: Vec<f64> = (0..PROBES)
+        .map(|_| {
+            let c = points[rng.random_range(0..points.len())].p;
+            let mut out = Vec::new();
+            index.within(c, radius, &mut out);
+            out.len() as f64
+        })
+        .collect();
+    median(&counts)
+}
+
+/// The radius whose brushes hold about `target` points (bisection on the median population).
+fn radius_for(points: &[OrientedPoint], index: &PointIndex, target: f64) -> f64 {
+    let d = diagonal(points);
+    let (mut lo, mut hi) = (1e-4 * d, 0.5 * d);
+    for _ in 0..40 {
+        let mid = (lo * hi).sqrt();
+        if brush_population(points, index, mid) < target {
+            lo = mid;
+        } else {
+            hi = mid;
         }
     }
-    if rounds == 0 {
-        return Ok(());
-    }
-    times.sort_by(f64::total_cmp);
-    particle_times.sort_by(f64::total_cmp);
-    println!(
-        "apply: min {:.1} ms, median {:.1} ms over {rounds} (particles: median {:.1} ms)",
-        1e3 * times[0],
-        1e3 * times[rounds / 2],
-        1e3 * particle_times[rounds / 2]
+    (lo * hi).sqrt()
+}
+
+/// A drag of `strokes` brushes from seed `seed`: centres on input points, a quarter radius
+/// apart along a direction kept in the tangent plane, each pushing out by `DEPTH`·D.
+fn drag(
+    points: &[OrientedPoint],
+    index: &PointIndex,
+    radius: f64,
+    seed: u64,
+    strokes: usize,
+) -> Vec<Edit> {
+    let d = diagonal(points);
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let mut at = points[rng.random_range(0..points.len())];
+    let random = DVec3::new(
+        rng.random_range(-1.0..1.0),
+        rng.random_range(-1.0..1.0),
+        rng.random_range(-1.0..1.0),
     );
+    let tangent = |n: DVec3, t: DVec3| (t - n * t.dot(n)).try_normalize();
+    let mut dir = tangent(at.n, random).unwrap_or_else(|| at.n.any_orthonormal_vector());
+    let mut out = Vec::with_capacity(strokes);
+    for _ in 0..strokes {
+        out.push(Edit::Brush {
+            center: at.p,
+            radius,
+            displacement: DEPTH * d * at.n,
+        });
+        let target = at.p + STEP * radius * dir;
+        let Some((next, _)) = index.nearest_one(target) else {
+            break;
+        };
+        let next = points[next as usize];
+        dir = tangent(next.n, next.p - at.p)
+            .or_else(|| tangent(next.n, dir))
+            .unwrap_or(dir);
+        at = next;
+    }
+    out
+}
+
+/// One stroke's figures: its frame, the settle after it, and the phases of its report.
+struct Stroke {
+    frame: f64,
+    settle: f64,
+    cpu: f64,
+    report: RegenReport,
+}
+
+/// Runs `edits` on a fresh scene of `points`, each as a frame and then settled.
+fn session(points: &[OrientedPoint], edits: &[Edit]) -> Result<Vec<Stroke>> {
+    let (mut scene, _) = Scene::new(
+        points.to_vec(),
+        &MpuParams::paper(),
+        &ParticleParams::paper(),
+    )?;
+    let (none, silent) = (PointAttributes::default(), Monitor::silent());
+    let mut out = Vec::with_capacity(edits.len());
+    for e in edits {
+        let t = Instant::now();
+        let report = scene.apply_deferred(e, &none, FRAME_ITERATIONS, &silent)?;
+        let frame = t.elapsed().as_secs_f64();
+        let settled = scene.settle(usize::MAX);
+        out.push(Stroke {
+            frame,
+            settle: settled.seconds,
+            cpu: report.cpu_seconds + settled.cpu_seconds,
+            report,
+        });
+    }
+    Ok(out)
+}
+
+/// Median, worst and first of a series (ms).
+fn summary(values: &[f64]) -> Value {
+    let warm = &values[1.min(values.len())..];
+    json!({
+        "first_ms": 1e3 * values.first().copied().unwrap_or(f64::NAN),
+        "median_ms": 1e3 * median(warm),
+        "worst_ms": 1e3 * warm.iter().copied().fold(f64::NAN, f64::max),
+    })
+}
+
+pub(crate) fn run(args: &[String]) -> Result<()> {
+    let mut args = args.iter();
+    let models: Vec<String> = match args.next() {
+        Some(list) => list.split(',').map(str::to_owned).collect(),
+        None => ["bunny", "igea", "david_standin_stanford_dragon"]
+            .map(str::to_owned)
+            .to_vec(),
+    };
+    let seeds: u64 = args.next().map_or(Ok(3), |a| a.parse())?;
+    let strokes: usize = args.next().map_or(Ok(20), |a| a.parse())?;
+    let dir = crate::project_root().join("../shared/models");
+    let load = |name: &str| -> Result<Vec<OrientedPoint>> {
+        let path = dir.join(format!("{name}.ply"));
+        Ok(psi::load_points(&path, &psi::ReadOptions::paper())
+            .with_context(|| format!("reading {}", path.display()))?
+            .points)
+    };
+    let bunny = load("bunny")?;
+    let bunny_index = PointIndex::new(&bunny.iter().map(|p| p.p).collect::<Vec<_>>());
+    let target = brush_population(&bunny, &bunny_index, BUNNY_RADIUS * diagonal(&bunny));
+    let mut rows = Vec::new();
+    let mut md = format!(
+        "# Editing sessions (`cargo xtask bench edit`)\n\n{} drags of {strokes} strokes per model \
+         (seeds 1..={seeds}), brushes holding about {target:.0} points (the bunny's at {:.1} % D), \
+         each stroke pushing out by {:.2} % D; frames run {FRAME_ITERATIONS} relaxation \
+         iterations, the rest settles after. Times in ms over the warm strokes (all but each \
+         drag's first); CPU: the process's, frame and settle, per stroke.\n\n\
+         | model | points | radius (% D) | marked cells | regenerated | frame median | frame worst | first stroke | settle median | CPU per stroke median | edit | mark | MPU rest | particles |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        seeds,
+        100.0 * BUNNY_RADIUS,
+        100.0 * DEPTH
+    );
+    for name in &models {
+        let points = if name == "bunny" {
+            bunny.clone()
+        } else {
+            load(name)?
+        };
+        let index = PointIndex::new(&points.iter().map(|p| p.p).collect::<Vec<_>>());
+        let radius = radius_for(&points, &index, target);
+        let d = diagonal(&points);
+        let mut all: Vec<Stroke> = Vec::new();
+        let mut firsts = Vec::new();
+        for seed in 1..=seeds {
+            let edits = drag(&points, &index, radius, seed, strokes);
+            let mut run = session(&points, &edits)?;
+            firsts.push(run[0].frame);
+            all.extend(run.drain(1..));
+        }
+        let pick = |f: &dyn Fn(&Stroke) -> f64| -> Vec<f64> { all.iter().map(f).collect() };
+        let frames = pick(&|s| s.frame);
+        let phase = |f: &dyn Fn(&RegenReport) -> f64| 1e3 * median(&pick(&|s| f(&s.report)));
+        let row = json!({
+            "model": name,
+            "points": points.len(),
+            "radius": radius,
+            "radius_of_diagonal": radius / d,
+            "brush_points": brush_population(&points, &index, radius),
+            "marked_cells_median": median(&pick(&|s| s.report.marked_cells as f64)),
+            "regenerated_median": median(&pick(&|s| s.report.particles_regenerated as f64)),
+            "frame": summary(&frames),
+            "first_strokes_ms": firsts.iter().map(|f| 1e3 * f).collect::<Vec<_>>(),
+            "settle_median_ms": 1e3 * median(&pick(&|s| s.settle)),
+            "cpu_per_stroke_median_ms": 1e3 * median(&pick(&|s| s.cpu)),
+            "phases_median_ms": {
+                "edit": phase(&|r| r.edit_seconds),
+                "mark": phase(&|r| r.mark_seconds),
+                "mpu_rest": phase(&|r| r.mpu_seconds - r.edit_seconds - r.mark_seconds),
+                "particles": phase(&|r| r.particle_seconds),
+            },
+        });
+        let f = &row["frame"];
+        let ph = &row["phases_median_ms"];
+        md.push_str(&format!(
+            "| {name} | {} | {:.2} | {:.0} | {:.0} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |\n",
+            points.len(),
+            100.0 * radius / d,
+            row["marked_cells_median"].as_f64().unwrap_or(0.0),
+            row["regenerated_median"].as_f64().unwrap_or(0.0),
+            f["median_ms"].as_f64().unwrap_or(f64::NAN),
+            f["worst_ms"].as_f64().unwrap_or(f64::NAN),
+            1e3 * median(&firsts),
+            row["settle_median_ms"].as_f64().unwrap_or(f64::NAN),
+            row["cpu_per_stroke_median_ms"].as_f64().unwrap_or(f64::NAN),
+            ph["edit"].as_f64().unwrap_or(f64::NAN),
+            ph["mark"].as_f64().unwrap_or(f64::NAN),
+            ph["mpu_rest"].as_f64().unwrap_or(f64::NAN),
+            ph["particles"].as_f64().unwrap_or(f64::NAN),
+        ));
+        println!("{name}: {row}");
+        rows.push(row);
+    }
+    let big = big_brush(&bunny)?;
+    md.push_str(&format!(
+        "\nThe bunny's 5 % brush (`reproduce-tables`' second brush) applied forth and back, \
+         eagerly (frame and full relaxation), warm strokes: median {:.1} ms, worst {:.1} ms.\n",
+        big["median_ms"].as_f64().unwrap_or(f64::NAN),
+        big["worst_ms"].as_f64().unwrap_or(f64::NAN)
+    ));
+    let out = crate::project_root().join("target/xtask/edit");
+    std::fs::create_dir_all(&out)?;
+    std::fs::write(out.join("edit.md"), &md)?;
+    let report = json!({
+        "host": crate::host::host(),
+        "strokes": strokes,
+        "seeds": seeds,
+        "brush_points": target,
+        "models": rows,
+        "bunny_big_brush": big,
+    });
+    let mut f = std::fs::File::create(out.join("edit.json"))?;
+    writeln!(f, "{}", serde_json::to_string_pretty(&report)?)?;
+    print!("{md}");
+    println!("wrote {}", out.display());
     Ok(())
+}
+
+/// The bunny's 5 % brush forth and back, 21 strokes, eager: the warm strokes' median and
+/// worst (ms).
+fn big_brush(bunny: &[OrientedPoint]) -> Result<Value> {
+    let (mut scene, _) = Scene::new(
+        bunny.to_vec(),
+        &MpuParams::paper(),
+        &ParticleParams::paper(),
+    )?;
+    let b = crate::edits::BRUSHES[1].1;
+    let mut times = Vec::new();
+    for k in 0..21 {
+        let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+        let t = Instant::now();
+        scene.apply(&Edit::Brush {
+            center: DVec3::new(b[0], b[1], b[2]),
+            radius: b[3],
+            displacement: DVec3::new(b[4], b[5], b[6]) * sign,
+        })?;
+        times.push(t.elapsed().as_secs_f64());
+    }
+    Ok(summary(&times))
 }
