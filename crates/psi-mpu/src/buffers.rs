@@ -62,6 +62,12 @@ impl MpuBuffers {
         b
     }
 
+    /// The buffer for the next build's points as the buffers' MPU left them (to be brought up
+    /// to date by the caller: [`crate::BuildOptions::synced`]).
+    pub fn take_synced_points(&mut self) -> Vec<OrientedPoint> {
+        std::mem::take(&mut self.points)
+    }
+
     /// The buffer for the next build's points (empty; its capacity kept).
     pub fn take_points(&mut self) -> Vec<OrientedPoint> {
         let mut p = std::mem::take(&mut self.points);

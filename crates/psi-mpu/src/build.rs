@@ -67,6 +67,12 @@ pub struct BuildOptions<'a> {
     /// cell the table lacks is an error ([`MpuError::BadParameter`]). The result is the build
     /// the table's regions were decided for, bitwise.
     pub known_cells: Option<&'a CellTable>,
+    /// The points given and the buffers' positions are those of the MPU the buffers came
+    /// from ([`Mpu::into_buffers`]) but at these indices (ascending): only they are checked
+    /// and moved to the local frame, in the time of the points changed (an editor's stroke,
+    /// its buffers one stroke behind: the last stroke's moves and this one's). `None`: every
+    /// point afresh.
+    pub synced: Option<&'a [u32]>,
     /// Progress (stage `"mpu"`: octree levels decided of `max_depth + 1`) and interruption:
     /// once its stop flag is set, no cell splits any more and the build returns
     /// [`MpuError::Interrupted`].
@@ -111,17 +117,36 @@ fn prepare(
     mut positions: Vec<DVec3>,
     unit_normals: bool,
     fits_known: bool,
+    synced: Option<&[u32]>,
 ) -> Result<Prepared, MpuError> {
     // A build that takes every decision from a table fits nothing: any non-empty part of an
     // input will do (a tile's points).
     if !fits_known || points.is_empty() {
         check_input_size(&points, params)?;
     }
-    for (index, p) in points.iter().enumerate() {
+    let bad = |p: &OrientedPoint| {
         let len = p.n.length();
-        if !p.p.is_finite() || !len.is_finite() || len <= 0.0 {
-            return Err(MpuError::BadPoint { index });
+        !p.p.is_finite() || !len.is_finite() || len <= 0.0
+    };
+    if let Some(changed) = synced.filter(|_| positions.len() == points.len()) {
+        // Only the changed points differ from the buffers' MPU, which checked the others.
+        if let Some(&index) = changed.iter().find(|&&i| bad(&points[i as usize])) {
+            return Err(MpuError::BadPoint {
+                index: index as usize,
+            });
         }
+        let mut points = points.into_owned();
+        for &i in changed {
+            let p = &mut points[i as usize];
+            if !unit_normals {
+                p.n /= p.n.length();
+            }
+            positions[i as usize] = p.p - frame.origin;
+        }
+        return Ok(Prepared { positions, points });
+    }
+    if let Some(index) = points.iter().position(bad) {
+        return Err(MpuError::BadPoint { index });
     }
     let mut points = points.into_owned();
     if !unit_normals {
@@ -231,6 +256,29 @@ fn prefit_marked(
     })
 }
 
+/// Whether `points` has as many points as `old` (a brush's rebuild).
+fn positions_kept(old: &Mpu, points: &[OrientedPoint]) -> bool {
+    old.points.len() == points.len()
+}
+
+/// The bounding box of `points` (world units) from `old`'s, the points `moved` having moved:
+/// grown by their new positions, or `None` when one of them left a face of the old box (then
+/// the box may shrink and is measured again).
+fn moved_bounds(old: &Mpu, moved: &[u32], points: &[OrientedPoint]) -> Option<Aabb> {
+    let mut b = old.bounds;
+    for &i in moved {
+        let was = old.points[i as usize].p;
+        let on_face = (0..3).any(|k| was[k] == old.bounds.min[k] || was[k] == old.bounds.max[k]);
+        if on_face {
+            return None;
+        }
+        let now = points[i as usize].p;
+        b.min = b.min.min(now);
+        b.max = b.max.max(now);
+    }
+    Some(b)
+}
+
 impl Mpu {
     /// Builds the MPU of `points` (shape: N oriented points, world units, unit or non-unit
     /// outward normals) with `params`: [`Mpu::build_with`] with default options.
@@ -261,6 +309,7 @@ impl Mpu {
             buffers,
             unit_normals,
             known_cells,
+            synced,
             monitor,
         } = options;
         let frame = match frame {
@@ -295,7 +344,9 @@ impl Mpu {
             positions,
             unit_normals,
             known_cells.is_some(),
+            synced,
         )?;
+        let t_prepare = start.elapsed().as_secs_f64();
         let n = data.points.len();
         let eps0 = params.error_rel * frame.diagonal;
         let marked_old: Vec<u32> = reuse.map_or_else(Vec::new, |r| {
@@ -308,6 +359,7 @@ impl Mpu {
             coarse,
             fits: prefit,
         } = prefit_marked(&data, params, eps0, reuse, &marked_old, &monitor)?;
+        let t_fits = start.elapsed().as_secs_f64();
         let levels = u64::from(params.max_depth) + 1;
         monitor.report("mpu", 0, levels);
         monitor.check()?;
@@ -363,7 +415,11 @@ impl Mpu {
                 // this placeholder record.
                 return (false, CellRecord::Reused(0));
             }
-            let old = reuse.and_then(|r| r.old.octree.cell_at(v.cell.depth, v.cell.key));
+            // (With known partitions the octree tracks the address; else it is looked up.)
+            let old = match known {
+                Some(_) => v.old,
+                None => reuse.and_then(|r| r.old.octree.cell_at(v.cell.depth, v.cell.key)),
+            };
             if let (Some(r), Some(old)) = (reuse, old)
                 && !r.marked[old as usize]
             {
@@ -387,6 +443,7 @@ impl Mpu {
                 })),
             )
         })?;
+        let t_octree = start.elapsed().as_secs_f64();
         monitor.check()?;
         if let Some((depth, key)) = missing.into_inner().expect("not poisoned") {
             return Err(MpuError::BadParameter(format!(
@@ -407,7 +464,13 @@ impl Mpu {
         let mut cell_fit = vec![NO_FIT; octree.cells().len()];
         let mut fit_radius = Vec::with_capacity(octree.cells().len());
         let mut fitted = Vec::with_capacity(octree.cells().len());
-        let bounds = Aabb::from_points(points.iter().map(|p| p.p)).expect("non-empty");
+        let bounds = match (reuse, synced) {
+            (Some(r), Some(_)) if r.moved.is_some() && positions_kept(r.old, &points) => {
+                moved_bounds(r.old, r.moved.unwrap_or_default(), &points)
+            }
+            _ => None,
+        }
+        .unwrap_or_else(|| Aabb::from_points(points.iter().map(|p| p.p)).expect("non-empty"));
         let mut report = BuildReport {
             points: points.len(),
             cells: octree.cells().len(),
@@ -472,6 +535,14 @@ impl Mpu {
         // The lazily filled tables start empty, in the buffers' memory when there is some.
         candidates.clear();
         candidates.resize_with(nodes.len(), OnceLock::new);
+        let footprint = DataFootprint::new_in(input_local, n);
+        report.seconds = start.elapsed().as_secs_f64();
+        report.phases = crate::BuildPhases {
+            prepare: t_prepare,
+            index_and_marked_fits: t_fits - t_prepare,
+            octree: t_octree - t_fits,
+            assemble: report.seconds - t_octree,
+        };
         Ok(Mpu {
             leaf_candidates: Arc::new(candidates),
             nodes,
@@ -487,7 +558,7 @@ impl Mpu {
             report,
             index,
             coarse,
-            footprint: DataFootprint::new_in(input_local, n),
+            footprint,
         })
     }
 }

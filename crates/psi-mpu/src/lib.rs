@@ -70,4 +70,4 @@ pub use mpu::Mpu;
 pub use params::MpuParams;
 pub use polygonize::{PolygonizeParams, TriangleSoup, polygonize, polygonize_with};
 pub use quadric::Quadric;
-pub use report::{BuildReport, FitCounts};
+pub use report::{BuildPhases, BuildReport, FitCounts};

@@ -46,6 +46,23 @@ pub struct BuildReport {
     pub bbox_diagonal: f64,
     /// Wall-clock seconds of the build.
     pub seconds: f64,
+    /// Where they went.
+    #[serde(default)]
+    pub phases: BuildPhases,
+}
+
+/// Wall-clock seconds of a build's phases.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BuildPhases {
+    /// Checking the points and moving them to the local frame.
+    pub prepare: f64,
+    /// The kd-trees (built, or derived after a brush) and, in a local rebuild, the fits of
+    /// the marked cells.
+    pub index_and_marked_fits: f64,
+    /// The octree level by level with the other cells' decisions.
+    pub octree: f64,
+    /// The leaves' functions, the report and the evaluation nodes.
+    pub assemble: f64,
 }
 
 impl BuildReport {

@@ -34,6 +34,7 @@
 mod cell_at;
 mod error;
 mod geometry;
+mod known_partitions;
 mod leaf_containing;
 mod monitor;
 mod octree;
@@ -44,10 +45,11 @@ mod support_cells;
 
 pub use error::OctreeError;
 pub use geometry::{Aabb, OrientedPoint};
+pub use known_partitions::KnownPartitions;
 pub use monitor::{Interrupted, Monitor, Observer, StopFlag};
 pub use octree::{
-    Cell, CellView, DEPTH_LIMIT, KnownPartitions, NO_CELL, Octree, OctreeBuffers, OctreeBuild,
-    OctreeParams, RootCube, root_cube,
+    Cell, CellView, DEPTH_LIMIT, NO_CELL, Octree, OctreeBuffers, OctreeBuild, OctreeParams,
+    RootCube, root_cube,
 };
 pub use point_attributes::PointAttributes;
 pub use point_index::PointIndex;

@@ -6,7 +6,7 @@ use std::borrow::Cow;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::{Aabb, OctreeError};
+use crate::{Aabb, KnownPartitions, OctreeError};
 
 /// Sentinel index meaning "no cell".
 pub const NO_CELL: u32 = u32::MAX;
@@ -110,41 +110,8 @@ pub struct CellView<'a> {
     pub points: &'a [u32],
     /// All the build's point positions (shape: N, as given).
     pub positions: &'a [DVec3],
-}
-
-/// Partitions a rebuild may take from an earlier octree (see [`OctreeBuild::known`]).
-#[derive(Clone, Copy, Debug)]
-pub struct KnownPartitions<'a> {
-    /// The earlier octree: same root cube, and every point it shares with the new build has
-    /// the same index in both.
-    pub old: &'a Octree,
-    /// Per cell of `old`: whether its points may have changed (a point entered or left its
-    /// cube); an unflagged cell holds exactly the same points in the new build.
-    pub changed: &'a [bool],
-}
-
-impl<'a> KnownPartitions<'a> {
-    /// The child counts and the point order of `cell` (a cell of the new build) as the earlier
-    /// octree left them, if it split the same cell over the same points: each child's segment
-    /// holds the child's points (in the order the earlier subtree left them; the build
-    /// restores increasing order where the new subtree differs, see `Octree::build_with`).
-    fn partition_of(&self, cell: &Cell) -> Option<([u32; 8], &'a [u32])> {
-        let o = self.old.cell_at(cell.depth, cell.key)?;
-        if self.changed[o as usize] {
-            return None;
-        }
-        let oc = self.old.cell(o);
-        let children = self.old.children(o)?;
-        if oc.end - oc.start != cell.end - cell.start {
-            return None;
-        }
-        let mut counts = [0u32; 8];
-        for (k, ch) in children.enumerate() {
-            let c = self.old.cell(ch);
-            counts[k] = c.end - c.start;
-        }
-        Some((counts, &self.old.order[oc.start as usize..oc.end as usize]))
-    }
+    /// With [`OctreeBuild::known`]: the earlier octree's cell at the same address, if any.
+    pub old: Option<u32>,
 }
 
 /// The arrays of an octree, for a later build to fill instead of allocating its own
@@ -326,10 +293,16 @@ impl Octree {
             root_edge: 2.0 * half,
         };
         let mut payloads: Vec<T> = Vec::new();
+        // Per cell, with known partitions: the earlier octree's cell at its address, and
+        // whether its segment of `order` already holds that cell's final arrangement (then its
+        // subtree's partitions are in place and nothing is copied).
+        let mut old_of: Vec<u32> = vec![if known.is_some() { 0 } else { NO_CELL }];
+        let mut in_place: Vec<bool> = vec![false];
         let mut level = 0..1usize;
         while !level.is_empty() {
             let decisions: Vec<(bool, T)> = {
                 let t = &tree;
+                let old_of = &old_of;
                 (level.start..level.end)
                     .into_par_iter()
                     .map(|i| {
@@ -339,6 +312,7 @@ impl Octree {
                             cell,
                             points: t.points_in(i as u32),
                             positions: &t.positions,
+                            old: Some(old_of[i]).filter(|&o| o != NO_CELL),
                         })
                     })
                     .collect()
@@ -354,23 +328,49 @@ impl Octree {
             }
             // The cells' point ranges are disjoint: partition them in parallel, then append the
             // children in cell order (the arena stays level by level, whatever the threads).
-            let parts: Vec<([u32; 8], Cow<'_, [u32]>)> = {
+            // A partition known and already in place costs nothing; known, it is copied once
+            // for its whole subtree.
+            let parts: Vec<([u32; 8], Option<Cow<'_, [u32]>>)> = {
                 let t = &tree;
+                let (old_of, in_place) = (&old_of, &in_place);
                 to_split
                     .par_iter()
-                    .map(|&i| match known.and_then(|k| k.partition_of(&t.cells[i])) {
-                        Some((counts, order)) => (counts, Cow::Borrowed(order)),
-                        None => {
-                            let (counts, order) = t.partition(i);
-                            (counts, Cow::Owned(order))
+                    .map(|&i| {
+                        let c = &t.cells[i];
+                        let k = known.as_ref();
+                        match k.and_then(|k| k.partition_at(old_of[i], c.end - c.start)) {
+                            Some((counts, _)) if in_place[i] => (counts, None),
+                            Some((counts, order)) => (counts, Some(Cow::Borrowed(order))),
+                            None => {
+                                let (counts, order) = t.partition(i);
+                                (counts, Some(Cow::Owned(order)))
+                            }
                         }
                     })
                     .collect()
             };
             for (&i, (counts, order)) in to_split.iter().zip(parts) {
                 let c = tree.cells[i];
-                tree.order[c.start as usize..c.end as usize].copy_from_slice(&order);
+                let kept = match order {
+                    Some(Cow::Owned(order)) => {
+                        tree.order[c.start as usize..c.end as usize].copy_from_slice(&order);
+                        false
+                    }
+                    Some(Cow::Borrowed(order)) => {
+                        tree.order[c.start as usize..c.end as usize].copy_from_slice(order);
+                        true
+                    }
+                    None => true,
+                };
                 tree.push_children(i, counts);
+                for child in 0..8 {
+                    old_of.push(
+                        known
+                            .as_ref()
+                            .map_or(NO_CELL, |k| k.child_of(old_of[i], child)),
+                    );
+                    in_place.push(kept);
+                }
             }
             if let Some(on_level) = on_level {
                 on_level(tree.cells[level.start].depth, tree.cells.len());
@@ -379,9 +379,16 @@ impl Octree {
         }
         // Every leaf lists its points in increasing index order, as a build from scratch leaves
         // them. A partition copied from an earlier octree keeps that octree's order below, which
-        // differs only under a cell whose subtree changed; sorting such leaves restores it.
-        for c in &tree.cells {
-            if c.is_leaf() {
+        // differs only under a cell whose subtree changed; sorting such leaves restores it (a
+        // leaf in place that was a leaf before too is sorted already).
+        let sorted_before = |i: usize| {
+            in_place[i]
+                && known
+                    .as_ref()
+                    .is_some_and(|k| k.old.cell(old_of[i]).is_leaf())
+        };
+        for (i, c) in tree.cells.iter().enumerate() {
+            if c.is_leaf() && !sorted_before(i) {
                 let r = &mut tree.order[c.start as usize..c.end as usize];
                 if !r.is_sorted() {
                     r.sort_unstable();

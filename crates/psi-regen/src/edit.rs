@@ -52,7 +52,68 @@ fn falloff(y: DVec3, radius: f64) -> (f64, DVec3) {
     (a * a, (-4.0 * a / (radius * radius)) * y)
 }
 
+/// A brush's effect on one point: its new state, `None` where the brush does not reach it.
+/// Errors when the deformation folds the surface there.
+fn brushed(
+    p: &OrientedPoint,
+    center: DVec3,
+    radius: f64,
+    displacement: DVec3,
+) -> Result<Option<OrientedPoint>, RegenError> {
+    let (w, gw) = falloff(p.p - center, radius);
+    if w == 0.0 {
+        return Ok(None);
+    }
+    // J = I + d ⊗ ∇w; normals transform by J^{-T}.
+    let j = DMat3::IDENTITY
+        + DMat3::from_cols(
+            displacement * gw.x,
+            displacement * gw.y,
+            displacement * gw.z,
+        );
+    if j.determinant() <= 1e-6 {
+        return Err(RegenError::BadEdit(format!(
+            "the brush folds the surface (displacement {} too large for radius {radius})",
+            displacement.length()
+        )));
+    }
+    let n = j.inverse().transpose() * p.n;
+    Ok(Some(OrientedPoint {
+        p: p.p + w * displacement,
+        n: n.normalize(),
+    }))
+}
+
 impl Edit {
+    /// A brush's moves: of `points`, those among `candidates` (ascending indices, every point
+    /// the brush reaches among them) that it moves, with their new states, as
+    /// [`Edit::apply`] moves them. `None` for the other edits.
+    pub(crate) fn brush_moves(
+        &self,
+        points: &[OrientedPoint],
+        candidates: &[u32],
+    ) -> Option<Result<Vec<(u32, OrientedPoint)>, RegenError>> {
+        let Edit::Brush {
+            center,
+            radius,
+            displacement,
+        } = self
+        else {
+            return None;
+        };
+        let moves = || {
+            self.validate()?;
+            let mut out = Vec::new();
+            for &i in candidates {
+                if let Some(q) = brushed(&points[i as usize], *center, *radius, *displacement)? {
+                    out.push((i, q));
+                }
+            }
+            Ok(out)
+        };
+        Some(moves())
+    }
+
     /// Whether the points the edit leaves unchanged keep their indices (a brush moves points
     /// in place, an insertion appends; a removal or replacement renumbers).
     pub fn keeps_indices(&self) -> bool {
@@ -174,28 +235,9 @@ impl Edit {
                 displacement,
             } => {
                 for (i, p) in points.iter().enumerate() {
-                    let (w, gw) = falloff(p.p - *center, *radius);
-                    if w == 0.0 {
+                    let Some(q) = brushed(p, *center, *radius, *displacement)? else {
                         out.push(*p);
                         continue;
-                    }
-                    // J = I + d ⊗ ∇w; normals transform by J^{-T}.
-                    let j = DMat3::IDENTITY
-                        + DMat3::from_cols(
-                            *displacement * gw.x,
-                            *displacement * gw.y,
-                            *displacement * gw.z,
-                        );
-                    if j.determinant() <= 1e-6 {
-                        return Err(RegenError::BadEdit(format!(
-                            "the brush folds the surface (displacement {} too large for radius {radius})",
-                            displacement.length()
-                        )));
-                    }
-                    let n = j.inverse().transpose() * p.n;
-                    let q = OrientedPoint {
-                        p: p.p + w * *displacement,
-                        n: n.normalize(),
                     };
                     changed.push(p.p);
                     changed.push(q.p);

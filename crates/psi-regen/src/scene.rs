@@ -71,6 +71,9 @@ pub struct Scene {
     spare: MpuBuffers,
     /// The last stroke's relaxation when it is still settling ([`Scene::apply_deferred`]).
     pending: Option<Pending>,
+    /// Where `spare`'s points and positions (the MPU before this one's) differ from this MPU's
+    /// when the last edit was a brush: the points it moved. `None`: unknown.
+    spare_lag: Option<Vec<u32>>,
 }
 
 impl Scene {
@@ -113,6 +116,7 @@ impl Scene {
         let field = run.report.density;
         let spare = MpuBuffers::like(&mpu);
         let scene = Scene {
+            spare_lag: None,
             pending: None,
             spare,
             mpu,
@@ -151,6 +155,7 @@ impl Scene {
         };
         let mpu = Mpu::build_with(points, mpu_params, options)?;
         Ok(Scene {
+            spare_lag: None,
             pending: None,
             spare: MpuBuffers::like(&mpu),
             mpu,
@@ -344,11 +349,22 @@ impl Scene {
         }
         let _span = tracing::info_span!("local_regeneration").entered();
         let t0 = Instant::now();
-        let (points, changed, moved) =
-            edit.apply_tracked(self.mpu.points(), self.spare.take_points())?;
+        let lag = self.spare_lag.take();
+        let (points, changed, moved, synced) = match edit {
+            Edit::Brush { .. } => self.brushed_points(edit, lag)?,
+            _ => {
+                let (p, c, m) = edit.apply_tracked(self.mpu.points(), self.spare.take_points())?;
+                (p, c, m, None)
+            }
+        };
         let root = *self.mpu.octree().root();
         let origin = self.mpu.frame_origin();
-        let inside = points.iter().all(|p| root.contains(p.p - origin));
+        let inside = if synced.is_some() {
+            // Only the moved points can have left.
+            changed.iter().all(|&p| root.contains(p - origin))
+        } else {
+            points.iter().all(|p| root.contains(p.p - origin))
+        };
         if !inside {
             // The edit left the root cube: start again in a new frame.
             let (scene, _) = Scene::new_with(
@@ -392,6 +408,7 @@ impl Scene {
             // renormalisation, so a build from `points()` repeats this MPU bit for bit.
             unit_normals: true,
             known_cells: None,
+            synced: synced.as_deref(),
             monitor: *monitor,
         };
         let mpu = Mpu::build_with(points, &self.mpu_params, options)?;
@@ -510,11 +527,69 @@ impl Scene {
             pending_iterations,
         };
         self.spare = std::mem::replace(&mut self.mpu, mpu).into_buffers();
+        // The MPU just replaced differs from the new one where the brush moved points.
+        self.spare_lag = matches!(edit, Edit::Brush { .. }).then_some(moved);
         self.particles = particles;
         self.attributes = attributes;
         self.particle_attributes = particle_attributes;
         self.pending = pending;
         Ok(report)
+    }
+
+    /// A brush's new points in time of the points it reaches: the candidates from the kd-tree,
+    /// the spare buffer (the MPU before this one's points, which differ at `lag`) brought up to
+    /// date. Returns the points, the changed positions (old and new), the moved indices and,
+    /// when the buffer was in step, the indices where it now differs from the points the spare
+    /// positions were made from ([`BuildOptions::synced`]).
+    #[allow(clippy::type_complexity)]
+    fn brushed_points(
+        &mut self,
+        edit: &Edit,
+        lag: Option<Vec<u32>>,
+    ) -> Result<(Vec<OrientedPoint>, Vec<DVec3>, Vec<u32>, Option<Vec<u32>>), RegenError> {
+        let Edit::Brush { center, radius, .. } = edit else {
+            unreachable!("only brushes come here");
+        };
+        // (A margin: the kd-tree measures in the local frame, the brush in world units.)
+        let mut candidates = Vec::new();
+        self.mpu
+            .inputs_within(*center, radius * (1.0 + 1e-9), &mut candidates);
+        let moves = match edit.brush_moves(self.mpu.points(), &candidates) {
+            Some(Ok(moves)) => moves,
+            Some(Err(e)) => {
+                // Refused before anything changed: the spare stays in step.
+                self.spare_lag = lag;
+                return Err(e);
+            }
+            None => unreachable!("a brush"),
+        };
+        let current = self.mpu.points();
+        let mut points = self.spare.take_synced_points();
+        let synced = match lag {
+            Some(lag) if points.len() == current.len() => {
+                for &i in &lag {
+                    points[i as usize] = current[i as usize];
+                }
+                let mut s = lag;
+                s.extend(moves.iter().map(|m| m.0));
+                s.sort_unstable();
+                s.dedup();
+                Some(s)
+            }
+            _ => {
+                points.clear();
+                points.extend_from_slice(current);
+                None
+            }
+        };
+        let mut changed = Vec::with_capacity(2 * moves.len());
+        for &(i, q) in &moves {
+            changed.push(current[i as usize].p);
+            changed.push(q.p);
+            points[i as usize] = q;
+        }
+        let moved = moves.iter().map(|m| m.0).collect();
+        Ok((points, changed, moved, synced))
     }
 
     /// Quality figures of the current particles.

@@ -120,6 +120,7 @@ struct Stroke {
     settle: f64,
     cpu: f64,
     report: RegenReport,
+    build: psi::mpu::BuildPhases,
 }
 
 /// Runs `edits` on a fresh scene of `points`, each as a frame and then settled.
@@ -141,6 +142,7 @@ fn session(points: &[OrientedPoint], edits: &[Edit]) -> Result<Vec<Stroke>> {
             settle: settled.seconds,
             cpu: report.cpu_seconds + settled.cpu_seconds,
             report,
+            build: scene.mpu().report().phases.clone(),
         });
     }
     Ok(out)
@@ -183,8 +185,8 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
          each stroke pushing out by {:.2} % D; frames run {FRAME_ITERATIONS} relaxation \
          iterations, the rest settles after. Times in ms over the warm strokes (all but each \
          drag's first); CPU: the process's, frame and settle, per stroke.\n\n\
-         | model | points | radius (% D) | marked cells | regenerated | frame median | frame worst | first stroke | settle median | CPU per stroke median | edit | mark | MPU rest | particles |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+         | model | points | radius (% D) | marked cells | regenerated | frame median | frame worst | first stroke | settle median | CPU per stroke median | edit | mark | MPU: index and marked fits | octree | assemble | particles |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         seeds,
         100.0 * BUNNY_RADIUS,
         100.0 * DEPTH
@@ -209,6 +211,8 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         let pick = |f: &dyn Fn(&Stroke) -> f64| -> Vec<f64> { all.iter().map(f).collect() };
         let frames = pick(&|s| s.frame);
         let phase = |f: &dyn Fn(&RegenReport) -> f64| 1e3 * median(&pick(&|s| f(&s.report)));
+        let build =
+            |f: &dyn Fn(&psi::mpu::BuildPhases) -> f64| 1e3 * median(&pick(&|s| f(&s.build)));
         let row = json!({
             "model": name,
             "points": points.len(),
@@ -225,13 +229,17 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
                 "edit": phase(&|r| r.edit_seconds),
                 "mark": phase(&|r| r.mark_seconds),
                 "mpu_rest": phase(&|r| r.mpu_seconds - r.edit_seconds - r.mark_seconds),
+                "mpu_prepare": build(&|b| b.prepare),
+                "mpu_index_and_marked_fits": build(&|b| b.index_and_marked_fits),
+                "mpu_octree": build(&|b| b.octree),
+                "mpu_assemble": build(&|b| b.assemble),
                 "particles": phase(&|r| r.particle_seconds),
             },
         });
         let f = &row["frame"];
         let ph = &row["phases_median_ms"];
         md.push_str(&format!(
-            "| {name} | {} | {:.2} | {:.0} | {:.0} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |\n",
+            "| {name} | {} | {:.2} | {:.0} | {:.0} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |\n",
             points.len(),
             100.0 * radius / d,
             row["marked_cells_median"].as_f64().unwrap_or(0.0),
@@ -243,7 +251,9 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             row["cpu_per_stroke_median_ms"].as_f64().unwrap_or(f64::NAN),
             ph["edit"].as_f64().unwrap_or(f64::NAN),
             ph["mark"].as_f64().unwrap_or(f64::NAN),
-            ph["mpu_rest"].as_f64().unwrap_or(f64::NAN),
+            ph["mpu_index_and_marked_fits"].as_f64().unwrap_or(f64::NAN),
+            ph["mpu_octree"].as_f64().unwrap_or(f64::NAN),
+            ph["mpu_assemble"].as_f64().unwrap_or(f64::NAN),
             ph["particles"].as_f64().unwrap_or(f64::NAN),
         ));
         println!("{name}: {row}");
