@@ -387,6 +387,7 @@ impl Mpu {
         let known = reuse.filter(|r| r.indices_kept).map(|r| KnownPartitions {
             old: &r.old.octree,
             changed: r.marked,
+            moved: r.moved,
         });
         let octree_options = OctreeBuild {
             root: Some(frame.root()),

@@ -267,7 +267,14 @@ impl Octree {
             end: points.len() as u32,
         };
         let end = root.end;
-        for p in &points {
+        // After a brush only the moved points can be new (the earlier build checked the rest).
+        let patch = known.and_then(|k| k.moved.map(|m| (k, m)));
+        let patch = patch.filter(|(k, _)| k.old.positions.len() == points.len());
+        let checked: Box<dyn Iterator<Item = &DVec3>> = match patch {
+            Some((_, moved)) => Box::new(moved.iter().map(|&i| &points[i as usize])),
+            None => Box::new(points.iter()),
+        };
+        for p in checked {
             if !p.is_finite() {
                 return Err(OctreeError::NonFinite);
             }
@@ -282,8 +289,17 @@ impl Octree {
         } = buffers;
         cells.clear();
         cells.push(root);
-        order.clear();
-        order.extend(0..end);
+        // Freshly, the root lists the points in index order; after a brush, the earlier
+        // arrangement with the moved points moved between leaves, every earlier cell's
+        // segment then in place with its count corrected by `gained`.
+        let gained = match patch {
+            Some((k, moved)) => k.patch_order(moved, &points, &mut order),
+            None => {
+                order.clear();
+                order.extend(0..end);
+                Default::default()
+            }
+        };
         let mut tree = Octree {
             cells,
             order,
@@ -297,7 +313,7 @@ impl Octree {
         // whether its segment of `order` already holds that cell's final arrangement (then its
         // subtree's partitions are in place and nothing is copied).
         let mut old_of: Vec<u32> = vec![if known.is_some() { 0 } else { NO_CELL }];
-        let mut in_place: Vec<bool> = vec![false];
+        let mut in_place: Vec<bool> = vec![patch.is_some()];
         let mut level = 0..1usize;
         while !level.is_empty() {
             let decisions: Vec<(bool, T)> = {
@@ -332,12 +348,23 @@ impl Octree {
             // for its whole subtree.
             let parts: Vec<([u32; 8], Option<Cow<'_, [u32]>>)> = {
                 let t = &tree;
-                let (old_of, in_place) = (&old_of, &in_place);
+                let (old_of, in_place, gained) = (&old_of, &in_place, &gained);
                 to_split
                     .par_iter()
                     .map(|&i| {
                         let c = &t.cells[i];
                         let k = known.as_ref();
+                        if let (Some(k), Some(_), true) = (k, patch, in_place[i])
+                            && let Some(children) = k.old.children(old_of[i])
+                        {
+                            let mut counts = [0u32; 8];
+                            for (slot, ch) in counts.iter_mut().zip(children) {
+                                let was = k.old.cell(ch);
+                                let plus = gained.get(&ch).copied().unwrap_or(0);
+                                *slot = (i64::from(was.end - was.start) + plus) as u32;
+                            }
+                            return (counts, None);
+                        }
                         match k.and_then(|k| k.partition_at(old_of[i], c.end - c.start)) {
                             Some((counts, _)) if in_place[i] => (counts, None),
                             Some((counts, order)) => (counts, Some(Cow::Borrowed(order))),

@@ -216,12 +216,10 @@ fn a_session_moves_exactly_the_points_edit_apply_moves() {
     for (k, e) in edits.iter().enumerate() {
         s.apply(e).unwrap();
         oracle = e.apply(&oracle).unwrap().0;
-        let same = s
-            .points()
-            .iter()
-            .zip(&oracle)
-            .all(|(a, b)| a.p.to_array().map(f64::to_bits) == b.p.to_array().map(f64::to_bits)
-                && a.n.to_array().map(f64::to_bits) == b.n.to_array().map(f64::to_bits));
+        let same = s.points().iter().zip(&oracle).all(|(a, b)| {
+            a.p.to_array().map(f64::to_bits) == b.p.to_array().map(f64::to_bits)
+                && a.n.to_array().map(f64::to_bits) == b.n.to_array().map(f64::to_bits)
+        });
         assert!(same && s.points().len() == oracle.len(), "edit {k}");
         // The MPU's bounding box is the points' own.
         let b = psi_octree::Aabb::from_points(oracle.iter().map(|p| p.p)).unwrap();
