@@ -114,6 +114,10 @@ pub struct CellView<'a> {
     pub old: Option<u32>,
 }
 
+/// A split's child counts and the points' new arrangement in its segment (`None`: the
+/// segment holds it already).
+type Partition<'a> = ([u32; 8], Option<Cow<'a, [u32]>>);
+
 /// The arrays of an octree, for a later build to fill instead of allocating its own
 /// ([`Octree::into_buffers`], [`OctreeBuffers::with_capacity`]).
 #[derive(Clone, Debug, Default)]
@@ -346,7 +350,7 @@ impl Octree {
             // children in cell order (the arena stays level by level, whatever the threads).
             // A partition known and already in place costs nothing; known, it is copied once
             // for its whole subtree.
-            let parts: Vec<([u32; 8], Option<Cow<'_, [u32]>>)> = {
+            let parts: Vec<Partition<'_>> = {
                 let t = &tree;
                 let (old_of, in_place, gained) = (&old_of, &in_place, &gained);
                 to_split

@@ -309,7 +309,7 @@ mod tests {
         let n = 3000;
         let mut points: Vec<DVec3> = (0..n).map(|_| DVec3::new(rnd(), rnd(), rnd())).collect();
         // Every other id in a subset index (the coarse points' kind).
-        let keep = |p: DVec3| (p.x * 1e6) as u64 % 2 == 0;
+        let keep = |p: DVec3| ((p.x * 1e6) as u64).is_multiple_of(2);
         let subset = |points: &[DVec3]| -> Vec<u32> {
             (0..points.len() as u32)
                 .filter(|&i| keep(points[i as usize]))

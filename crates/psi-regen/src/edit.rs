@@ -52,6 +52,10 @@ fn falloff(y: DVec3, radius: f64) -> (f64, DVec3) {
     (a * a, (-4.0 * a / (radius * radius)) * y)
 }
 
+/// An edit's result with what it changed: the new points, the changed positions (old and new)
+/// and the indices of the points a brush moved.
+pub(crate) type Tracked = (Vec<OrientedPoint>, Vec<DVec3>, Vec<u32>);
+
 /// A brush's effect on one point: its new state, `None` where the brush does not reach it.
 /// Errors when the deformation folds the surface there.
 fn brushed(
@@ -223,7 +227,7 @@ impl Edit {
         &self,
         points: &[OrientedPoint],
         mut out: Vec<OrientedPoint>,
-    ) -> Result<(Vec<OrientedPoint>, Vec<DVec3>, Vec<u32>), RegenError> {
+    ) -> Result<Tracked, RegenError> {
         self.validate()?;
         out.clear();
         let mut changed = Vec::new();

@@ -12,6 +12,7 @@ use psi_particles::{
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::edit::Tracked;
 use crate::settle::{Pending, cpu_now};
 use crate::{Edit, RegenError, SettleReport, mark_cells};
 
@@ -350,12 +351,12 @@ impl Scene {
         let _span = tracing::info_span!("local_regeneration").entered();
         let t0 = Instant::now();
         let lag = self.spare_lag.take();
-        let (points, changed, moved, synced) = match edit {
+        let ((points, changed, moved), synced) = match edit {
             Edit::Brush { .. } => self.brushed_points(edit, lag)?,
-            _ => {
-                let (p, c, m) = edit.apply_tracked(self.mpu.points(), self.spare.take_points())?;
-                (p, c, m, None)
-            }
+            _ => (
+                edit.apply_tracked(self.mpu.points(), self.spare.take_points())?,
+                None,
+            ),
         };
         let root = *self.mpu.octree().root();
         let origin = self.mpu.frame_origin();
@@ -541,12 +542,11 @@ impl Scene {
     /// date. Returns the points, the changed positions (old and new), the moved indices and,
     /// when the buffer was in step, the indices where it now differs from the points the spare
     /// positions were made from ([`BuildOptions::synced`]).
-    #[allow(clippy::type_complexity)]
     fn brushed_points(
         &mut self,
         edit: &Edit,
         lag: Option<Vec<u32>>,
-    ) -> Result<(Vec<OrientedPoint>, Vec<DVec3>, Vec<u32>, Option<Vec<u32>>), RegenError> {
+    ) -> Result<(Tracked, Option<Vec<u32>>), RegenError> {
         let Edit::Brush { center, radius, .. } = edit else {
             unreachable!("only brushes come here");
         };
@@ -589,7 +589,7 @@ impl Scene {
             points[i as usize] = q;
         }
         let moved = moves.iter().map(|m| m.0).collect();
-        Ok((points, changed, moved, synced))
+        Ok(((points, changed, moved), synced))
     }
 
     /// Quality figures of the current particles.

@@ -58,7 +58,10 @@ fn scene(points: &[OrientedPoint], attributes: &PointAttributes, params: &Partic
 }
 
 /// The bits of a scene's particles and their attributes.
-fn bits(scene: &Scene) -> (Vec<[u64; 6]>, Vec<u8>, Option<Vec<[u8; 3]>>) {
+/// Positions and normals as bits, depths, colours.
+type Bits = (Vec<[u64; 6]>, Vec<u8>, Option<Vec<[u8; 3]>>);
+
+fn bits(scene: &Scene) -> Bits {
     let p = scene.particles();
     let xs = p
         .positions
