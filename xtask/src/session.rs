@@ -1,10 +1,12 @@
 //! An editing session on the bunny (issue "Interactive editing sessions"): a drag of 20 brush
 //! strokes of radius 0.012 across its back, each moving the points 0.8 mm along their normal,
-//! through `psi edit --strokes` in several fresh processes; the time of every edit, and the
-//! session's locality and accuracy against a from-scratch build of the edited points.
+//! through `psi edit --strokes --frame-iterations` in several fresh processes (each stroke a
+//! frame, settled before the next); the time of every frame and the CPU time of every stroke,
+//! and the session's locality and accuracy against a from-scratch build of the edited points.
 //! `cargo xtask session` runs it alone; `reproduce-tables` includes it.
 
 use crate::median::median;
+use psi::regen::FRAME_ITERATIONS;
 use std::path::Path;
 use std::process::Command;
 
@@ -41,12 +43,16 @@ pub(crate) fn drag(points: &[OrientedPoint]) -> Result<Vec<(DVec3, DVec3)>> {
         .collect()
 }
 
-/// The strokes file of `drag`.
+/// The strokes file of `drag`: each stroke a frame (`--frame-iterations`), settled before the
+/// next, as an editor settles between frames.
 fn strokes_json(drag: &[(DVec3, DVec3)]) -> Value {
     Value::Array(
         drag.iter()
-            .map(|(c, d)| {
-                json!({"brush": {"centre": c.to_array(), "radius": RADIUS, "displacement": d.to_array()}})
+            .flat_map(|(c, d)| {
+                [
+                    json!({"brush": {"centre": c.to_array(), "radius": RADIUS, "displacement": d.to_array()}}),
+                    json!({"settle": {"iterations": 20}}),
+                ]
             })
             .collect(),
     )
@@ -69,6 +75,7 @@ pub(crate) fn session(psi: &Path, model: &Path, out_dir: &Path) -> Result<(Strin
         out_dir.join("drag.json.report"),
     );
     let mut per_edit: Vec<Vec<f64>> = vec![Vec::new(); STROKES];
+    let mut cpu_per_edit: Vec<Vec<f64>> = vec![Vec::new(); STROKES];
     let mut last = Value::Null;
     for _ in 0..RUNS {
         last = run_psi_report(
@@ -77,6 +84,8 @@ pub(crate) fn session(psi: &Path, model: &Path, out_dir: &Path) -> Result<(Strin
                 .arg(model)
                 .arg("--strokes")
                 .arg(&strokes)
+                .arg("--frame-iterations")
+                .arg(FRAME_ITERATIONS.to_string())
                 .arg("--before")
                 .arg(&before)
                 .arg("-o")
@@ -88,11 +97,17 @@ pub(crate) fn session(psi: &Path, model: &Path, out_dir: &Path) -> Result<(Strin
                 .arg("-q"),
             &report,
         )?;
-        let times = last["local"]["seconds_per_edit"]
+        let times = last["local"]["frame_seconds_per_edit"]
             .as_array()
-            .context("report without seconds_per_edit")?;
+            .context("report without frame_seconds_per_edit")?;
         for (k, t) in times.iter().enumerate() {
             per_edit[k].push(t.as_f64().unwrap_or(f64::NAN));
+        }
+        let cpu = last["local"]["cpu_seconds_per_edit"]
+            .as_array()
+            .context("report without cpu_seconds_per_edit")?;
+        for (k, t) in cpu.iter().enumerate() {
+            cpu_per_edit[k].push(t.as_f64().unwrap_or(f64::NAN));
         }
     }
     // Each edit's median over the runs; the session's median and worst of those.
@@ -100,6 +115,7 @@ pub(crate) fn session(psi: &Path, model: &Path, out_dir: &Path) -> Result<(Strin
     let session_median = median(&edit_medians);
     let worst = edit_medians.iter().copied().fold(0.0, f64::max);
     let first = edit_medians[0];
+    let cpu_median = median(&cpu_per_edit.iter().map(|v| median(v)).collect::<Vec<_>>());
     // Locality: particles farther than 4 radii from every stroke are bitwise unchanged.
     let read = |p: &Path| -> Result<Vec<OrientedPoint>> {
         Ok(psi::load_points(p, &psi::ReadOptions::paper())?.points)
@@ -129,11 +145,12 @@ pub(crate) fn session(psi: &Path, model: &Path, out_dir: &Path) -> Result<(Strin
     let marked = last["local"]["marked_cells_per_edit"].clone();
     let regenerated = last["local"]["particles_regenerated_per_edit"].clone();
     let md = format!(
-        "\n## An editing session on the bunny (`psi edit --strokes`: {STROKES} brush strokes of radius {RADIUS} across the back, each moving the points {} mm; {RUNS} sessions, each a fresh process)\n\n| median edit ms | worst edit ms | first edit ms | particles > 4 radii from every stroke unchanged | particles within 2e-3 D of a from-scratch build | marked cells per edit (median) | particles regenerated per edit (median) |\n|---|---|---|---|---|---|---|\n| {:.1} | {:.1} | {:.1} | {unchanged} of {} | {:.2} % | {} | {} |\n",
+        "\n## An editing session on the bunny (`psi edit --strokes --frame-iterations {FRAME_ITERATIONS}`: {STROKES} brush strokes of radius {RADIUS} across the back, each moving the points {} mm, each a frame of {FRAME_ITERATIONS} relaxation iterations settled before the next; {RUNS} sessions, each a fresh process; more drags: `cargo xtask bench edit`)\n\n| median frame ms | worst frame ms | first frame ms | CPU per stroke ms (median, frame and settle) | particles > 4 radii from every stroke unchanged | particles within 2e-3 D of a from-scratch build | marked cells per edit (median) | particles regenerated per edit (median) |\n|---|---|---|---|---|---|---|---|\n| {:.1} | {:.1} | {:.1} | {:.1} | {unchanged} of {} | {:.2} % | {} | {} |\n",
         1e3 * DEPTH,
         1e3 * session_median,
         1e3 * worst,
         1e3 * first,
+        1e3 * cpu_median,
         far_old.len(),
         100.0 * within as f64 / new.len().max(1) as f64,
         median(
@@ -152,7 +169,9 @@ pub(crate) fn session(psi: &Path, model: &Path, out_dir: &Path) -> Result<(Strin
     let value = json!({
         "strokes": strokes_json(&drag),
         "runs": RUNS,
-        "edit_medians_seconds": edit_medians,
+        "frame_iterations": FRAME_ITERATIONS,
+        "frame_medians_seconds": edit_medians,
+        "cpu_per_stroke_median_seconds": cpu_median,
         "median_seconds": session_median,
         "worst_seconds": worst,
         "far_particles": far_old.len(),

@@ -1,27 +1,12 @@
-//! Partitions a rebuild takes from an earlier octree: a cell the earlier octree split over the
-//! same points is split the same way without looking at its points again.
+//! Partitions a rebuild takes from an earlier octree ([`KnownPartitions`]): a cell the earlier
+//! octree split over the same points is split the same way without looking at its points
+//! again, and after a brush the earlier arrangement is patched where points moved.
 
 use std::collections::HashMap;
 
 use glam::DVec3;
 
-use crate::{NO_CELL, Octree};
-
-/// Partitions a rebuild may take from an earlier octree (see [`crate::OctreeBuild::known`]).
-#[derive(Clone, Copy, Debug)]
-pub struct KnownPartitions<'a> {
-    /// The earlier octree: same root cube, and every point it shares with the new build has
-    /// the same index in both.
-    pub old: &'a Octree,
-    /// Per cell of `old`: whether its points may have changed (a point entered or left its
-    /// cube); an unflagged cell holds exactly the same points in the new build.
-    pub changed: &'a [bool],
-    /// When only some points moved and every index and the count were kept (a brush): their
-    /// indices, ascending. The build then takes the earlier arrangement of all points with
-    /// only these moved between leaves, and every earlier split with its counts corrected,
-    /// instead of partitioning again the cells they passed through.
-    pub moved: Option<&'a [u32]>,
-}
+use crate::{KnownPartitions, NO_CELL, Octree};
 
 /// The depth-first octant order of cells `a` and `b` of `tree`, neither holding the other.
 fn depth_first(tree: &Octree, a: u32, b: u32) -> std::cmp::Ordering {
@@ -134,5 +119,94 @@ impl<'a> KnownPartitions<'a> {
             return NO_CELL;
         }
         self.old.children(o).map_or(NO_CELL, |c| c.start + k)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    use crate::{KnownPartitions, Octree, OctreeBuild, OctreeParams, root_cube};
+
+    /// A rebuild after some points moved, from the earlier arrangement patched, equals a build
+    /// from scratch (the brute-force twin): the same cells and the same points in every cell,
+    /// in the same order, over rounds of moves that cross cell faces and empty some leaves.
+    #[test]
+    fn a_patched_rebuild_equals_a_build_from_scratch() {
+        let mut rng = Pcg64Mcg::seed_from_u64(5);
+        let mut points: Vec<DVec3> = (0..4000)
+            .map(|_| DVec3::new(rng.random(), rng.random::<f64>().powi(2), rng.random()))
+            .collect();
+        let params = OctreeParams::mpu();
+        let bounds = crate::Aabb::from_points(points.iter().copied()).unwrap();
+        let root = root_cube(&bounds, 1.5).unwrap();
+        let split = |v: crate::CellView<'_>| (v.points.len() > 12 && v.cell.depth < 8, ());
+        let fresh = |points: &[DVec3]| {
+            let options = OctreeBuild {
+                root: Some(root),
+                ..Default::default()
+            };
+            Octree::build_with(points.to_vec(), &params, options, split)
+                .unwrap()
+                .0
+        };
+        let mut tree = fresh(&points);
+        for round in 0..12 {
+            let c = DVec3::new(rng.random(), rng.random(), rng.random());
+            let r = 0.05 + 0.1 * rng.random::<f64>();
+            let moved: Vec<u32> = (0..points.len() as u32)
+                .filter(|&i| (points[i as usize] - c).length() < r)
+                .collect();
+            let mut changed = vec![false; tree.cells().len()];
+            for &i in &moved {
+                let old = points[i as usize];
+                let shift = 0.06 * DVec3::new(rng.random(), rng.random(), rng.random()) - 0.03;
+                let new = (old + shift).clamp(bounds.min, bounds.max);
+                points[i as usize] = new;
+                for x in [old, new] {
+                    let mut cell = tree.leaf_containing(x).unwrap();
+                    loop {
+                        changed[cell as usize] = true;
+                        match tree.cell(cell).parent {
+                            crate::NO_CELL => break,
+                            p => cell = p,
+                        }
+                    }
+                }
+            }
+            let options = OctreeBuild {
+                root: Some(root),
+                known: Some(KnownPartitions {
+                    old: &tree,
+                    changed: &changed,
+                    moved: Some(&moved),
+                }),
+                ..Default::default()
+            };
+            let (patched, _) = Octree::build_with(points.clone(), &params, options, split).unwrap();
+            let scratch = fresh(&points);
+            assert_eq!(
+                patched.cells().len(),
+                scratch.cells().len(),
+                "round {round}"
+            );
+            for (i, c) in patched.cells().iter().enumerate() {
+                let j = scratch.cell_at(c.depth, c.key).expect("same cells");
+                assert_eq!(
+                    patched.points_in(i as u32),
+                    scratch.points_in(j),
+                    "round {round}, cell {:?} {:?}",
+                    c.depth,
+                    c.key
+                );
+            }
+            for p in 0..points.len() as u32 {
+                let leaf = patched.cell(patched.leaf_of_point(p));
+                assert!(leaf.is_leaf() && patched.leaf_containing(points[p as usize]).is_some());
+            }
+            tree = patched;
+        }
     }
 }

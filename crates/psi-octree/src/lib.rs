@@ -31,6 +31,7 @@
 //! assert!(tree.points_in(leaf).len() <= 32 || tree.cell(leaf).depth == 12);
 //! ```
 
+mod cell;
 mod cell_at;
 mod error;
 mod geometry;
@@ -43,12 +44,12 @@ mod point_index;
 mod points_within;
 mod support_cells;
 
+pub use cell::{Cell, NO_CELL};
 pub use error::OctreeError;
 pub use geometry::{Aabb, OrientedPoint};
-pub use known_partitions::KnownPartitions;
 pub use monitor::{Interrupted, Monitor, Observer, StopFlag};
 pub use octree::{
-    Cell, CellView, DEPTH_LIMIT, NO_CELL, Octree, OctreeBuffers, OctreeBuild, OctreeParams,
+    CellView, DEPTH_LIMIT, KnownPartitions, Octree, OctreeBuffers, OctreeBuild, OctreeParams,
     RootCube, root_cube,
 };
 pub use point_attributes::PointAttributes;

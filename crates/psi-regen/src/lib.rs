@@ -27,6 +27,7 @@
 //! assert_eq!(kept, now);
 //! ```
 
+mod brush_points;
 mod edit;
 mod error;
 mod mark_cells;

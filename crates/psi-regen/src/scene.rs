@@ -12,7 +12,7 @@ use psi_particles::{
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::edit::Tracked;
+use crate::brush_points::brushed_points;
 use crate::settle::{Pending, cpu_now};
 use crate::{Edit, RegenError, SettleReport, mark_cells};
 
@@ -352,7 +352,16 @@ impl Scene {
         let t0 = Instant::now();
         let lag = self.spare_lag.take();
         let ((points, changed, moved), synced) = match edit {
-            Edit::Brush { .. } => self.brushed_points(edit, lag)?,
+            Edit::Brush { .. } => {
+                match brushed_points(&self.mpu, &mut self.spare, edit, lag.as_deref()) {
+                    Ok(done) => done,
+                    Err(e) => {
+                        // Refused before anything changed: the spare stays in step.
+                        self.spare_lag = lag;
+                        return Err(e);
+                    }
+                }
+            }
             _ => (
                 edit.apply_tracked(self.mpu.points(), self.spare.take_points())?,
                 None,
@@ -535,61 +544,6 @@ impl Scene {
         self.particle_attributes = particle_attributes;
         self.pending = pending;
         Ok(report)
-    }
-
-    /// A brush's new points in time of the points it reaches: the candidates from the kd-tree,
-    /// the spare buffer (the MPU before this one's points, which differ at `lag`) brought up to
-    /// date. Returns the points, the changed positions (old and new), the moved indices and,
-    /// when the buffer was in step, the indices where it now differs from the points the spare
-    /// positions were made from ([`BuildOptions::synced`]).
-    fn brushed_points(
-        &mut self,
-        edit: &Edit,
-        lag: Option<Vec<u32>>,
-    ) -> Result<(Tracked, Option<Vec<u32>>), RegenError> {
-        let Edit::Brush { center, radius, .. } = edit else {
-            unreachable!("only brushes come here");
-        };
-        // (A margin: the kd-tree measures in the local frame, the brush in world units.)
-        let mut candidates = Vec::new();
-        self.mpu
-            .inputs_within(*center, radius * (1.0 + 1e-9), &mut candidates);
-        let moves = match edit.brush_moves(self.mpu.points(), &candidates) {
-            Some(Ok(moves)) => moves,
-            Some(Err(e)) => {
-                // Refused before anything changed: the spare stays in step.
-                self.spare_lag = lag;
-                return Err(e);
-            }
-            None => unreachable!("a brush"),
-        };
-        let current = self.mpu.points();
-        let mut points = self.spare.take_synced_points();
-        let synced = match lag {
-            Some(lag) if points.len() == current.len() => {
-                for &i in &lag {
-                    points[i as usize] = current[i as usize];
-                }
-                let mut s = lag;
-                s.extend(moves.iter().map(|m| m.0));
-                s.sort_unstable();
-                s.dedup();
-                Some(s)
-            }
-            _ => {
-                points.clear();
-                points.extend_from_slice(current);
-                None
-            }
-        };
-        let mut changed = Vec::with_capacity(2 * moves.len());
-        for &(i, q) in &moves {
-            changed.push(current[i as usize].p);
-            changed.push(q.p);
-            points[i as usize] = q;
-        }
-        let moved = moves.iter().map(|m| m.0).collect();
-        Ok(((points, changed, moved), synced))
     }
 
     /// Quality figures of the current particles.
