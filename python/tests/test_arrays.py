@@ -86,6 +86,8 @@ def test_scene_arrays():
     assert set(report) == {
         "marked_cells", "refit_cells", "particles_removed", "particles_regenerated", "points",
         "full_rebuild", "mpu_seconds", "particle_seconds", "seconds", "edit",
+        "edit_seconds", "mark_seconds", "settle_seconds", "settle_cpu_seconds", "cpu_seconds",
+        "pending_iterations",
     }
     added = scene.insert([[1.3, 0.0, 0.1]], [[2.0, 0.0, 0.0]])
     assert added["points"] == n + 1 == len(scene.points)

@@ -538,7 +538,7 @@ impl Mpu {
         candidates.resize_with(nodes.len(), OnceLock::new);
         let footprint = DataFootprint::new_in(input_local, n);
         report.seconds = start.elapsed().as_secs_f64();
-        report.phases = crate::BuildPhases {
+        report.phase_seconds = crate::BuildPhases {
             prepare: t_prepare,
             index_and_marked_fits: t_fits - t_prepare,
             octree: t_octree - t_fits,

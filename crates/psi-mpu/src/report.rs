@@ -46,9 +46,9 @@ pub struct BuildReport {
     pub bbox_diagonal: f64,
     /// Wall-clock seconds of the build.
     pub seconds: f64,
-    /// Where they went.
+    /// Where they went (a timing, as every key ending in `seconds`).
     #[serde(default)]
-    pub phases: BuildPhases,
+    pub phase_seconds: BuildPhases,
 }
 
 /// Wall-clock seconds of a build's phases.

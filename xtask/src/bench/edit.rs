@@ -142,7 +142,7 @@ fn session(points: &[OrientedPoint], edits: &[Edit]) -> Result<Vec<Stroke>> {
             settle: settled.seconds,
             cpu: report.cpu_seconds + settled.cpu_seconds,
             report,
-            build: scene.mpu().report().phases.clone(),
+            build: scene.mpu().report().phase_seconds.clone(),
         });
     }
     Ok(out)
