@@ -98,6 +98,25 @@ fn fit_radius(index: &PointIndex, input: &FitInput<'_>, center: DVec3, r: f64) -
     r1
 }
 
+/// The ball of radius `r` around `center` when it settles R1 = R by itself: it holds at least
+/// `need` points and the `need`-th smallest of its distances passes [`fit_radius`]'s test. The
+/// ball holds every point within `r` (the kd-tree's own squared distances, the same a k-nearest
+/// query computes), so its `need`-th smallest distance is the `need`-th nearest distance and R1
+/// is what [`fit_radius`] would find, without its k-nearest query. `None`: ask [`fit_radius`].
+fn ball_settles_radius(index: &PointIndex, center: DVec3, r: f64, need: usize) -> Option<Vec<u32>> {
+    if need == 0 {
+        return None;
+    }
+    let mut near = Vec::new();
+    index.within_distances(center, r, &mut near);
+    if near.len() < need {
+        return None;
+    }
+    let mut d2: Vec<f64> = near.iter().map(|n| n.1).collect();
+    let (_, kth, _) = d2.select_nth_unstable_by(need - 1, f64::total_cmp);
+    (kth.sqrt() <= r).then(|| near.into_iter().map(|n| n.0).collect())
+}
+
 /// A fit uses at most about this many points: larger neighbourhoods (coarse cells, whose fits
 /// are almost always discarded by the split) are thinned by a hash of each point's coordinates,
 /// so the choice depends on the point set only — a rebuild after an edit thins an unchanged
@@ -131,7 +150,12 @@ pub(crate) fn try_fit_cell(
         .iter()
         .filter(|&&i| (input.positions[i as usize] - center).length_squared() <= inner * inner)
         .count();
+    // The ball of radius R, when the kd-tree was asked for it to settle R1.
+    let mut ball_of_r: Option<Vec<u32>> = None;
     let r1 = if inside >= need {
+        r
+    } else if let Some(ball) = ball_settles_radius(input.index?, center, r, need) {
+        ball_of_r = Some(ball);
         r
     } else {
         let r1 = fit_radius(input.index?, input, center, r);
@@ -153,8 +177,14 @@ pub(crate) fn try_fit_cell(
             .filter(|&i| position_hash(input.positions[i as usize]).is_multiple_of(thin))
             .collect()
     } else {
-        let mut ball = Vec::new();
-        input.index?.within(center, r1, &mut ball);
+        let ball = match ball_of_r {
+            Some(ball) => ball,
+            None => {
+                let mut ball = Vec::new();
+                input.index?.within(center, r1, &mut ball);
+                ball
+            }
+        };
         let thin = ball.len().div_ceil(MAX_FIT_POINTS).max(1) as u64;
         let kept = if thin > 1 {
             ball.iter()

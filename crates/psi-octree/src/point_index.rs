@@ -178,6 +178,12 @@ impl PointIndex {
         self.each_within(x, radius * radius, |id, _| out.push(id));
     }
 
+    /// Appends to `out` `(index, squared distance)` of the points with |p − x| ≤ `radius`, in
+    /// no particular order; the squared distances are those [`PointIndex::nearest`] reports.
+    pub fn within_distances(&self, x: DVec3, radius: f64, out: &mut Vec<(u32, f64)>) {
+        self.each_within(x, radius * radius, |id, d2| out.push((id, d2)));
+    }
+
     /// Calls `f(id, squared distance)` for every live entry with squared distance ≤ `r2`.
     fn each_within(&self, x: DVec3, r2: f64, mut f: impl FnMut(u32, f64)) {
         if let Some(t) = &self.tree {
