@@ -1,5 +1,6 @@
 //! The coarse points: one input point in [`COARSE`], chosen by a hash of its position (so the
-//! choice depends on the point set only), in a kd-tree of their own. Large neighbourhoods are
+//! choice depends on the point set only), in a kd-tree of their own; and one in [`SPARSE`]
+//! among them, in another. Large neighbourhoods are
 //! thinned to a subset of these without visiting the whole ball; after an edit the index is
 //! derived from the earlier one in the time of the points moved.
 
@@ -8,6 +9,9 @@ use psi_octree::PointIndex;
 
 /// One point in this many (by position hash) is a coarse point.
 pub(crate) const COARSE: u64 = 16;
+
+/// One point in this many is a sparse point (a coarse point too: one coarse point in 16).
+pub(crate) const SPARSE: u64 = COARSE * COARSE;
 
 /// A hash of a position's bits (for identity-based thinning).
 pub(crate) fn position_hash(p: DVec3) -> u64 {
@@ -24,10 +28,17 @@ pub(crate) fn is_coarse(p: DVec3) -> bool {
     position_hash(p).is_multiple_of(COARSE)
 }
 
-/// The coarse point subset in a kd-tree whose items are the points' indices in the full set.
+/// Whether a position (local frame) is a sparse point's.
+fn is_sparse(p: DVec3) -> bool {
+    position_hash(p).is_multiple_of(SPARSE)
+}
+
+/// The coarse point subset and, within it, the sparse one, each in a kd-tree whose items are
+/// the points' indices in the full set.
 #[derive(Debug)]
 pub(crate) struct CoarseIndex {
     index: PointIndex,
+    sparse: PointIndex,
 }
 
 impl CoarseIndex {
@@ -37,8 +48,15 @@ impl CoarseIndex {
             .filter(|&i| is_coarse(positions[i as usize]))
             .collect();
         let pts: Vec<DVec3> = ids.iter().map(|&i| positions[i as usize]).collect();
+        let sparse_ids: Vec<u32> = ids
+            .iter()
+            .copied()
+            .filter(|&i| is_sparse(positions[i as usize]))
+            .collect();
+        let sparse_pts: Vec<DVec3> = sparse_ids.iter().map(|&i| positions[i as usize]).collect();
         Self {
             index: PointIndex::with_items(&pts, ids),
+            sparse: PointIndex::with_items(&sparse_pts, sparse_ids),
         }
     }
 
@@ -48,7 +66,15 @@ impl CoarseIndex {
     pub(crate) fn with_moved(&self, moved: &[u32], positions: &[DVec3]) -> Self {
         Self {
             index: self.index.with_moved(moved, positions, is_coarse),
+            sparse: self.sparse.with_moved(moved, positions, is_sparse),
         }
+    }
+
+    /// Indices (into the full set) of the sparse points within `r` of `c`.
+    pub(crate) fn within_sparse(&self, c: DVec3, r: f64) -> Vec<u32> {
+        let mut out = Vec::new();
+        self.sparse.within(c, r, &mut out);
+        out
     }
 
     /// Indices (into the full set) of the coarse points within `r` of `c`.

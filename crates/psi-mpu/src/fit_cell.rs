@@ -6,9 +6,10 @@ use glam::DVec3;
 use psi_octree::PointIndex;
 
 use crate::bspline_weight::bspline;
-use crate::coarse_index::{COARSE, CoarseIndex, position_hash};
+use crate::coarse_index::{COARSE, CoarseIndex, SPARSE, position_hash};
 use crate::fit_bivariate::fit_bivariate;
 use crate::fit_general_quadric::{auxiliary_points, fit_general_quadric};
+use crate::fit_radius::{ball_settles_radius, fit_radius};
 use crate::fit_sharp::{fit_corner, fit_edge, weighted_frame};
 use crate::{FitKind, LocalFunction, MpuParams, Quadric};
 
@@ -75,48 +76,6 @@ struct Neighbourhood<'a> {
     weights: &'a [f64],
 }
 
-/// The enlarged fitting radius: R1 = R + m·λR for the smallest m ≥ 0 with more than N_min
-/// points in B(c, R1) (all points when there are fewer), computed from the (N_min+1)-th
-/// nearest distance instead of Ohtake's loop, with the same result.
-fn fit_radius(index: &PointIndex, input: &FitInput<'_>, center: DVec3, r: f64) -> f64 {
-    let need = (input.params.n_min + 1).min(input.population);
-    let nearest = index.nearest(center, need);
-    let Some(&(_, d2)) = nearest.last() else {
-        return r;
-    };
-    let d = d2.sqrt();
-    if d <= r {
-        return r;
-    }
-    let step = input.params.lambda * r;
-    let m = ((d - r) / step).ceil();
-    let mut r1 = r + m * step;
-    // Guard against rounding leaving the needed point just outside.
-    while r1 < d {
-        r1 += step;
-    }
-    r1
-}
-
-/// The ball of radius `r` around `center` when it settles R1 = R by itself: it holds at least
-/// `need` points and the `need`-th smallest of its distances passes [`fit_radius`]'s test. The
-/// ball holds every point within `r` (the kd-tree's own squared distances, the same a k-nearest
-/// query computes), so its `need`-th smallest distance is the `need`-th nearest distance and R1
-/// is what [`fit_radius`] would find, without its k-nearest query. `None`: ask [`fit_radius`].
-fn ball_settles_radius(index: &PointIndex, center: DVec3, r: f64, need: usize) -> Option<Vec<u32>> {
-    if need == 0 {
-        return None;
-    }
-    let mut near = Vec::new();
-    index.within_distances(center, r, &mut near);
-    if near.len() < need {
-        return None;
-    }
-    let mut d2: Vec<f64> = near.iter().map(|n| n.1).collect();
-    let (_, kth, _) = d2.select_nth_unstable_by(need - 1, f64::total_cmp);
-    (kth.sqrt() <= r).then(|| near.into_iter().map(|n| n.0).collect())
-}
-
 /// A fit uses at most about this many points: larger neighbourhoods (coarse cells, whose fits
 /// are almost always discarded by the split) are thinned by a hash of each point's coordinates,
 /// so the choice depends on the point set only — a rebuild after an edit thins an unchanged
@@ -141,35 +100,62 @@ pub(crate) fn try_fit_cell(
 ) -> Option<CellFit> {
     let params = input.params;
     let r = params.alpha * 2.0 * 3f64.sqrt() * half;
-    // R1 = R when more than N_min points lie well within R — the coarse points suffice to tell
-    // (the margin keeps rounding at the sphere out of it); otherwise the kd-tree decides.
-    let mut coarse = input.coarse.within(center, r);
+    // R1 = R when more than N_min points lie well within R — the sparse or the coarse points
+    // suffice to tell (the margin keeps rounding at the sphere out of it); otherwise the
+    // kd-tree decides.
     let need = (params.n_min + 1).min(input.population);
     let inner = r * (1.0 - 1e-9);
-    let inside = coarse
-        .iter()
-        .filter(|&&i| (input.positions[i as usize] - center).length_squared() <= inner * inner)
-        .count();
+    let inside = |set: &[u32]| {
+        set.iter()
+            .filter(|&&i| (input.positions[i as usize] - center).length_squared() <= inner * inner)
+            .count()
+    };
+    let mut sparse = input.coarse.within_sparse(center, r);
+    // The coarse points within R1, gathered only when needed.
+    let coarse_cell: std::cell::OnceCell<Vec<u32>> = std::cell::OnceCell::new();
     // The ball of radius R, when the kd-tree was asked for it to settle R1.
     let mut ball_of_r: Option<Vec<u32>> = None;
-    let r1 = if inside >= need {
-        r
-    } else if let Some(ball) = ball_settles_radius(input.index?, center, r, need) {
-        ball_of_r = Some(ball);
+    let r1 = if inside(&sparse) >= need {
         r
     } else {
-        let r1 = fit_radius(input.index?, input, center, r);
-        if r1 != r {
-            coarse = input.coarse.within(center, r1);
+        let coarse = input.coarse.within(center, r);
+        let enough = inside(&coarse) >= need;
+        if enough {
+            let _ = coarse_cell.set(coarse);
+            r
+        } else if let Some(ball) = ball_settles_radius(input.index?, center, r, need) {
+            let _ = coarse_cell.set(coarse);
+            ball_of_r = Some(ball);
+            r
+        } else {
+            let r1 = fit_radius(input.index?, params, need, center, r);
+            if r1 == r {
+                let _ = coarse_cell.set(coarse);
+            } else {
+                sparse = input.coarse.within_sparse(center, r1);
+            }
+            r1
         }
-        r1
     };
+    let coarse = || coarse_cell.get_or_init(|| input.coarse.within(center, r1));
     // Thinning (a function of the ball's point set only, so a rebuild after an edit thins an
-    // unchanged neighbourhood identically): a ball with more than 256 coarse points (about 4096
-    // points) keeps the points whose hash is a multiple of 16·⌈c/4096⌉ (at most 4096 of them),
-    // found among the coarse points without visiting the ball; smaller balls are used whole.
+    // unchanged neighbourhood identically). A ball with more than 256 sparse points (about
+    // 65 536 points) keeps the sparse points whose hash is a multiple of 256·⌈s/4096⌉, without
+    // gathering its coarse points (so a large cell costs the same in any model); one with more
+    // than 256 coarse points (about 4096 points) keeps those whose hash is a multiple of
+    // 16·⌈c/4096⌉ (at most 4096 of them), without visiting the ball; smaller balls are used
+    // whole.
+    let large = sparse.len() > 256;
     let mut full: Option<Vec<u32>> = None;
-    let mut idx: Vec<u32> = if coarse.len() > 256 {
+    let mut idx: Vec<u32> = if large {
+        let thin = SPARSE * (sparse.len() as u64).div_ceil(MAX_FIT_POINTS as u64);
+        sparse
+            .iter()
+            .copied()
+            .filter(|&i| position_hash(input.positions[i as usize]).is_multiple_of(thin))
+            .collect()
+    } else if coarse().len() > 256 {
+        let coarse = coarse();
         let thin = COARSE * (coarse.len() as u64).div_ceil(MAX_FIT_POINTS as u64);
         coarse
             .iter()
@@ -215,8 +201,9 @@ pub(crate) fn try_fit_cell(
         .collect();
 
     let r2 = r * r;
-    // The error is a maximum: the coarse points are scanned first (they are part of the ball),
-    // and the whole ball only while the maximum stays under ε0.
+    // The error is a maximum: the sparse points of a large ball and then the coarse points are
+    // scanned first (they are part of the ball), and the whole ball only while the maximum
+    // stays under ε0.
     let full_ball = std::cell::OnceCell::new();
     if let Some(b) = full {
         let _ = full_ball.set(b);
@@ -237,7 +224,10 @@ pub(crate) fn try_fit_cell(
             }
             false
         };
-        if scan(&coarse) {
+        if large && scan(&sparse) {
+            return e;
+        }
+        if scan(coarse()) {
             return e;
         }
         let Some(index) = input.index else {
@@ -537,6 +527,7 @@ fn gradient_is_healthy(q: &Quadric, pos: &[DVec3]) -> bool {
 mod tests {
     use super::*;
     use crate::{Mpu, MpuParams};
+    use psi_octree::PointIndex;
     use psi_shapes::AnalyticShape;
 
     #[test]
@@ -587,5 +578,74 @@ mod tests {
             same > 0 && gave_up > 0,
             "{same} completed, {gave_up} gave up"
         );
+    }
+
+    /// A ball of more than 256 sparse points is fitted from them alone: the same fit with and
+    /// without the kd-tree, and the same (to rounding) whatever the points' order, since the
+    /// thinning reads the point set only; for the cells whose balls are that large.
+    #[test]
+    fn large_balls_are_fitted_from_their_sparse_points_whatever_the_order() {
+        let pts = AnalyticShape::Sphere { radius: 1.0 }.sample(90_000, 8);
+        let params = MpuParams::paper();
+        let mpu = Mpu::build(&pts, &params).unwrap();
+        let positions = mpu.octree.positions();
+        let coarse = CoarseIndex::new(positions);
+        let input = FitInput {
+            positions,
+            points: &mpu.points,
+            index: Some(&mpu.index),
+            coarse: &coarse,
+            params: &params,
+            population: positions.len(),
+        };
+        // The same points in reverse order, with their own trees.
+        let reversed_points: Vec<_> = mpu.points.iter().rev().copied().collect();
+        let reversed: Vec<DVec3> = positions.iter().rev().copied().collect();
+        let reversed_index = PointIndex::new(&reversed);
+        let reversed_coarse = CoarseIndex::new(&reversed);
+        let other = FitInput {
+            positions: &reversed,
+            points: &reversed_points,
+            index: Some(&reversed_index),
+            coarse: &reversed_coarse,
+            ..input
+        };
+        let eps0 = params.error_rel * mpu.frame.diagonal;
+        let mut large = 0;
+        for c in mpu.octree.cells().iter().filter(|c| c.depth <= 1) {
+            let r = params.alpha * 2.0 * 3f64.sqrt() * c.half;
+            if coarse.within_sparse(c.center, r).len() <= 256 {
+                continue;
+            }
+            large += 1;
+            let a = fit_cell(&input, c.center, c.half, eps0);
+            let b = fit_cell(&other, c.center, c.half, eps0);
+            let without = try_fit_cell(
+                &FitInput {
+                    index: None,
+                    ..input
+                },
+                c.center,
+                c.half,
+                eps0,
+            )
+            .expect("a large splitting cell needs no kd-tree");
+            // Without the tree: bitwise. Reversed: the same points in another summation
+            // order, so equal to rounding.
+            assert_eq!(without.fit.function, a.fit.function);
+            for f in [&b, &without] {
+                assert_eq!(f.fit.kind, a.fit.kind);
+                assert_eq!(f.fit_radius.to_bits(), a.fit_radius.to_bits());
+                assert_eq!(f.error > eps0, a.error > eps0);
+                for p in positions.iter().step_by(997) {
+                    psi_shapes::assert_near!(
+                        f.fit.function.taubin_distance(*p),
+                        a.fit.function.taubin_distance(*p),
+                        1e-9
+                    );
+                }
+            }
+        }
+        assert!(large > 0, "no ball held more than 256 sparse points");
     }
 }

@@ -40,6 +40,7 @@ mod fit_bivariate;
 mod fit_cell;
 mod fit_fetched;
 mod fit_general_quadric;
+mod fit_radius;
 mod fit_region;
 mod fit_sharp;
 mod fit_store;
