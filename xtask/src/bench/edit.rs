@@ -295,7 +295,7 @@ fn big_brush(bunny: &[OrientedPoint]) -> Result<Value> {
     let brush = |k: usize| Edit::Brush {
         center: DVec3::new(b[0], b[1], b[2]),
         radius: b[3],
-        displacement: DVec3::new(b[4], b[5], b[6]) * if k % 2 == 0 { 1.0 } else { -1.0 },
+        displacement: DVec3::new(b[4], b[5], b[6]) * if k.is_multiple_of(2) { 1.0 } else { -1.0 },
     };
     let mut out = serde_json::Map::new();
     for (name, frame) in [("frame", FRAME_ITERATIONS), ("eager", usize::MAX)] {
