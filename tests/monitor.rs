@@ -221,6 +221,14 @@ fn an_interrupted_edit_leaves_the_scene_as_it_was() {
         ..ParticleParams::paper()
     };
     let (mut scene, _) = psi::regen::Scene::new(points, &MpuParams::paper(), &sp).unwrap();
+    // A first brush, so that the stopped ones take the brush's own path (buffers in step, the
+    // footprint table carried over and given back when stopped).
+    let warm = psi::regen::Edit::Brush {
+        center: psi::DVec3::new(-1.0, 0.0, 0.35),
+        radius: 0.3,
+        displacement: psi::DVec3::new(0.0, 0.0, 0.02),
+    };
+    scene.apply(&warm).unwrap();
     let before = scene.particles().clone();
     let edit = psi::regen::Edit::Brush {
         center: psi::DVec3::new(1.0, 0.0, 0.35),
@@ -228,11 +236,15 @@ fn an_interrupted_edit_leaves_the_scene_as_it_was() {
         displacement: psi::DVec3::new(0.0, 0.0, 0.02),
     };
     let points_before = scene.points().to_vec();
-    for (stage, at) in [("mpu", 1), ("relax", 1)] {
+    // (The stop in the relaxation first: a stop in the build leaves the buffers out of step.)
+    for (stage, at) in [("relax", 1), ("mpu", 1)] {
         let (r, _) = stopped_at(stage, at, |m| scene.apply_with(&edit, m));
         assert!(matches!(r, Err(psi::regen::RegenError::Interrupted(_))));
         assert_eq!(scene.particles(), &before);
         assert_eq!(scene.points(), &points_before[..]);
+        // The MPU still answers everywhere (its footprint table came back).
+        let last = scene.points().len() as u32 - 1;
+        assert!(scene.mpu().input_spacing(last) > 0.0);
     }
     // A stop that comes after the edit claimed its commit does not take effect.
     let flag = StopFlag::new();
@@ -242,7 +254,13 @@ fn an_interrupted_edit_leaves_the_scene_as_it_was() {
     assert!(!flag.stop());
     // And the scene still edits as one that was never interrupted.
     let (mut fresh, _) = psi::regen::Scene::new(torus(5000), &MpuParams::paper(), &sp).unwrap();
+    fresh.apply(&warm).unwrap();
     scene.apply(&edit).unwrap();
     fresh.apply(&edit).unwrap();
     assert_eq!(scene.particles(), fresh.particles());
+    // Its footprint answers as a fresh build's.
+    let scratch = scene.rebuild_from_scratch().unwrap();
+    for q in 0..scene.points().len() as u32 {
+        assert_eq!(scene.mpu().input_spacing(q), scratch.input_spacing(q));
+    }
 }

@@ -73,6 +73,10 @@ pub struct BuildOptions<'a> {
     /// its buffers one stroke behind: the last stroke's moves and this one's). `None`: every
     /// point afresh.
     pub synced: Option<&'a [u32]>,
+    /// The caller moves an earlier MPU's footprint table in afterwards
+    /// ([`Mpu::carry_footprint`], which it must call): the build leaves the table empty
+    /// instead of filling a fresh one (64 bytes a point).
+    pub carry_footprint: bool,
     /// Progress (stage `"mpu"`: octree levels decided of `max_depth + 1`) and interruption:
     /// once its stop flag is set, no cell splits any more and the build returns
     /// [`MpuError::Interrupted`].
@@ -310,6 +314,7 @@ impl Mpu {
             unit_normals,
             known_cells,
             synced,
+            carry_footprint,
             monitor,
         } = options;
         let frame = match frame {
@@ -536,7 +541,11 @@ impl Mpu {
         // The lazily filled tables start empty, in the buffers' memory when there is some.
         candidates.clear();
         candidates.resize_with(nodes.len(), OnceLock::new);
-        let footprint = DataFootprint::new_in(input_local, n);
+        let footprint = if carry_footprint {
+            DataFootprint::default()
+        } else {
+            DataFootprint::new_in(input_local, n)
+        };
         report.seconds = start.elapsed().as_secs_f64();
         report.phase_seconds = crate::BuildPhases {
             prepare: t_prepare,

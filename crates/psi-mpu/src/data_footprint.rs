@@ -68,6 +68,18 @@ fn spacing_of(d8: f64) -> f64 {
 #[repr(align(64))]
 pub(crate) struct InputLocalSlot(OnceLock<InputLocal>);
 
+impl InputLocalSlot {
+    /// The distance to the point's 9th nearest input point (world units) when filled.
+    pub(crate) fn reach(&self) -> Option<f64> {
+        self.0.get().map(InputLocal::beyond)
+    }
+
+    /// Empties the entry (filled again on next use).
+    pub(crate) fn clear(&mut self) {
+        self.0.take();
+    }
+}
+
 /// An input point a particle was near, with what [`DataFootprint::near_data_from`] reads of it:
 /// kept by the particle between moves.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -116,6 +128,25 @@ impl DataFootprint {
     /// The table's memory, when no other MPU shares it.
     pub(crate) fn into_memory(self) -> Vec<InputLocalSlot> {
         Arc::try_unwrap(self.table).unwrap_or_default()
+    }
+
+    /// The table, to be carried to a later MPU, when no other MPU shares it and it has `n`
+    /// entries; this footprint is left empty.
+    pub(crate) fn take_table(&mut self, n: usize) -> Option<Vec<InputLocalSlot>> {
+        let table = Arc::get_mut(&mut self.table)?;
+        (table.len() == n).then(|| std::mem::take(table))
+    }
+
+    /// A footprint over a carried table.
+    pub(crate) fn from_table(table: Vec<InputLocalSlot>) -> Self {
+        Self {
+            table: Arc::new(table),
+        }
+    }
+
+    /// Number of entries.
+    pub(crate) fn len(&self) -> usize {
+        self.table.len()
     }
 
     /// The input spacing at input point `q`: d₈·√(π/8), d₈ the distance to its 8th nearest

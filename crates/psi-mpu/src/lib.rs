@@ -29,6 +29,7 @@
 mod bspline_weight;
 mod buffers;
 mod build;
+mod carry_footprint;
 mod cell_table;
 mod coarse_index;
 mod data_coverage;

@@ -419,9 +419,14 @@ impl Scene {
             unit_normals: true,
             known_cells: None,
             synced: synced.as_deref(),
+            // A brush carries the footprint table over (below).
+            carry_footprint: synced.is_some(),
             monitor: *monitor,
         };
-        let mpu = Mpu::build_with(points, &self.mpu_params, options)?;
+        let mut mpu = Mpu::build_with(points, &self.mpu_params, options)?;
+        if synced.is_some() {
+            mpu.carry_footprint(&mut self.mpu, &changed);
+        }
         // New cells that were fitted again: not present before, or marked.
         let refit: Vec<bool> = (0..mpu.octree().cells().len() as u32)
             .map(|c| mpu.was_refit(c))
@@ -496,7 +501,16 @@ impl Scene {
             frame_iterations,
             monitor,
         );
-        monitor.check()?;
+        // A stopped edit leaves the scene as it was: the footprint table goes back.
+        let give_back = |scene: &mut Scene, mut mpu: Mpu| {
+            if synced.is_some() {
+                scene.mpu.carry_footprint(&mut mpu, &changed);
+            }
+        };
+        if let Err(e) = monitor.check() {
+            give_back(self, mpu);
+            return Err(e.into());
+        }
         let mut pending = Some(pending);
         if pending
             .as_ref()
@@ -515,9 +529,11 @@ impl Scene {
             .as_ref()
             .map_or(0, |p| p.remaining(&self.particle_params));
         let particle_seconds = t1.elapsed().as_secs_f64();
-        monitor.check()?;
         // From here on the edit is committed: a stop request now comes too late.
-        monitor.claim_commit()?;
+        if let Err(e) = monitor.check().and_then(|()| monitor.claim_commit()) {
+            give_back(self, mpu);
+            return Err(e.into());
+        }
 
         let report = RegenReport {
             marked_cells: marked_old.iter().filter(|m| **m).count(),

@@ -599,3 +599,44 @@ fn local_rebuilds_are_bitwise_a_build_from_scratch() {
         }
     }
 }
+
+/// The footprint table a brush carries to the next MPU answers as a fresh table does: with
+/// every entry filled before each stroke, after the stroke each point's spacing and interior
+/// flag equal those of a build from scratch of the edited points, bitwise.
+#[test]
+fn a_carried_footprint_answers_as_a_fresh_one() {
+    let points = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.4,
+    }
+    .sample(6000, 9);
+    let mut scene = scene_of(points, 2);
+    for k in 0..6 {
+        // Fill every entry, so that a stale one would show.
+        let n = scene.points().len() as u32;
+        for q in 0..n {
+            scene.mpu().input_spacing(q);
+        }
+        let a = 0.4 * k as f64;
+        scene
+            .apply(&Edit::Brush {
+                center: DVec3::new(1.4 * a.cos(), 1.4 * a.sin(), 0.0),
+                radius: 0.35,
+                displacement: DVec3::new(0.0, 0.0, if k % 2 == 0 { 0.03 } else { -0.02 }),
+            })
+            .unwrap();
+        let scratch = scene.rebuild_from_scratch().unwrap();
+        for q in 0..n {
+            assert_eq!(
+                scene.mpu().input_spacing(q).to_bits(),
+                scratch.input_spacing(q).to_bits(),
+                "stroke {k}, point {q}"
+            );
+            assert_eq!(
+                scene.mpu().input_is_interior(q),
+                scratch.input_is_interior(q),
+                "stroke {k}, point {q}"
+            );
+        }
+    }
+}

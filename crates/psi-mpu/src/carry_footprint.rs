@@ -1,0 +1,76 @@
+//! The footprint table carried from one MPU to the next after a brush: only the entries the
+//! brush can have changed are emptied, instead of a table of 64 bytes a point filled afresh.
+//!
+//! An entry is a function of the point's 9 nearest input points. A point q's entry can change
+//! only if a changed position x (a moved point's old or new one) lies within d₉(q), the distance
+//! to its 9th nearest point. And d₉(q) ≤ 2·R1 of q's leaf: the fit ball B(c, R1) holds at least
+//! min(N_min + 1, N) ≥ 9 points and |q − c| ≤ √3·half ≤ R ≤ R1 for α ≥ 0.5. So x lies within
+//! 3·R1 of the leaf's centre. The leaves within that reach are visited, and each filled entry
+//! of their points is emptied when a changed position lies within its own d₉.
+
+use glam::DVec3;
+use psi_octree::PointIndex;
+use rayon::prelude::*;
+
+use crate::Mpu;
+use crate::data_footprint::DataFootprint;
+
+impl Mpu {
+    /// Moves `old`'s footprint table into this MPU, built after an edit that kept every point's
+    /// index and the count, `changed` holding every position the edit changed (old and new,
+    /// world units). Entries the edit cannot have changed stay filled. The result equals a
+    /// fresh table's answers. When `old`'s table is shared (a clone of that MPU lives on), has
+    /// another length, or the bound above does not hold (N_min + 1 < 9, fewer than 9 points),
+    /// this MPU keeps a fresh table. `old` is left with an empty one.
+    pub fn carry_footprint(&mut self, old: &mut Mpu, changed: &[DVec3]) {
+        let n = self.points.len();
+        let bound_holds = self.params.n_min + 1 >= 9 && n >= 9 && self.params.alpha >= 0.5;
+        let Some(mut table) = old
+            .footprint
+            .take_table(n)
+            .filter(|_| bound_holds && old.points.len() == n)
+        else {
+            if self.footprint.len() != n {
+                self.footprint = DataFootprint::new_in(Vec::new(), n);
+            }
+            return;
+        };
+        if !changed.is_empty() {
+            let origin = old.frame.origin;
+            let local: Vec<DVec3> = changed.iter().map(|p| *p - origin).collect();
+            let index = PointIndex::new(&local);
+            let bounds = psi_octree::Aabb::from_points(local.iter().copied()).expect("non-empty");
+            let tree = &old.octree;
+            // The leaves within 3·R1 of a changed position, and their points whose entry a
+            // changed position lies within d₉ of (with a margin for rounding).
+            let stale: Vec<u32> = tree
+                .leaves()
+                .collect::<Vec<u32>>()
+                .par_iter()
+                .flat_map_iter(|&l| {
+                    let c = tree.cell(l);
+                    let reach = 3.0 * old.fit_radius[l as usize] * (1.0 + 1e-9);
+                    let outside = (bounds.min - c.center)
+                        .max(c.center - bounds.max)
+                        .max(DVec3::ZERO);
+                    let near = outside.length_squared() <= reach * reach
+                        && index
+                            .nearest_one(c.center)
+                            .is_some_and(|(_, d2)| d2 <= reach * reach);
+                    let points: &[u32] = if near { tree.points_in(l) } else { &[] };
+                    points.iter().copied().filter(|&q| {
+                        table[q as usize].reach().is_some_and(|d9| {
+                            let d9 = d9 * (1.0 + 1e-9);
+                            let y = tree.positions()[q as usize];
+                            index.nearest_one(y).is_some_and(|(_, d2)| d2 <= d9 * d9)
+                        })
+                    })
+                })
+                .collect();
+            for q in stale {
+                table[q as usize].clear();
+            }
+        }
+        self.footprint = DataFootprint::from_table(table);
+    }
+}
