@@ -41,6 +41,7 @@ impl Mpu {
             let index = PointIndex::new(&local);
             let bounds = psi_octree::Aabb::from_points(local.iter().copied()).expect("non-empty");
             let tree = &old.octree;
+            let (index, table_ref) = (&index, &table);
             // The leaves within 3·R1 of a changed position, and their points whose entry a
             // changed position lies within d₉ of (with a margin for rounding).
             let stale: Vec<u32> = tree
@@ -53,16 +54,27 @@ impl Mpu {
                     let outside = (bounds.min - c.center)
                         .max(c.center - bounds.max)
                         .max(DVec3::ZERO);
-                    let near = outside.length_squared() <= reach * reach
-                        && index
-                            .nearest_one(c.center)
-                            .is_some_and(|(_, d2)| d2 <= reach * reach);
-                    let points: &[u32] = if near { tree.points_in(l) } else { &[] };
-                    points.iter().copied().filter(|&q| {
-                        table[q as usize].reach().is_some_and(|d9| {
+                    // The changed positions nearest the centre: within reach, or the leaf is
+                    // left alone.
+                    let nearest = (outside.length_squared() <= reach * reach)
+                        .then(|| index.nearest_one(c.center))
+                        .flatten()
+                        .filter(|&(_, d2)| d2 <= reach * reach);
+                    let points: &[u32] = if nearest.is_some() {
+                        tree.points_in(l)
+                    } else {
+                        &[]
+                    };
+                    let to_centre = nearest.map_or(0.0, |(_, d2)| d2.sqrt());
+                    points.iter().copied().filter(move |&q| {
+                        table_ref[q as usize].reach().is_some_and(|d9| {
                             let d9 = d9 * (1.0 + 1e-9);
                             let y = tree.positions()[q as usize];
-                            index.nearest_one(y).is_some_and(|(_, d2)| d2 <= d9 * d9)
+                            // No changed position is nearer q than the nearest to the centre
+                            // less q's offset from it: then no query is needed.
+                            let lower = to_centre - (y - c.center).length();
+                            lower <= d9 * (1.0 + 1e-9)
+                                && index.nearest_one(y).is_some_and(|(_, d2)| d2 <= d9 * d9)
                         })
                     })
                 })
@@ -72,5 +84,78 @@ impl Mpu {
             }
         }
         self.footprint = DataFootprint::from_table(table);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+    use psi_shapes::AnalyticShape;
+
+    use crate::{BuildOptions, Mpu, MpuParams};
+
+    /// A table carried across a move of some points (every entry filled before it) answers
+    /// as the table of a build from scratch of the moved points, bitwise; and a table shared
+    /// with a clone is not taken.
+    #[test]
+    fn a_carried_table_answers_as_a_fresh_one() {
+        let params = MpuParams::paper();
+        let mut points = AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.4,
+        }
+        .sample(8000, 3);
+        let mut old = Mpu::build(&points, &params).unwrap();
+        let frame = *old.frame();
+        for round in 0..4 {
+            let n = points.len() as u32;
+            for q in 0..n {
+                old.input_spacing(q);
+            }
+            // A small brush-like move near a point of the outer equator.
+            let a = 0.7 * round as f64;
+            let centre = DVec3::new(1.4 * a.cos(), 1.4 * a.sin(), 0.0);
+            let mut changed = Vec::new();
+            for p in points.iter_mut() {
+                let d = (p.p - centre).length();
+                if d < 0.2 {
+                    changed.push(p.p);
+                    p.p += DVec3::new(0.0, 0.0, 0.02 * (1.0 - d / 0.2));
+                    changed.push(p.p);
+                }
+            }
+            assert!(!changed.is_empty());
+            let options = |carry| BuildOptions {
+                frame: Some(frame),
+                carry_footprint: carry,
+                ..Default::default()
+            };
+            let mut carried = Mpu::build_with(&points[..], &params, options(true)).unwrap();
+            carried.carry_footprint(&mut old, &changed);
+            let fresh = Mpu::build_with(&points[..], &params, options(false)).unwrap();
+            for q in 0..n {
+                assert_eq!(
+                    carried.input_spacing(q).to_bits(),
+                    fresh.input_spacing(q).to_bits(),
+                    "round {round}, point {q}"
+                );
+                assert_eq!(carried.input_is_interior(q), fresh.input_is_interior(q));
+            }
+            old = carried;
+        }
+        // Shared with a clone: not taken, a fresh table instead.
+        let clone = old.clone();
+        let mut next = Mpu::build_with(
+            &points[..],
+            &params,
+            BuildOptions {
+                frame: Some(frame),
+                carry_footprint: true,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        next.carry_footprint(&mut old, &[]);
+        assert!(next.input_spacing(0) > 0.0 && clone.input_spacing(0) > 0.0);
     }
 }

@@ -405,6 +405,11 @@ impl Scene {
         let marked_old = mark_cells(&self.mpu, &changed);
         let mark_seconds = t0.elapsed().as_secs_f64() - edit_seconds;
 
+        // Carrying the footprint table checks about 7 entries per changed position at random
+        // (about 100 ns each); a fresh table writes 64 bytes a point in order (about 5 ns):
+        // carry when the brush changes fewer positions than 1 in 140 points (measured on the
+        // bunny and the David stand-in; both ways give the same answers).
+        let carry = synced.is_some() && 140 * changed.len() < points.len();
         let options = BuildOptions {
             frame: Some(*self.mpu.frame()),
             reuse: Some(Reuse {
@@ -419,12 +424,12 @@ impl Scene {
             unit_normals: true,
             known_cells: None,
             synced: synced.as_deref(),
-            // A brush carries the footprint table over (below).
-            carry_footprint: synced.is_some(),
+            // A brush carries the footprint table over (below) when that is the cheaper way.
+            carry_footprint: carry,
             monitor: *monitor,
         };
         let mut mpu = Mpu::build_with(points, &self.mpu_params, options)?;
-        if synced.is_some() {
+        if carry {
             mpu.carry_footprint(&mut self.mpu, &changed);
         }
         // New cells that were fitted again: not present before, or marked.
@@ -503,7 +508,7 @@ impl Scene {
         );
         // A stopped edit leaves the scene as it was: the footprint table goes back.
         let give_back = |scene: &mut Scene, mut mpu: Mpu| {
-            if synced.is_some() {
+            if carry {
                 scene.mpu.carry_footprint(&mut mpu, &changed);
             }
         };
