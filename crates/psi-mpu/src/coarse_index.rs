@@ -84,3 +84,83 @@ impl CoarseIndex {
         out
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+    use psi_octree::PointIndex;
+    use psi_shapes::AnalyticShape;
+
+    use super::CoarseIndex;
+    use crate::fit_cell::{FitInput, fit_cell, try_fit_cell};
+    use crate::{Mpu, MpuParams};
+
+    /// A ball of more than 256 sparse points is fitted from them alone: the same fit with and
+    /// without the kd-tree, and the same (to rounding) whatever the points' order, since the
+    /// thinning reads the point set only; for the cells whose balls are that large.
+    #[test]
+    fn large_balls_are_fitted_from_their_sparse_points_whatever_the_order() {
+        let pts = AnalyticShape::Sphere { radius: 1.0 }.sample(90_000, 8);
+        let params = MpuParams::paper();
+        let mpu = Mpu::build(&pts, &params).unwrap();
+        let positions = mpu.octree.positions();
+        let coarse = CoarseIndex::new(positions);
+        let input = FitInput {
+            positions,
+            points: &mpu.points,
+            index: Some(&mpu.index),
+            coarse: &coarse,
+            params: &params,
+            population: positions.len(),
+        };
+        // The same points in reverse order, with their own trees.
+        let reversed_points: Vec<_> = mpu.points.iter().rev().copied().collect();
+        let reversed: Vec<DVec3> = positions.iter().rev().copied().collect();
+        let reversed_index = PointIndex::new(&reversed);
+        let reversed_coarse = CoarseIndex::new(&reversed);
+        let other = FitInput {
+            positions: &reversed,
+            points: &reversed_points,
+            index: Some(&reversed_index),
+            coarse: &reversed_coarse,
+            ..input
+        };
+        let eps0 = params.error_rel * mpu.frame.diagonal;
+        let mut large = 0;
+        for c in mpu.octree.cells().iter().filter(|c| c.depth <= 1) {
+            let r = params.alpha * 2.0 * 3f64.sqrt() * c.half;
+            if coarse.within_sparse(c.center, r).len() <= 256 {
+                continue;
+            }
+            large += 1;
+            let a = fit_cell(&input, c.center, c.half, eps0);
+            let b = fit_cell(&other, c.center, c.half, eps0);
+            let without = try_fit_cell(
+                &FitInput {
+                    index: None,
+                    ..input
+                },
+                c.center,
+                c.half,
+                eps0,
+            )
+            .expect("a large splitting cell needs no kd-tree");
+            // Without the tree: bitwise. Reversed: the same points in another summation
+            // order, so equal to rounding.
+            assert_eq!(without.fit.function, a.fit.function);
+            for f in [&b, &without] {
+                assert_eq!(f.fit.kind, a.fit.kind);
+                assert_eq!(f.fit_radius.to_bits(), a.fit_radius.to_bits());
+                assert_eq!(f.error > eps0, a.error > eps0);
+                for p in positions.iter().step_by(997) {
+                    psi_shapes::assert_near!(
+                        f.fit.function.taubin_distance(*p),
+                        a.fit.function.taubin_distance(*p),
+                        1e-9
+                    );
+                }
+            }
+        }
+        assert!(large > 0, "no ball held more than 256 sparse points");
+    }
+}
