@@ -25,10 +25,9 @@ use psi_tiles::{
 use crate::PsiError;
 use crate::files::{check_not_dir, extension_format, open_error, read_error};
 
-/// Bytes a tile's build holds per point of the tile: its points with their halo (about three
-/// times the tile's own, measured) in the MPU's arrays, kd-tree and footprint table (about 300
-/// bytes a point), and the balls its far cells fetch (3 M points in 1 GiB peaked at 1.1 GiB
-/// with 1000: docs/notes/2026-11-25-tiles.md).
+/// Bytes a tile's build holds per point of the tile: its points with their halo in the MPU's
+/// arrays, kd-tree and footprint table, and the balls its far cells fetch (the peaks this is
+/// set from: docs/notes/2026-11-25-tiles.md).
 const BYTES_PER_TILE_POINT: u64 = 1500;
 /// Bytes a point of the whole input costs wherever it is: its coarse copy (1 in 16 of 56
 /// bytes) and its share of the cell table.

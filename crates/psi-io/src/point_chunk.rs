@@ -20,7 +20,17 @@ pub struct PointChunk {
     pub attributes: PointAttributes,
 }
 
+/// A fresh chunk reserves room for at most this many points (a stream asked for large chunks
+/// grows them as points come, instead of reserving memory a short file never uses).
+const FRESH_CAPACITY: usize = 1 << 16;
+
 impl PointChunk {
+    /// An empty chunk with the columns of `header`, for a stream handing out chunks of at most
+    /// `max` points.
+    pub(crate) fn fresh(header: &StreamHeader, max: usize) -> Self {
+        Self::for_header(header, max.min(FRESH_CAPACITY))
+    }
+
     /// An empty chunk with the columns of `header`.
     pub(crate) fn for_header(header: &StreamHeader, capacity: usize) -> Self {
         Self {
@@ -106,7 +116,7 @@ pub(crate) fn emit_if_full<F: FnMut(PointChunk) -> std::ops::ControlFlow<()>>(
         return false;
     }
     end.points += chunk.len() as u64;
-    let full = std::mem::replace(chunk, PointChunk::for_header(header, max.min(1 << 16)));
+    let full = std::mem::replace(chunk, PointChunk::fresh(header, max));
     visit(full).is_break()
 }
 

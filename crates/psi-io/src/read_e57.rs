@@ -111,7 +111,7 @@ impl<R: Read + Seek> E57Stream<R> {
         visit: &mut F,
     ) -> Result<StreamEnd, ReadError> {
         let mut end = StreamEnd::default();
-        let mut chunk = PointChunk::for_header(header, max.min(1 << 16));
+        let mut chunk = PointChunk::fresh(header, max);
         for (index, scan) in self.scans.iter().enumerate() {
             let scan_error =
                 |point: u64, e: e57::Error| e57_error(format!("scan {index}, point {point}: {e}"));

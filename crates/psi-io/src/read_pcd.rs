@@ -159,7 +159,7 @@ impl<R: Read> PcdStream<R> {
     ) -> Result<StreamEnd, ReadError> {
         let h = self.header.clone();
         let mut end = StreamEnd::default();
-        let mut chunk = PointChunk::for_header(header, max.min(1 << 16));
+        let mut chunk = PointChunk::fresh(header, max);
         let mut raw = Vec::new();
         let mut line = h.lines;
         let mut point = 0u64;

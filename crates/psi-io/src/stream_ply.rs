@@ -214,7 +214,7 @@ impl<R: Read> PlyStream<R> {
         visit: &mut F,
     ) -> Result<StreamEnd, ReadError> {
         let mut end = StreamEnd::default();
-        let mut chunk = PointChunk::for_header(header, max.min(1 << 16));
+        let mut chunk = PointChunk::fresh(header, max);
         let mut bytes = vec![0u8; self.record];
         let mut line = String::new();
         for index in 0..self.count {

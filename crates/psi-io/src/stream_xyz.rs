@@ -70,7 +70,7 @@ impl<R: Read> XyzStream<R> {
         visit: &mut F,
     ) -> Result<StreamEnd, ReadError> {
         let mut end = StreamEnd::default();
-        let mut chunk = PointChunk::for_header(header, max.min(1 << 16));
+        let mut chunk = PointChunk::fresh(header, max);
         loop {
             let more = self.fill()?;
             let lines = self.take_lines();

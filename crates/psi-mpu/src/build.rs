@@ -42,6 +42,13 @@ pub struct Reuse<'a> {
     pub moved: Option<&'a [u32]>,
 }
 
+impl<'a> Reuse<'a> {
+    /// [`Reuse::moved`] when the rebuild has as many points (`n`) as `old`: a brush's.
+    fn moved_of(&self, n: usize) -> Option<&'a [u32]> {
+        self.moved.filter(|_| self.old.points.len() == n)
+    }
+}
+
 /// How [`Mpu::build_with`] runs beyond its parameters. `BuildOptions::default()` is a plain
 /// build: the frame Ohtake's set-up gives the points, every cell fitted, fresh memory, no
 /// progress reports.
@@ -194,13 +201,11 @@ fn prefit_marked(
     let positions = &data.positions;
     // After a brush the earlier MPU's kd-trees are brought up to date (no early fits needed).
     let derived = reuse.and_then(|r| {
-        let moved = r.moved?;
-        (r.old.points.len() == positions.len()).then(|| {
-            rayon::join(
-                || Arc::new(r.old.index.with_moved(moved, positions, |_| true)),
-                || Arc::new(r.old.coarse.with_moved(moved, positions)),
-            )
-        })
+        let moved = r.moved_of(positions.len())?;
+        Some(rayon::join(
+            || Arc::new(r.old.index.with_moved(moved, positions, |_| true)),
+            || Arc::new(r.old.coarse.with_moved(moved, positions)),
+        ))
     });
     let (index, (coarse, early)) = match derived {
         Some((index, coarse)) => (index, (coarse, vec![None; marked.len()])),
@@ -258,11 +263,6 @@ fn prefit_marked(
         coarse,
         fits: fits.ok_or(Interrupted)?,
     })
-}
-
-/// Whether `points` has as many points as `old` (a brush's rebuild).
-fn positions_kept(old: &Mpu, points: &[OrientedPoint]) -> bool {
-    old.points.len() == points.len()
 }
 
 /// The bounding box of `points` (world units) from `old`'s, the points `moved` having moved:
@@ -392,7 +392,7 @@ impl Mpu {
         let known = reuse.filter(|r| r.indices_kept).map(|r| KnownPartitions {
             old: &r.old.octree,
             changed: r.marked,
-            moved: r.moved,
+            moved: r.moved_of(n),
         });
         let octree_options = OctreeBuild {
             root: Some(frame.root()),
@@ -470,13 +470,10 @@ impl Mpu {
         let mut cell_fit = vec![NO_FIT; octree.cells().len()];
         let mut fit_radius = Vec::with_capacity(octree.cells().len());
         let mut fitted = Vec::with_capacity(octree.cells().len());
-        let bounds = match (reuse, synced) {
-            (Some(r), Some(_)) if r.moved.is_some() && positions_kept(r.old, &points) => {
-                moved_bounds(r.old, r.moved.unwrap_or_default(), &points)
-            }
-            _ => None,
-        }
-        .unwrap_or_else(|| Aabb::from_points(points.iter().map(|p| p.p)).expect("non-empty"));
+        let bounds = reuse
+            .filter(|_| synced.is_some())
+            .and_then(|r| moved_bounds(r.old, r.moved_of(points.len())?, &points))
+            .unwrap_or_else(|| Aabb::from_points(points.iter().map(|p| p.p)).expect("non-empty"));
         let mut report = BuildReport {
             points: points.len(),
             cells: octree.cells().len(),

@@ -9,11 +9,11 @@
 //! of their points is emptied when a changed position lies within its own d₉.
 
 use glam::DVec3;
-use psi_octree::PointIndex;
+use psi_octree::{Aabb, PointIndex};
 use rayon::prelude::*;
 
 use crate::Mpu;
-use crate::data_footprint::DataFootprint;
+use crate::data_footprint::{DataFootprint, InputLocalSlot};
 
 impl Mpu {
     /// Moves `old`'s footprint table into this MPU, built after an edit that kept every point's
@@ -25,66 +25,63 @@ impl Mpu {
     pub fn carry_footprint(&mut self, old: &mut Mpu, changed: &[DVec3]) {
         let n = self.points.len();
         let bound_holds = self.params.n_min + 1 >= 9 && n >= 9 && self.params.alpha >= 0.5;
-        let Some(mut table) = old
-            .footprint
-            .take_table(n)
-            .filter(|_| bound_holds && old.points.len() == n)
-        else {
+        let table = (bound_holds && old.points.len() == n)
+            .then(|| old.footprint.take_table(n))
+            .flatten();
+        let Some(mut table) = table else {
             if self.footprint.len() != n {
                 self.footprint = DataFootprint::new_in(Vec::new(), n);
             }
             return;
         };
-        if !changed.is_empty() {
-            let origin = old.frame.origin;
-            let local: Vec<DVec3> = changed.iter().map(|p| *p - origin).collect();
-            let index = PointIndex::new(&local);
-            let bounds = psi_octree::Aabb::from_points(local.iter().copied()).expect("non-empty");
-            let tree = &old.octree;
-            let (index, table_ref) = (&index, &table);
-            // The leaves within 3·R1 of a changed position, and their points whose entry a
-            // changed position lies within d₉ of (with a margin for rounding).
-            let stale: Vec<u32> = tree
-                .leaves()
-                .collect::<Vec<u32>>()
-                .par_iter()
-                .flat_map_iter(|&l| {
-                    let c = tree.cell(l);
-                    let reach = 3.0 * old.fit_radius[l as usize] * (1.0 + 1e-9);
-                    let outside = (bounds.min - c.center)
-                        .max(c.center - bounds.max)
-                        .max(DVec3::ZERO);
-                    // The changed positions nearest the centre: within reach, or the leaf is
-                    // left alone.
-                    let nearest = (outside.length_squared() <= reach * reach)
-                        .then(|| index.nearest_one(c.center))
-                        .flatten()
-                        .filter(|&(_, d2)| d2 <= reach * reach);
-                    let points: &[u32] = if nearest.is_some() {
-                        tree.points_in(l)
-                    } else {
-                        &[]
-                    };
-                    let to_centre = nearest.map_or(0.0, |(_, d2)| d2.sqrt());
-                    points.iter().copied().filter(move |&q| {
-                        table_ref[q as usize].reach().is_some_and(|d9| {
-                            let d9 = d9 * (1.0 + 1e-9);
-                            let y = tree.positions()[q as usize];
-                            // No changed position is nearer q than the nearest to the centre
-                            // less q's offset from it: then no query is needed.
-                            let lower = to_centre - (y - c.center).length();
-                            lower <= d9 * (1.0 + 1e-9)
-                                && index.nearest_one(y).is_some_and(|(_, d2)| d2 <= d9 * d9)
-                        })
-                    })
-                })
-                .collect();
-            for q in stale {
-                table[q as usize].clear();
-            }
+        for q in stale_entries(old, &table, changed) {
+            table[q as usize].clear();
         }
         self.footprint = DataFootprint::from_table(table);
     }
+}
+
+/// The points of `old` whose filled entry in `table` a position of `changed` (world units)
+/// lies within d₉ of (with a margin for rounding): the points of the leaves within 3·R1 of one.
+fn stale_entries(old: &Mpu, table: &[InputLocalSlot], changed: &[DVec3]) -> Vec<u32> {
+    let origin = old.frame.origin;
+    let local: Vec<DVec3> = changed.iter().map(|p| *p - origin).collect();
+    let Some(bounds) = Aabb::from_points(local.iter().copied()) else {
+        return Vec::new();
+    };
+    let index = PointIndex::new(&local);
+    let tree = &old.octree;
+    let stale_in = |l: u32| {
+        let c = tree.cell(l);
+        let reach = 3.0 * old.fit_radius[l as usize] * (1.0 + 1e-9);
+        let outside = (bounds.min - c.center)
+            .max(c.center - bounds.max)
+            .max(DVec3::ZERO);
+        // The changed position nearest the centre, if within reach (else the leaf is left
+        // alone); no changed position is nearer a point q than that one's distance less q's
+        // offset from the centre, which spares most queries.
+        let nearest = (outside.length_squared() <= reach * reach)
+            .then(|| index.nearest_one(c.center))
+            .flatten()
+            .filter(|&(_, d2)| d2 <= reach * reach);
+        let to_centre = nearest.map_or(0.0, |(_, d2)| d2.sqrt());
+        let points: &[u32] = if nearest.is_some() {
+            tree.points_in(l)
+        } else {
+            &[]
+        };
+        let index = &index;
+        points.iter().copied().filter(move |&q| {
+            table[q as usize].reach().is_some_and(|d9| {
+                let d9 = d9 * (1.0 + 1e-9);
+                let y = tree.positions()[q as usize];
+                to_centre - (y - c.center).length() <= d9
+                    && index.nearest_one(y).is_some_and(|(_, d2)| d2 <= d9 * d9)
+            })
+        })
+    };
+    let leaves: Vec<u32> = tree.leaves().collect();
+    leaves.par_iter().flat_map_iter(|&l| stale_in(l)).collect()
 }
 
 #[cfg(test)]

@@ -186,27 +186,21 @@ impl PointIndex {
 
     /// Calls `f(id, squared distance)` for every live entry with squared distance ≤ `r2`.
     fn each_within(&self, x: DVec3, r2: f64, mut f: impl FnMut(u32, f64)) {
-        if let Some(t) = &self.tree {
-            let found = t
-                .query(&x.to_array())
+        let ball = |t: &ImmutableKdTree<f64, 3>| {
+            t.query(&x.to_array())
                 .within::<SquaredEuclidean<f64>>(r2)
                 .unsorted()
-                .execute();
-            for n in &found {
-                if self.moved.is_empty() || !self.is_stale(n.item) {
-                    f(n.item, n.distance);
-                }
-            }
-        }
-        if let Some(t) = &self.overlay {
-            let found = t
-                .query(&x.to_array())
-                .within::<SquaredEuclidean<f64>>(r2)
-                .unsorted()
-                .execute();
-            for n in &found {
+                .execute()
+        };
+        // The base's stale entries are left out; the overlay holds only live ones.
+        let base = self.tree.as_deref().map(ball).unwrap_or_default();
+        for n in &base {
+            if self.moved.is_empty() || !self.is_stale(n.item) {
                 f(n.item, n.distance);
             }
+        }
+        for n in &self.overlay.as_ref().map(ball).unwrap_or_default() {
+            f(n.item, n.distance);
         }
     }
 

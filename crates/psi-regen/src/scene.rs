@@ -253,7 +253,7 @@ impl Scene {
         added: &PointAttributes,
         monitor: &Monitor<'_>,
     ) -> Result<RegenReport, RegenError> {
-        self.apply_stroke(edit, added, usize::MAX, monitor)
+        self.apply_deferred(edit, added, usize::MAX, monitor)
     }
 
     /// [`Scene::apply_attributed`] for an interactive frame: the previous stroke's relaxation
@@ -271,73 +271,12 @@ impl Scene {
         frame_iterations: usize,
         monitor: &Monitor<'_>,
     ) -> Result<RegenReport, RegenError> {
-        self.apply_stroke(edit, added, frame_iterations, monitor)
-    }
-
-    /// Relaxation iterations the last stroke's particles still have to run (0 when settled).
-    pub fn pending_iterations(&self) -> usize {
-        self.pending
-            .as_ref()
-            .map_or(0, |p| p.remaining(&self.particle_params))
-    }
-
-    /// Runs up to `iterations` more iterations of the last stroke's relaxation, and finishes
-    /// it (polish, close pairs, attributes) once none is left. Does nothing when settled.
-    pub fn settle(&mut self, iterations: usize) -> SettleReport {
-        let t0 = Instant::now();
-        let c0 = cpu_now();
-        let ran = self.settle_quietly(iterations, &Monitor::silent());
-        SettleReport {
-            iterations: ran,
-            pending_iterations: self.pending_iterations(),
-            seconds: t0.elapsed().as_secs_f64(),
-            cpu_seconds: cpu_now() - c0,
-        }
-    }
-
-    /// [`Scene::settle`] without the timing; returns the iterations run.
-    fn settle_quietly(&mut self, iterations: usize, monitor: &Monitor<'_>) -> usize {
-        let Some(pending) = self.pending.as_mut() else {
-            return 0;
-        };
-        let ran = pending.run(
-            &self.mpu,
-            &mut self.particles,
-            &self.field,
-            &self.particle_params,
-            iterations,
-            monitor,
-        );
-        if pending.remaining(&self.particle_params) == 0 && !monitor.stopped() {
-            let pending = self.pending.take().expect("present");
-            pending.finish(
-                &self.mpu,
-                &mut self.particles,
-                &self.field,
-                &self.particle_params,
-                &self.attributes,
-                &mut self.particle_attributes,
-            );
-        }
-        ran
-    }
-
-    /// An edit whose relaxation runs `frame_iterations` now and the rest when settled.
-    fn apply_stroke(
-        &mut self,
-        edit: &Edit,
-        added: &PointAttributes,
-        frame_iterations: usize,
-        monitor: &Monitor<'_>,
-    ) -> Result<RegenReport, RegenError> {
         check_attributes(added, edit.added())?;
         let c0 = cpu_now();
-        let t_settle = Instant::now();
         // The previous stroke finishes first, as it would have eagerly.
-        let settled = self.pending.is_some();
-        self.settle_quietly(usize::MAX, &Monitor::silent());
-        let (settle_seconds, settle_cpu_seconds) = if settled {
-            (t_settle.elapsed().as_secs_f64(), cpu_now() - c0)
+        let (settle_seconds, settle_cpu_seconds) = if self.pending.is_some() {
+            let s = self.settle(usize::MAX);
+            (s.seconds, s.cpu_seconds)
         } else {
             (0.0, 0.0)
         };
@@ -405,9 +344,9 @@ impl Scene {
         let marked_old = mark_cells(&self.mpu, &changed);
         let mark_seconds = t0.elapsed().as_secs_f64() - edit_seconds;
 
-        // Carrying the footprint table checks ~7 entries per changed position at random (~100 ns
-        // each), a fresh one writes 64 bytes a point in order (~5 ns): carry below 1 changed
-        // position in 140 points (measured: bunny, David stand-in; both give the same answers).
+        // Carrying the footprint table checks a few entries per changed position at random, a
+        // fresh one writes 64 bytes a point in order: carry below 1 changed position in 140
+        // points (the break-even, notes: 2026-11-25-edit-index; both give the same answers).
         let carry = synced.is_some() && 140 * changed.len() < points.len();
         let options = BuildOptions {
             frame: Some(*self.mpu.frame()),
@@ -564,6 +503,45 @@ impl Scene {
         self.particle_attributes = particle_attributes;
         self.pending = pending;
         Ok(report)
+    }
+
+    /// Relaxation iterations the last stroke's particles still have to run (0 when settled).
+    pub fn pending_iterations(&self) -> usize {
+        self.pending
+            .as_ref()
+            .map_or(0, |p| p.remaining(&self.particle_params))
+    }
+
+    /// Runs up to `iterations` more iterations of the last stroke's relaxation, and finishes
+    /// it (polish, close pairs, attributes) once none is left. Does nothing when settled.
+    pub fn settle(&mut self, iterations: usize) -> SettleReport {
+        let t0 = Instant::now();
+        let c0 = cpu_now();
+        let mut ran = 0;
+        if let Some(pending) = self.pending.as_mut() {
+            let silent = Monitor::silent();
+            let (mpu, field, params) = (&self.mpu, &self.field, &self.particle_params);
+            ran = pending.run(mpu, &mut self.particles, field, params, iterations, &silent);
+            if pending.remaining(params) == 0 {
+                let pending = self.pending.take().expect("present");
+                let (points, particle_attributes) =
+                    (&self.attributes, &mut self.particle_attributes);
+                pending.finish(
+                    mpu,
+                    &mut self.particles,
+                    field,
+                    params,
+                    points,
+                    particle_attributes,
+                );
+            }
+        }
+        SettleReport {
+            iterations: ran,
+            pending_iterations: self.pending_iterations(),
+            seconds: t0.elapsed().as_secs_f64(),
+            cpu_seconds: cpu_now() - c0,
+        }
     }
 
     /// Quality figures of the current particles.

@@ -10,8 +10,9 @@
 //! `reproduce-tables`) applied forth and back, warm. Writes `target/xtask/edit/edit.md` and
 //! `edit.json`.
 //!
-//! `cargo xtask bench edit [MODEL,MODEL,…] [SEEDS] [STROKES]`
-//! (defaults: bunny, igea and the David stand-in; 3 seeds; 20 strokes)
+//! `cargo xtask bench edit [MODEL,MODEL,…] [SEEDS] [STROKES] [FIRST_SEED]`
+//! (defaults: bunny, igea and the David stand-in; 3 seeds from 1; 20 strokes; a model is a
+//! shared model's name or `builtin:N`, N points of the built-in surface)
 
 use std::io::Write;
 use std::time::Instant;
@@ -168,8 +169,17 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
     };
     let seeds: u64 = args.next().map_or(Ok(3), |a| a.parse())?;
     let strokes: usize = args.next().map_or(Ok(20), |a| a.parse())?;
+    let first_seed: u64 = args.next().map_or(Ok(1), |a| a.parse())?;
     let dir = crate::project_root().join("../shared/models");
+    // A shared model by name, or `builtin:N`: N points of the built-in surface (a large input
+    // made at run time).
     let load = |name: &str| -> Result<Vec<OrientedPoint>> {
+        if let Some(n) = name.strip_prefix("builtin:") {
+            let n: usize = n
+                .parse()
+                .with_context(|| format!("{name}: a point count"))?;
+            return Ok(psi::shapes::sample_builtin(n, 0x5051_2007));
+        }
         let path = dir.join(format!("{name}.ply"));
         Ok(psi::load_points(&path, &psi::ReadOptions::paper())
             .with_context(|| format!("reading {}", path.display()))?
@@ -181,13 +191,14 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
     let mut rows = Vec::new();
     let mut md = format!(
         "# Editing sessions (`cargo xtask bench edit`)\n\n{} drags of {strokes} strokes per model \
-         (seeds 1..={seeds}), brushes holding about {target:.0} points (the bunny's at {:.1} % D), \
+         (seeds {first_seed}..{}), brushes holding about {target:.0} points (the bunny's at {:.1} % D), \
          each stroke pushing out by {:.2} % D; frames run {FRAME_ITERATIONS} relaxation \
          iterations, the rest settles after. Times in ms over the warm strokes (all but each \
          drag's first); CPU: the process's, frame and settle, per stroke.\n\n\
          | model | points | radius (% D) | marked cells | regenerated | frame median | frame worst | first stroke | settle median | CPU per stroke median | edit | mark | MPU: index and marked fits | octree | assemble | particles |\n\
          |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         seeds,
+        first_seed + seeds,
         100.0 * BUNNY_RADIUS,
         100.0 * DEPTH
     );
@@ -202,7 +213,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         let d = diagonal(&points);
         let mut all: Vec<Stroke> = Vec::new();
         let mut firsts = Vec::new();
-        for seed in 1..=seeds {
+        for seed in first_seed..first_seed + seeds {
             let edits = drag(&points, &index, radius, seed, strokes);
             let mut run = session(&points, &edits)?;
             firsts.push(run[0].frame);
@@ -277,6 +288,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         "host": crate::host::host(),
         "strokes": strokes,
         "seeds": seeds,
+        "first_seed": first_seed,
         "brush_points": target,
         "models": rows,
         "bunny_big_brush": big,
