@@ -145,23 +145,21 @@ pub(crate) fn try_fit_cell(
     // than 256 coarse points (about 4096 points) keeps those whose hash is a multiple of
     // 16·⌈c/4096⌉ (at most 4096 of them), without visiting the ball; smaller balls are used
     // whole.
+    // The points of `set` (one in `every` of all) whose hash is a multiple of `every` times
+    // the thinning that leaves at most MAX_FIT_POINTS of them.
+    let thinned = |set: &[u32], every: u64| -> Vec<u32> {
+        let thin = every * (set.len() as u64).div_ceil(MAX_FIT_POINTS as u64);
+        set.iter()
+            .copied()
+            .filter(|&i| position_hash(input.positions[i as usize]).is_multiple_of(thin))
+            .collect()
+    };
     let large = sparse.len() > 256;
     let mut full: Option<Vec<u32>> = None;
     let mut idx: Vec<u32> = if large {
-        let thin = SPARSE * (sparse.len() as u64).div_ceil(MAX_FIT_POINTS as u64);
-        sparse
-            .iter()
-            .copied()
-            .filter(|&i| position_hash(input.positions[i as usize]).is_multiple_of(thin))
-            .collect()
+        thinned(&sparse, SPARSE)
     } else if coarse().len() > 256 {
-        let coarse = coarse();
-        let thin = COARSE * (coarse.len() as u64).div_ceil(MAX_FIT_POINTS as u64);
-        coarse
-            .iter()
-            .copied()
-            .filter(|&i| position_hash(input.positions[i as usize]).is_multiple_of(thin))
-            .collect()
+        thinned(coarse(), COARSE)
     } else {
         let ball = match ball_of_r {
             Some(ball) => ball,
@@ -171,12 +169,8 @@ pub(crate) fn try_fit_cell(
                 ball
             }
         };
-        let thin = ball.len().div_ceil(MAX_FIT_POINTS).max(1) as u64;
-        let kept = if thin > 1 {
-            ball.iter()
-                .copied()
-                .filter(|&i| position_hash(input.positions[i as usize]).is_multiple_of(thin))
-                .collect()
+        let kept = if ball.len() > MAX_FIT_POINTS {
+            thinned(&ball, 1)
         } else {
             ball.clone()
         };
