@@ -138,3 +138,64 @@ fn sample_writes_a_readable_particle_file_and_report() {
     let m = psi::load_mesh(&mesh).unwrap();
     assert!(m.faces.len() > 500);
 }
+
+#[test]
+fn the_ceiling_on_spacing_covers_a_flat_sheet_and_is_reported() {
+    let dir = scratch("ceiling");
+    // A flat square of 2 × 2 (x y z only, normals estimated): one octree cell.
+    let pts: Vec<psi::OrientedPoint> = (0..10_000u64)
+        .map(|i| {
+            let h =
+                |k: u64| ((i.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ k) % 10_007) as f64 / 10_007.0;
+            psi::OrientedPoint {
+                p: psi::DVec3::new(2.0 * h(1), 2.0 * ((i % 100) as f64 + h(2)) / 100.0, 0.0),
+                n: psi::DVec3::Z,
+            }
+        })
+        .collect();
+    let input = dir.join("sheet.xyz");
+    write_xyz(&input, &pts);
+    let run = |extra: &[&str], name: &str| {
+        let json = dir.join(format!("{name}.json"));
+        let mut args = vec![
+            "sample",
+            input.to_str().unwrap(),
+            "-q",
+            "--json",
+            json.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        assert_success(&psi(&args));
+        serde_json::from_slice::<serde_json::Value>(&std::fs::read(&json).unwrap()).unwrap()
+    };
+    let default = run(&[], "default");
+    let d = default["input"]["bbox_diagonal"].as_f64().unwrap();
+    let ceiling = default["particles"]["max_spacing"].as_f64().unwrap();
+    assert!((ceiling - 0.025 * d).abs() <= 1e-12 * d);
+    let count = default["particles"]["count"].as_u64().unwrap() as f64;
+    // About one particle per ceiling-sized hexagon of the 4 m² sheet: 4 / (0.87 · s²).
+    let hexagons = 4.0 / (0.866 * ceiling * ceiling);
+    assert!(
+        count > 0.6 * hexagons && count < 1.6 * hexagons,
+        "{count} for {hexagons}"
+    );
+    let given = run(&["--max-spacing", "0.2"], "given");
+    assert_eq!(given["particles"]["max_spacing"].as_f64(), Some(0.2));
+    let none = run(&["--max-spacing", "inf"], "none");
+    assert!(none["particles"]["max_spacing"].is_null());
+    assert!(none["particles"]["count"].as_u64().unwrap() < 10);
+    for bad in [
+        ["--max-spacing", "0"],
+        ["--max-spacing", "-1"],
+        ["--max-spacing", "nan"],
+    ] {
+        assert_eq!(
+            psi(&["sample", "--iterations", "1", bad[0], bad[1]])
+                .status
+                .code(),
+            Some(2)
+        );
+    }
+    let conflict = psi(&["sample", "--count", "10", "--max-spacing", "1"]);
+    assert_eq!(conflict.status.code(), Some(2));
+}

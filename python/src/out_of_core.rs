@@ -58,7 +58,8 @@ pub(crate) fn sample_files<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let inputs = inputs_arg(inputs)?;
     let max_memory = memory_arg(max_memory)?;
-    let particle_params = crate::sample::particle_params(iterations, Some(k), None, false, seed)?;
+    let particle_params =
+        crate::sample::particle_params(iterations, Some(k), None, false, None, seed)?;
     let mpu_params = mpu_params(mpu_error)?;
     let scratch = scratch.unwrap_or_else(|| default_scratch(&output));
     let options = psi::OutOfCore {

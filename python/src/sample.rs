@@ -17,14 +17,27 @@ use crate::monitor::{Progress, monitored};
 use crate::mpu::Mpu;
 
 /// The sampling options of `psi sample` (`--iterations`, `--k`, `--count`, `--uniform`,
-/// `--seed`) as `ParticleParams`, with the CLI's bounds.
+/// `--max-spacing`, `--seed`) as `ParticleParams`, with the CLI's bounds.
 pub(crate) fn particle_params(
     iterations: i128,
     k: Option<i128>,
     count: Option<i128>,
     uniform: bool,
+    max_spacing: Option<f64>,
     seed: i128,
 ) -> PyResult<ParticleParams> {
+    if let Some(s) = max_spacing {
+        if !(s > 0.0) {
+            return Err(crate::errors::value_error(format!(
+                "max_spacing={s} is not a positive length (world units; inf for none)"
+            )));
+        }
+        if count.is_some() || uniform {
+            return Err(crate::errors::value_error(format!(
+                "max_spacing={s} conflicts with count= and uniform=True, which set their own spacing"
+            )));
+        }
+    }
     if let (Some(k), Some(c)) = (k, count) {
         return Err(crate::errors::value_error(format!(
             "k={k} and count={c} conflict: give k (particles per leaf) or count (exactly that many), not both"
@@ -45,6 +58,7 @@ pub(crate) fn particle_params(
         } else {
             DensityMode::Adaptive
         },
+        max_spacing,
         seed: bounded("seed", seed, 0, u64::MAX)?,
         ..ParticleParams::paper()
     })
@@ -373,12 +387,14 @@ impl Particles {
 
 /// Scatters particles over `mpu`'s surface and relaxes them, as `psi sample` does: `k`
 /// particles per surface-containing leaf (1 to 64) or exactly `count` (1 to 50 000 000),
-/// depth-adaptive spacing or one `uniform` spacing (blue noise), `iterations` relaxation steps
+/// depth-adaptive spacing or one `uniform` spacing (blue noise), the adaptive spacing never
+/// coarser than `max_spacing` (world units; default 2.5 % of the bounding-box diagonal, `inf`
+/// for none: particles are added where the data has none near), `iterations` relaxation steps
 /// (0 to 100 000), every random choice from `seed`. For the same input and seed the particles
 /// are bitwise those the CLI writes. The interpreter is released meanwhile.
 #[pyfunction]
-#[pyo3(signature = (mpu, *, iterations=20, k=None, count=None, uniform=false, seed=2007,
-    progress=None))]
+#[pyo3(signature = (mpu, *, iterations=20, k=None, count=None, uniform=false, max_spacing=None,
+    seed=2007, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn sample(
     py: Python<'_>,
@@ -387,10 +403,11 @@ pub(crate) fn sample(
     k: Option<i128>,
     count: Option<i128>,
     uniform: bool,
+    max_spacing: Option<f64>,
     seed: i128,
     progress: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Particles> {
-    let params = particle_params(iterations, k, count, uniform, seed)?;
+    let params = particle_params(iterations, k, count, uniform, max_spacing, seed)?;
     let progress = Progress::from_arg(py, progress)?;
     let shared = mpu.mpu.clone();
     let worker = shared.clone();

@@ -28,7 +28,8 @@ use crate::sample::{Particles, particle_params};
 ///
 /// `Scene(points, normals=None, *, error=None, max_depth=12, smooth=False,
 /// scale_invariant=False, preprocess=True, iterations=20, k=None, count=None, uniform=False,
-/// seed=2007, progress=None)`: the input and MPU options of `psi.Mpu`, the sampling options
+/// max_spacing=None, seed=2007, progress=None)`: the input and MPU options of `psi.Mpu`, the
+/// sampling options
 /// of `psi.sample` (`psi edit` uses their defaults but for `iterations`). Building and every
 /// edit release the interpreter; Ctrl-C stops the build. Each edit returns its report as a
 /// dict (`RegenReport`: marked and refitted cells, particles removed and regenerated, points,
@@ -138,7 +139,7 @@ impl Scene {
     #[new]
     #[pyo3(signature = (points, normals=None, *, error=None, max_depth=12, smooth=false,
         scale_invariant=false, preprocess=true, iterations=20, k=None, count=None, uniform=false,
-        seed=2007, progress=None))]
+        max_spacing=None, seed=2007, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -153,6 +154,7 @@ impl Scene {
         k: Option<i128>,
         count: Option<i128>,
         uniform: bool,
+        max_spacing: Option<f64>,
         seed: i128,
         progress: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
@@ -162,7 +164,7 @@ impl Scene {
             smooth,
             scale_invariant,
         };
-        let params = particle_params(iterations, k, count, uniform, seed)?;
+        let params = particle_params(iterations, k, count, uniform, max_spacing, seed)?;
         let progress = Progress::from_arg(py, progress)?;
         let input = input_of(py, points, normals, preprocess, &progress)?;
         let (mpu_params, threshold) = options.params(&input)?;

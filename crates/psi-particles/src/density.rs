@@ -33,6 +33,15 @@ pub struct DensityField {
     pub scale: f64,
     /// A constant σ̂ (uniform mode) overriding the depth rule.
     pub uniform: Option<f64>,
+    /// The largest σ̂ of the depth rule, world units: set when the ceiling on spacing added
+    /// particles (`cover_data.rs`), so that those in shallow, flat cells repel at the ceiling's
+    /// spacing rather than their cell's. `None`: no cap.
+    #[serde(default)]
+    pub cap: Option<f64>,
+    /// The ceiling on spacing in effect, world units (`cover_data.rs`): local regeneration
+    /// covers its region under the same one. `None`: no ceiling.
+    #[serde(default)]
+    pub ceiling: Option<f64>,
 }
 
 impl DensityField {
@@ -77,7 +86,8 @@ impl DensityField {
             )
         };
         let (fine, coarse) = (self.edge(self.d_max), self.edge(self.d_min));
-        self.scale * 0.5 * (fine + delta * (coarse - fine))
+        let sigma = self.scale * 0.5 * (fine + delta * (coarse - fine));
+        self.cap.map_or(sigma, |cap| sigma.min(cap))
     }
 }
 
@@ -113,9 +123,19 @@ mod tests {
             root_edge: 1.6,
             scale: 1.0,
             uniform: None,
+            cap: None,
+            ceiling: None,
         };
         assert_near!(field.target_sigma(4), 0.5 * field.edge(4), 1e-15);
         assert_near!(field.target_sigma(8), 0.5 * field.edge(8), 1e-15);
         assert!(field.target_sigma(6) < field.target_sigma(5));
+        // A cap bounds σ̂ at the shallow end only, and the largest σ̂ with it.
+        let capped = DensityField {
+            cap: Some(field.target_sigma(6)),
+            ..field
+        };
+        assert_near!(capped.target_sigma(4), field.target_sigma(6), 0.0);
+        assert_near!(capped.max_target_sigma(), field.target_sigma(6), 0.0);
+        assert_near!(capped.target_sigma(7), field.target_sigma(7), 0.0);
     }
 }

@@ -10,7 +10,9 @@
 //! * [`DensityField`]: depth → target radius σ̂; [`paper_weight`]: eq. 1's weight;
 //! * [`measure_quality`]: |f|/|∇f| and nearest-neighbour statistics per depth level;
 //! * [`separate_close_pairs`]: uniform mode's last step, pushing apart the pairs relaxation
-//!   left closer than [`SEPARATION`] of the spacing.
+//!   left closer than [`SEPARATION`] of the spacing;
+//! * [`cover_data`]: the ceiling on spacing ([`MAX_SPACING`] of D by default), darts where the
+//!   relaxed particles leave input points uncovered (flat regions).
 //!
 //! ```
 //! use psi_mpu::{Mpu, MpuParams};
@@ -24,6 +26,7 @@
 //! assert!(run.report.after.max_surface_distance <= 1e-4 + 1e-12);
 //! ```
 
+mod cover_data;
 mod density;
 mod neighbours;
 mod octree_buckets;
@@ -41,6 +44,7 @@ mod separate;
 mod sigma_scale;
 mod transfer_attributes;
 
+pub use cover_data::{COVER_RADIUS, MAX_SPACING, cover_data, spacing_ceiling};
 pub use density::{DensityField, paper_weight};
 pub use octree_buckets::OctreeBuckets;
 pub use params::{DensityMode, NeighbourSearch, ParticleParams};

@@ -79,6 +79,14 @@ pub struct ParticleParams {
     /// local input spacing: particles stay where there is data (open scans, holes). 1 (see
     /// docs/notes/2026-11-24-relaxation.md, for why not more).
     pub data_reach: f64,
+    /// The ceiling on spacing, world units: after relaxation, particles are added where input
+    /// points lie farther than [`crate::COVER_RADIUS`] × this from every particle, so that flat
+    /// regions (one big octree cell each) are covered at about this spacing. `None`: 2.5 % of
+    /// the bounding-box diagonal ([`crate::MAX_SPACING`]); `Some(f64::INFINITY)`: no ceiling.
+    /// Adaptive mode with k per leaf only (an exact count or uniform mode set their own
+    /// spacing).
+    #[serde(default)]
+    pub max_spacing: Option<f64>,
     /// Seed of every random choice.
     pub seed: u64,
 }
@@ -111,6 +119,7 @@ impl ParticleParams {
             newton_tolerance: 1e-4,
             newton_steps: 4,
             data_reach: 1.0,
+            max_spacing: None,
             seed: 2007,
         }
     }

@@ -52,6 +52,17 @@ impl Particles {
         self.target.retain(|_| *k.next().unwrap_or(&false));
     }
 
+    /// Splits off the particles from `at` on (returned, in order), keeping those before.
+    pub fn split_off(&mut self, at: usize) -> Particles {
+        Particles {
+            positions: self.positions.split_off(at),
+            normals: self.normals.split_off(at),
+            depth: self.depth.split_off(at),
+            sigma: self.sigma.split_off(at),
+            target: self.target.split_off(at),
+        }
+    }
+
     /// Appends one particle.
     pub fn push(&mut self, p: DVec3, n: DVec3, depth: u8, sigma: f64) {
         self.positions.push(p);

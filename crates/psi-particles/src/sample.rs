@@ -6,6 +6,7 @@ use psi_mpu::{Mpu, PolygonizeParams, polygonize};
 use psi_octree::{Interrupted, Monitor};
 use serde::{Deserialize, Serialize};
 
+use crate::cover_data::{cover_data, spacing_ceiling};
 use crate::seed::{quotas, seed};
 use crate::seed_poisson::poisson_seeds;
 use crate::{
@@ -38,6 +39,18 @@ pub struct SampleReport {
     /// adaptive mode.
     #[serde(default)]
     pub separation: Option<SeparationReport>,
+    /// The ceiling on spacing applied, world units (`ParticleParams::max_spacing`); `None` with
+    /// an exact count or in uniform mode, which set their own spacing.
+    #[serde(default)]
+    pub max_spacing: Option<f64>,
+    /// Particles the ceiling added where the data had none near (0: the relaxed particles
+    /// covered every input point; their time is included in `simulate_seconds`).
+    #[serde(default)]
+    pub added_by_ceiling: usize,
+    /// Particles of shallow, flat cells the ceiling replaced by its own (`added_by_ceiling`
+    /// counts those).
+    #[serde(default)]
+    pub replaced_by_ceiling: usize,
 }
 
 /// The seeds of a run and the density field they fix.
@@ -98,6 +111,8 @@ fn initialize_with(mpu: &Mpu, params: &ParticleParams, monitor: &Monitor<'_>) ->
         root_edge: mpu.octree().root().edge(),
         scale: 1.0,
         uniform: None,
+        cap: None,
+        ceiling: None,
     };
     let uniform = params.density == DensityMode::Uniform;
     // The paper's seeding (k per leaf) unless an exact count or uniform spacing is asked for;
@@ -173,8 +188,8 @@ pub fn sample(mpu: &Mpu, params: &ParticleParams) -> Sampling {
     sample_with(mpu, params, &Monitor::silent()).expect("a silent monitor never stops")
 }
 
-/// [`sample`], reporting its stages to `monitor` (`"seed"`, `"relax"` by iteration,
-/// `"separate"` in uniform mode, `"measure"`) and stopping with [`Interrupted`] once its stop
+/// [`sample`], reporting its stages to `monitor` (`"seed"`, `"relax"` by iteration, `"cover"`
+/// (the ceiling on spacing), `"separate"` in uniform mode, `"measure"`) and stopping with [`Interrupted`] once its stop
 /// flag is set. A run that completes equals [`sample`]'s bit for bit.
 pub fn sample_with(
     mpu: &Mpu,
@@ -204,6 +219,20 @@ pub fn sample_with(
     };
     relax(mpu, &mut particles, &density, params, options);
     monitor.check()?;
+    // The ceiling on spacing (adaptive mode with k per leaf): particles where input points are
+    // left uncovered.
+    let mut density = density;
+    let max_spacing = (params.density == DensityMode::Adaptive && params.count.is_none())
+        .then(|| spacing_ceiling(mpu, params.max_spacing))
+        .filter(|s| s.is_finite());
+    density.ceiling = max_spacing;
+    let (mut added_by_ceiling, mut replaced_by_ceiling) = (0, 0);
+    if let Some(s) = max_spacing {
+        monitor.report("cover", 0, 1);
+        (added_by_ceiling, replaced_by_ceiling) =
+            cover_data(mpu, &mut particles, 0, &mut density, s, None, params);
+        monitor.report("cover", 1, 1);
+    }
     // Uniform mode only (`None` otherwise).
     let separation = if density.uniform.is_some() {
         monitor.report("separate", 0, 1);
@@ -238,6 +267,9 @@ pub fn sample_with(
         before,
         after,
         separation,
+        max_spacing,
+        added_by_ceiling,
+        replaced_by_ceiling,
     };
     Ok(Sampling { particles, report })
 }

@@ -55,7 +55,7 @@ pub(crate) fn quotas(mpu: &Mpu, leaves: &[u32], params: &ParticleParams) -> Vec<
 }
 
 /// A bijective scramble of an index (so "every m-th leaf" picks are spatially spread).
-fn spread_hash(i: usize) -> u64 {
+pub(crate) fn spread_hash(i: usize) -> u64 {
     let mut x = i as u64 ^ 0x9E37_79B9_7F4A_7C15;
     x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);

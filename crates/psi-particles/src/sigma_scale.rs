@@ -96,6 +96,8 @@ mod tests {
             root_edge: 1.0,
             scale: 1.0,
             uniform: None,
+            cap: None,
+            ceiling: None,
         }
     }
 

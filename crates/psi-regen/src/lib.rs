@@ -28,6 +28,7 @@
 //! ```
 
 mod brush_points;
+mod cover_leaves;
 mod edit;
 mod error;
 mod mark_cells;

@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::brush_points::brushed_points;
+use crate::cover_leaves::cover_refit_leaves;
 use crate::settle::{Pending, cpu_now};
 use crate::{Edit, RegenError, SettleReport, mark_cells};
 
@@ -416,10 +417,22 @@ impl Scene {
             .surface_leaves()
             .filter(|&l| refit[l as usize])
             .collect();
-        let fresh = seed_leaves(&mpu, &leaves, &self.field, &self.particle_params);
-        particles.extend(&fresh);
-        // Defaults for the regenerated particles' attributes until they settle.
-        particle_attributes.extend(kept, &PointAttributes::default(), fresh.len());
+        particles.extend(&seed_leaves(
+            &mpu,
+            &leaves,
+            &self.field,
+            &self.particle_params,
+        ));
+        let (darts, regenerated) = cover_refit_leaves(
+            &mpu,
+            &mut particles,
+            kept,
+            &self.field,
+            &self.particle_params,
+            &leaves,
+            &attributes,
+            &mut particle_attributes,
+        );
         // Relax only the new particles; the kept ones are fixed neighbours (relax indexes them
         // once and skips their updates). Moves must stay in refitted leaves, which the box of
         // those leaves bounds (world units).
@@ -434,7 +447,7 @@ impl Scene {
             &self.particle_params,
             refit.clone(),
             bounds,
-            kept,
+            kept + darts,
         );
         pending.run(
             &mpu,
@@ -482,7 +495,7 @@ impl Scene {
             marked_cells: marked_old.iter().filter(|m| **m).count(),
             refit_cells: refit.iter().filter(|m| **m).count(),
             particles_removed: self.particles.len() - kept,
-            particles_regenerated: fresh.len(),
+            particles_regenerated: regenerated,
             points: mpu.points().len(),
             full_rebuild: false,
             mpu_seconds,

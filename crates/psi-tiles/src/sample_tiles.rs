@@ -117,6 +117,8 @@ pub fn sample_tiled(
         root_edge: 2.0 * frame.root_half,
         scale: 1.0,
         uniform: None,
+        cap: None,
+        ceiling: None,
     };
     let done = std::sync::atomic::AtomicU64::new(0);
     let total = regions.len() as u64;

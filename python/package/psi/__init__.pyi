@@ -319,14 +319,18 @@ def sample(
     k: Optional[int] = None,
     count: Optional[int] = None,
     uniform: bool = False,
+    max_spacing: Optional[float] = None,
     seed: int = 2007,
     progress: _Progress = None,
 ) -> Particles:
     """Seeds ``k`` particles per surface-containing leaf (1 to 64; ``None`` means 1), or
     exactly ``count`` (1 to 50 000 000; ``ValueError`` with ``k`` too), depth-adaptive or
     ``uniform`` (one spacing, blue noise), and relaxes them for ``iterations`` steps (0 to
-    100 000); every random choice from ``seed`` (0 to 2**64 - 1). Bitwise the particles
-    ``psi sample`` writes for the same input and options."""
+    100 000); every random choice from ``seed`` (0 to 2**64 - 1). The adaptive spacing is
+    never coarser than ``max_spacing`` (world units; ``None``: 2.5 % of the bounding-box
+    diagonal, ``math.inf``: no ceiling; ``ValueError`` with ``count`` or ``uniform``):
+    particles are added where the data has none near, so flat regions are covered. Bitwise
+    the particles ``psi sample`` writes for the same input and options."""
 
 def save_particles(path: _Path, particles: Particles) -> None:
     """Writes binary PLY ``x y z nx ny nz depth sigma`` (float64), as ``psi sample -o``, with
@@ -390,6 +394,7 @@ class Scene:
         k: Optional[int] = None,
         count: Optional[int] = None,
         uniform: bool = False,
+        max_spacing: Optional[float] = None,
         seed: int = 2007,
         progress: _Progress = None,
     ) -> Scene: ...

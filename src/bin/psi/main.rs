@@ -157,6 +157,18 @@ pub(crate) fn iterations(text: &str) -> Result<usize, String> {
     bounded(text, 0, 100_000)
 }
 
+/// A length in world units: positive, or `inf` for none.
+pub(crate) fn positive_length(text: &str) -> Result<f64, String> {
+    let v: f64 = text
+        .parse()
+        .map_err(|_| format!("{text} is not a number"))?;
+    if v > 0.0 && !v.is_nan() {
+        Ok(v)
+    } else {
+        Err(format!("{text} is not a positive length (or inf)"))
+    }
+}
+
 /// A relative error threshold: finite, in (0, 1].
 fn positive_fraction(text: &str) -> Result<f64, String> {
     let v: f64 = text

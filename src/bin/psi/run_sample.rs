@@ -34,6 +34,12 @@ pub(crate) struct SampleArgs {
     /// One constant spacing from the area and the count (blue noise) instead of depth-adaptive.
     #[arg(long)]
     uniform: bool,
+    /// The ceiling on spacing, world units: particles are added where the data has none near,
+    /// so flat regions are covered at about this spacing (`inf`: none) [default: 2.5 % of the
+    /// bounding-box diagonal; not with --count or --uniform, which set their own spacing].
+    #[arg(long, value_parser = crate::positive_length,
+        conflicts_with_all = ["count", "uniform", "max_memory"])]
+    max_spacing: Option<f64>,
     /// Seed of every random choice.
     #[arg(long, default_value_t = 2007)]
     seed: u64,
@@ -98,6 +104,7 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         } else {
             DensityMode::Adaptive
         },
+        max_spacing: args.max_spacing,
         seed: args.seed,
         ..ParticleParams::paper()
     };
