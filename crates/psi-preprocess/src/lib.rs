@@ -5,7 +5,8 @@
 //!
 //! * [`mesh_coarseness`], [`densify_mesh`]: whether a mesh's triangles are large against the
 //!   implicit's tolerance, and more points on them when they are;
-//! * [`find_outliers`]: stray points that no surface supports;
+//! * [`find_outliers`]: stray points that no surface supports; [`find_clumps`]: small groups
+//!   of them lying apart, off the surface (which support themselves);
 //! * [`estimate_normals`]: normals for a cloud of positions only, from plane fits over an
 //!   adaptive neighbourhood;
 //! * [`orient_normals`] (propagation over a neighbour graph, after Hoppe et al. 1992) and
@@ -35,6 +36,7 @@ mod denoise;
 mod densify_mesh;
 mod estimate_noise;
 mod estimate_normals;
+mod find_clumps;
 mod find_outliers;
 mod inward_normals;
 mod local_fit;
@@ -48,6 +50,7 @@ pub use denoise::{DenoiseReport, denoise, denoise_with};
 pub use densify_mesh::{MeshCoarseness, densify_mesh, densify_mesh_with_sources, mesh_coarseness};
 pub use estimate_noise::{NoiseEstimate, estimate_noise};
 pub use estimate_normals::{estimate_normals, estimate_normals_with};
+pub use find_clumps::{CLUMP_GAP, CLUMP_POINTS, Clumps, find_clumps, find_clumps_with};
 pub use find_outliers::{Outliers, find_outliers, find_outliers_with};
 pub use inward_normals::{InwardVotes, inward_votes};
 pub use orient_normals::{

@@ -10,8 +10,8 @@ use serde::{Deserialize, Serialize};
 use crate::{
     DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, Spread,
     check_normal_consistency, denoise_with, densify_mesh_with_sources, estimate_noise,
-    estimate_normals_with, find_outliers_with, inward_votes, mesh_coarseness, orient_normals_with,
-    orient_toward, point_spread,
+    estimate_normals_with, find_clumps_with, find_outliers_with, inward_votes, mesh_coarseness,
+    orient_normals_with, orient_toward, point_spread,
 };
 
 /// Ohtake's error threshold ε0 relative to the bounding-box diagonal D (algorithms.md §1.1):
@@ -32,7 +32,8 @@ pub const INCONSISTENT_NORMALS: f64 = 0.01;
 /// Which steps run ([`PreprocessParams::scan`]: all of them).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PreprocessParams {
-    /// Find and drop points no surface supports ([`crate::find_outliers`]).
+    /// Find and drop points no surface supports ([`crate::find_outliers`]), then stray
+    /// clumps among the rest ([`crate::find_clumps`]).
     pub remove_outliers: bool,
     /// Estimate normals where the input has none ([`crate::estimate_normals`]); when off, such
     /// an input is refused by [`preprocess`].
@@ -111,6 +112,9 @@ pub struct OutlierReport {
     pub far: usize,
     /// Of those, near the data but off the surface it describes.
     pub off_surface: usize,
+    /// Of those, in small groups lying apart from the rest, off its surface (stray clumps).
+    #[serde(default)]
+    pub clumps: usize,
 }
 
 /// A triangle mesh the points were taken from, borrowed.
@@ -342,13 +346,14 @@ pub fn error_threshold_for_noise(noise_rel: f64) -> f64 {
 }
 
 /// Prepares `input`'s points for the MPU, as `params` say, in this order: a coarse mesh's
-/// large triangles given more points; outliers removed (not for a mesh); normals estimated and
-/// oriented (toward `params.viewpoint`, else by propagation) when there are none, else checked
-/// for consistency and, with `params.orient_given_normals`, reoriented; the noise estimated;
-/// where it would raise the error threshold above the paper's, the points denoised and the
-/// noise estimated again (not for a mesh, nor for given normals found inconsistent — more
-/// than [`INCONSISTENT_NORMALS`] opposed — and not reoriented); the error threshold the noise left suggests (the
-/// paper's for a mesh). Deterministic and independent of the thread count.
+/// large triangles given more points; outliers, then stray clumps among the rest, removed (not
+/// for a mesh); normals estimated and oriented (toward `params.viewpoint`, else by
+/// propagation) when there are none, else checked for consistency and, with
+/// `params.orient_given_normals`, reoriented; the noise estimated; where it would raise the
+/// error threshold above the paper's, the points denoised and the noise estimated again (not
+/// for a mesh, nor for given normals found inconsistent — more than [`INCONSISTENT_NORMALS`]
+/// opposed — and not reoriented); the error threshold the noise left suggests (the paper's for
+/// a mesh). Deterministic and independent of the thread count.
 ///
 /// # Errors
 ///
@@ -435,21 +440,31 @@ pub fn preprocess_with(
     if params.remove_outliers && !origin.is_mesh() {
         step("outliers", 0)?;
         let t = Instant::now();
-        let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+        let mut positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
         let normals: Option<Vec<DVec3>> =
             normals_given.then(|| points.iter().map(|p| p.n).collect());
         let found = find_outliers_with(&positions, normals.as_deref(), monitor);
         monitor.check()?;
-        if found.count() > 0 {
-            let mut keep = found.mask.iter().map(|m| !m);
-            points.retain(|_| keep.next().unwrap_or(true));
-            let mut keep = found.mask.iter().map(|m| !m);
-            source.retain(|_| keep.next().unwrap_or(true));
-        }
+        // Stray clumps support themselves: judged as groups, among the points left.
+        let mut left = found.mask.iter().map(|m| !m);
+        positions.retain(|_| left.next().unwrap_or(true));
+        let clumps = find_clumps_with(&positions, monitor);
+        monitor.check()?;
+        let mut clumped = clumps.mask.iter(); // over the points left: `||` skips the others
+        let drop: Vec<bool> = found
+            .mask
+            .iter()
+            .map(|&m| m || clumped.next() == Some(&true))
+            .collect();
+        let mut keep = drop.iter().map(|m| !m);
+        points.retain(|_| keep.next().unwrap_or(true));
+        let mut keep = drop.iter().map(|m| !m);
+        source.retain(|_| keep.next().unwrap_or(true));
         outliers = Some(OutlierReport {
-            removed: found.count(),
+            removed: found.count() + clumps.points,
             far: found.far,
             off_surface: found.off_surface,
+            clumps: clumps.points,
         });
         seconds.outliers = t.elapsed().as_secs_f64();
         step("outliers", 1)?;

@@ -138,3 +138,38 @@ fn densified_points_name_their_triangle() {
         assert_eq!(t, expected, "{p:?}");
     }
 }
+
+/// Stray clumps that support themselves leave with the outliers, counted apart; every point
+/// of the surface stays, named by its source.
+#[test]
+fn stray_clumps_are_left_out_with_the_outliers() {
+    let sphere = AnalyticShape::Sphere { radius: 1.0 };
+    let mut points = sphere.sample(30_000, 8);
+    let d = 2.0 * 3f64.sqrt();
+    let mut rng = Pcg64Mcg::seed_from_u64(9);
+    // 20 points 5 % D off the surface, 100 points 8 % D off it.
+    for (k, (size, offset)) in [(20, 0.05), (100, 0.08)].into_iter().enumerate() {
+        let base = points[k * 1000];
+        for _ in 0..size {
+            let n = gaussian_vector(&mut rng).normalize();
+            let p = base.p + offset * d * base.n + 0.002 * d * n;
+            points.push(OrientedPoint { p, n });
+        }
+    }
+    let input = ScanInput {
+        points: points.clone(),
+        normals_given: true,
+        origin: PointOrigin::Scan,
+    };
+    let done = preprocess(input, &PreprocessParams::scan()).unwrap();
+    let o = done.report.outliers.unwrap();
+    assert!(o.clumps > 0, "{o:?}");
+    assert_eq!(o.removed, o.far + o.off_surface + o.clumps);
+    assert_eq!(done.report.points_out, points.len() - o.removed);
+    assert_eq!(done.source.len(), done.points.len());
+    assert_eq!(done.source[..30_000], (0..30_000).collect::<Vec<u32>>());
+    assert_eq!(done.source.len(), 30_000, "clump points kept");
+    for (p, &s) in done.points.iter().zip(&done.source) {
+        assert_eq!(p.p, points[s as usize].p);
+    }
+}
