@@ -10,9 +10,11 @@
 //!   `psi sample`, reporting time and peak memory.
 //! * `figures [--models DIR]`: regenerates the README's pictures in `docs/images/` (built-in
 //!   model and bunny coloured by octree depth, a brush edit, uniform beside adaptive).
-//! * `scans [--models DIR] [--only a,b] [--seed S] [--json FILE]`: psi on scan-like variants
-//!   of the shared models (noise, stray points, positions alone, one view, a coarse mesh),
-//!   checked against the clean meshes (`scans.rs`).
+//! * `scans [--models DIR] [--only a,b] [--seed S] [--seeds A..B] [--json FILE]`: psi on
+//!   scan-like inputs checked against reference surfaces (`scans.rs`): variants of the shared
+//!   models (noise, stray points, positions alone, one view), a coarse mesh, the real dragon
+//!   scan, generated multi-view scans and flat scenes; `--only outliers --seeds 0..20` (the 1 %
+//!   outlier case over seeds) and `--only density` (the dragon at 1–10 M points) on request.
 //! * `session [--models DIR] [--json FILE]`: an editing session on the bunny (20 strokes
 //!   through `psi edit --strokes`), per-edit times, locality and accuracy (`session.rs`).
 //! * `bench <program> [args]`: timing and tuning programs of the library (`bench.rs`), run
@@ -24,18 +26,29 @@ use anyhow::{Context, Result, bail};
 
 mod bench;
 mod check_reference;
+mod checks;
+mod coverage;
 mod edits;
 mod figures;
+mod flat_scenes;
 mod host;
 mod median;
 mod memory;
+mod multiview;
+mod outliers;
 mod paper;
 mod reference;
 mod release_binary;
+mod scan_case;
 mod scans;
+mod scans_density;
+mod scans_flat;
+mod scans_mesh;
 mod session;
+mod surface_samples;
 mod tables;
 mod tidy;
+mod visibility;
 
 /// Command-line flags shared by the tasks.
 pub(crate) struct Flags {
@@ -44,6 +57,29 @@ pub(crate) struct Flags {
     pub(crate) iterations: usize,
     pub(crate) json: Option<PathBuf>,
     pub(crate) seed: Option<u64>,
+    /// `--seeds A..B` (B excluded; `A..=B` includes it; a single `A` is `A..A+1`).
+    pub(crate) seeds: Option<std::ops::Range<u64>>,
+}
+
+/// Parses a seed range: `A..B` (B excluded), `A..=B` or a single seed `A`.
+fn seed_range(text: &str) -> Result<std::ops::Range<u64>> {
+    let whole = |t: &str| -> Result<u64> {
+        t.trim()
+            .parse()
+            .with_context(|| format!("--seeds {text}: {t} is not a whole number"))
+    };
+    let range = if let Some((a, b)) = text.split_once("..=") {
+        whole(a)?..whole(b)?.saturating_add(1)
+    } else if let Some((a, b)) = text.split_once("..") {
+        whole(a)?..whole(b)?
+    } else {
+        let a = whole(text)?;
+        a..a.saturating_add(1)
+    };
+    if range.is_empty() {
+        bail!("--seeds {text} holds no seed");
+    }
+    Ok(range)
 }
 
 fn parse(args: &[String]) -> Result<Flags> {
@@ -53,6 +89,7 @@ fn parse(args: &[String]) -> Result<Flags> {
         iterations: 20,
         json: None,
         seed: None,
+        seeds: None,
     };
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -67,6 +104,7 @@ fn parse(args: &[String]) -> Result<Flags> {
             }
             "--json" => flags.json = Some(PathBuf::from(value()?)),
             "--seed" => flags.seed = Some(value()?.parse().context("--seed takes a whole number")?),
+            "--seeds" => flags.seeds = Some(seed_range(value()?)?),
             other => bail!("unknown flag {other}"),
         }
     }
@@ -119,7 +157,7 @@ fn main() -> std::process::ExitCode {
         }
         _ => {
             eprintln!(
-                "usage: cargo xtask reproduce-tables|check-reference|figures|scans|session [--models DIR] [--only a,b] [--iterations N] [--seed S] [--json FILE]\n       cargo xtask memory [--points N]\n       cargo xtask bench relax|eval|edit|tune|tune-shapes|level-cv|formats|scale [args]"
+                "usage: cargo xtask reproduce-tables|check-reference|figures|scans|session [--models DIR] [--only a,b] [--iterations N] [--seed S] [--seeds A..B] [--json FILE]\n       cargo xtask memory [--points N]\n       cargo xtask bench relax|eval|edit|tune|tune-shapes|level-cv|formats|scale [args]"
             );
             return std::process::ExitCode::from(2);
         }

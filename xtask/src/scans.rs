@@ -1,19 +1,26 @@
-//! `cargo xtask scans`: psi on what a scanner gives instead of a clean mesh — noisy positions
-//! and normals, stray points, positions without normals, a single open view, a coarse mesh —
-//! each made from a shared model with a seeded generator, run through the release `psi sample`
-//! and checked against the clean reference mesh.
+//! `cargo xtask scans`: psi on what a scanner gives instead of a clean mesh, each case made
+//! with a seeded generator (or read from `../shared/scans`), run through the release
+//! `psi sample` and checked against a reference surface. Groups (`--only` names groups and/or
+//! models; no group named: `variants`, `cow-coarse`, `dragon-scan`, `multiview` and `flat`;
+//! only models named: `variants` and `multiview` on them; default models bunny, horse, igea):
 //!
-//! Per model (default bunny, horse and igea; `--only` to choose): the clean run; Gaussian noise
-//! of 0.25 % and 0.5 % of D on every coordinate with normals tilted by about 9°; 1 % of the
-//! points added uniformly in the bounding box with random normals; the positions alone,
-//! shuffled; and the points a sensor sees from one side. Then `cow_original_5804.ply`, a coarse
-//! mesh, against itself (`--only cow-coarse` for that case alone).
+//! * `variants` (`--seed S`, default 1): per model, the clean run; Gaussian noise of 0.25 % and
+//!   0.5 % of D on every coordinate with normals tilted by about 9°; 1 % of the points added
+//!   uniformly in the bounding box with random normals; the positions alone, shuffled; the
+//!   points a sensor sees from one side.
+//! * `cow-coarse`: `cow_original_5804.ply`, a coarse mesh, against itself.
+//! * `dragon-scan`, `multiview` (seeds 0–4), `outliers` (the 1 % outlier case over seeds 0–19):
+//!   `scans_mesh.rs`; `flat` (a sheet, a box, a street scene): `scans_flat.rs`; `density` (the
+//!   dragon at 1 M, 3 M, 10 M points): `scans_density.rs`. `--seeds a..b` (or `--seed S`) sets
+//!   the seeds of these.
+//!
+//! The report: a markdown table per group with a ✓/✗ per issue 28 Done-when item, then a
+//! summary per item; `--json FILE` writes every row.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{Context, Result};
-use parry3d_f64::query::{Ray, RayCast};
 use parry3d_f64::shape::TriMesh;
 use psi::octree::PointIndex;
 use psi::shapes::gaussian_vector;
@@ -23,8 +30,15 @@ use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use serde_json::{Value, json};
 
+use crate::checks::summary;
+use crate::outliers::with_uniform_outliers;
 use crate::reference::{Reference, distance_stats};
 use crate::release_binary::{build_release, run_psi_report};
+use crate::scan_case::{ScanRun, distances_to, write_xyz};
+use crate::scans_density::density;
+use crate::scans_flat::flat;
+use crate::scans_mesh::{dragon_scan, multiview, outlier_sweep};
+use crate::visibility::visible;
 use crate::{Flags, host, models_dir, project_root};
 
 /// Models tried by default.
@@ -36,22 +50,6 @@ const TIMED_RUNS: usize = 3;
 /// The standard deviation of the normal's tilt: n + s·g (g a standard normal 3-vector),
 /// normalised, tilts it by s·√(π/2) rad on average for small s — 9° for s = 0.125.
 const NORMAL_TILT: f64 = 0.125;
-
-/// Writes oriented points (`with_normals`) or positions as an XYZ file.
-fn write_xyz(path: &Path, points: &[OrientedPoint], with_normals: bool) -> Result<()> {
-    let mut text = String::with_capacity(points.len() * 80);
-    for p in points {
-        if with_normals {
-            text.push_str(&format!(
-                "{} {} {} {} {} {}\n",
-                p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z
-            ));
-        } else {
-            text.push_str(&format!("{} {} {}\n", p.p.x, p.p.y, p.p.z));
-        }
-    }
-    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
-}
 
 /// One variant of a model: how it was made and what psi is given.
 struct Case {
@@ -111,25 +109,6 @@ fn run_case(psi: &Path, case: &Case, out: &Path) -> Result<Outcome> {
     })
 }
 
-/// The points a sensor at `sensor` sees of `points` (facing it, and first along the ray
-/// from the sensor: not hidden by `mesh`).
-fn visible(points: &[OrientedPoint], mesh: &TriMesh, sensor: DVec3) -> Vec<OrientedPoint> {
-    points
-        .par_iter()
-        .filter(|p| {
-            let to = p.p - sensor;
-            let d = to.length();
-            if p.n.dot(-to) <= 0.0 || d == 0.0 {
-                return false;
-            }
-            let ray = Ray::new(sensor, to / d);
-            mesh.cast_local_ray(&ray, d, false)
-                .is_none_or(|t| t >= d * (1.0 - 1e-6) - 1e-9)
-        })
-        .copied()
-        .collect()
-}
-
 /// The variants of `model`'s clean points `clean` (face centroids with face normals) written
 /// to `out`, seeded by `seed`.
 fn cases(
@@ -168,14 +147,7 @@ fn cases(
         });
     }
     let bounds = psi::Aabb::from_points(clean.iter().map(|p| p.p)).context("empty model")?;
-    let mut stray = clean.to_vec();
-    for _ in 0..clean.len() / 100 {
-        let t = DVec3::new(rng.random(), rng.random(), rng.random());
-        stray.push(OrientedPoint {
-            p: bounds.min + t * bounds.extent(),
-            n: gaussian_vector(&mut rng).normalize(),
-        });
-    }
+    let stray = with_uniform_outliers(clean, &mut rng)?;
     let name = format!("{model}-outliers-1");
     let input = out.join(format!("{name}.xyz"));
     write_xyz(&input, &stray, true)?;
@@ -264,25 +236,19 @@ fn preprocess_seconds(report: &Value) -> f64 {
         .map_or(0.0, |steps| steps.values().filter_map(Value::as_f64).sum())
 }
 
-pub(crate) fn run(flags: &Flags) -> Result<()> {
-    let dir = models_dir(flags)?;
-    let psi = build_release()?;
-    let out = project_root().join("target/xtask/scans");
-    std::fs::create_dir_all(&out)?;
-    let seed = flags.seed.unwrap_or(1);
-    let models: Vec<String> = match &flags.only {
-        Some(only) => only
-            .iter()
-            .filter(|m| *m != "cow-coarse")
-            .cloned()
-            .collect(),
-        None => MODELS.iter().map(|m| m.to_string()).collect(),
-    };
+/// The table header of the scan variants (and of the coarse cow).
+const VARIANTS_HEADER: &str = "| case | what psi is given | its mean / p99 / max distance (D) | points to MPU (their mean distance, D) | outliers removed | noise estimate (D) | ε0 (D) | leaves | preprocessing s | MPU build s (× clean) | particles (× clean) | mean / p99 / max distance (D) | within 2e-3 D | beyond 1e-2 D | other |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+
+/// The `variants` group: per model, the clean mesh, noise, 1 % outliers, positions alone and
+/// one view, seeded by `seed`, each timed over [`TIMED_RUNS`] runs.
+fn variants(ctx: &ScanRun, seed: u64) -> Result<(String, Vec<Value>)> {
+    let (dir, psi, out) = (&ctx.models, &ctx.psi, &ctx.out);
+    let models = &ctx.model_names;
     let mut md = format!(
-        "## Scans made from the shared models (seed {seed})\n\nEach case through `psi sample` with its defaults (20 iterations); distances of the particles to the clean reference mesh, over its D; MPU build seconds are medians of {TIMED_RUNS} runs; counts against the clean run's.\n\n| case | what psi is given | points to MPU (their mean distance, D) | outliers removed | noise estimate (D) | ε0 (D) | leaves | preprocessing s | MPU build s (× clean) | particles (× clean) | mean / p99 / max distance (D) | within 2e-3 D | beyond 1e-2 D | other |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+        "## Scans made from the shared models (seed {seed})\n\nEach case through `psi sample` with its defaults (20 iterations); distances of the particles to the clean reference mesh, over its D; MPU build seconds are medians of {TIMED_RUNS} runs; counts against the clean run's.\n\n{VARIANTS_HEADER}"
     );
     let mut rows = Vec::new();
-    for model in &models {
+    for model in models {
         let path = dir.join(format!("{model}.ply"));
         if !path.is_file() {
             eprintln!("skipping {model}: {} not found", path.display());
@@ -298,13 +264,19 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
             .context("empty model")?
             .diagonal();
         let mut clean_outcome: Option<(usize, f64)> = None;
-        for case in cases(model, &path, &clean, &shape, diag, seed, &out)? {
+        for case in cases(model, &path, &clean, &shape, diag, seed, out)? {
             eprintln!("  {} ...", case.name);
-            let o = run_case(&psi, &case, &out)?;
+            let o = run_case(psi, &case, out)?;
             let positions: Vec<DVec3> = o.particles.iter().map(|p| p.p).collect();
             let d = distance_stats(&reference.distances(&positions), diag);
             let fitted: Vec<DVec3> = o.points.iter().map(|p| p.p).collect();
             let dp = distance_stats(&reference.distances(&fitted), diag);
+            // What psi was given (a mesh: its face centroids), against the same reference.
+            let given = psi::load_points(&case.input, &psi::ReadOptions::paper())
+                .with_context(|| format!("reading {}", case.input.display()))?
+                .points;
+            let given_positions: Vec<DVec3> = given.iter().map(|p| p.p).collect();
+            let ds = distances_to(&reference, &given_positions, diag);
             let count = o.particles.len();
             let (clean_count, clean_build) = *clean_outcome.get_or_insert((count, o.build_seconds));
             let other = if case.name.ends_with("-xyz") {
@@ -312,10 +284,7 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
             } else if case.name.ends_with("-view") {
                 json!({
                     "normals_within_30_degrees": normals_within_30(&o.points, &clean),
-                    "farthest_particle_from_the_view_in_spacings": farthest_from_view(
-                        &o.particles,
-                        &psi::load_points(&case.input, &psi::ReadOptions::paper())?.points,
-                    ),
+                    "farthest_particle_from_the_view_in_spacings": farthest_from_view(&o.particles, &given),
                 })
             } else {
                 json!({})
@@ -333,9 +302,12 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
             }
             let other_text = other_text.join("; ");
             md.push_str(&format!(
-                "| {} | {} | {} ({:.1e}) | {} | {} | {:.4} | {} | {:.3} | {:.3} ({:.2}×) | {} ({:.2}×) | {:.1e} / {:.1e} / {:.1e} | {:.2} % | {} | {} |\n",
+                "| {} | {} | {:.1e} / {:.1e} / {:.1e} | {} ({:.1e}) | {} | {} | {:.4} | {} | {:.3} | {:.3} ({:.2}×) | {} ({:.2}×) | {:.1e} / {:.1e} / {:.1e} | {:.2} % | {} | {} |\n",
                 case.name,
                 case.about,
+                f(&ds["mean"]),
+                f(&ds["p99"]),
+                f(&ds["max"]),
                 r["input"]["points"],
                 f(&dp["mean"]),
                 r["input"]["outliers"]["removed"].as_u64().map_or("—".to_owned(), |v| v.to_string()),
@@ -355,6 +327,7 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
                 other_text,
             ));
             rows.push(json!({
+                "group": "variants",
                 "case": case.name,
                 "about": case.about,
                 "input": r["input"],
@@ -364,17 +337,21 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
                 "build_ratio": o.build_seconds / clean_build,
                 "distance_to_reference": d,
                 "points_distance_to_reference": dp,
+                "scan_distance_to_reference": ds,
                 "other": other,
             }));
         }
     }
-    // A coarse mesh against itself.
-    let coarse = dir.join("cow_original_5804.ply");
-    let coarse_wanted = flags
-        .only
-        .as_ref()
-        .is_none_or(|o| o.iter().any(|m| m == "cow-coarse"));
-    if coarse_wanted && coarse.is_file() {
+    Ok((md, rows))
+}
+
+/// The `cow-coarse` group: `cow_original_5804.ply`, a coarse mesh, against itself.
+fn cow_coarse(ctx: &ScanRun) -> Result<(String, Vec<Value>)> {
+    let (psi, out) = (&ctx.psi, &ctx.out);
+    let mut md = format!("## A coarse mesh against itself\n\n{VARIANTS_HEADER}");
+    let mut rows = Vec::new();
+    let coarse = ctx.models.join("cow_original_5804.ply");
+    if coarse.is_file() {
         eprintln!("cow_original_5804 ...");
         let case = Case {
             name: "cow-coarse".into(),
@@ -382,14 +359,14 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
             extra: Vec::new(),
             about: "the 5 804-triangle cow mesh".into(),
         };
-        let o = run_case(&psi, &case, &out)?;
+        let o = run_case(psi, &case, out)?;
         let reference = Reference::new(psi::load_mesh(&coarse)?)?;
         let diag = o.report["input"]["bbox_diagonal"].as_f64().unwrap_or(1.0);
         let positions: Vec<DVec3> = o.particles.iter().map(|p| p.p).collect();
         let d = distance_stats(&reference.distances(&positions), diag);
         let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
         md.push_str(&format!(
-            "| {} | {} | {} | — | — | {:.4} | {} | {:.3} | {:.3} | {} | {:.1e} / {:.1e} / {:.1e} | {:.2} % | {} | against this mesh |\n",
+            "| {} | {} | 0 (the mesh itself) | {} | — | — | {:.4} | {} | {:.3} | {:.3} | {} | {:.1e} / {:.1e} / {:.1e} | {:.2} % | {} | against this mesh |\n",
             case.name,
             case.about,
             o.report["input"]["points"],
@@ -405,19 +382,89 @@ pub(crate) fn run(flags: &Flags) -> Result<()> {
             d["beyond_1e-2"],
         ));
         rows.push(json!({
+            "group": "cow-coarse",
             "case": case.name,
             "input": o.report["input"],
             "particles": o.particles.len(),
             "distance_to_reference": d,
         }));
     }
+    Ok((md, rows))
+}
+
+/// Every group of `cargo xtask scans`, in the order they run.
+const GROUPS: [&str; 7] = [
+    "variants",
+    "cow-coarse",
+    "dragon-scan",
+    "multiview",
+    "flat",
+    "outliers",
+    "density",
+];
+
+/// The groups run when `--only` names none: all but the long `outliers` sweep and `density`.
+const DEFAULT_GROUPS: [&str; 5] = ["variants", "cow-coarse", "dragon-scan", "multiview", "flat"];
+
+/// The groups run when `--only` names models and no group: those run per model.
+const MODEL_GROUPS: [&str; 2] = ["variants", "multiview"];
+
+pub(crate) fn run(flags: &Flags) -> Result<()> {
+    let only = flags.only.clone().unwrap_or_default();
+    let (named_groups, named_models): (Vec<String>, Vec<String>) =
+        only.into_iter().partition(|n| GROUPS.contains(&n.as_str()));
+    let groups: Vec<&str> = if !named_groups.is_empty() {
+        GROUPS
+            .into_iter()
+            .filter(|g| named_groups.iter().any(|n| n == g))
+            .collect()
+    } else if !named_models.is_empty() {
+        MODEL_GROUPS.to_vec()
+    } else {
+        DEFAULT_GROUPS.to_vec()
+    };
+    let model_names = if named_models.is_empty() {
+        MODELS.iter().map(|m| m.to_string()).collect()
+    } else {
+        named_models
+    };
+    let ctx = ScanRun {
+        psi: build_release()?,
+        models: models_dir(flags)?,
+        out: project_root().join("target/xtask/scans"),
+        model_names,
+        seeds: flags.seeds.clone().or(flags.seed.map(|s| s..s + 1)),
+    };
+    std::fs::create_dir_all(&ctx.out).with_context(|| format!("creating {}", ctx.out.display()))?;
+    let seed = flags.seed.unwrap_or(1);
+    let mut md = String::new();
+    let mut rows = Vec::new();
+    for group in &groups {
+        let (text, mut group_rows) = match *group {
+            "variants" => variants(&ctx, seed)?,
+            "cow-coarse" => cow_coarse(&ctx)?,
+            "dragon-scan" => dragon_scan(&ctx)?,
+            "multiview" => multiview(&ctx)?,
+            "flat" => flat(&ctx)?,
+            "outliers" => outlier_sweep(&ctx)?,
+            "density" => density(&ctx)?,
+            other => unreachable!("group {other} is listed in GROUPS"),
+        };
+        md.push_str(&text);
+        md.push('\n');
+        rows.append(&mut group_rows);
+    }
+    md.push_str(&summary(&rows));
     print!("{md}");
     if let Some(path) = &flags.json {
-        let root = project_root();
         let value = json!({
             "host": host::host(),
-            "revision": host::revision(&root),
+            "revision": host::revision(&project_root()),
+            "psi_binary_sha256": host::sha256(&ctx.psi).ok(),
             "seed": seed,
+            "seeds": ctx.seeds.as_ref().map(|s| [s.start, s.end]),
+            "groups": groups,
+            "models": ctx.model_names,
             "rows": rows,
         });
         psi::save_json(path, &value).with_context(|| format!("writing {}", path.display()))?;
