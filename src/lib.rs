@@ -53,7 +53,10 @@ pub use out_of_core::{
     OutOfCore, OutOfCoreRun, Partition, out_of_core_json, out_of_core_tiles, parse_memory_size,
     partition_files, sample_file_out_of_core, sample_files_out_of_core,
 };
-pub use prepare::{PreparedInput, builtin_file, builtin_file_with, prepare_input, prepare_points};
+pub use prepare::{
+    ERROR_RANK_POINTS, PreparedInput, RANKED_NOISE, builtin_file, builtin_file_with, prepare_input,
+    prepare_points,
+};
 pub use psi_io::{MeshSampling, PointCloudFile, ReadOptions, TriangleMesh};
 pub use psi_mpu::{
     BuildReport, Mpu, MpuError, MpuParams, PolygonizeParams, TriangleSoup, polygonize,

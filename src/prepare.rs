@@ -29,6 +29,30 @@ pub struct PreparedInput {
     pub attributes: PointAttributes,
 }
 
+impl PreparedInput {
+    /// How an MPU of these points measures a cell's error ([`psi_mpu::MpuParams::error_rank`]):
+    /// an order statistic at [`ERROR_RANK_POINTS`] points per rank for a noisy point cloud (its
+    /// positions are measurements, and a denser one reaches further into their noise), the
+    /// largest distance (`None`, the paper) for a mesh (its triangles are the surface) and for
+    /// a cloud whose estimated noise (after denoising, when it was denoised) is under
+    /// [`RANKED_NOISE`] of the error threshold `error_rel` (relative to D), where the largest of
+    /// a million noise deviations, about 5σ, moves the error by at most 5 % of ε0.
+    pub fn error_rank(&self, error_rel: f64) -> Option<usize> {
+        let mesh = self.json["faces"].as_u64().is_some_and(|f| f > 0);
+        let noise = self.report.noise_rel_after.or(self.report.noise_rel);
+        let noisy = noise.is_some_and(|n| n >= RANKED_NOISE * error_rel);
+        (!mesh && noisy).then_some(ERROR_RANK_POINTS)
+    }
+}
+
+/// Points per rank of a noisy point cloud's cell error ([`PreparedInput::error_rank`]): about
+/// what a leaf's ball holds in the paper's models (notes: 2026-11-25-density-invariance).
+pub const ERROR_RANK_POINTS: usize = 256;
+
+/// The estimated noise, as a share of the error threshold, from which a point cloud's cell
+/// error is ranked ([`PreparedInput::error_rank`]).
+pub const RANKED_NOISE: f64 = 0.01;
+
 /// Prepares the points of `file`, named `name`, for the MPU ([`prepare_points`]) and
 /// describes them for reports; the file's mesh, if any, is dropped once used. `monitor` sees
 /// the preprocessing steps and may stop them ([`psi_preprocess::preprocess_with`]).

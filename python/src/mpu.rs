@@ -46,6 +46,7 @@ impl MpuOptions {
             } else {
                 MpuParams::paper().fit_unit
             },
+            error_rank: input.error_rank(threshold.relative),
             ..MpuParams::paper()
         };
         Ok((params, threshold))

@@ -27,7 +27,7 @@ pub(crate) fn particle_params(
     seed: i128,
 ) -> PyResult<ParticleParams> {
     if let Some(s) = max_spacing {
-        if !(s > 0.0) {
+        if s.is_nan() || s <= 0.0 {
             return Err(crate::errors::value_error(format!(
                 "max_spacing={s} is not a positive length (world units; inf for none)"
             )));

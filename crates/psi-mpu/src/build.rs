@@ -18,9 +18,10 @@ use crate::cell_table::CellTable;
 use crate::coarse_index::CoarseIndex;
 use crate::data_footprint::DataFootprint;
 use crate::eval_nodes::{NO_FIT, eval_nodes_into};
-use crate::fit_cell::{CellFit, FitInput, LeafFit, fit_cell, try_fit_cell};
+use crate::fit_cell::{CellFit, FitInput, fit_cell, try_fit_cell};
 use crate::fit_store::FitStoreBuilder;
 use crate::frame::check_input_size;
+use crate::select_fit::LeafFit;
 use crate::{BuildReport, FitKind, Mpu, MpuBuffers, MpuError, MpuFrame, MpuParams};
 
 /// What a local rebuild may take from an earlier MPU: the records of its cells that no edit

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::fit_cell::LeafFit;
+use crate::select_fit::LeafFit;
 
 /// One cell's decision in a build: whether it splits, the radius its fit used, and a leaf's
 /// local function.

@@ -53,8 +53,10 @@ mod mpu;
 mod params;
 mod polygonize;
 mod quadric;
+mod ranked_error;
 mod region_points;
 mod report;
+mod select_fit;
 
 pub use buffers::MpuBuffers;
 pub use build::{BuildOptions, Reuse};

@@ -123,10 +123,13 @@ fn exact_counts_are_exact() {
         },
         20_000,
     );
+    // (Seeding alone: the torus is sampled coarser than the ceiling on spacing, whose darts
+    // would add to k per leaf.)
     let auto = sample(
         &mpu,
         &ParticleParams {
             iterations: 0,
+            max_spacing: Some(f64::INFINITY),
             ..ParticleParams::paper()
         },
     )
@@ -153,6 +156,7 @@ fn exact_counts_are_exact() {
         &ParticleParams {
             k: 2,
             iterations: 0,
+            max_spacing: Some(f64::INFINITY),
             ..ParticleParams::paper()
         },
     )

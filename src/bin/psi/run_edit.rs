@@ -113,7 +113,10 @@ pub(crate) fn run(args: &EditArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         .report
         .error_threshold(args.mpu.mpu_error)
         .relative;
-    let mpu_params = args.mpu.params(error_rel);
+    let mpu_params = psi::MpuParams {
+        error_rank: loaded.input.error_rank(error_rel),
+        ..args.mpu.params(error_rel)
+    };
     let (mut scene, _) = Scene::new_with(
         loaded.input.points.clone(),
         loaded.input.attributes.clone(),

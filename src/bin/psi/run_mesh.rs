@@ -31,7 +31,11 @@ pub(crate) fn run(args: &MeshArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         .report
         .error_threshold(args.mpu.mpu_error)
         .relative;
-    let mpu = crate::ui::build_mpu(ui, &loaded.input.points, &args.mpu.params(error_rel))
+    let params = psi::MpuParams {
+        error_rank: loaded.input.error_rank(error_rel),
+        ..args.mpu.params(error_rel)
+    };
+    let mpu = crate::ui::build_mpu(ui, &loaded.input.points, &params)
         .with_context(|| format!("{}: building the MPU implicit", loaded.input.name))?;
     let t = std::time::Instant::now();
     let mesh = psi::polygonize(

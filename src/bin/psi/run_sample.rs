@@ -92,7 +92,10 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     let mpu = crate::ui::build_mpu(
         ui,
         &loaded.input.points,
-        &args.mpu.params(threshold.relative),
+        &psi::MpuParams {
+            error_rank: loaded.input.error_rank(threshold.relative),
+            ..args.mpu.params(threshold.relative)
+        },
     )
     .with_context(|| format!("{}: building the MPU implicit", loaded.input.name))?;
     let params = ParticleParams {
