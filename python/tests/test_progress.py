@@ -81,7 +81,7 @@ def calls(tmp_path, points, normals):
         "PointSet": (["read", "outliers", "normals", "noise"],
                      lambda p: psi.PointSet(points, progress=p)),
         "Mpu": ("mpu", lambda p: psi.Mpu(points, normals, progress=p)),
-        "sample": (["seed", "relax", "measure"],
+        "sample": (["seed", "relax", "cover", "measure"],
                    lambda p: psi.sample(mpu, iterations=5, progress=p)),
         "mesh": (["mesh"], lambda p: mpu.mesh(resolution=32, progress=p)),
         "Scene": ("mpu", lambda p: psi.Scene(points, normals, iterations=3, progress=p)),
