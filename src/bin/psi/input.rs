@@ -130,8 +130,8 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
         }
         if let Some(o) = prep.outliers {
             eprintln!(
-                "psi: outliers: {} removed ({} far from the surface, {} off it)",
-                o.removed, o.far, o.off_surface
+                "psi: outliers: {} removed ({} far from the surface, {} off it, {} in stray clumps)",
+                o.removed, o.far, o.off_surface, o.clumps
             );
         }
         let treatment = match prep.normals {

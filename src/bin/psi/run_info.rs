@@ -99,8 +99,8 @@ pub(crate) fn run(args: &InputArgs, json: bool, ui: crate::ui::Ui) -> Result<(),
         }
         if let Some(o) = p.outliers {
             println!(
-                "outliers       {} ({} far from the surface, {} off it)",
-                o.removed, o.far, o.off_surface
+                "outliers       {} ({} far from the surface, {} off it, {} in stray clumps)",
+                o.removed, o.far, o.off_surface, o.clumps
             );
         }
         if let Some(rel) = p.noise_rel {
