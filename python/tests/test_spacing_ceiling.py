@@ -69,3 +69,21 @@ def test_max_spacing_equals_the_cli_bitwise(cli, tmp_path):
 def test_bad_ceilings_are_refused(builtin_mpu, kwargs):
     with pytest.raises(ValueError, match="max_spacing"):
         psi.sample(builtin_mpu, **kwargs)
+
+
+def test_a_scene_keeps_a_flat_region_covered_through_strokes():
+    points, normals = sheet(8000, 3)
+    scene = psi.Scene(points, normals, preprocess=False, iterations=8, max_spacing=0.12)
+    assert scene.report["max_spacing"] == 0.12
+    assert scene.report["added_by_ceiling"] > 0
+    before = len(scene.particles)
+    assert before > 200
+    scene.brush([1.0, 1.0, 0.0], 0.4, [0.0, 0.0, 0.05])
+    scene.brush([1.2, 0.9, 0.0], 0.4, [0.05, 0.0, 0.0], settle=False)
+    scene.settle()
+    pos = scene.particles.positions
+    # Every control point within the ceiling of a particle, the count kept within 10 %.
+    assert nearest(scene.points[::5], pos).max() <= 0.12
+    assert abs(len(pos) - before) <= 0.1 * before
+    with pytest.raises(ValueError, match="max_spacing"):
+        psi.Scene(points, normals, preprocess=False, max_spacing=-1.0)
