@@ -126,7 +126,8 @@ pub fn sample_json(run: &SampleFacts<'_>) -> Value {
             "before": s.before,
             "after": s.after,
             "separation": s.separation,
-            "max_spacing": s.max_spacing,
+            // The ceiling on spacing applied (null with an exact count or in uniform mode).
+            "max_spacing": s.density.ceiling,
             "added_by_ceiling": s.added_by_ceiling,
             "replaced_by_ceiling": s.replaced_by_ceiling,
             "params": run.params,

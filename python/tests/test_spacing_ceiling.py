@@ -74,7 +74,7 @@ def test_bad_ceilings_are_refused(builtin_mpu, kwargs):
 def test_a_scene_keeps_a_flat_region_covered_through_strokes():
     points, normals = sheet(8000, 3)
     scene = psi.Scene(points, normals, preprocess=False, iterations=8, max_spacing=0.12)
-    assert scene.report["max_spacing"] == 0.12
+    assert scene.report["density"]["ceiling"] == 0.12
     assert scene.report["added_by_ceiling"] > 0
     before = len(scene.particles)
     assert before > 200

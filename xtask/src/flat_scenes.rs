@@ -8,7 +8,7 @@ use psi::{DVec3, TriangleMesh};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-use crate::surface_samples::{TriangleSampler, random_unit, rotate};
+use crate::surface_samples::{CUBE_FACES, TriangleSampler, random_unit, rotate};
 
 /// A labelled part of a scene: its name and whether it is flat (a plane piece: the
 /// nearest-neighbour CV of the particles near it is judged).
@@ -143,14 +143,7 @@ pub(crate) fn box_scene(seed: u64) -> Result<FlatScene> {
         rotate(s * half, axis, angle)
     };
     let mut b = Builder::new();
-    for q in [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ] {
+    for q in CUBE_FACES {
         b.quad(0, q.map(corner));
     }
     let parts = vec![Part {

@@ -201,17 +201,9 @@ mod tests {
         let v: Vec<DVec3> = (0..8)
             .map(|i| DVec3::new((i & 1) as f64, (i >> 1 & 1) as f64, (i >> 2 & 1) as f64))
             .collect();
-        // Outward counter-clockwise faces of the unit cube.
-        let quads = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        let faces = quads
+        let faces = crate::surface_samples::CUBE_FACES
             .iter()
+            .map(|q| q.map(|i| i as u32))
             .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
             .collect();
         let mesh = TriangleMesh { vertices: v, faces };

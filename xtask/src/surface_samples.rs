@@ -94,6 +94,17 @@ pub(crate) fn random_unit(rng: &mut Pcg64Mcg) -> DVec3 {
     }
 }
 
+/// The faces of a cube whose corner i sits at bit 0 → x, bit 1 → y, bit 2 → z of i (low or
+/// high side), each as four corners counter-clockwise seen from outside.
+pub(crate) const CUBE_FACES: [[usize; 4]; 6] = [
+    [0, 2, 3, 1],
+    [4, 5, 7, 6],
+    [0, 1, 5, 4],
+    [2, 6, 7, 3],
+    [0, 4, 6, 2],
+    [1, 3, 7, 5],
+];
+
 #[cfg(test)]
 mod tests {
     use super::*;

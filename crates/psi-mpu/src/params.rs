@@ -47,10 +47,9 @@ pub struct MpuParams {
     /// from its fit, M = this and n the points it is measured over (the ball's, or its 1 in 16
     /// or 1 in 256 hash subset once that holds M), instead of the largest. The largest of n
     /// noisy distances grows with n (as σ·√(2 ln n)), so a denser sampling of the same surface
-    /// split more cells (issue 28: 23 483 particles at 1 M points of the dragon, 25 763 at 3 M,
-    /// 28 191 at 10 M); an order statistic at a fixed rank per M points does not, and a spike
-    /// of fewer than n/M points does not split a cell either. `None` (the paper; meshes): the
-    /// largest. Notes: 2026-11-25-density-invariance.
+    /// split more cells (issue 28); an order statistic at a fixed rank per M points does not,
+    /// and a spike of fewer than n/M points does not split a cell either. `None` (the paper;
+    /// meshes): the largest. Measured in docs/notes/2026-11-25-density-invariance.md.
     #[serde(default)]
     pub error_rank: Option<usize>,
 }

@@ -5,25 +5,23 @@
 //! hashed order (one kept when no kept dart lies within [`DART_RADIUS`] × s) become new
 //! particles, projected onto the surface and not relaxed, σ̂ is capped at their spacing (the
 //! particles whose σ̂ the cap lowers are replaced by darts too, so that a flat region is
-//! spaced by one rule). Where every input point is covered nothing changes: the paper's models'
-//! farthest input point from a particle is at most 1.6 % D (coarsest levels ≤ 2.1 % D), inside
-//! the default cover radius 0.7 × 2.5 % D = 1.75 % D (docs/notes/2026-11-25-spacing-ceiling.md).
+//! spaced by one rule). Where every input point is covered nothing changes, as on the paper's
+//! models (measured in docs/notes/2026-11-25-spacing-ceiling.md).
 
 use std::collections::HashMap;
 
 use glam::DVec3;
 use psi_mpu::Mpu;
+use psi_octree::Aabb;
 use rayon::prelude::*;
 
 use crate::project::project_to_surface;
 use crate::seed::spread_hash;
 use crate::sigma_scale::SigmaScale;
-use psi_octree::Aabb;
-
 use crate::{DensityField, ParticleGrid, ParticleParams, Particles};
 
-/// The default ceiling on spacing, a fraction of the bounding-box diagonal D (issue 28: the
-/// paper's models' coarsest levels are at most 2.1 % D, so 2.5 % D leaves them as they are).
+/// The default ceiling on spacing, a fraction of the bounding-box diagonal D (issue 28: above
+/// the paper's models' coarsest levels, so that it leaves them as they are).
 pub const MAX_SPACING: f64 = 0.025;
 
 /// An input point farther than this multiple of the ceiling from every particle is uncovered.
@@ -34,9 +32,9 @@ pub const COVER_RADIUS: f64 = 0.7;
 /// Darts over the uncovered points keep at least this multiple of the ceiling apart. A maximal
 /// random dart set of radius r relaxes to a hexagonal spacing of about 1.29 r (random sequential
 /// adsorption packs disks of radius r/2 to 55 % of the area: N ≈ 0.70 A/r², and a lattice of
-/// spacing a holds 1.15 A/a²) and has nearest-neighbour distances of 1.06 r on average (a
-/// seeded trial, docs/notes/2026-11-25-spacing-ceiling.md): 0.8 gives a nearest-neighbour
-/// spacing of about 0.85 × the ceiling.
+/// spacing a holds 1.15 A/a²) and has nearest-neighbour distances of about 1.06 r (a seeded
+/// trial in docs/notes/2026-11-25-spacing-ceiling.md): 0.8 gives a nearest-neighbour spacing
+/// of about 0.85 × the ceiling.
 const DART_RADIUS: f64 = 0.8;
 
 /// At Witkin–Heckbert's target energy Ê = 0.8α, six neighbours at spacing a each contribute
@@ -156,7 +154,8 @@ pub fn cover_data(
         return (0, 0);
     }
     let radius = COVER_RADIUS * ceiling;
-    if uncovered_points(mpu, &particles.positions, radius, candidates).is_empty() {
+    let mut uncovered = uncovered_points(mpu, &particles.positions, radius, candidates);
+    if uncovered.is_empty() {
         return (0, 0);
     }
     let scale_from = if first > 0 { 0..first } else { 0..n };
@@ -174,7 +173,9 @@ pub fn cover_data(
         .collect();
     particles.retain_mask(&keep);
     let removed = n - particles.len();
-    let uncovered = uncovered_points(mpu, &particles.positions, radius, candidates);
+    if removed > 0 {
+        uncovered = uncovered_points(mpu, &particles.positions, radius, candidates);
+    }
     let darts = throw_darts(mpu, &uncovered, DART_RADIUS * ceiling, params.seed);
     let tol = params.newton_tolerance * mpu.diagonal();
     let placed: Vec<(DVec3, DVec3, u8)> = darts

@@ -52,6 +52,17 @@ impl Particles {
         self.target.retain(|_| *k.next().unwrap_or(&false));
     }
 
+    /// A copy of the particles `range` (in order).
+    pub fn range(&self, range: std::ops::Range<usize>) -> Particles {
+        Particles {
+            positions: self.positions[range.clone()].to_vec(),
+            normals: self.normals[range.clone()].to_vec(),
+            depth: self.depth[range.clone()].to_vec(),
+            sigma: self.sigma[range.clone()].to_vec(),
+            target: self.target[range].to_vec(),
+        }
+    }
+
     /// Splits off the particles from `at` on (returned, in order), keeping those before.
     pub fn split_off(&mut self, at: usize) -> Particles {
         Particles {

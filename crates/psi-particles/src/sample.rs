@@ -39,10 +39,6 @@ pub struct SampleReport {
     /// adaptive mode.
     #[serde(default)]
     pub separation: Option<SeparationReport>,
-    /// The ceiling on spacing applied, world units (`ParticleParams::max_spacing`); `None` with
-    /// an exact count or in uniform mode, which set their own spacing.
-    #[serde(default)]
-    pub max_spacing: Option<f64>,
     /// Particles the ceiling added where the data had none near (0: the relaxed particles
     /// covered every input point; their time is included in `simulate_seconds`).
     #[serde(default)]
@@ -267,7 +263,6 @@ pub fn sample_with(
         before,
         after,
         separation,
-        max_spacing,
         added_by_ceiling,
         replaced_by_ceiling,
     };

@@ -93,7 +93,7 @@ fn a_flat_sheet_is_covered_at_the_ceiling() {
         let mpu = Mpu::build(&points, &MpuParams::paper()).unwrap();
         let run = sample(&mpu, &ParticleParams::paper());
         let ceiling = MAX_SPACING * mpu.diagonal();
-        assert_near!(run.report.max_spacing.unwrap(), ceiling, 0.0);
+        assert_near!(run.report.density.ceiling.unwrap(), ceiling, 0.0);
         assert!(run.report.added_by_ceiling > 300, "{:?}", run.report);
         assert_eq!(run.report.count, run.particles.len());
         let nn = nearest(&run.particles.positions);
@@ -129,7 +129,7 @@ fn a_given_ceiling_sets_the_spacing() {
         )
     };
     let (coarse, fine) = (run(0.2), run(0.1));
-    assert_near!(coarse.report.max_spacing.unwrap(), 0.2, 0.0);
+    assert_near!(coarse.report.density.ceiling.unwrap(), 0.2, 0.0);
     let ratio = fine.particles.len() as f64 / coarse.particles.len() as f64;
     assert!((3.0..=5.0).contains(&ratio), "ratio {ratio}");
     assert!(median(nearest(&coarse.particles.positions)) <= 0.2);
@@ -238,7 +238,7 @@ fn shapes_already_covered_are_left_bitwise_as_they_are() {
         );
         assert_eq!(with.report.added_by_ceiling, 0);
         assert_eq!(with.particles, without.particles);
-        assert_eq!(without.report.max_spacing, None);
+        assert_eq!(without.report.density.ceiling, None);
         // A ceiling finer than the adaptive spacing (but not than the data) changes them.
         let fine = sample(
             &mpu,
@@ -311,7 +311,7 @@ fn exact_counts_and_uniform_mode_keep_their_own_spacing() {
     ] {
         let run = sample(&mpu, &params);
         assert_eq!(run.particles.len(), 50);
-        assert_eq!(run.report.max_spacing, None);
+        assert_eq!(run.report.density.ceiling, None);
         assert_eq!(run.report.added_by_ceiling, 0);
     }
 }

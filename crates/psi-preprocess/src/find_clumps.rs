@@ -66,9 +66,8 @@ const PLANE_LINKS: f64 = 0.5;
 
 /// … and only where the surface is well sampled: at least this share of the points a surface
 /// at the median spacing holds there. Near a sparsely sampled part, which a scan leaves in
-/// fragments, a small group may be one more fragment: it is kept (the dragon scan's small
-/// groups of 23 and 8 points 8–11 mm from the rest lie on the reference surface; the points
-/// nearest them have 7–29 points within h/2, where the median spacing gives 200–250).
+/// fragments, a small group may be one more fragment: it is kept (the dragon scan has two
+/// such groups on the reference surface: docs/notes/2026-11-25-real-scans-2.md).
 const SUPPORT_SHARE: f64 = 0.25;
 
 /// Clumps holding more than this share of the points are no clumps: the data are too sparse

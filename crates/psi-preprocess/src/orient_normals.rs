@@ -105,8 +105,7 @@ impl PartialOrd for Candidate {
 /// The symmetric neighbour graphs of `points` (each point's neighbours, sorted): the
 /// same-sheet pairs, and the other nearest-neighbour pairs (where noise of the order of the
 /// sample spacing tilts the offsets, a dense scan's same-sheet graph falls apart into small
-/// islands: 2 760 of them, 0.09 % of the points, at 3 M points of the dragon with noise
-/// 2e-4 D, notes: 2026-11-25-density-invariance).
+/// islands; notes: 2026-11-25-density-invariance).
 fn neighbour_graphs(points: &[OrientedPoint]) -> (Vec<Vec<u32>>, Vec<Vec<u32>>) {
     let graph = neighbour_pairs(points, 1);
     let n = points.len();
@@ -221,9 +220,10 @@ pub fn orient_normals_with(points: &mut [OrientedPoint], monitor: &Monitor<'_>) 
     for &c in &island {
         size[c as usize] += 1;
     }
+    let largest = size.iter().copied().max().unwrap_or(0);
     if let Some(first) = order
         .iter()
-        .position(|&i| size[island[i as usize] as usize] == size.iter().copied().max().unwrap_or(0))
+        .position(|&i| size[island[i as usize] as usize] == largest)
     {
         order[..=first].rotate_right(1);
     }

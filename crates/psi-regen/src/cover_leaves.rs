@@ -49,12 +49,7 @@ pub(crate) fn cover_refit_leaves(
     }
     let regenerated = particles.len() - kept;
     if darts > 0 {
-        let at_darts: Vec<bool> = (0..particles.len())
-            .map(|i| i >= kept && i < kept + darts)
-            .collect();
-        let mut placed = particles.clone();
-        placed.retain_mask(&at_darts);
-        let carried = transfer_attributes(mpu, &placed, points);
+        let carried = transfer_attributes(mpu, &particles.range(kept..kept + darts), points);
         particle_attributes.extend(kept, &carried, darts);
     }
     let none = PointAttributes::default();

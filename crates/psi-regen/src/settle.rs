@@ -149,8 +149,8 @@ impl Pending {
             region(&movable, &accept, bounds),
         );
         if !points.is_empty() {
-            let mut fresh = particles.clone();
-            fresh.retain_mask(&movable);
+            // (The movable particles are those from `kept` on.)
+            let fresh = particles.range(kept..particles.len());
             let transferred = transfer_attributes(mpu, &fresh, points);
             let ids: Vec<u32> = (0..kept as u32).collect();
             let mut all = particle_attributes.select(&ids);
