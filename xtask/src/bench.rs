@@ -11,7 +11,8 @@
 //!   inside and its boundaries;
 //! * `formats [POINTS]`: decoding speed of LAZ and LAS files written by psi (a survey-like
 //!   tile, 10 M points by default), read through the streaming reader;
-//! * `scale [N,N,...] [MAX_MEMORY]`: in core against out of core at growing sizes.
+//! * `scale [N,N,...] [MAX_MEMORY]`: in core against out of core at growing sizes;
+//! * `throughput [N,N,...] [normals,xyz]`: cost per point and per stage on dense scans.
 //!
 //! MODEL (a path relative to the workspace root, or absolute) defaults to
 //! `../shared/models/bunny.ply`.
@@ -24,6 +25,7 @@ mod formats;
 mod level_cv;
 mod relax;
 mod scale;
+mod throughput;
 mod tune;
 mod tune_shapes;
 
@@ -54,7 +56,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         return Ok(());
     }
     let (program, rest) = args.split_first().context(
-        "bench needs a program: relax, eval, edit, tune, tune-shapes, level-cv, formats or scale",
+        "bench needs a program: relax, eval, edit, tune, tune-shapes, level-cv, formats, scale or throughput",
     )?;
     match program.as_str() {
         "relax" => relax::run(rest),
@@ -65,9 +67,10 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         "tune-shapes" => tune_shapes::run(),
         "level-cv" => level_cv::run(rest),
         "formats" => formats::run(rest),
+        "throughput" => throughput::run(rest),
         other => {
             bail!(
-                "unknown bench program {other}: relax, eval, edit, tune, tune-shapes, level-cv or formats"
+                "unknown bench program {other}: relax, eval, edit, tune, tune-shapes, level-cv, formats, scale or throughput"
             )
         }
     }

@@ -157,7 +157,7 @@ fn main() -> std::process::ExitCode {
         }
         _ => {
             eprintln!(
-                "usage: cargo xtask reproduce-tables|check-reference|figures|scans|session [--models DIR] [--only a,b] [--iterations N] [--seed S] [--seeds A..B] [--json FILE]\n       cargo xtask memory [--points N]\n       cargo xtask bench relax|eval|edit|tune|tune-shapes|level-cv|formats|scale [args]"
+                "usage: cargo xtask reproduce-tables|check-reference|figures|scans|session [--models DIR] [--only a,b] [--iterations N] [--seed S] [--seeds A..B] [--json FILE]\n       cargo xtask memory [--points N]\n       cargo xtask bench relax|eval|edit|tune|tune-shapes|level-cv|formats|scale|throughput [args]"
             );
             return std::process::ExitCode::from(2);
         }

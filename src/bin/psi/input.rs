@@ -58,6 +58,7 @@ fn preprocess_params(args: &InputArgs) -> PreprocessParams {
 }
 
 pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failure> {
+    crate::stage_clock::enter("read");
     let (name, file) = match &args.input {
         None => {
             let n = args
@@ -89,7 +90,8 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
     }
     let summary = file.summary();
     let params = preprocess_params(args);
-    let monitor = psi::octree::Monitor::silent();
+    crate::stage_clock::enter("prepare");
+    let monitor = psi::octree::Monitor::new(Some(&crate::stage_clock::observe), None);
     let input = psi::prepare_input(name.clone(), file, &params, &monitor).map_err(|e| Failure {
         error: match e {
             psi::preprocess::PreprocessError::NoNormals => {

@@ -15,6 +15,7 @@ mod run_mesh;
 mod run_render;
 mod run_sample;
 mod sample_out_of_core;
+mod stage_clock;
 mod strokes;
 mod ui;
 

@@ -113,6 +113,7 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     };
     let run = crate::ui::sample(ui, &mpu, &params);
     // Colours, intensities and classes of a scan, carried to the particles.
+    crate::stage_clock::enter("write");
     let attributes =
         psi::particles::transfer_attributes(&mpu, &run.particles, &loaded.input.attributes);
     if let Some(out) = &args.output {
@@ -129,6 +130,7 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     // The evaluation floor, when asked: one value_and_gradient per particle, timed on the final
     // particles; the simulation against N × iterations such evaluations.
     let floor = args.evaluation_floor.then(|| {
+        crate::stage_clock::enter("evaluation_floor");
         let t = std::time::Instant::now();
         for x in &run.particles.positions {
             std::hint::black_box(mpu.value_and_gradient(*x));
@@ -136,7 +138,7 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
         t.elapsed().as_secs_f64() / run.particles.len().max(1) as f64
     });
     if let Some(path) = &args.json {
-        let report = psi::report::sample_json(&psi::report::SampleFacts {
+        let mut report = psi::report::sample_json(&psi::report::SampleFacts {
             input: &loaded.input.json,
             mpu: &mpu,
             threshold,
@@ -145,6 +147,8 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
             evaluation_floor: floor,
             peak_memory_bytes: psi::report::peak_memory_bytes(),
         });
+        // Wall and CPU time per stage, from reading the input to writing the outputs.
+        report["stages"] = crate::stage_clock::report();
         psi::save_json(path, &report)?;
     }
     ui.summary(&format!(

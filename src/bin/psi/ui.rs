@@ -79,7 +79,10 @@ pub(crate) fn build_mpu(
     params: &psi::MpuParams,
 ) -> Result<psi::Mpu, psi::MpuError> {
     let bar = ui.bar("MPU levels", u64::from(params.max_depth) + 1);
-    let observe = |_: &str, done: u64, _: u64| bar.set_position(done);
+    let observe = |stage: &str, done: u64, total: u64| {
+        crate::stage_clock::observe(stage, done, total);
+        bar.set_position(done)
+    };
     let options = psi::mpu::BuildOptions {
         monitor: psi::octree::Monitor::new(Some(&observe), None),
         ..Default::default()
@@ -92,7 +95,8 @@ pub(crate) fn build_mpu(
 /// Samples with a progress bar over the relaxation iterations.
 pub(crate) fn sample(ui: Ui, mpu: &psi::Mpu, params: &psi::ParticleParams) -> psi::Sampling {
     let bar = ui.bar("relaxation", params.iterations as u64);
-    let observe = |stage: &str, done: u64, _: u64| {
+    let observe = |stage: &str, done: u64, total: u64| {
+        crate::stage_clock::observe(stage, done, total);
         if stage == "relax" {
             bar.set_position(done)
         }
