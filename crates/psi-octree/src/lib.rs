@@ -10,6 +10,7 @@
 //! * Queries: [`Octree::leaf_containing`], [`Octree::for_each_support_cell`] (cells whose support
 //!   ball, radius α × cell diagonal, contains x), [`Octree::points_within`], and a kiddo kd-tree
 //!   twin [`PointIndex`].
+//! * Exact k nearest neighbours of any point, or of every point in one sweep: [`MortonIndex`].
 //!
 //! ```
 //! use glam::DVec3;
@@ -38,6 +39,7 @@ mod geometry;
 mod known_partitions;
 mod leaf_containing;
 mod monitor;
+mod morton_index;
 mod octree;
 mod point_attributes;
 mod point_index;
@@ -48,6 +50,7 @@ pub use cell::{Cell, NO_CELL};
 pub use error::OctreeError;
 pub use geometry::{Aabb, OrientedPoint};
 pub use monitor::{Interrupted, Monitor, Observer, StopFlag};
+pub use morton_index::MortonIndex;
 pub use octree::{
     CellView, DEPTH_LIMIT, KnownPartitions, Octree, OctreeBuffers, OctreeBuild, OctreeParams,
     RootCube, root_cube,

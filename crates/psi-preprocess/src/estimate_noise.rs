@@ -6,7 +6,7 @@
 //! clean curved surface reads as nearly noise-free.
 
 use glam::DVec3;
-use psi_octree::PointIndex;
+use psi_octree::MortonIndex;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -59,7 +59,7 @@ pub fn estimate_noise(positions: &[DVec3]) -> NoiseEstimate {
     if positions.len() < 7 {
         return none;
     }
-    let index = PointIndex::new(positions);
+    let index = MortonIndex::new(positions);
     let stride = positions.len().div_ceil(MAX_SAMPLES).max(1);
     let samples: Vec<usize> = (0..positions.len()).step_by(stride).collect();
     let Some((sigma, reach)) = median_residual(positions, &index, &samples, NEIGHBOURS) else {
@@ -97,7 +97,7 @@ const MAX_WIDE_SAMPLES: usize = 2048;
 /// each sample's `k` nearest points, and the median distance to the k-th (world units).
 fn median_residual(
     positions: &[DVec3],
-    index: &PointIndex,
+    index: &MortonIndex,
     samples: &[usize],
     k: usize,
 ) -> Option<(f64, f64)> {
@@ -105,7 +105,8 @@ fn median_residual(
         .par_iter()
         .filter_map(|&i| {
             let near = index.nearest(positions[i], k);
-            let pts: Vec<DVec3> = near.iter().map(|&(j, _)| positions[j as usize]).collect();
+            let by_slot = index.points();
+            let pts: Vec<DVec3> = near.iter().map(|&(j, _)| by_slot[j as usize]).collect();
             let reach = near.last().map_or(0.0, |n| n.1.sqrt());
             Some((QuadricFit::of(&pts, reach)?.sigma(), reach))
         })

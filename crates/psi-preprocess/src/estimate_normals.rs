@@ -7,11 +7,9 @@
 //! unoriented; `orient_normals` or `orient_toward` give them a side.
 
 use glam::DVec3;
-use psi_octree::{Monitor, PointIndex};
-use rayon::prelude::*;
+use psi_octree::{Monitor, MortonIndex};
 
 use crate::local_fit::Moments;
-use crate::spatial_order::SpatialOrder;
 
 /// The neighbourhood sizes tried, ascending.
 const SIZES: [usize; 5] = [12, 16, 24, 32, 48];
@@ -40,44 +38,45 @@ pub fn estimate_normals(positions: &[DVec3]) -> Vec<DVec3> {
 /// [`estimate_normals`], stopping early once `monitor`'s flag is set (checked per point; the
 /// caller then discards the result).
 pub fn estimate_normals_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<DVec3> {
-    let order = SpatialOrder::new(positions);
-    order.scatter(&normals_in_order(&order.gather(positions), monitor))
-}
-
-/// [`estimate_normals`] of points already in a spatially coherent order.
-fn normals_in_order(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<DVec3> {
-    let index = PointIndex::new(positions);
+    // The points in Morton order (slots), each with its nearest others in one sweep.
+    let index = MortonIndex::new(positions);
+    let by_slot = index.points();
     let largest = SIZES[SIZES.len() - 1];
-    positions
-        .par_iter()
-        .map(|&p| {
-            if monitor.stopped() {
-                return DVec3::ZERO;
-            }
-            let near = index.nearest(p, largest);
-            let mut moments = Moments::around(p);
-            let mut best: Option<(f64, DVec3)> = None;
-            let mut sizes = SIZES.iter().peekable();
-            for &(j, _) in &near {
-                moments.add(positions[j as usize]);
-                if sizes.peek() == Some(&&moments.count()) {
-                    sizes.next();
-                    if let Some(fit) = moments.plane()
-                        && best.is_none_or(|(v, _)| fit.variation() < v)
-                    {
-                        best = Some((fit.variation(), fit.normal));
-                    }
+    let normals = index.map_nearest(largest - 1, |s, near| {
+        if monitor.stopped() {
+            return DVec3::ZERO;
+        }
+        let p = by_slot[s];
+        let mut moments = Moments::around(p);
+        let mut best: Option<(f64, DVec3)> = None;
+        let mut sizes = SIZES.iter().peekable();
+        // The point itself, then its neighbours nearest first.
+        let points = std::iter::once(p).chain(near.iter().map(|&(t, _)| by_slot[t as usize]));
+        for q in points {
+            moments.add(q);
+            if sizes.peek() == Some(&&moments.count()) {
+                sizes.next();
+                if let Some(fit) = moments.plane()
+                    && best.is_none_or(|(v, _)| fit.variation() < v)
+                {
+                    best = Some((fit.variation(), fit.normal));
                 }
             }
-            // Fewer points than the smallest size: the plane of all of them.
-            if best.is_none()
-                && let Some(fit) = moments.plane()
-            {
-                best = Some((fit.variation(), fit.normal));
-            }
-            best.map_or(DVec3::ZERO, |(_, n)| n)
-        })
-        .collect()
+        }
+        // Fewer points than the smallest size: the plane of all of them.
+        if best.is_none()
+            && let Some(fit) = moments.plane()
+        {
+            best = Some((fit.variation(), fit.normal));
+        }
+        best.map_or(DVec3::ZERO, |(_, n)| n)
+    });
+    // Back to the caller's order (a point with a non-finite coordinate has no normal).
+    let mut out = vec![DVec3::ZERO; positions.len()];
+    for (&i, n) in index.ids().iter().zip(normals) {
+        out[i as usize] = n;
+    }
+    out
 }
 
 #[cfg(test)]

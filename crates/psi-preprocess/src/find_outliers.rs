@@ -8,13 +8,12 @@
 //! against the surface rather than against itself.
 
 use glam::DVec3;
-use psi_octree::{Monitor, PointIndex};
+use psi_octree::{Monitor, MortonIndex};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::local_fit::QuadricFit;
 use crate::median::median;
-use crate::spatial_order::SpatialOrder;
 
 /// Neighbours per point (itself excluded).
 const NEIGHBOURS: usize = 16;
@@ -144,22 +143,32 @@ pub fn find_outliers_with(
     monitor: &Monitor<'_>,
 ) -> Outliers {
     let normals = normals.filter(|v| v.len() == positions.len());
-    let order = SpatialOrder::new(positions);
-    let sorted = order.gather(positions);
-    let sorted_normals = normals.map(|v| order.gather(v));
-    let found = outliers_in_order(&sorted, sorted_normals.as_deref(), monitor);
+    // The points in Morton order (slots), where neighbours' data lie together.
+    let index = MortonIndex::new(positions);
+    let ids = index.ids();
+    let sorted_normals: Option<Vec<DVec3>> =
+        normals.map(|v| ids.par_iter().map(|&i| v[i as usize]).collect());
+    let found = outliers_in_order(&index, sorted_normals.as_deref(), monitor);
+    // Back to the caller's order; a point with a non-finite coordinate is far from everything.
+    let mut mask = vec![true; positions.len()];
+    for (&i, &m) in ids.iter().zip(&found.mask) {
+        mask[i as usize] = m;
+    }
+    let unindexed = positions.len() - index.len();
     Outliers {
-        mask: order.scatter(&found.mask),
+        mask,
+        far: found.far + unindexed,
         ..found
     }
 }
 
-/// [`find_outliers`] on points already in a spatially coherent order.
+/// [`find_outliers`] on the points of `index`, by slot (`normals` by slot too).
 fn outliers_in_order(
-    positions: &[DVec3],
+    index: &MortonIndex,
     normals: Option<&[DVec3]>,
     monitor: &Monitor<'_>,
 ) -> Outliers {
+    let positions = index.points();
     let n = positions.len();
     // Whether a point's given normal lies along the normals of at least a quarter of `near`
     // (either sign: orientation is repaired later), as a point of a surface's does.
@@ -180,34 +189,21 @@ fn outliers_in_order(
             ..Outliers::default()
         };
     }
-    let index = PointIndex::new(positions);
-    // Each point's neighbours, itself excluded (a coincident twin counts as a neighbour).
-    let neighbours: Vec<[u32; NEIGHBOURS]> = (0..n as u32)
-        .into_par_iter()
-        .map(|i| {
-            let mut near = [0u32; NEIGHBOURS];
+    // Each point's neighbours, itself excluded (a coincident twin counts as a neighbour), and
+    // its 16th-neighbour distance.
+    let (neighbours, reach): (Vec<[u32; NEIGHBOURS]>, Vec<f64>) = index
+        .map_nearest(NEIGHBOURS, |_, near| {
+            let mut slots = [0u32; NEIGHBOURS];
             if monitor.stopped() {
-                return near;
+                return (slots, 0.0);
             }
-            let mut k = 0;
-            for (j, _) in index.nearest(positions[i as usize], NEIGHBOURS + 1) {
-                if j != i && k < NEIGHBOURS {
-                    near[k] = j;
-                    k += 1;
-                }
+            for (slot, &(j, _)) in slots.iter_mut().zip(near) {
+                *slot = j;
             }
-            near
+            (slots, near.last().map_or(0.0, |l| l.1.sqrt()))
         })
-        .collect();
-    let reach: Vec<f64> = (0..n)
         .into_par_iter()
-        .map(|i| {
-            neighbours[i]
-                .iter()
-                .map(|&j| (positions[j as usize] - positions[i]).length())
-                .fold(0.0, f64::max)
-        })
-        .collect();
+        .unzip();
     let typical = median(&mut reach.clone());
     let status: Vec<Status> = (0..n)
         .into_par_iter()
@@ -261,8 +257,8 @@ fn outliers_in_order(
     let core_ids: Vec<u32> = (0..n as u32)
         .filter(|&i| status[i as usize] == Status::Core)
         .collect();
-    let core_positions: Vec<DVec3> = core_ids.iter().map(|&i| positions[i as usize]).collect();
-    let core_index = PointIndex::new(&core_positions);
+    let core_index = index.subset(|s| status[s] == Status::Core);
+    let core_positions = core_index.points();
     // 0: inlier, 1: far, 2: off the surface.
     let verdicts: Vec<u8> = (0..n)
         .into_par_iter()

@@ -9,7 +9,7 @@ use std::collections::BinaryHeap;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use psi_octree::{Monitor, OrientedPoint, PointIndex};
+use psi_octree::{Monitor, MortonIndex, OrientedPoint};
 
 /// Neighbours per point in the graph.
 const K: usize = 8;
@@ -41,7 +41,28 @@ impl NormalConsistency {
 /// indistinguishable from flipped normals).
 fn neighbour_pairs(points: &[OrientedPoint], stride: usize) -> Vec<Vec<(u32, f64, bool)>> {
     let positions: Vec<_> = points.iter().map(|p| p.p).collect();
-    let index = PointIndex::new(&positions);
+    let index = MortonIndex::new(&positions);
+    let ids = index.ids();
+    // A pair: the neighbour j of point i at squared distance d2 (world units²).
+    let pair = |i: usize, j: u32, d2: f64| {
+        let (p, q) = (&points[i], &points[j as usize]);
+        let same = p.n.dot(q.p - p.p).abs() <= 0.5 * d2.sqrt();
+        (j, p.n.dot(q.n), same)
+    };
+    if stride == 1 {
+        // Every point: one sweep, cell by cell.
+        let by_slot = index.map_nearest(K, |s, near| {
+            near.iter()
+                .filter(|n| n.1 > 0.0)
+                .map(|&(t, d2)| pair(ids[s] as usize, ids[t as usize], d2))
+                .collect::<Vec<_>>()
+        });
+        let mut out = vec![Vec::new(); points.len()];
+        for (s, edges) in by_slot.into_iter().enumerate() {
+            out[ids[s] as usize] = edges;
+        }
+        return out;
+    }
     points
         .par_iter()
         .enumerate()
@@ -52,12 +73,9 @@ fn neighbour_pairs(points: &[OrientedPoint], stride: usize) -> Vec<Vec<(u32, f64
             index
                 .nearest(p.p, K + 1)
                 .into_iter()
+                .map(|(s, d2)| (ids[s as usize], d2))
                 .filter(|&(j, d2)| j as usize != i && d2 > 0.0)
-                .map(|(j, d2)| {
-                    let q = &points[j as usize];
-                    let same = p.n.dot(q.p - p.p).abs() <= 0.5 * d2.sqrt();
-                    (j, p.n.dot(q.n), same)
-                })
+                .map(|(j, d2)| pair(i, j, d2))
                 .collect()
         })
         .collect()

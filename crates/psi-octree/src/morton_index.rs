@@ -1,0 +1,693 @@
+//! Exact k-nearest-neighbour search over points sorted in Morton (Z-) order, and the implicit
+//! octree that order carries: a cell of level l (the bounding cube cut 2^l times along each
+//! axis) is a contiguous run of the sorted points, so no tree is stored. Two ways in:
+//! [`MortonIndex::nearest`] for any query point (a depth-first search of the cells around it,
+//! nearest first, pruned by the k-th distance found), and [`MortonIndex::map_nearest`] for
+//! every indexed point's own neighbours in one parallel sweep, cell by cell, where the points of
+//! a cell share the candidates gathered from the 27 cells around it (issue "Throughput": a
+//! kd-tree query per point was 40 % of a dense run; notes: 2026-11-26-throughput).
+//!
+//! Neighbours come in increasing (squared distance, original index) order: the result is a
+//! function of the positions alone, whatever the thread count or the way the search met them.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::Aabb;
+
+/// Bits of the quantised coordinates per axis (the finest level).
+const BITS: u32 = 21;
+
+/// The largest quantised coordinate.
+const GRID: f64 = ((1u64 << BITS) - 1) as f64;
+
+/// A cell of at most this many points is scanned whole instead of split into its children.
+const SCAN: usize = 32;
+
+/// The sweep's cells hold on average at least this many times k points, so that the k nearest
+/// of most points lie inside the 27 cells around them.
+const OCCUPANCY: f64 = 0.4;
+
+/// Spreads the low 21 bits of `x` to every third bit.
+fn spread(x: u64) -> u64 {
+    let mut x = x & 0x1f_ffff;
+    x = (x | x << 32) & 0x1f_0000_0000_ffff;
+    x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+    (x | x << 2) & 0x1249_2492_4924_9249
+}
+
+/// The Morton code of cell coordinates `c` (each below 2^21).
+fn morton(c: [u64; 3]) -> u64 {
+    spread(c[0]) | spread(c[1]) << 1 | spread(c[2]) << 2
+}
+
+/// A neighbour: `(squared distance, original index, slot)`.
+type Found = (f64, u32, u32);
+
+/// The (squared distance, original index) order of neighbours.
+fn closer(a: &Found, b: &Found) -> std::cmp::Ordering {
+    a.0.total_cmp(&b.0).then(a.1.cmp(&b.1))
+}
+
+/// The k best neighbours met so far, in order.
+struct Best {
+    k: usize,
+    found: Vec<Found>,
+}
+
+impl Best {
+    fn new(k: usize) -> Self {
+        Self {
+            k,
+            found: Vec::with_capacity(k + 1),
+        }
+    }
+
+    fn full(&self) -> bool {
+        self.found.len() >= self.k
+    }
+
+    /// The k-th squared distance (infinite until k are found).
+    fn worst(&self) -> f64 {
+        if self.full() {
+            self.found[self.k - 1].0
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    fn offer(&mut self, f: Found) {
+        if self.full() {
+            if closer(&f, &self.found[self.k - 1]).is_ge() {
+                return;
+            }
+            self.found.pop();
+        }
+        let mut at = self.found.len();
+        self.found.push(f);
+        while at > 0 && closer(&self.found[at - 1], &f).is_gt() {
+            self.found[at] = self.found[at - 1];
+            at -= 1;
+        }
+        self.found[at] = f;
+    }
+
+    fn clear(&mut self) {
+        self.found.clear();
+    }
+}
+
+/// Points sorted in Morton order over their bounding cube, for exact nearest-neighbour queries
+/// (world units; squared distances in world units²). Points with a non-finite coordinate are
+/// left out: never a neighbour, and their sweep entries have no neighbours.
+///
+/// ```
+/// use glam::DVec3;
+/// use psi_octree::MortonIndex;
+///
+/// let points: Vec<DVec3> = (0..1000).map(|i| DVec3::new((i % 10) as f64, (i / 10 % 10) as f64, (i / 100) as f64)).collect();
+/// let index = MortonIndex::new(&points);
+/// // The 7 nearest of a grid corner: itself, its 3 edge neighbours, 3 face diagonals.
+/// let near = index.nearest(DVec3::ZERO, 7);
+/// assert_eq!(near.len(), 7);
+/// assert_eq!(index.ids()[near[0].0 as usize], 0);
+/// assert_eq!(near[6].1, 2.0);
+/// // Every point's 6 nearest others, slot by slot: an inner point has its 6 at distance 1.
+/// let counts = index.map_nearest(6, |_, near| near.iter().filter(|n| n.1 == 1.0).count());
+/// let inner = index.ids().iter().position(|&i| i == 555).unwrap();
+/// assert_eq!(counts[inner], 6);
+/// ```
+pub struct MortonIndex {
+    /// The cube's low corner, world units.
+    lo: DVec3,
+    /// Quantised units per world unit.
+    scale: f64,
+    /// Slack added to every cell's extent when pruning, world units (rounding of quantisation).
+    slack: f64,
+    /// Morton keys, ascending (shape: M, the finite points).
+    keys: Vec<u64>,
+    /// Original index of each slot (shape: M).
+    ids: Vec<u32>,
+    /// Positions by slot (shape: M).
+    points: Vec<DVec3>,
+    /// Occupied cells per level (shape: 22).
+    cells: [usize; BITS as usize + 1],
+}
+
+/// The number of occupied cells of each level (shape: 22) over ascending `keys`: consecutive
+/// keys fall apart at the level of their highest differing bit.
+fn cells_per_level(keys: &[u64]) -> [usize; BITS as usize + 1] {
+    let mut first_split = [0usize; BITS as usize + 1];
+    for w in keys.windows(2) {
+        let x = w[0] ^ w[1];
+        if x != 0 {
+            let bit = 63 - x.leading_zeros();
+            first_split[(BITS - bit / 3) as usize] += 1;
+        }
+    }
+    let mut cells = [1usize; BITS as usize + 1];
+    for l in 1..=BITS as usize {
+        cells[l] = cells[l - 1] + first_split[l];
+    }
+    cells
+}
+
+impl std::fmt::Debug for MortonIndex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MortonIndex")
+            .field("len", &self.len())
+            .finish()
+    }
+}
+
+impl MortonIndex {
+    /// Sorts `positions` (shape: N, world units; N < 2^32) into Morton order, ties by index.
+    pub fn new(positions: &[DVec3]) -> Self {
+        let bounds = Aabb::from_points(positions.iter().copied().filter(|p| p.is_finite()));
+        let (lo, extent) = bounds.map_or((DVec3::ZERO, 0.0), |b| (b.min, b.extent().max_element()));
+        let scale = if extent > 0.0 { GRID / extent } else { 0.0 };
+        let mut keyed: Vec<(u64, u32)> = positions
+            .par_iter()
+            .enumerate()
+            .filter(|(_, p)| p.is_finite())
+            .map(|(i, p)| {
+                let q = ((*p - lo) * scale).clamp(DVec3::ZERO, DVec3::splat(GRID));
+                (morton([q.x as u64, q.y as u64, q.z as u64]), i as u32)
+            })
+            .collect();
+        keyed.par_sort_unstable();
+        let keys: Vec<u64> = keyed.par_iter().map(|k| k.0).collect();
+        let ids: Vec<u32> = keyed.par_iter().map(|k| k.1).collect();
+        let points = ids.par_iter().map(|&i| positions[i as usize]).collect();
+        Self {
+            lo,
+            scale,
+            slack: 1e-9 * extent,
+            cells: cells_per_level(&keys),
+            keys,
+            ids,
+            points,
+        }
+    }
+
+    /// The index of the slots for which `keep` holds, in the same order and frame (no sort).
+    pub fn subset(&self, keep: impl Fn(usize) -> bool + Sync) -> Self {
+        let slots: Vec<usize> = (0..self.len())
+            .into_par_iter()
+            .filter(|&s| keep(s))
+            .collect();
+        let keys: Vec<u64> = slots.par_iter().map(|&s| self.keys[s]).collect();
+        Self {
+            lo: self.lo,
+            scale: self.scale,
+            slack: self.slack,
+            cells: cells_per_level(&keys),
+            keys,
+            ids: slots.par_iter().map(|&s| self.ids[s]).collect(),
+            points: slots.par_iter().map(|&s| self.points[s]).collect(),
+        }
+    }
+
+    /// Indexed points (the finite ones).
+    pub fn len(&self) -> usize {
+        self.keys.len()
+    }
+
+    /// Whether no point is indexed.
+    pub fn is_empty(&self) -> bool {
+        self.keys.is_empty()
+    }
+
+    /// The original index of each slot (shape: M).
+    pub fn ids(&self) -> &[u32] {
+        &self.ids
+    }
+
+    /// The positions by slot (shape: M, world units).
+    pub fn points(&self) -> &[DVec3] {
+        &self.points
+    }
+
+    /// Edge of a cell of `level`, world units.
+    fn cell_edge(&self, level: u32) -> f64 {
+        if self.scale > 0.0 {
+            (1u64 << (BITS - level)) as f64 / self.scale
+        } else {
+            0.0
+        }
+    }
+
+    /// The cell coordinates of `x` at `level`, clamped into the grid.
+    fn cell_of(&self, x: DVec3, level: u32) -> [u64; 3] {
+        let q = ((x - self.lo) * self.scale).clamp(DVec3::ZERO, DVec3::splat(GRID));
+        let shift = BITS - level;
+        [
+            q.x as u64 >> shift,
+            q.y as u64 >> shift,
+            q.z as u64 >> shift,
+        ]
+    }
+
+    /// The slots of cell `c` of `level` within the slots `within` (which hold it).
+    fn cell_range(&self, c: [u64; 3], level: u32, within: (usize, usize)) -> (usize, usize) {
+        let shift = 3 * (BITS - level);
+        let first = morton(c) << shift;
+        let keys = &self.keys[within.0..within.1];
+        let a = keys.partition_point(|&k| k < first);
+        let b = if level == 0 {
+            keys.len()
+        } else {
+            a + keys[a..].partition_point(|&k| k >> shift == first >> shift)
+        };
+        (within.0 + a, within.0 + b)
+    }
+
+    /// Squared distance from `x` to cell `c` of `level` (grown by the slack).
+    fn cell_distance2(&self, x: DVec3, c: [u64; 3], level: u32) -> f64 {
+        let w = self.cell_edge(level);
+        let lo = self.lo + DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64) * w;
+        let hi = lo + DVec3::splat(w);
+        let d = (lo - self.slack - x)
+            .max(x - hi - self.slack)
+            .max(DVec3::ZERO);
+        d.length_squared()
+    }
+
+    /// How far from `x` the block of cells of `level` within `ring` cells of cell `c` (3 × 3 × 3
+    /// for ring 1) reaches in every direction (no limit on a side where the grid ends), less
+    /// the slack.
+    fn block_reach(&self, x: DVec3, c: [u64; 3], level: u32, ring: u64) -> f64 {
+        let w = self.cell_edge(level);
+        let last = (1u64 << level) - 1;
+        let mut reach = f64::INFINITY;
+        for a in 0..3 {
+            if c[a] >= ring {
+                reach = reach.min(x[a] - (self.lo[a] + (c[a] - ring) as f64 * w));
+            }
+            if c[a] + ring <= last {
+                reach = reach.min(self.lo[a] + (c[a] + ring + 1) as f64 * w - x[a]);
+            }
+        }
+        reach - self.slack
+    }
+
+    /// Offers the points of cell `c` of `level` (slots `range`) to `best`, nearest children first.
+    fn visit(
+        &self,
+        x: DVec3,
+        skip: u32,
+        c: [u64; 3],
+        level: u32,
+        range: (usize, usize),
+        best: &mut Best,
+    ) {
+        if range.0 == range.1 || self.cell_distance2(x, c, level) > best.worst() {
+            return;
+        }
+        if range.1 - range.0 <= SCAN || level == BITS {
+            for s in range.0..range.1 {
+                if s as u32 != skip {
+                    let d2 = (self.points[s] - x).length_squared();
+                    best.offer((d2, self.ids[s], s as u32));
+                }
+            }
+            return;
+        }
+        let mut children: Vec<(f64, [u64; 3], (usize, usize))> = (0..8u64)
+            .map(|t| {
+                let cc = [
+                    2 * c[0] + (t & 1),
+                    2 * c[1] + (t >> 1 & 1),
+                    2 * c[2] + (t >> 2),
+                ];
+                let r = self.cell_range(cc, level + 1, range);
+                (self.cell_distance2(x, cc, level + 1), cc, r)
+            })
+            .filter(|ch| ch.2.0 < ch.2.1)
+            .collect();
+        children.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for (_, cc, r) in children {
+            self.visit(x, skip, cc, level + 1, r, best);
+        }
+    }
+
+    /// The `k` nearest indexed points to `x` other than slot `skip` (`u32::MAX`: none), first
+    /// trying the 27 cells of `level` around `x`, then coarser levels until the block holds them.
+    fn search(&self, x: DVec3, k: usize, skip: u32, mut level: u32) -> Vec<Found> {
+        if k == 0 || !x.is_finite() || self.is_empty() {
+            return Vec::new();
+        }
+        loop {
+            let mut best = Best::new(k);
+            let c = self.cell_of(x, level);
+            let last = (1u64 << level) - 1;
+            for dz in -1i64..=1 {
+                for dy in -1i64..=1 {
+                    for dx in -1i64..=1 {
+                        let cc = [c[0] as i64 + dx, c[1] as i64 + dy, c[2] as i64 + dz];
+                        if cc.iter().any(|&v| v < 0 || v > last as i64) {
+                            continue;
+                        }
+                        let cc = cc.map(|v| v as u64);
+                        let r = self.cell_range(cc, level, (0, self.len()));
+                        self.visit(x, skip, cc, level, r, &mut best);
+                    }
+                }
+            }
+            let reach = self.block_reach(x, c, level, 1);
+            if level == 0 || (best.full() && best.worst() <= reach * reach.abs()) {
+                return best.found;
+            }
+            level = level.saturating_sub(2);
+        }
+    }
+
+    /// The `k` nearest indexed points to `x` (world units) as `(slot, squared distance)`, in
+    /// increasing (distance, original index) order; fewer when fewer are indexed, none for a
+    /// non-finite `x`.
+    pub fn nearest(&self, x: DVec3, k: usize) -> Vec<(u32, f64)> {
+        let level = self.level_for(k);
+        self.search(x, k, u32::MAX, level)
+            .into_iter()
+            .map(|f| (f.2, f.0))
+            .collect()
+    }
+
+    /// The finest level whose occupied cells hold on average at least `OCCUPANCY × k` points.
+    fn level_for(&self, k: usize) -> u32 {
+        let target = OCCUPANCY * k.max(1) as f64;
+        (1..=BITS)
+            .take_while(|&l| self.len() as f64 / self.cells[l as usize] as f64 >= target)
+            .last()
+            .unwrap_or(0)
+    }
+
+    /// For every slot s (in slot order), `f(s, near)` with `near` the `k` nearest other indexed
+    /// points as `(slot, squared distance)` in increasing (distance, original index) order (a
+    /// coincident twin is a neighbour; fewer than k when fewer are indexed). In parallel, cell by
+    /// cell; the result does not depend on the thread count.
+    pub fn map_nearest<T: Send>(
+        &self,
+        k: usize,
+        f: impl Fn(usize, &[(u32, f64)]) -> T + Sync,
+    ) -> Vec<T> {
+        if self.is_empty() {
+            return Vec::new();
+        }
+        let level = self.level_for(k);
+        let shift = 3 * (BITS - level);
+        // The occupied cells of `level`: their first slots, and one past the last.
+        let mut starts: Vec<usize> = vec![0];
+        starts.extend(
+            (1..self.len()).filter(|&s| self.keys[s] >> shift != self.keys[s - 1] >> shift),
+        );
+        starts.push(self.len());
+        let cell_keys: Vec<u64> = starts[..starts.len() - 1]
+            .iter()
+            .map(|&s| self.keys[s] >> shift)
+            .collect();
+        let last = (1u64 << level) - 1;
+        // Offsets to the cells within two of a cell, by ring, each ring nearest first.
+        let mut offsets: Vec<[i64; 3]> = Vec::with_capacity(125);
+        for dz in -2i64..=2 {
+            for dy in -2i64..=2 {
+                for dx in -2i64..=2 {
+                    offsets.push([dx, dy, dz]);
+                }
+            }
+        }
+        let ring = |o: &[i64; 3]| o.iter().map(|v| v.abs()).max().unwrap_or(0);
+        offsets.sort_by_key(|o| (ring(o), o.iter().map(|v| v * v).sum::<i64>()));
+        let inner = offsets.iter().filter(|o| ring(o) <= 1).count();
+        // The occupied cells at `offsets` from cell `c`, with their slots.
+        // The cell of `key` among `cell_keys`, searched outward from cell `from` (neighbours
+        // in space are mostly near in Morton order: the search stays in cache).
+        let find = |key: u64, from: usize| -> Option<usize> {
+            let (mut lo, mut hi);
+            if key >= cell_keys[from] {
+                let mut step = 1;
+                lo = from;
+                loop {
+                    hi = (from + step).min(cell_keys.len());
+                    if hi == cell_keys.len() || cell_keys[hi] > key {
+                        break;
+                    }
+                    lo = hi;
+                    step *= 2;
+                }
+            } else {
+                let mut step = 1;
+                hi = from;
+                loop {
+                    lo = from.saturating_sub(step);
+                    if lo == 0 || cell_keys[lo] <= key {
+                        break;
+                    }
+                    hi = lo;
+                    step *= 2;
+                }
+            }
+            let j = lo + cell_keys[lo..hi].partition_point(|&k| k < key);
+            (j < cell_keys.len() && cell_keys[j] == key).then_some(j)
+        };
+        let cells_at =
+            |c: [u64; 3], from: usize, offsets: &[[i64; 3]]| -> Vec<([u64; 3], (usize, usize))> {
+                offsets
+                    .iter()
+                    .filter_map(|o| {
+                        let cc = [c[0] as i64 + o[0], c[1] as i64 + o[1], c[2] as i64 + o[2]];
+                        if cc.iter().any(|&v| v < 0 || v > last as i64) {
+                            return None;
+                        }
+                        let cc = cc.map(|v| v as u64);
+                        let j = find(morton(cc), from)?;
+                        Some((cc, (starts[j], starts[j + 1])))
+                    })
+                    .collect()
+            };
+        (0..cell_keys.len())
+            .into_par_iter()
+            .with_min_len(16)
+            .flat_map_iter(|cell| {
+                let (a, b) = (starts[cell], starts[cell + 1]);
+                let c = self.cell_of(self.points[a], level);
+                let near_cells = cells_at(c, cell, &offsets[..inner]);
+                let mut outer_cells = None;
+                let mut near: Vec<(u32, f64)> = Vec::with_capacity(k);
+                let mut best = Best::new(k);
+                // Offers the points of `cells` (nearer than the k-th found) to `best`.
+                let scan =
+                    |x: DVec3, s: usize, cells: &[([u64; 3], (usize, usize))], best: &mut Best| {
+                        for (cc, (ra, rb)) in cells {
+                            if self.cell_distance2(x, *cc, level) > best.worst() {
+                                continue;
+                            }
+                            for t in *ra..*rb {
+                                let d2 = (self.points[t] - x).length_squared();
+                                if t != s && d2 <= best.worst() {
+                                    best.offer((d2, self.ids[t], t as u32));
+                                }
+                            }
+                        }
+                    };
+                let holds =
+                    |best: &Best, reach: f64| best.full() && best.worst() <= reach * reach.abs();
+                // The previous point and its k-th distance: every point has k others within
+                // that distance plus the step from the previous one (its k nearest and
+                // itself, less the point if it was one of them).
+                let mut previous: Option<(DVec3, f64)> = None;
+                let mut within: Vec<Found> = Vec::with_capacity(4 * k);
+                (a..b)
+                    .map(|s| {
+                        let x = self.points[s];
+                        let reach1 = self.block_reach(x, c, level, 1);
+                        // Fast path: gather the points within the bound, keep the k nearest.
+                        if let Some((p, r)) = previous {
+                            let bound = r + (x - p).length();
+                            if k > 0 && bound <= reach1 {
+                                let b2 = bound * bound * (1.0 + 1e-12);
+                                within.clear();
+                                for (cc, (ra, rb)) in &near_cells {
+                                    if self.cell_distance2(x, *cc, level) > b2 {
+                                        continue;
+                                    }
+                                    for t in *ra..*rb {
+                                        let d2 = (self.points[t] - x).length_squared();
+                                        if t != s && d2 <= b2 {
+                                            within.push((d2, self.ids[t], t as u32));
+                                        }
+                                    }
+                                }
+                                if within.len() >= k {
+                                    within.select_nth_unstable_by(k - 1, closer);
+                                    let firsts = &mut within[..k];
+                                    firsts.sort_unstable_by(closer);
+                                    previous = Some((x, firsts[k - 1].0.sqrt()));
+                                    near.clear();
+                                    near.extend(firsts.iter().map(|g| (g.2, g.0)));
+                                    return f(s, &near);
+                                }
+                            }
+                        }
+                        best.clear();
+                        scan(x, s, &near_cells, &mut best);
+                        let mut held = holds(&best, reach1);
+                        if !held {
+                            let outer = outer_cells
+                                .get_or_insert_with(|| cells_at(c, cell, &offsets[inner..]));
+                            scan(x, s, outer, &mut best);
+                            held = holds(&best, self.block_reach(x, c, level, 2));
+                        }
+                        let fallback;
+                        let found = if held {
+                            &best.found
+                        } else {
+                            fallback = self.search(x, k, s as u32, level.saturating_sub(2));
+                            &fallback
+                        };
+                        previous = (found.len() == k).then(|| (x, found[k - 1].0.sqrt()));
+                        near.clear();
+                        near.extend(found.iter().map(|g| (g.2, g.0)));
+                        f(s, &near)
+                    })
+                    .collect::<Vec<T>>()
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// The k nearest of `x` among `points` other than index `skip`, by brute force, as
+    /// (original index, squared distance) in (distance, index) order.
+    fn brute(points: &[DVec3], x: DVec3, k: usize, skip: Option<usize>) -> Vec<(u32, f64)> {
+        let mut all: Vec<(f64, u32)> = points
+            .iter()
+            .enumerate()
+            .filter(|(i, p)| Some(*i) != skip && p.is_finite())
+            .map(|(i, p)| ((*p - x).length_squared(), i as u32))
+            .collect();
+        all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        all.truncate(k);
+        all.into_iter().map(|(d, i)| (i, d)).collect()
+    }
+
+    /// A cloud with what makes nearest neighbours hard: a dense sheet, a sparse patch, exact
+    /// grid ties, coincident twins and far strays.
+    fn cloud(seed: u64, n: usize) -> Vec<DVec3> {
+        let mut s = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let mut rnd = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut p = Vec::new();
+        for i in 0..n {
+            let v = match i % 10 {
+                0..=5 => DVec3::new(rnd(), rnd(), 0.01 * rnd()),
+                6 => DVec3::new(2.0 + 0.5 * rnd(), rnd(), 3.0 * rnd()),
+                7 => DVec3::new((i % 7) as f64 * 0.1, (i / 7 % 5) as f64 * 0.1, 0.5),
+                8 => p.last().copied().unwrap_or(DVec3::ZERO),
+                _ => DVec3::new(10.0 * rnd() - 5.0, 10.0 * rnd(), -3.0 * rnd()),
+            };
+            p.push(v);
+        }
+        p
+    }
+
+    fn check_all(points: &[DVec3], k: usize) {
+        let index = MortonIndex::new(points);
+        let ids = index.ids().to_vec();
+        let got = index.map_nearest(k, |s, near| {
+            (
+                s,
+                near.iter()
+                    .map(|&(t, d)| (ids[t as usize], d))
+                    .collect::<Vec<_>>(),
+            )
+        });
+        assert_eq!(got.len(), index.len());
+        for (s, near) in got {
+            let i = ids[s] as usize;
+            assert_eq!(
+                near,
+                brute(points, points[i], k, Some(i)),
+                "point {i}, k {k}"
+            );
+        }
+    }
+
+    #[test]
+    fn every_points_neighbours_equal_brute_force() {
+        for (seed, n) in [(1, 2000), (2, 700), (3, 64), (4, 5)] {
+            for k in [1, 8, 16, 48] {
+                check_all(&cloud(seed, n), k);
+            }
+        }
+    }
+
+    #[test]
+    fn degenerate_clouds() {
+        check_all(&[], 4);
+        check_all(&[DVec3::ONE; 50], 8);
+        let line: Vec<DVec3> = (0..300).map(|i| DVec3::new(i as f64, 0.0, 0.0)).collect();
+        check_all(&line, 10);
+        let mut holes = cloud(5, 400);
+        holes[3] = DVec3::NAN;
+        holes[17] = DVec3::new(f64::INFINITY, 0.0, 0.0);
+        check_all(&holes, 12);
+        let index = MortonIndex::new(&holes);
+        assert_eq!(index.len(), 398);
+        assert!(index.nearest(DVec3::NAN, 3).is_empty());
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        /// Queries anywhere, inside the cloud's box or far outside it, equal brute force.
+        #[test]
+        fn queries_equal_brute_force(seed in 0u64..1000, n in 1usize..1500, k in 1usize..40,
+                                     qx in -20.0f64..20.0, qy in -20.0f64..20.0, qz in -20.0f64..20.0) {
+            let points = cloud(seed, n);
+            let index = MortonIndex::new(&points);
+            let x = DVec3::new(qx, qy, qz) * if seed % 2 == 0 { 0.1 } else { 1.0 };
+            let got: Vec<(u32, f64)> = index
+                .nearest(x, k)
+                .into_iter()
+                .map(|(s, d)| (index.ids()[s as usize], d))
+                .collect();
+            prop_assert_eq!(got, brute(&points, x, k, None));
+        }
+    }
+
+    #[test]
+    fn a_subset_answers_for_its_points_alone() {
+        let points = cloud(7, 1500);
+        let index = MortonIndex::new(&points);
+        let sub = index.subset(|s| index.ids()[s].is_multiple_of(3));
+        let kept: Vec<DVec3> = points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| if i % 3 == 0 { *p } else { DVec3::NAN })
+            .collect();
+        for q in [
+            DVec3::ZERO,
+            DVec3::new(0.5, 0.5, 0.0),
+            DVec3::new(3.0, 9.0, -2.0),
+        ] {
+            let got: Vec<(u32, f64)> = sub
+                .nearest(q, 10)
+                .into_iter()
+                .map(|(s, d)| (sub.ids()[s as usize], d))
+                .collect();
+            assert_eq!(got, brute(&kept, q, 10, None));
+        }
+    }
+}
