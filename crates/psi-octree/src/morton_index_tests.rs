@@ -1,0 +1,132 @@
+//! Tests of `morton_index`: every query and sweep against brute force.
+
+use super::*;
+use proptest::prelude::*;
+
+/// The k nearest of `x` among `points` other than index `skip`, by brute force, as
+/// (original index, squared distance) in (distance, index) order.
+fn brute(points: &[DVec3], x: DVec3, k: usize, skip: Option<usize>) -> Vec<(u32, f64)> {
+    let mut all: Vec<(f64, u32)> = points
+        .iter()
+        .enumerate()
+        .filter(|(i, p)| Some(*i) != skip && p.is_finite())
+        .map(|(i, p)| ((*p - x).length_squared(), i as u32))
+        .collect();
+    all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    all.truncate(k);
+    all.into_iter().map(|(d, i)| (i, d)).collect()
+}
+
+/// A cloud with what makes nearest neighbours hard: a dense sheet, a sparse patch, exact
+/// grid ties, coincident twins and far strays.
+fn cloud(seed: u64, n: usize) -> Vec<DVec3> {
+    let mut s = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    let mut rnd = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut p = Vec::new();
+    for i in 0..n {
+        let v = match i % 10 {
+            0..=5 => DVec3::new(rnd(), rnd(), 0.01 * rnd()),
+            6 => DVec3::new(2.0 + 0.5 * rnd(), rnd(), 3.0 * rnd()),
+            7 => DVec3::new((i % 7) as f64 * 0.1, (i / 7 % 5) as f64 * 0.1, 0.5),
+            8 => p.last().copied().unwrap_or(DVec3::ZERO),
+            _ => DVec3::new(10.0 * rnd() - 5.0, 10.0 * rnd(), -3.0 * rnd()),
+        };
+        p.push(v);
+    }
+    p
+}
+
+fn check_all(points: &[DVec3], k: usize) {
+    let index = MortonIndex::new(points);
+    let ids = index.ids().to_vec();
+    let got = index.map_nearest(k, |s, near| {
+        (
+            s,
+            near.iter()
+                .map(|&(t, d)| (ids[t as usize], d))
+                .collect::<Vec<_>>(),
+        )
+    });
+    assert_eq!(got.len(), index.len());
+    for (s, near) in got {
+        let i = ids[s] as usize;
+        assert_eq!(
+            near,
+            brute(points, points[i], k, Some(i)),
+            "point {i}, k {k}"
+        );
+    }
+}
+
+#[test]
+fn every_points_neighbours_equal_brute_force() {
+    for (seed, n) in [(1, 2000), (2, 700), (3, 64), (4, 5)] {
+        for k in [1, 8, 16, 48] {
+            check_all(&cloud(seed, n), k);
+        }
+    }
+}
+
+#[test]
+fn degenerate_clouds() {
+    check_all(&[], 4);
+    check_all(&[DVec3::ONE; 50], 8);
+    let line: Vec<DVec3> = (0..300).map(|i| DVec3::new(i as f64, 0.0, 0.0)).collect();
+    check_all(&line, 10);
+    let mut holes = cloud(5, 400);
+    holes[3] = DVec3::NAN;
+    holes[17] = DVec3::new(f64::INFINITY, 0.0, 0.0);
+    check_all(&holes, 12);
+    let index = MortonIndex::new(&holes);
+    assert_eq!(index.len(), 398);
+    assert!(index.nearest(DVec3::NAN, 3).is_empty());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+    /// Queries anywhere, inside the cloud's box or far outside it, equal brute force.
+    #[test]
+    fn queries_equal_brute_force(seed in 0u64..1000, n in 1usize..1500, k in 1usize..40,
+                                 qx in -20.0f64..20.0, qy in -20.0f64..20.0, qz in -20.0f64..20.0) {
+        let points = cloud(seed, n);
+        let index = MortonIndex::new(&points);
+        let x = DVec3::new(qx, qy, qz) * if seed % 2 == 0 { 0.1 } else { 1.0 };
+        let got: Vec<(u32, f64)> = index
+            .nearest(x, k)
+            .into_iter()
+            .map(|(s, d)| (index.ids()[s as usize], d))
+            .collect();
+        prop_assert_eq!(got, brute(&points, x, k, None));
+    }
+}
+
+#[test]
+fn a_subset_answers_for_its_points_alone() {
+    let points = cloud(7, 1500);
+    let index = MortonIndex::new(&points);
+    let sub = index.subset(|s| index.ids()[s].is_multiple_of(3));
+    let kept: Vec<DVec3> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| if i % 3 == 0 { *p } else { DVec3::NAN })
+        .collect();
+    for q in [
+        DVec3::ZERO,
+        DVec3::new(0.5, 0.5, 0.0),
+        DVec3::new(3.0, 9.0, -2.0),
+    ] {
+        let got: Vec<(u32, f64)> = sub
+            .nearest(q, 10)
+            .into_iter()
+            .map(|(s, d)| (sub.ids()[s as usize], d))
+            .collect();
+        assert_eq!(got, brute(&kept, q, 10, None));
+    }
+}
