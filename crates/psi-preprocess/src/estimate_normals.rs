@@ -48,7 +48,8 @@ pub fn estimate_normals_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<
         }
         let p = by_slot[s];
         let mut moments = Moments::around(p);
-        let mut best: Option<(f64, DVec3)> = None;
+        // The neighbourhood of least variation (eigenvalues only), then its plane.
+        let mut best: Option<(f64, Moments)> = None;
         let mut sizes = SIZES.iter().peekable();
         // The point itself, then its neighbours nearest first.
         let points = std::iter::once(p).chain(near.iter().map(|&(t, _)| by_slot[t as usize]));
@@ -56,20 +57,16 @@ pub fn estimate_normals_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<
             moments.add(q);
             if sizes.peek() == Some(&&moments.count()) {
                 sizes.next();
-                if let Some(fit) = moments.plane()
-                    && best.is_none_or(|(v, _)| fit.variation() < v)
+                if let Some(v) = moments.variation()
+                    && best.as_ref().is_none_or(|(b, _)| v < *b)
                 {
-                    best = Some((fit.variation(), fit.normal));
+                    best = Some((v, moments));
                 }
             }
         }
         // Fewer points than the smallest size: the plane of all of them.
-        if best.is_none()
-            && let Some(fit) = moments.plane()
-        {
-            best = Some((fit.variation(), fit.normal));
-        }
-        best.map_or(DVec3::ZERO, |(_, n)| n)
+        let chosen = best.map_or(moments, |(_, m)| m);
+        chosen.plane().map_or(DVec3::ZERO, |fit| fit.normal)
     });
     // Back to the caller's order (a point with a non-finite coordinate has no normal).
     let mut out = vec![DVec3::ZERO; positions.len()];

@@ -41,6 +41,7 @@ mod find_outliers;
 mod inward_normals;
 mod local_fit;
 mod median;
+mod neighbour_graph;
 mod orient_normals;
 mod point_spread;
 mod preprocess;

@@ -22,7 +22,8 @@ pub(crate) struct PlaneFit {
 
 impl PlaneFit {
     /// Surface variation λ0 / (λ0 + λ1 + λ2) (Pauly et al. 2002): 0 on a plane, 1/3 for an
-    /// isotropic cloud.
+    /// isotropic cloud (the closed-form twin [`Moments::variation`] is checked against it).
+    #[cfg(test)]
     pub(crate) fn variation(&self) -> f64 {
         let sum: f64 = self.eigenvalues.iter().sum();
         if sum > 0.0 {
@@ -82,6 +83,37 @@ impl Moments {
             yz - m.y * m.z,
             zz - m.z * m.z,
         )
+    }
+
+    /// The surface variation λ0/(λ0+λ1+λ2) of the points added, from the covariance's
+    /// eigenvalues in closed form (Smith 1961, "Eigenvalues of a symmetric 3 × 3 matrix",
+    /// CACM 4(4)), without eigenvectors: what choosing among neighbourhoods needs. `None`
+    /// where [`Moments::plane`] has no plane (fewer than 3 points, no spread in two directions,
+    /// non-finite).
+    pub(crate) fn variation(&self) -> Option<f64> {
+        if self.count < 3 {
+            return None;
+        }
+        let c = self.covariance();
+        let off = c[(0, 1)].powi(2) + c[(0, 2)].powi(2) + c[(1, 2)].powi(2);
+        let q = c.trace() / 3.0;
+        let diag = (c[(0, 0)] - q).powi(2) + (c[(1, 1)] - q).powi(2) + (c[(2, 2)] - q).powi(2);
+        let p = ((diag + 2.0 * off) / 6.0).sqrt();
+        let mut e = if p > 0.0 {
+            let b = (c - Matrix3::from_diagonal_element(q)) / p;
+            let r = (b.determinant() / 2.0).clamp(-1.0, 1.0);
+            let phi = r.acos() / 3.0;
+            let largest = q + 2.0 * p * phi.cos();
+            let smallest = q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos();
+            [smallest, 3.0 * q - largest - smallest, largest]
+        } else {
+            [q; 3]
+        };
+        e.sort_by(f64::total_cmp);
+        let e = e.map(|v| v.max(0.0));
+        let total: f64 = e.iter().sum();
+        let spread = e[1] > FLAT_SPREAD * total;
+        (spread && e.iter().all(|v| v.is_finite())).then(|| e[0] / total)
     }
 
     /// Number of points added.
@@ -266,6 +298,36 @@ impl QuadricFit {
 mod tests {
     use super::*;
     use psi_shapes::assert_near;
+
+    /// The closed-form variation against the eigen-decomposition's, on flat, curved,
+    /// isotropic and degenerate sets.
+    #[test]
+    fn closed_form_variation_equals_the_eigen_decompositions() {
+        let mut s = 7u64;
+        let mut rnd = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for (scale, count) in [
+            (DVec3::new(1.0, 1.0, 1e-3), 48),
+            (DVec3::new(1.0, 0.3, 0.1), 12),
+            (DVec3::ONE, 30),
+            (DVec3::new(1.0, 1e-9, 1e-9), 20),
+            (DVec3::new(2.0, 1.0, 0.0), 3),
+        ] {
+            let mut m = Moments::around(DVec3::new(10.0, -4.0, 2.0));
+            for _ in 0..count {
+                m.add(DVec3::new(10.0, -4.0, 2.0) + scale * DVec3::new(rnd(), rnd(), rnd()));
+            }
+            match (m.variation(), m.plane()) {
+                (Some(v), Some(fit)) => assert_near!(v, fit.variation(), 1e-12),
+                (None, None) => {}
+                other => panic!("{scale}: {other:?}"),
+            }
+        }
+    }
 
     #[test]
     fn a_tilted_plane_is_found_exactly() {

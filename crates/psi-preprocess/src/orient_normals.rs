@@ -11,8 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use psi_octree::{Monitor, MortonIndex, OrientedPoint};
 
-/// Neighbours per point in the graph.
-const K: usize = 8;
+use crate::neighbour_graph::{Graph, K, SlotGraphs, slot_graphs};
 
 /// What the consistency check found.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -49,20 +48,6 @@ fn neighbour_pairs(points: &[OrientedPoint], stride: usize) -> Vec<Vec<(u32, f64
         let same = p.n.dot(q.p - p.p).abs() <= 0.5 * d2.sqrt();
         (j, p.n.dot(q.n), same)
     };
-    if stride == 1 {
-        // Every point: one sweep, cell by cell.
-        let by_slot = index.map_nearest(K, |s, near| {
-            near.iter()
-                .filter(|n| n.1 > 0.0)
-                .map(|&(t, d2)| pair(ids[s] as usize, ids[t as usize], d2))
-                .collect::<Vec<_>>()
-        });
-        let mut out = vec![Vec::new(); points.len()];
-        for (s, edges) in by_slot.into_iter().enumerate() {
-            out[ids[s] as usize] = edges;
-        }
-        return out;
-    }
     points
         .par_iter()
         .enumerate()
@@ -96,9 +81,13 @@ pub fn check_normal_consistency(points: &[OrientedPoint], max_queries: usize) ->
     c
 }
 
+/// An edge of the spanning tree to be: slots `to` and `from`, and their original indices, which
+/// break ties between equal weights (the tree does not depend on the points' order).
 #[derive(PartialEq)]
 struct Candidate {
     weight: f64,
+    to_id: u32,
+    from_id: u32,
     to: u32,
     from: u32,
 }
@@ -109,8 +98,8 @@ impl Ord for Candidate {
     fn cmp(&self, other: &Self) -> Ordering {
         self.weight
             .total_cmp(&other.weight)
-            .then(other.to.cmp(&self.to))
-            .then(other.from.cmp(&self.from))
+            .then(other.to_id.cmp(&self.to_id))
+            .then(other.from_id.cmp(&self.from_id))
     }
 }
 
@@ -118,36 +107,6 @@ impl PartialOrd for Candidate {
     fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
         Some(self.cmp(other))
     }
-}
-
-/// The symmetric neighbour graphs of `points` (each point's neighbours, sorted): the
-/// same-sheet pairs, and the other nearest-neighbour pairs (where noise of the order of the
-/// sample spacing tilts the offsets, a dense scan's same-sheet graph falls apart into small
-/// islands; notes: 2026-11-25-density-invariance).
-fn neighbour_graphs(points: &[OrientedPoint]) -> (Vec<Vec<u32>>, Vec<Vec<u32>>) {
-    let graph = neighbour_pairs(points, 1);
-    let n = points.len();
-    let (mut same, mut other) = (vec![Vec::new(); n], vec![Vec::new(); n]);
-    for (i, edges) in graph.iter().enumerate() {
-        for &(j, _, on_sheet) in edges {
-            let adj = if on_sheet { &mut same } else { &mut other };
-            adj[i].push(j);
-            adj[j as usize].push(i as u32);
-        }
-    }
-    for (s, o) in same.iter_mut().zip(&mut other) {
-        s.sort_unstable();
-        s.dedup();
-        o.sort_unstable();
-        o.dedup();
-        o.retain(|j| s.binary_search(j).is_err());
-    }
-    (same, other)
-}
-
-/// The same-sheet neighbour graph alone ([`neighbour_graphs`]).
-fn neighbour_graph(points: &[OrientedPoint]) -> Vec<Vec<u32>> {
-    neighbour_graphs(points).0
 }
 
 /// Carries the orientation of `seeds` (points already `done`) to the points not yet done that
@@ -159,7 +118,8 @@ fn neighbour_graph(points: &[OrientedPoint]) -> Vec<Vec<u32>> {
 /// number flipped.
 fn propagate(
     points: &mut [OrientedPoint],
-    (adj, fallback): (&[Vec<u32>], &[Vec<u32>]),
+    (adj, fallback): (&Graph, &Graph),
+    ids: &[u32],
     done: &mut [bool],
     seeds: &[u32],
     monitor: &Monitor<'_>,
@@ -169,14 +129,17 @@ fn propagate(
         |heap: &mut BinaryHeap<Candidate>, from: u32, points: &[OrientedPoint], done: &[bool]| {
             let tiers = [(adj, 1.0), (fallback, 0.0)];
             for (graph, rank) in tiers {
-                let Some(edges) = graph.get(from as usize) else {
-                    continue;
-                };
-                for &to in edges {
+                for &to in graph.row(from as usize) {
                     if !done[to as usize] {
                         let dot = points[from as usize].n.dot(points[to as usize].n);
                         let weight = dot.abs() + rank;
-                        heap.push(Candidate { weight, to, from });
+                        heap.push(Candidate {
+                            weight,
+                            to_id: ids[to as usize],
+                            from_id: ids[from as usize],
+                            to,
+                            from,
+                        });
                     }
                 }
             }
@@ -217,23 +180,30 @@ pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
 /// [`orient_normals`], stopping early once `monitor`'s flag is set (checked every few
 /// thousand points; the caller then discards the points).
 pub fn orient_normals_with(points: &mut [OrientedPoint], monitor: &Monitor<'_>) -> usize {
-    let (adj, fallback) = neighbour_graphs(points);
+    // In Morton order (slots), where the propagation's next points lie in cache.
+    let mut graphs = slot_graphs(points);
     if monitor.stopped() {
         return 0;
     }
-    let n = points.len();
+    let SlotGraphs {
+        ids,
+        sorted,
+        same: adj,
+        other: fallback,
+    } = &mut graphs;
+    let n = sorted.len();
     let mut done = vec![false; n];
     let mut order: Vec<u32> = (0..n as u32).collect();
-    order.sort_by(|&a, &b| {
-        points[b as usize]
+    order.par_sort_unstable_by(|&a, &b| {
+        sorted[b as usize]
             .p
             .x
-            .total_cmp(&points[a as usize].p.x)
-            .then(a.cmp(&b))
+            .total_cmp(&sorted[a as usize].p.x)
+            .then(ids[a as usize].cmp(&ids[b as usize]))
     });
     // The first seed: the largest x of the largest same-sheet island (the whole surface,
     // usually), so that a small island at the extreme does not set everyone's side.
-    let island = islands(&adj);
+    let island = islands(adj);
     let mut size = vec![0usize; n];
     for &c in &island {
         size[c as usize] += 1;
@@ -250,22 +220,23 @@ pub fn orient_normals_with(points: &mut [OrientedPoint], monitor: &Monitor<'_>) 
         if done[seed as usize] {
             continue;
         }
-        if points[seed as usize].n.x < 0.0 {
-            points[seed as usize].n = -points[seed as usize].n;
+        if sorted[seed as usize].n.x < 0.0 {
+            sorted[seed as usize].n = -sorted[seed as usize].n;
             flips += 1;
         }
         done[seed as usize] = true;
-        flips += propagate(points, (&adj, &fallback), &mut done, &[seed], monitor);
+        flips += propagate(sorted, (adj, fallback), ids, &mut done, &[seed], monitor);
         if monitor.stopped() {
             break;
         }
     }
+    graphs.write_normals(points);
     flips
 }
 
 /// The connected components of `adj` (symmetric): per point, the smallest point index of its
 /// component.
-fn islands(adj: &[Vec<u32>]) -> Vec<u32> {
+fn islands(adj: &Graph) -> Vec<u32> {
     let mut label = vec![u32::MAX; adj.len()];
     let mut stack = Vec::new();
     for start in 0..adj.len() {
@@ -275,7 +246,7 @@ fn islands(adj: &[Vec<u32>]) -> Vec<u32> {
         label[start] = start as u32;
         stack.push(start as u32);
         while let Some(i) = stack.pop() {
-            for &j in &adj[i as usize] {
+            for &j in adj.row(i as usize) {
                 if label[j as usize] == u32::MAX {
                     label[j as usize] = start as u32;
                     stack.push(j);
@@ -318,11 +289,22 @@ pub fn orient_toward(points: &mut [OrientedPoint], viewpoint: glam::DVec3) -> us
         }
     }
     if done.iter().any(|d| !d) {
-        let adj = neighbour_graph(points);
-        let seeds: Vec<u32> = (0..points.len() as u32)
-            .filter(|&i| done[i as usize])
+        // By slot (Morton order), then back.
+        let mut graphs = slot_graphs(points);
+        let mut slot_done: Vec<bool> = graphs.ids.iter().map(|&i| done[i as usize]).collect();
+        let seeds: Vec<u32> = (0..slot_done.len() as u32)
+            .filter(|&s| slot_done[s as usize])
             .collect();
-        flips += propagate(points, (&adj, &[]), &mut done, &seeds, &Monitor::silent());
+        let SlotGraphs {
+            ids, sorted, same, ..
+        } = &mut graphs;
+        let none = Graph::empty();
+        let silent = Monitor::silent();
+        flips += propagate(sorted, (same, &none), ids, &mut slot_done, &seeds, &silent);
+        for (&i, d) in graphs.ids.iter().zip(&slot_done) {
+            done[i as usize] = *d;
+        }
+        graphs.write_normals(points);
     }
     for (p, d) in points.iter_mut().zip(&done) {
         if !*d && facing(p) < 0.0 {
@@ -391,8 +373,7 @@ mod tests {
             .zip(normals)
             .map(|(&p, n)| OrientedPoint { p, n })
             .collect();
-        let (adj, _) = neighbour_graphs(&pts);
-        let label = islands(&adj);
+        let label = islands(&slot_graphs(&pts).same);
         let mut sizes = std::collections::BTreeMap::new();
         for l in &label {
             *sizes.entry(*l).or_insert(0usize) += 1;
