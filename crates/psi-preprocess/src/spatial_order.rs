@@ -32,19 +32,24 @@ impl SpatialOrder {
             let e = b.extent().max_element();
             (b.min, if e > 0.0 { 2_097_151.0 / e } else { 0.0 })
         });
-        let keys: Vec<u64> = positions
+        // (key, index) pairs sorted in place: no indirection in the comparisons (sorting indices
+        // by a key looked up per comparison took 3.5 s at 10 M points).
+        let mut keyed: Vec<(u64, u32)> = positions
             .par_iter()
-            .map(|p| {
+            .enumerate()
+            .map(|(i, p)| {
                 if !p.is_finite() {
-                    return u64::MAX;
+                    return (u64::MAX, i as u32);
                 }
                 let q = ((*p - lo) * scale).clamp(DVec3::ZERO, DVec3::splat(2_097_151.0));
-                spread(q.x as u64) | spread(q.y as u64) << 1 | spread(q.z as u64) << 2
+                let key = spread(q.x as u64) | spread(q.y as u64) << 1 | spread(q.z as u64) << 2;
+                (key, i as u32)
             })
             .collect();
-        let mut order: Vec<u32> = (0..positions.len() as u32).collect();
-        order.par_sort_by_key(|&i| (keys[i as usize], i));
-        Self { order }
+        keyed.par_sort_unstable();
+        Self {
+            order: keyed.into_iter().map(|k| k.1).collect(),
+        }
     }
 
     /// `values` (shape: N, the caller's order) in Morton order.
