@@ -45,6 +45,7 @@ mod neighbour_graph;
 mod orient_normals;
 mod point_spread;
 mod preprocess;
+mod spanning_forest;
 mod spatial_order;
 
 pub use denoise::{DenoiseReport, denoise, denoise_with};

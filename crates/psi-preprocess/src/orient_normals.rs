@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 use psi_octree::{Monitor, MortonIndex, OrientedPoint};
 
 use crate::neighbour_graph::{Graph, K, SlotGraphs, slot_graphs};
+use crate::spanning_forest::maximum_spanning_forest;
 
 /// What the consistency check found.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -169,10 +170,11 @@ fn propagate(
 
 /// Reorients normals consistently: the point with the largest x of the largest same-sheet
 /// island gets a normal with positive x (it is on the convex hull, so outward is +x there),
-/// then a maximum-|n_i·n_j| spanning tree (Prim) carries the orientation over the same-sheet
-/// pairs and, from island to island, over the other nearest-neighbour pairs ([`propagate`]);
-/// what no pair reaches starts again from its own largest x. Returns the number of normals
-/// flipped. Deterministic.
+/// then the maximum-|n_i·n_j| spanning forest carries the orientation over the same-sheet
+/// pairs and, from island to island, over the other nearest-neighbour pairs (every same-sheet
+/// edge weighs 1 more; Kruskal, ties to the lower input indices: the tree Hoppe et al. grow by
+/// Prim); a tree no pair links to one already oriented starts again from its own largest x.
+/// Returns the number of normals flipped. Deterministic, whatever the thread count.
 pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
     orient_normals_with(points, &Monitor::silent())
 }
@@ -215,7 +217,21 @@ pub fn orient_normals_with(points: &mut [OrientedPoint], monitor: &Monitor<'_>) 
     {
         order[..=first].rotate_right(1);
     }
+    // The maximum-|n_i·n_j| spanning forest, every same-sheet edge above every other one,
+    // then each tree oriented from its first seed along its edges.
+    let forest = maximum_spanning_forest(n, ids, |i, out| {
+        for (graph, rank) in [(&*adj, 1.0), (&*fallback, 0.0)] {
+            for &j in graph.row(i) {
+                let dot = sorted[i].n.dot(sorted[j as usize].n);
+                out.push((j, dot.abs() + rank));
+            }
+        }
+    });
+    if monitor.stopped() {
+        return 0;
+    }
     let mut flips = 0;
+    let mut stack = Vec::new();
     for &seed in &order {
         if done[seed as usize] {
             continue;
@@ -225,9 +241,18 @@ pub fn orient_normals_with(points: &mut [OrientedPoint], monitor: &Monitor<'_>) 
             flips += 1;
         }
         done[seed as usize] = true;
-        flips += propagate(sorted, (adj, fallback), ids, &mut done, &[seed], monitor);
-        if monitor.stopped() {
-            break;
+        stack.push(seed);
+        while let Some(from) = stack.pop() {
+            for &to in &forest[from as usize] {
+                if !done[to as usize] {
+                    done[to as usize] = true;
+                    if sorted[to as usize].n.dot(sorted[from as usize].n) < 0.0 {
+                        sorted[to as usize].n = -sorted[to as usize].n;
+                        flips += 1;
+                    }
+                    stack.push(to);
+                }
+            }
         }
     }
     graphs.write_normals(points);

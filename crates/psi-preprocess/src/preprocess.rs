@@ -381,7 +381,8 @@ pub fn preprocess(
 }
 
 /// [`preprocess`], reporting each step that runs to `monitor` as a stage (`"densify"`,
-/// `"outliers"`, `"normals"`, `"noise"`, `"denoise"`, each 0 then 1 of 1) and returning
+/// `"outliers"`, `"normals"` (with `"orient"` inside it when estimated normals are oriented by
+/// propagation), `"noise"`, `"denoise"`, each 0 then 1 of 1) and returning
 /// [`PreprocessError::Interrupted`] between steps once its stop flag is set. A run that
 /// completes equals [`preprocess`]'s.
 pub fn preprocess_with(
@@ -513,7 +514,9 @@ pub fn preprocess_with(
                 NormalTreatment::EstimatedTowardViewpoint
             }
             None => {
+                step("orient", 0)?;
                 normals_flipped = orient_normals_with(&mut points, monitor);
+                step("orient", 1)?;
                 monitor.check()?;
                 NormalTreatment::EstimatedPropagated
             }

@@ -78,6 +78,8 @@ pub(crate) fn build_mpu(
     points: &[psi::OrientedPoint],
     params: &psi::MpuParams,
 ) -> Result<psi::Mpu, psi::MpuError> {
+    // The build's own work before its first level (the frame, the point index) is the MPU's.
+    crate::stage_clock::enter("mpu");
     let bar = ui.bar("MPU levels", u64::from(params.max_depth) + 1);
     let observe = |stage: &str, done: u64, total: u64| {
         crate::stage_clock::observe(stage, done, total);
@@ -94,6 +96,7 @@ pub(crate) fn build_mpu(
 
 /// Samples with a progress bar over the relaxation iterations.
 pub(crate) fn sample(ui: Ui, mpu: &psi::Mpu, params: &psi::ParticleParams) -> psi::Sampling {
+    crate::stage_clock::enter("seed");
     let bar = ui.bar("relaxation", params.iterations as u64);
     let observe = |stage: &str, done: u64, total: u64| {
         crate::stage_clock::observe(stage, done, total);
