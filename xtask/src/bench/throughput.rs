@@ -349,8 +349,8 @@ fn write_up(dense: &[Dense], bunny: &[(&str, f64, Vec<f64>)]) -> (String, Vec<Ch
                     ratio,
                     1.5,
                     format!(
-                        "{} {s} {ratio:.2}",
-                        if d.normals { "normals" } else { "xyz" }
+                        "{}: {s} {ratio:.2}",
+                        if d.normals { "with normals" } else { "x y z" }
                     ),
                 ));
             }
