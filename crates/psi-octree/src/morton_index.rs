@@ -163,8 +163,17 @@ impl std::fmt::Debug for MortonIndex {
 }
 
 impl MortonIndex {
-    /// Sorts `positions` (shape: N, world units; N < 2^32) into Morton order, ties by index.
+    /// Sorts `positions` (shape: N, world units) into Morton order, ties by index.
+    ///
+    /// # Panics
+    ///
+    /// When N ≥ 2^32 − 1 (indices are 32-bit).
     pub fn new(positions: &[DVec3]) -> Self {
+        assert!(
+            positions.len() < u32::MAX as usize,
+            "MortonIndex: {} points, at most 2^32 - 2",
+            positions.len()
+        );
         let bounds = Aabb::from_points(positions.iter().copied().filter(|p| p.is_finite()));
         let (lo, extent) = bounds.map_or((DVec3::ZERO, 0.0), |b| (b.min, b.extent().max_element()));
         let scale = if extent > 0.0 { GRID / extent } else { 0.0 };
@@ -184,7 +193,8 @@ impl MortonIndex {
         Self {
             lo,
             scale,
-            slack: 1e-9 * extent,
+            // Rounding of positions far from the origin as well as of the quantisation.
+            slack: 1e-9 * extent + 8.0 * f64::EPSILON * (lo.abs().max_element() + extent),
             cells: cells_per_level(&keys),
             keys,
             ids,
@@ -368,6 +378,7 @@ impl MortonIndex {
     /// increasing (distance, original index) order; fewer when fewer are indexed, none for a
     /// non-finite `x`.
     pub fn nearest(&self, x: DVec3, k: usize) -> Vec<(u32, f64)> {
+        let k = k.min(self.len());
         let level = self.level_for(k);
         self.search(x, k, u32::MAX, level)
             .into_iter()
@@ -393,8 +404,9 @@ impl MortonIndex {
         k: usize,
         f: impl Fn(usize, &[(u32, f64)]) -> T + Sync,
     ) -> Vec<T> {
-        if self.is_empty() {
-            return Vec::new();
+        let k = k.min(self.len().saturating_sub(1));
+        if k == 0 {
+            return (0..self.len()).map(|s| f(s, &[])).collect();
         }
         let level = self.level_for(k);
         let shift = 3 * (BITS - level);
@@ -421,7 +433,6 @@ impl MortonIndex {
         let ring = |o: &[i64; 3]| o.iter().map(|v| v.abs()).max().unwrap_or(0);
         offsets.sort_by_key(|o| (ring(o), o.iter().map(|v| v * v).sum::<i64>()));
         let inner = offsets.iter().filter(|o| ring(o) <= 1).count();
-        // The occupied cells at `offsets` from cell `c`, with their slots.
         // The cell of `key` among `cell_keys`, searched outward from cell `from` (neighbours
         // in space are mostly near in Morton order: the search stays in cache).
         let find = |key: u64, from: usize| -> Option<usize> {
@@ -452,6 +463,7 @@ impl MortonIndex {
             let j = lo + cell_keys[lo..hi].partition_point(|&k| k < key);
             (j < cell_keys.len() && cell_keys[j] == key).then_some(j)
         };
+        // The occupied cells at `offsets` from cell `c` (cell number `from`), with their slots.
         let cells_at =
             |c: [u64; 3], from: usize, offsets: &[[i64; 3]]| -> Vec<([u64; 3], (usize, usize))> {
                 offsets

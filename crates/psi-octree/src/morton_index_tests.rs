@@ -87,6 +87,16 @@ fn degenerate_clouds() {
     let index = MortonIndex::new(&holes);
     assert_eq!(index.len(), 398);
     assert!(index.nearest(DVec3::NAN, 3).is_empty());
+    // k of zero or beyond the points.
+    assert_eq!(index.map_nearest(0, |_, near| near.len()), vec![0; 398]);
+    assert_eq!(index.nearest(DVec3::ZERO, usize::MAX).len(), 398);
+    check_all(&holes[..20], 1000);
+    // Far from the origin: 1 m of points 6.4e6 m away (earth-centred coordinates).
+    let far: Vec<DVec3> = cloud(6, 500)
+        .iter()
+        .map(|p| *p * 0.1 + DVec3::new(6.4e6, -1.2e6, 3.3e5))
+        .collect();
+    check_all(&far, 9);
 }
 
 proptest! {

@@ -48,8 +48,10 @@ pub fn estimate_normals_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<
         }
         let p = by_slot[s];
         let mut moments = Moments::around(p);
-        // The neighbourhood of least variation (eigenvalues only), then its plane.
-        let mut best: Option<(f64, Moments)> = None;
+        // The neighbourhoods by variation (eigenvalues only), then the plane of the least
+        // varied one that has a plane (the closed form and the decomposition can disagree
+        // at the flatness limit).
+        let mut tried: Vec<(f64, Moments)> = Vec::with_capacity(SIZES.len());
         let mut sizes = SIZES.iter().peekable();
         // The point itself, then its neighbours nearest first.
         let points = std::iter::once(p).chain(near.iter().map(|&(t, _)| by_slot[t as usize]));
@@ -57,16 +59,19 @@ pub fn estimate_normals_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<
             moments.add(q);
             if sizes.peek() == Some(&&moments.count()) {
                 sizes.next();
-                if let Some(v) = moments.variation()
-                    && best.as_ref().is_none_or(|(b, _)| v < *b)
-                {
-                    best = Some((v, moments));
+                if let Some(v) = moments.variation() {
+                    tried.push((v, moments));
                 }
             }
         }
-        // Fewer points than the smallest size: the plane of all of them.
-        let chosen = best.map_or(moments, |(_, m)| m);
-        chosen.plane().map_or(DVec3::ZERO, |fit| fit.normal)
+        // Stable: equal variations keep the smaller neighbourhood first.
+        tried.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // None of the sizes (fewer points than the smallest): the plane of all of them.
+        tried
+            .iter()
+            .find_map(|(_, m)| m.plane())
+            .or_else(|| moments.plane())
+            .map_or(DVec3::ZERO, |fit| fit.normal)
     });
     // Back to the caller's order (a point with a non-finite coordinate has no normal).
     let mut out = vec![DVec3::ZERO; positions.len()];

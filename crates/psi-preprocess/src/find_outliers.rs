@@ -115,8 +115,8 @@ fn off_surface(fit: &QuadricFit, p: DVec3, spacing: f64) -> bool {
 /// from their centroid in their plane at most 0.6 d(p)), on a quadric that fits them within a
 /// spacing, is kept. Any other point is an outlier when its nearest core point is farther than
 /// 3 spacings of the core points there, or when it fails the quadric or normal test against its
-/// 16 nearest core points. Inputs of at most 16 points have no outliers. Deterministic and
-/// independent of the thread count.
+/// 16 nearest core points. Inputs of at most 16 points have no outliers; a point with a
+/// non-finite coordinate is one (far). Deterministic and independent of the thread count.
 ///
 /// ```
 /// use glam::DVec3;

@@ -94,7 +94,14 @@ impl Moments {
         if self.count < 3 {
             return None;
         }
+        // Scaled to a largest entry of 1: no underflow or overflow in the squares and the
+        // determinant (the variation is a ratio, unchanged by the scale).
         let c = self.covariance();
+        let largest = c.amax();
+        if !(largest > 0.0 && largest.is_finite()) {
+            return None;
+        }
+        let c = c / largest;
         let off = c[(0, 1)].powi(2) + c[(0, 2)].powi(2) + c[(1, 2)].powi(2);
         let q = c.trace() / 3.0;
         let diag = (c[(0, 0)] - q).powi(2) + (c[(1, 1)] - q).powi(2) + (c[(2, 2)] - q).powi(2);

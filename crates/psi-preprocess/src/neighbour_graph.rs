@@ -1,7 +1,7 @@
 //! The symmetric nearest-neighbour graphs that normal orientation propagates over, built in
 //! Morton order (the points' slots in a [`MortonIndex`], where a propagation's next points lie
 //! in cache) and stored compressed: one offset per point, the neighbours flat, sorted. Per
-//! point, its K nearest others that do not coincide with it; a pair is on the same sheet when
+//! point, its K nearest others less those that coincide with it; a pair is on the same sheet when
 //! the offset between the points is mostly tangential (|n_i·(p_j − p_i)| ≤ ½|p_j − p_i|, from
 //! either end), so the two faces of a thin part do not pair as long as they are farther apart
 //! than the sample spacing; the other pairs form a second graph (where noise of the order of

@@ -179,8 +179,8 @@ pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
     orient_normals_with(points, &Monitor::silent())
 }
 
-/// [`orient_normals`], stopping early once `monitor`'s flag is set (checked every few
-/// thousand points; the caller then discards the points).
+/// [`orient_normals`], stopping early once `monitor`'s flag is set (checked between its
+/// steps: the neighbour graphs, the spanning forest; the caller then discards the points).
 pub fn orient_normals_with(points: &mut [OrientedPoint], monitor: &Monitor<'_>) -> usize {
     // In Morton order (slots), where the propagation's next points lie in cache.
     let mut graphs = slot_graphs(points);
@@ -290,9 +290,9 @@ const FACING: f64 = 0.3;
 /// Orients normals toward `viewpoint` (world units), the sensor of a single range scan: every
 /// point that faces it clearly (|cos| ≥ 0.3 between its normal and the direction to the sensor)
 /// gets the side facing it, n·(viewpoint − p) > 0; the others, nearer the view's silhouette,
-/// take their side from those by propagation over the neighbour graph (as
-/// [`orient_normals`]), or the sensor's when no such neighbour reaches them. Returns the number
-/// flipped. Deterministic.
+/// take their side from those by propagation over the same-sheet neighbour graph (Prim's
+/// maximum-|n_i·n_j| tree grown from all the facing points at once), or the sensor's when no
+/// such neighbour reaches them. Returns the number flipped. Deterministic.
 ///
 /// ```
 /// use glam::DVec3;
