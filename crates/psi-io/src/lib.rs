@@ -83,6 +83,7 @@ mod stream;
 mod stream_ply;
 mod stream_xyz;
 mod text;
+mod vertex_record;
 mod write_las;
 mod write_ply;
 

@@ -16,10 +16,13 @@ use ply_rs_bw::ply::{
     ScalarType,
 };
 
-use crate::attributes::{PointAttributes, channel_from_u16, channel_from_unit, intensity_value};
+use crate::attributes::PointAttributes;
 use crate::error::ReadError;
 use crate::model::Parsed;
 use crate::text::is_blank;
+use crate::vertex_record::{
+    INTENSITY_NAMES, VertexRecord, decode_vertex_block, fixed_record_size, scalar_size,
+};
 
 /// The two names PLY writers use for a face's vertex index list.
 const INDEX_LISTS: [&str; 2] = ["vertex_indices", "vertex_index"];
@@ -273,6 +276,24 @@ impl Records<'_> {
         }
     }
 
+    /// The next `def.count` records as one block of bytes, and whether they are big-endian,
+    /// when they are binary, of one size (no list property) and all there; the cursor moves
+    /// past them. `None` otherwise (the cursor stays).
+    pub(crate) fn fixed_block(&mut self, def: &ElementDef) -> Option<(&[u8], bool)> {
+        let big_endian = match self.encoding {
+            Encoding::Ascii => return None,
+            Encoding::BinaryLittleEndian => false,
+            Encoding::BinaryBigEndian => true,
+        };
+        let bytes = fixed_record_size(def)?.checked_mul(def.count)?;
+        if bytes > self.data.len() || def.count == 0 {
+            return None;
+        }
+        let (block, rest) = self.data.split_at(bytes);
+        self.data = rest;
+        Some((block, big_endian))
+    }
+
     /// The line of the record just read, for ASCII files.
     pub(crate) fn last_line(&self) -> Option<usize> {
         (self.encoding == Encoding::Ascii).then(|| self.line - 1)
@@ -295,15 +316,6 @@ impl Records<'_> {
     }
 }
 
-fn scalar_size(s: &ScalarType) -> usize {
-    match s {
-        ScalarType::Char | ScalarType::UChar => 1,
-        ScalarType::Short | ScalarType::UShort => 2,
-        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
-        ScalarType::Double => 8,
-    }
-}
-
 fn read_vertices(
     records: &mut Records<'_>,
     def: &ElementDef,
@@ -311,6 +323,22 @@ fn read_vertices(
     parsed: &mut Parsed,
 ) -> Result<(), ReadError> {
     let normals = layout.normals;
+    // Binary records of one size: decoded in parallel through the same setters.
+    if let Some((block, big_endian)) = records.fixed_block(def) {
+        let wanted = (normals, layout.colors, layout.intensity);
+        let block = decode_vertex_block(block, def, big_endian, wanted).map_err(|index| {
+            ReadError::NonFinite {
+                element: "vertex",
+                index,
+                what: "position",
+                line: None,
+            }
+        })?;
+        parsed.vertices = block.positions;
+        parsed.normals = block.normals;
+        parsed.attributes = block.attributes;
+        return Ok(());
+    }
     let parser = Parser::<VertexRecord>::new();
     let capacity = records.capacity(def.count, def);
     let mut positions = Vec::with_capacity(capacity);
@@ -422,93 +450,6 @@ struct Skip;
 impl PropertyAccess for Skip {
     fn new() -> Self {
         Skip
-    }
-}
-
-/// The intensity property names read, in order of preference.
-const INTENSITY_NAMES: [&str; 2] = ["intensity", "scalar_intensity"];
-
-/// `x y z nx ny nz` of one vertex, any numeric type widened to f64, with its colour (8 bits
-/// per channel: `uchar` as is, 16-bit types by their high byte, other integers clamped to
-/// 0–255, floats scaled from 0–1) and intensities; other properties ignored.
-struct VertexRecord {
-    v: [f64; 6],
-    rgb: [u8; 3],
-    intensity: [f32; 2],
-}
-
-/// How a colour channel of some PLY type becomes 8 bits.
-enum Channel {
-    Byte(u8),
-    Wide(u16),
-    Int(i64),
-    Unit(f64),
-}
-
-impl VertexRecord {
-    fn set(&mut self, name: &str, value: f64, channel: Channel) -> PropertyAccessResult {
-        let slot = match name {
-            "x" => 0,
-            "y" => 1,
-            "z" => 2,
-            "nx" => 3,
-            "ny" => 4,
-            "nz" => 5,
-            "red" | "green" | "blue" => {
-                let k = usize::from(name != "red") + usize::from(name == "blue");
-                self.rgb[k] = match channel {
-                    Channel::Byte(v) => v,
-                    Channel::Wide(v) => channel_from_u16(v),
-                    Channel::Int(v) => v.clamp(0, 255) as u8,
-                    Channel::Unit(v) => channel_from_unit(v),
-                };
-                return PropertyAccessResult::Set;
-            }
-            _ => match INTENSITY_NAMES.iter().position(|&n| n == name) {
-                Some(k) => {
-                    self.intensity[k] = intensity_value(value);
-                    return PropertyAccessResult::Set;
-                }
-                None => return PropertyAccessResult::Ignored,
-            },
-        };
-        self.v[slot] = value;
-        PropertyAccessResult::Set
-    }
-}
-
-impl PropertyAccess for VertexRecord {
-    fn new() -> Self {
-        Self {
-            v: [0.0; 6],
-            rgb: [0; 3],
-            intensity: [0.0; 2],
-        }
-    }
-    fn set_char(&mut self, name: &str, value: i8) -> PropertyAccessResult {
-        self.set(name, f64::from(value), Channel::Int(i64::from(value)))
-    }
-    fn set_uchar(&mut self, name: &str, value: u8) -> PropertyAccessResult {
-        self.set(name, f64::from(value), Channel::Byte(value))
-    }
-    fn set_short(&mut self, name: &str, value: i16) -> PropertyAccessResult {
-        let wide = Channel::Wide(value.max(0) as u16);
-        self.set(name, f64::from(value), wide)
-    }
-    fn set_ushort(&mut self, name: &str, value: u16) -> PropertyAccessResult {
-        self.set(name, f64::from(value), Channel::Wide(value))
-    }
-    fn set_int(&mut self, name: &str, value: i32) -> PropertyAccessResult {
-        self.set(name, f64::from(value), Channel::Int(i64::from(value)))
-    }
-    fn set_uint(&mut self, name: &str, value: u32) -> PropertyAccessResult {
-        self.set(name, f64::from(value), Channel::Int(i64::from(value)))
-    }
-    fn set_float(&mut self, name: &str, value: f32) -> PropertyAccessResult {
-        self.set(name, f64::from(value), Channel::Unit(f64::from(value)))
-    }
-    fn set_double(&mut self, name: &str, value: f64) -> PropertyAccessResult {
-        self.set(name, value, Channel::Unit(value))
     }
 }
 
