@@ -22,6 +22,7 @@ use psi_octree::{Aabb, Monitor, PointIndex};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::disjoint_sets::Sets;
 use crate::local_fit::fit_plane;
 use crate::median::median;
 
@@ -238,25 +239,6 @@ impl Scale {
     }
 }
 
-/// Disjoint sets over `0..n` (union by the smaller root, path halving).
-struct Sets(Vec<u32>);
-
-impl Sets {
-    fn root(&mut self, mut i: u32) -> u32 {
-        while self.0[i as usize] != i {
-            let up = self.0[self.0[i as usize] as usize];
-            self.0[i as usize] = up;
-            i = up;
-        }
-        i
-    }
-
-    fn join(&mut self, a: u32, b: u32) {
-        let (a, b) = (self.root(a), self.root(b));
-        self.0[a.max(b) as usize] = a.min(b);
-    }
-}
-
 /// Bits per cube coordinate in a cube key.
 const KEY_BITS: u32 = 21;
 
@@ -300,7 +282,7 @@ fn small_groups(
         .par_iter()
         .map(|k| cubes.binary_search(k).unwrap_or(0) as u32)
         .collect();
-    let mut sets = Sets((0..cubes.len() as u32).collect());
+    let mut sets = Sets::new(cubes.len());
     for (c, &key) in cubes.iter().enumerate() {
         let at = [0, 1, 2].map(|a| key >> (a * KEY_BITS) & ((1 << KEY_BITS) - 1));
         // Offset (x, y, z) ∈ {-1, 0, 1}³ has number 13 + x + 3y + 9z, and its cube's key is

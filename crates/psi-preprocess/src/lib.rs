@@ -34,6 +34,7 @@
 
 mod denoise;
 mod densify_mesh;
+mod disjoint_sets;
 mod estimate_noise;
 mod estimate_normals;
 mod find_clumps;

@@ -8,23 +8,11 @@
 
 use rayon::prelude::*;
 
+use crate::disjoint_sets::Sets;
+
 /// An edge to be sorted: the weight's bits (a non-negative f64 orders as its bits), the
 /// endpoints' original indices (lower, higher), and the endpoints.
 type Keyed = (u64, u64, u32, u32);
-
-/// Disjoint sets over slots (union by the smaller root, path halving).
-struct Sets(Vec<u32>);
-
-impl Sets {
-    fn root(&mut self, mut i: u32) -> u32 {
-        while self.0[i as usize] != i {
-            let up = self.0[self.0[i as usize] as usize];
-            self.0[i as usize] = up;
-            i = up;
-        }
-        i
-    }
-}
 
 /// The maximum spanning forest of the undirected graph over `n` points whose edges `edges(i)`
 /// appends for each point i as `(j, weight)` (symmetric: listed from both ends with the same
@@ -63,12 +51,10 @@ pub(crate) fn maximum_spanning_forest(
             a
         });
     keyed.par_sort_unstable();
-    let mut sets = Sets((0..n as u32).collect());
+    let mut sets = Sets::new(n);
     let mut forest = vec![Vec::new(); n];
     for &(_, _, a, b) in &keyed {
-        let (ra, rb) = (sets.root(a), sets.root(b));
-        if ra != rb {
-            sets.0[ra.max(rb) as usize] = ra.min(rb);
+        if sets.join(a, b) {
             forest[a as usize].push(b);
             forest[b as usize].push(a);
         }
@@ -131,12 +117,8 @@ mod tests {
                     .filter(|k| mask >> k & 1 == 1)
                     .map(|k| (all[k].0, all[k].1))
                     .collect();
-                let mut sets = Sets((0..n as u32).collect());
-                let acyclic = pick.iter().all(|&(a, b)| {
-                    let (ra, rb) = (sets.root(a as u32), sets.root(b as u32));
-                    sets.0[ra.max(rb) as usize] = ra.min(rb);
-                    ra != rb
-                });
+                let mut sets = Sets::new(n);
+                let acyclic = pick.iter().all(|&(a, b)| sets.join(a as u32, b as u32));
                 if acyclic {
                     let cand = (pick.len(), weight(&pick));
                     if cand.0 > best.0 || (cand.0 == best.0 && cand.1 > best.1) {
