@@ -247,6 +247,9 @@ pub(crate) fn decode_vertex_block(
 
 #[cfg(test)]
 mod tests {
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
     use crate::read_ply::read_ply;
 
     /// One property of the test files: its PLY type and name.
@@ -319,13 +322,8 @@ mod tests {
     /// time parser of `ply-rs-bw`; all three give the same points and attributes.
     #[test]
     fn binary_blocks_decode_as_the_record_parser_reads_text() {
-        let mut s = 99u64;
-        let mut rnd = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            s
-        };
+        let mut rng = Pcg64Mcg::seed_from_u64(99);
+        let mut rnd = move || rng.random::<u64>();
         for layout in LAYOUTS {
             for count in [1usize, 7, 70_000] {
                 let rows: Vec<Vec<u64>> = (0..count)

@@ -50,7 +50,7 @@ pub use cell::{Cell, NO_CELL};
 pub use error::OctreeError;
 pub use geometry::{Aabb, OrientedPoint};
 pub use monitor::{Interrupted, Monitor, Observer, StopFlag};
-pub use morton_index::MortonIndex;
+pub use morton_index::{MortonIndex, morton_code};
 pub use octree::{
     CellView, DEPTH_LIMIT, KnownPartitions, Octree, OctreeBuffers, OctreeBuild, OctreeParams,
     RootCube, root_cube,

@@ -38,7 +38,19 @@ fn spread(x: u64) -> u64 {
     (x | x << 2) & 0x1249_2492_4924_9249
 }
 
-/// The Morton code of cell coordinates `c` (each below 2^21).
+/// The Morton (Z-order) code of integer coordinates `c` (each below 2^21): their bits
+/// interleaved, x lowest.
+///
+/// ```
+/// assert_eq!(psi_octree::morton_code([1, 0, 0]), 1);
+/// assert_eq!(psi_octree::morton_code([0, 1, 1]), 0b110);
+/// assert_eq!(psi_octree::morton_code([3, 0, 0]), 0b1001);
+/// ```
+pub fn morton_code(c: [u64; 3]) -> u64 {
+    morton(c)
+}
+
+/// [`morton_code`].
 fn morton(c: [u64; 3]) -> u64 {
     spread(c[0]) | spread(c[1]) << 1 | spread(c[2]) << 2
 }

@@ -20,15 +20,9 @@ fn brute(points: &[DVec3], x: DVec3, k: usize, skip: Option<usize>) -> Vec<(u32,
 /// A cloud with what makes nearest neighbours hard: a dense sheet, a sparse patch, exact
 /// grid ties, coincident twins and far strays.
 fn cloud(seed: u64, n: usize) -> Vec<DVec3> {
-    let mut s = seed
-        .wrapping_mul(6364136223846793005)
-        .wrapping_add(1442695040888963407);
-    let mut rnd = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    };
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+    let mut rnd = move || rng.random::<f64>();
     let mut p = Vec::new();
     for i in 0..n {
         let v = match i % 10 {

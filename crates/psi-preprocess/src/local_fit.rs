@@ -310,13 +310,9 @@ mod tests {
     /// isotropic and degenerate sets.
     #[test]
     fn closed_form_variation_equals_the_eigen_decompositions() {
-        let mut s = 7u64;
-        let mut rnd = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
+        let mut rnd = move || rng.random::<f64>() - 0.5;
         for (scale, count) in [
             (DVec3::new(1.0, 1.0, 1e-3), 48),
             (DVec3::new(1.0, 0.3, 0.1), 12),

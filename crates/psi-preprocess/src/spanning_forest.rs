@@ -70,13 +70,9 @@ mod tests {
     /// forests found by exhaustive search on small graphs, and the forest spans each component.
     #[test]
     fn the_forest_is_maximum_and_spanning() {
-        let mut s = 3u64;
-        let mut rnd = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            s >> 11
-        };
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        let mut rnd = move || rng.random::<u64>();
         for _ in 0..40 {
             let n = 2 + (rnd() % 6) as usize;
             let mut all: Vec<(usize, usize, f64)> = Vec::new();

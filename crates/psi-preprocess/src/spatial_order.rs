@@ -4,7 +4,7 @@
 //! docs/notes/2026-11-24-real-scans.md).
 
 use glam::DVec3;
-use psi_octree::Aabb;
+use psi_octree::{Aabb, morton_code};
 use rayon::prelude::*;
 
 /// A permutation of points into Morton order: `order[k]` is the index (in the caller's order)
@@ -12,16 +12,6 @@ use rayon::prelude::*;
 /// function of the positions alone.
 pub(crate) struct SpatialOrder {
     order: Vec<u32>,
-}
-
-/// Spreads the low 21 bits of `x` to every third bit.
-fn spread(x: u64) -> u64 {
-    let mut x = x & 0x1f_ffff;
-    x = (x | x << 32) & 0x1f_0000_0000_ffff;
-    x = (x | x << 16) & 0x1f_0000_ff00_00ff;
-    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
-    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
-    (x | x << 2) & 0x1249_2492_4924_9249
 }
 
 impl SpatialOrder {
@@ -42,7 +32,7 @@ impl SpatialOrder {
                     return (u64::MAX, i as u32);
                 }
                 let q = ((*p - lo) * scale).clamp(DVec3::ZERO, DVec3::splat(2_097_151.0));
-                let key = spread(q.x as u64) | spread(q.y as u64) << 1 | spread(q.z as u64) << 2;
+                let key = morton_code([q.x as u64, q.y as u64, q.z as u64]);
                 (key, i as u32)
             })
             .collect();

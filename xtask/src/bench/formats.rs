@@ -172,23 +172,12 @@ fn morton_order(
         });
     let cells = ((1u64 << 21) - 1) as f64;
     let scale = cells / (hi - lo).max_element();
-    let spread = |v: u64| {
-        let mut x = v & 0x1f_ffff;
-        x = (x | x << 32) & 0x1f_0000_0000_ffff;
-        x = (x | x << 16) & 0x1f_0000_ff00_00ff;
-        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
-        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
-        (x | x << 2) & 0x1249_2492_4924_9249
-    };
     let mut keys: Vec<(u64, u32)> = positions
         .par_iter()
         .enumerate()
         .map(|(i, p)| {
             let c = ((*p - lo) * scale).to_array().map(|v| v as u64);
-            (
-                spread(c[0]) | spread(c[1]) << 1 | spread(c[2]) << 2,
-                i as u32,
-            )
+            (psi::octree::morton_code(c), i as u32)
         })
         .collect();
     keys.par_sort_unstable();
