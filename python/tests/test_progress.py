@@ -72,13 +72,13 @@ def calls(tmp_path, points, normals):
     mpu = psi.Mpu(points, normals)
     path = xyz_file(tmp_path, points)
     return {
-        # A file of positions only: read, stray points, normals estimated, noise.
-        "load_points": (["read", "outliers", "normals", "noise"],
+        # A file of positions only: read, stray points, normals estimated and oriented, noise.
+        "load_points": (["read", "outliers", "normals", "orient", "noise"],
                         lambda p: psi.load_points(path, progress=p)),
         # The built-in model carries its normals: the same stages.
         "builtin_model": (["read", "outliers", "normals", "noise"],
                           lambda p: psi.builtin_model(20000, progress=p)),
-        "PointSet": (["read", "outliers", "normals", "noise"],
+        "PointSet": (["read", "outliers", "normals", "orient", "noise"],
                      lambda p: psi.PointSet(points, progress=p)),
         "Mpu": ("mpu", lambda p: psi.Mpu(points, normals, progress=p)),
         "sample": (["seed", "relax", "cover", "measure"],

@@ -381,8 +381,8 @@ pub fn preprocess(
 }
 
 /// [`preprocess`], reporting each step that runs to `monitor` as a stage (`"densify"`,
-/// `"outliers"`, `"normals"` (with `"orient"` inside it when estimated normals are oriented by
-/// propagation), `"noise"`, `"denoise"`, each 0 then 1 of 1) and returning
+/// `"outliers"`, `"normals"`, `"orient"` (when estimated normals are oriented by
+/// propagation), `"noise"`, `"denoise"`, each 0 then 1 of 1, in that order) and returning
 /// [`PreprocessError::Interrupted`] between steps once its stop flag is set. A run that
 /// completes equals [`preprocess`]'s.
 pub fn preprocess_with(
@@ -514,16 +514,18 @@ pub fn preprocess_with(
                 NormalTreatment::EstimatedTowardViewpoint
             }
             None => {
+                // Its own stage, after the estimation's (each stage is one block).
+                step("normals", 1)?;
                 step("orient", 0)?;
                 normals_flipped = orient_normals_with(&mut points, monitor);
-                step("orient", 1)?;
                 monitor.check()?;
                 NormalTreatment::EstimatedPropagated
             }
         }
     };
     seconds.normals = t.elapsed().as_secs_f64();
-    step("normals", 1)?;
+    let oriented = !normals_given && params.viewpoint.is_none();
+    step(if oriented { "orient" } else { "normals" }, 1)?;
 
     let mut noise = None;
     let mut noise_rel = None;

@@ -148,7 +148,7 @@ pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
             peak_memory_bytes: psi::report::peak_memory_bytes(),
         });
         // Wall and CPU time per stage, from reading the input to writing the outputs.
-        report["stages"] = crate::stage_clock::report();
+        report["stage_seconds"] = crate::stage_clock::report();
         psi::save_json(path, &report)?;
     }
     ui.summary(&format!(

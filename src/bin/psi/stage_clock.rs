@@ -1,4 +1,4 @@
-//! Wall and CPU time per stage of a run, for the JSON report's `stages` object (issue
+//! Wall and CPU time per stage of a run, for the JSON report's `stage_seconds` list (issue
 //! "Throughput": each stage's CPU time against its wall time shows whether both cores work).
 //!
 //! The stages are the names the layers report to their [`psi::octree::Monitor`] (`outliers`,

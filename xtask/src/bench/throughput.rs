@@ -4,7 +4,7 @@
 //! without face normals) under `target/xtask/throughput/` (nothing large is committed); each is
 //! sampled once by the release `psi` with its default pipeline. Reported per input: wall and
 //! CPU time, points per second, peak memory per point, and each stage's wall and CPU time (the
-//! report's `stages`); then the bunny end to end and in uniform mode (10 000 particles), medians
+//! report's `stage_seconds`); then the bunny end to end and in uniform mode (10 000 particles), medians
 //! of 5 runs. Checks against the Done-when items. Writes `throughput.md` and
 //! `throughput.json` there.
 //!
@@ -117,9 +117,9 @@ struct Dense {
 }
 
 impl Dense {
-    /// `(stage, wall s, CPU s)` from the report's `stages`.
+    /// `(stage, wall s, CPU s)` from the report's `stage_seconds`.
     fn stages(&self) -> Vec<(String, f64, f64)> {
-        self.report["stages"]
+        self.report["stage_seconds"]
             .as_array()
             .map(|a| {
                 a.iter()
@@ -243,7 +243,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
                 "wall_seconds": d.wall, "cpu_seconds": d.cpu(),
                 "points_per_second": d.points as f64 / d.wall,
                 "peak_memory_bytes": d.report["peak_memory_bytes"],
-                "stages": d.report["stages"],
+                "stage_seconds": d.report["stage_seconds"],
                 "particles": d.report["particles"]["count"],
             })
         })
