@@ -5,7 +5,7 @@
 //! nearest first, pruned by the k-th distance found), and [`MortonIndex::map_nearest`] for
 //! every indexed point's own neighbours in one parallel sweep, cell by cell, where the points of
 //! a cell share the candidates gathered from the 27 cells around it (issue "Throughput": a
-//! kd-tree query per point was 40 % of a dense run; notes: 2026-11-26-throughput).
+//! kd-tree query per point dominated dense runs; notes: 2026-11-26-throughput).
 //!
 //! Neighbours come in increasing (squared distance, original index) order: the result is a
 //! function of the positions alone, whatever the thread count or the way the search met them.

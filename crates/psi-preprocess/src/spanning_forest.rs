@@ -1,8 +1,8 @@
 //! The maximum spanning forest of a weighted neighbour graph (Kruskal: edges in decreasing
 //! weight, each kept when it joins two trees), for normal orientation (Hoppe et al. 1992 grow
 //! it with Prim from a seed; without ties both give the one maximum spanning tree, and
-//! Kruskal's edge order, sorted in parallel, replaces a serial priority queue that cost 6 µs a
-//! point at 10 M points; notes: 2026-11-26-throughput). Ties between equal weights go to the
+//! Kruskal's edge order, sorted in parallel, replaces Prim's serial priority queue; notes:
+//! 2026-11-26-throughput). Ties between equal weights go to the
 //! edge whose endpoints' original indices are smaller (lower, then higher), so the forest is a
 //! function of the points alone, whatever their order or the thread count.
 

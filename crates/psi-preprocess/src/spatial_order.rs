@@ -22,8 +22,8 @@ impl SpatialOrder {
             let e = b.extent().max_element();
             (b.min, if e > 0.0 { 2_097_151.0 / e } else { 0.0 })
         });
-        // (key, index) pairs sorted in place: no indirection in the comparisons (sorting indices
-        // by a key looked up per comparison took 3.5 s at 10 M points).
+        // (key, index) pairs sorted in place: no indirection in the comparisons (a key looked
+        // up per comparison misses the cache; notes: 2026-11-26-throughput).
         let mut keyed: Vec<(u64, u32)> = positions
             .par_iter()
             .enumerate()
