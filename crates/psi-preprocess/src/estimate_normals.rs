@@ -51,7 +51,9 @@ pub fn estimate_normals_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<
         // The neighbourhoods by variation (eigenvalues only), then the plane of the least
         // varied one that has a plane (the closed form and the decomposition can disagree
         // at the flatness limit).
-        let mut tried: Vec<(f64, Moments)> = Vec::with_capacity(SIZES.len());
+        // (A fixed array: no allocation per point.)
+        let mut tried = [(f64::INFINITY, Moments::default()); SIZES.len()];
+        let mut count = 0;
         let mut sizes = SIZES.iter().peekable();
         // The point itself, then its neighbours nearest first.
         let points = std::iter::once(p).chain(near.iter().map(|&(t, _)| by_slot[t as usize]));
@@ -60,11 +62,13 @@ pub fn estimate_normals_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<
             if sizes.peek() == Some(&&moments.count()) {
                 sizes.next();
                 if let Some(v) = moments.variation() {
-                    tried.push((v, moments));
+                    tried[count] = (v, moments);
+                    count += 1;
                 }
             }
         }
         // Stable: equal variations keep the smaller neighbourhood first.
+        let tried = &mut tried[..count];
         tried.sort_by(|a, b| a.0.total_cmp(&b.0));
         // None of the sizes (fewer points than the smallest): the plane of all of them.
         tried

@@ -83,8 +83,7 @@ mod tests {
         enter("a");
         std::thread::sleep(std::time::Duration::from_millis(20));
         enter("b");
-        enter("b"); // still b
-        std::thread::sleep(std::time::Duration::from_millis(20));
+        enter("b"); // still b; a stretch of microseconds, far below a's sleeps
         enter("a");
         std::thread::sleep(std::time::Duration::from_millis(20));
         let r = report();
@@ -96,7 +95,8 @@ mod tests {
             .collect();
         assert_eq!(names, ["a", "b"]);
         let wall = |k: usize| r[k]["wall_seconds"].as_f64().unwrap();
-        assert!(wall(0) >= 0.04 && wall(1) >= 0.02, "{r}");
+        // a's two stretches are summed; b's is all but empty.
+        assert!(wall(0) >= 0.04, "{r}");
         assert!(wall(1) < wall(0), "{r}");
     }
 }
