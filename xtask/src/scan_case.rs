@@ -30,6 +30,22 @@ pub(crate) struct ScanRun {
 }
 
 impl ScanRun {
+    /// The models of the per-model groups whose files are there, with their paths (a notice
+    /// for each one missing).
+    pub(crate) fn present_models(&self) -> Vec<(&str, PathBuf)> {
+        self.model_names
+            .iter()
+            .filter_map(|model| {
+                let path = self.models.join(format!("{model}.ply"));
+                if !path.is_file() {
+                    eprintln!("skipping {model}: {} not found", path.display());
+                    return None;
+                }
+                Some((model.as_str(), path))
+            })
+            .collect()
+    }
+
     /// The seeds of a group whose own default is `default`.
     pub(crate) fn seeds_or(&self, default: Range<u64>) -> Range<u64> {
         self.seeds.clone().unwrap_or(default)

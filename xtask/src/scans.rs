@@ -242,18 +242,12 @@ const VARIANTS_HEADER: &str = "| case | what psi is given | its mean / p99 / max
 /// The `variants` group: per model, the clean mesh, noise, 1 % outliers, positions alone and
 /// one view, seeded by `seed`, each timed over [`TIMED_RUNS`] runs.
 fn variants(ctx: &ScanRun, seed: u64) -> Result<(String, Vec<Value>)> {
-    let (dir, psi, out) = (&ctx.models, &ctx.psi, &ctx.out);
-    let models = &ctx.model_names;
+    let (psi, out) = (&ctx.psi, &ctx.out);
     let mut md = format!(
         "## Scans made from the shared models (seed {seed})\n\nEach case through `psi sample` with its defaults (20 iterations); distances of the particles to the clean reference mesh, over its D; MPU build seconds are medians of {TIMED_RUNS} runs; counts against the clean run's.\n\n{VARIANTS_HEADER}"
     );
     let mut rows = Vec::new();
-    for model in models {
-        let path = dir.join(format!("{model}.ply"));
-        if !path.is_file() {
-            eprintln!("skipping {model}: {} not found", path.display());
-            continue;
-        }
+    for (model, path) in ctx.present_models() {
         eprintln!("{model} ...");
         let mesh = psi::load_mesh(&path)?;
         let shape = TriMesh::new(mesh.vertices.clone(), mesh.faces.clone())

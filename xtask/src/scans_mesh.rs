@@ -36,6 +36,14 @@ struct Measured {
     coverage: Option<Value>,
 }
 
+impl Measured {
+    /// The check that no particle lies beyond 1e-2 D of the reference.
+    fn none_beyond(&self) -> Check {
+        let beyond = &self.particles["beyond_1e-2"];
+        Check::at_most("none beyond 1e-2 D", num(beyond), 0.0, beyond.to_string())
+    }
+}
+
 /// Measures `run` (made from `inputs`, shape: M, world units) against `reference` with
 /// diagonal `diag` (world units).
 fn measure(
@@ -157,12 +165,7 @@ pub(crate) fn dragon_scan(ctx: &ScanRun) -> Result<(String, Vec<Value>)> {
             own,
             format!("{:.2} %", 100.0 * share),
         ),
-        Check::at_most(
-            "none beyond 1e-2 D",
-            num(&m.particles["beyond_1e-2"]),
-            0.0,
-            m.particles["beyond_1e-2"].to_string(),
-        ),
+        m.none_beyond(),
         Check::at_most(
             "largest per-level CV ≤ 0.15",
             m.level_cv.0,
@@ -221,12 +224,7 @@ pub(crate) fn multiview(ctx: &ScanRun) -> Result<(String, Vec<Value>)> {
         seeds.end.saturating_sub(1)
     );
     let mut rows = Vec::new();
-    for model in &ctx.model_names {
-        let path = ctx.models.join(format!("{model}.ply"));
-        if !path.is_file() {
-            eprintln!("skipping {model}: {} not found", path.display());
-            continue;
-        }
+    for (model, path) in ctx.present_models() {
         eprintln!("{model} multiview ...");
         let (mesh, shape, reference, diag) = load_model(&path)?;
         let clean = sample_once(ctx, &path, &[], &format!("{model}-mv-clean"))?
@@ -260,12 +258,7 @@ pub(crate) fn multiview(ctx: &ScanRun) -> Result<(String, Vec<Value>)> {
                     0.995,
                     format!("{:.2} %", 100.0 * within),
                 ),
-                Check::at_most(
-                    "none beyond 1e-2 D",
-                    num(&m.particles["beyond_1e-2"]),
-                    0.0,
-                    m.particles["beyond_1e-2"].to_string(),
-                ),
+                m.none_beyond(),
                 Check::at_most(
                     "largest per-level CV ≤ 0.12",
                     m.level_cv.0,
@@ -312,12 +305,7 @@ pub(crate) fn outlier_sweep(ctx: &ScanRun) -> Result<(String, Vec<Value>)> {
         seeds.end.saturating_sub(1)
     );
     let mut rows = Vec::new();
-    for model in &ctx.model_names {
-        let path = ctx.models.join(format!("{model}.ply"));
-        if !path.is_file() {
-            eprintln!("skipping {model}: {} not found", path.display());
-            continue;
-        }
+    for (model, path) in ctx.present_models() {
         eprintln!("{model} outliers ...");
         let (_, _, reference, diag) = load_model(&path)?;
         let clean_points = psi::load_points(&path, &psi::ReadOptions::paper())?.points;
@@ -333,13 +321,7 @@ pub(crate) fn outlier_sweep(ctx: &ScanRun) -> Result<(String, Vec<Value>)> {
             let run = sample_once(ctx, &input, &[], &name)?;
             let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
             let m = measure(&reference, diag, &positions, &run, false);
-            let beyond = num(&m.particles["beyond_1e-2"]);
-            let checks = [Check::at_most(
-                "none beyond 1e-2 D",
-                beyond,
-                0.0,
-                m.particles["beyond_1e-2"].to_string(),
-            )];
+            let checks = [m.none_beyond()];
             let ratio = run.particles.len() as f64 / clean as f64;
             md.push_str(&format!(
                 "| {name} | {} | {} | {} | {} ({ratio:.2}×) | {} | {:.2} % | {} | {:.3} ({}) |\n",
