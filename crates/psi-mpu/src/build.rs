@@ -229,7 +229,13 @@ fn prefit_marked(
                             return None;
                         }
                         let cell = old_cell(c);
-                        try_fit_cell(&input, cell.center, cell.half, eps0)
+                        try_fit_cell(
+                            &input,
+                            cell.center,
+                            cell.half,
+                            eps0,
+                            cell.depth < params.max_depth,
+                        )
                     })
                     .collect();
                 (coarse, early)
@@ -255,7 +261,13 @@ fn prefit_marked(
             }
             Some(early.unwrap_or_else(|| {
                 let cell = old_cell(c);
-                fit_cell(&input, cell.center, cell.half, eps0)
+                fit_cell(
+                    &input,
+                    cell.center,
+                    cell.half,
+                    eps0,
+                    cell.depth < params.max_depth,
+                )
             }))
         })
         .collect();
@@ -439,7 +451,13 @@ impl Mpu {
                 fit_radius,
             } = match old.and_then(|o| marked_old.binary_search(&o).ok()) {
                 Some(k) => prefit[k].clone(),
-                None => fit_cell(&input.over(v.positions), v.cell.center, v.cell.half, eps0),
+                None => fit_cell(
+                    &input.over(v.positions),
+                    v.cell.center,
+                    v.cell.half,
+                    eps0,
+                    v.cell.depth < params.max_depth,
+                ),
             };
             let split = error > eps0 && v.cell.depth < params.max_depth;
             (
@@ -516,7 +534,7 @@ impl Mpu {
             // A leaf always has a fit: the decision returns one whenever it does not split, and
             // the builder refuses a split only at the maximum depth, where none is asked for.
             let StoredLeaf { id, kind, fallback } = leaf.unwrap_or_else(|| {
-                let l = fit_cell(&input, cell.center, cell.half, eps0).fit;
+                let l = fit_cell(&input, cell.center, cell.half, eps0, false).fit;
                 StoredLeaf {
                     id: fits.push(l.function, l.kind, l.fallback),
                     kind: l.kind,

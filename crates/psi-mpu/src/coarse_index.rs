@@ -133,8 +133,8 @@ mod tests {
                 continue;
             }
             large += 1;
-            let a = fit_cell(&input, c.center, c.half, eps0);
-            let b = fit_cell(&other, c.center, c.half, eps0);
+            let a = fit_cell(&input, c.center, c.half, eps0, true);
+            let b = fit_cell(&other, c.center, c.half, eps0, true);
             let without = try_fit_cell(
                 &FitInput {
                     index: None,
@@ -143,6 +143,7 @@ mod tests {
                 c.center,
                 c.half,
                 eps0,
+                true,
             )
             .expect("a large splitting cell needs no kd-tree");
             // Without the tree: bitwise. Reversed: the same points in another summation

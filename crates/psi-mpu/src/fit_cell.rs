@@ -1,14 +1,16 @@
 //! One cell's local fit: gather the neighbourhood (growing R until more than N_min points),
 //! select the fit kind as Ohtake's `computeLA`, fit with fallbacks, and measure the error
-//! (the largest Taubin distance over the points within the nominal radius).
+//! (the largest Taubin distance over the points within the nominal radius). A cell with a
+//! large neighbourhood that may split is first fitted from a thin subset of it, which settles
+//! most splits at a fraction of the cost.
 
 use glam::DVec3;
 use psi_octree::PointIndex;
 
 use crate::bspline_weight::bspline;
-use crate::coarse_index::{COARSE, CoarseIndex, SPARSE, position_hash};
-use crate::fit_radius::{ball_settles_radius, fit_radius};
-use crate::fit_sharp::{fit_corner, fit_edge};
+use crate::coarse_index::{COARSE, CoarseIndex, SPARSE, is_coarse, position_hash};
+use crate::crease_rescue::{CreaseRescue, NEAR_EXACT, ScoredFit};
+use crate::fit_radius::settle_radius;
 use crate::ranked_error::ranked_error;
 use crate::select_fit::{LeafFit, Neighbourhood, select_and_fit};
 use crate::{FitKind, LocalFunction, MpuParams};
@@ -45,17 +47,11 @@ impl<'a> FitInput<'a> {
 #[derive(Clone, Debug)]
 pub(crate) struct CellFit {
     pub(crate) fit: LeafFit,
-    /// Largest Taubin distance over the points within the nominal radius (world units).
+    /// The cell's error (world units): the largest Taubin distance within the nominal radius
+    /// for a cell that does not split; for one that splits, a distance that exceeds ε0.
     pub(crate) error: f64,
     /// The enlarged radius R1 the fit used (world units).
     pub(crate) fit_radius: f64,
-}
-
-/// A local fit with its error: the largest Taubin distance within the nominal radius, world
-/// units.
-struct ScoredFit {
-    fit: LeafFit,
-    error: f64,
 }
 
 /// A fit uses at most about this many points: larger neighbourhoods (coarse cells, whose fits
@@ -64,11 +60,66 @@ struct ScoredFit {
 /// neighbourhood identically.
 pub(crate) const MAX_FIT_POINTS: usize = 4096;
 
+/// The first fit of a cell that may split reads at most about this many points (thinned as
+/// [`MAX_FIT_POINTS`]).
+const FIRST_FIT_POINTS: usize = 512;
+
+/// The first fit is tried when the ball holds at least this many coarse points (about 16
+/// times as many points), so that its own points determine a quadric well.
+const FIRST_FIT_MIN_COARSE: usize = 64;
+
+/// The first fit decides a split when its error among its own kind of points (sparse or
+/// coarse) exceeds this many ε0; otherwise the cell is fitted from its whole neighbourhood.
+const FIRST_FIT_MARGIN: f64 = 4.0;
+
 /// Fits the cell with centre `center` and half-edge `half` (local frame). The error is the
 /// largest Taubin distance within the nominal radius, except that its computation stops once
 /// it exceeds `eps0` (the split decision needs no more; a leaf's error is the exact maximum).
-pub(crate) fn fit_cell(input: &FitInput<'_>, center: DVec3, half: f64, eps0: f64) -> CellFit {
-    try_fit_cell(input, center, half, eps0).expect("a fit with the full index always completes")
+/// `may_split`: whether the cell splits when its error exceeds `eps0` (false at the maximum
+/// depth, where the fit is kept whatever its error).
+pub(crate) fn fit_cell(
+    input: &FitInput<'_>,
+    center: DVec3,
+    half: f64,
+    eps0: f64,
+    may_split: bool,
+) -> CellFit {
+    try_fit_cell(input, center, half, eps0, may_split)
+        .expect("a fit with the full index always completes")
+}
+
+/// The points a fit reads (shape: K each, local frame), in increasing index order.
+struct Gathered {
+    positions: Vec<DVec3>,
+    normals: Vec<DVec3>,
+    weights: Vec<f64>,
+}
+
+impl Gathered {
+    /// The points `idx` (sorted here) of `input`, weighted for the cell at `center` with fit
+    /// radius `r1`.
+    fn new(input: &FitInput<'_>, idx: &mut [u32], center: DVec3, r1: f64) -> Self {
+        idx.sort_unstable();
+        let positions: Vec<DVec3> = idx.iter().map(|&i| input.positions[i as usize]).collect();
+        let normals = idx.iter().map(|&i| input.points[i as usize].n).collect();
+        let weights = positions
+            .iter()
+            .map(|p| bspline(1.5 * (*p - center).length() / r1))
+            .collect();
+        Self {
+            positions,
+            normals,
+            weights,
+        }
+    }
+
+    fn neighbourhood(&self) -> Neighbourhood<'_> {
+        Neighbourhood {
+            positions: &self.positions,
+            normals: &self.normals,
+            weights: &self.weights,
+        }
+    }
 }
 
 /// [`fit_cell`], or `None` when `input.index` is `None` and the fit needs it: only a large cell
@@ -79,6 +130,7 @@ pub(crate) fn try_fit_cell(
     center: DVec3,
     half: f64,
     eps0: f64,
+    may_split: bool,
 ) -> Option<CellFit> {
     let params = input.params;
     let r = params.alpha * 2.0 * 3f64.sqrt() * half;
@@ -95,31 +147,49 @@ pub(crate) fn try_fit_cell(
     let mut sparse = input.coarse.within_sparse(center, r);
     // The coarse points within R1, gathered only when needed.
     let coarse_cell: std::cell::OnceCell<Vec<u32>> = std::cell::OnceCell::new();
-    // The ball of radius R, when the kd-tree was asked for it to settle R1.
-    let mut ball_of_r: Option<Vec<u32>> = None;
+    // The points within R1, gathered only when needed.
+    let full_ball: std::cell::OnceCell<Vec<u32>> = std::cell::OnceCell::new();
+    // R1 from the kd-tree, with the ball of R1 when the query gave it.
+    let settle = |index: &PointIndex, sparse: &mut Vec<u32>| {
+        let (r1, ball) = settle_radius(index, params, need, center, r);
+        if let Some(ball) = ball {
+            let _ = full_ball.set(ball);
+        }
+        if r1 != r {
+            *sparse = input.coarse.within_sparse(center, r1);
+        }
+        r1
+    };
     let r1 = if inside(&sparse) >= need {
         r
+    } else if let (true, Some(index)) = (sparse.is_empty(), input.index) {
+        // Without a sparse point within R the ball holds few points (about 256 per sparse
+        // point): the coarse points would not settle R1 either.
+        settle(index, &mut sparse)
     } else {
         let coarse = input.coarse.within(center, r);
-        let enough = inside(&coarse) >= need;
-        if enough {
+        if inside(&coarse) >= need {
             let _ = coarse_cell.set(coarse);
-            r
-        } else if let Some(ball) = ball_settles_radius(input.index?, center, r, need) {
-            let _ = coarse_cell.set(coarse);
-            ball_of_r = Some(ball);
             r
         } else {
-            let r1 = fit_radius(input.index?, params, need, center, r);
+            let r1 = settle(input.index?, &mut sparse);
             if r1 == r {
                 let _ = coarse_cell.set(coarse);
-            } else {
-                sparse = input.coarse.within_sparse(center, r1);
             }
             r1
         }
     };
-    let coarse = || coarse_cell.get_or_init(|| input.coarse.within(center, r1));
+    // (From the ball when it is at hand: the same set, another order, which no decision reads.)
+    let coarse = || {
+        coarse_cell.get_or_init(|| match full_ball.get() {
+            Some(ball) => ball
+                .iter()
+                .copied()
+                .filter(|&i| is_coarse(input.positions[i as usize]))
+                .collect(),
+            None => input.coarse.within(center, r1),
+        })
+    };
     // Thinning (a function of the ball's point set only, so a rebuild after an edit thins an
     // unchanged neighbourhood identically). A ball with more than 256 sparse points (about
     // 65 536 points) keeps the sparse points whose hash is a multiple of 256·⌈s/4096⌉, without
@@ -128,65 +198,33 @@ pub(crate) fn try_fit_cell(
     // 16·⌈c/4096⌉ (at most 4096 of them), without visiting the ball; smaller balls are used
     // whole.
     // The points of `set` (one in `every` of all) whose hash is a multiple of `every` times
-    // the thinning that leaves at most MAX_FIT_POINTS of them.
-    let thinned = |set: &[u32], every: u64| -> Vec<u32> {
-        let thin = every * (set.len() as u64).div_ceil(MAX_FIT_POINTS as u64);
+    // the thinning that leaves at most `most` of them.
+    let thinned = |set: &[u32], every: u64, most: usize| -> Vec<u32> {
+        let thin = every * (set.len() as u64).div_ceil(most as u64);
         set.iter()
             .copied()
             .filter(|&i| position_hash(input.positions[i as usize]).is_multiple_of(thin))
             .collect()
     };
     let large = sparse.len() > 256;
-    let mut full: Option<Vec<u32>> = None;
-    let mut idx: Vec<u32> = if large {
-        thinned(&sparse, SPARSE)
-    } else if coarse().len() > 256 {
-        thinned(coarse(), COARSE)
-    } else {
-        let ball = match ball_of_r {
-            Some(ball) => ball,
-            None => {
-                let mut ball = Vec::new();
-                input.index?.within(center, r1, &mut ball);
-                ball
-            }
-        };
-        let kept = if ball.len() > MAX_FIT_POINTS {
-            thinned(&ball, 1)
-        } else {
-            ball.clone()
-        };
-        full = Some(ball);
-        kept
-    };
-    if idx.len() < 3 {
+
+    let r2 = r * r;
+    // The error of `f` that decides the cell, stopping once it exceeds `limit` (world units):
+    // scanned over `first` alone (a first fit's own kind of points), or else over the sparse
+    // points of a large ball, then the coarse points (they are part of the ball), and the
+    // whole ball only while the maximum stays under the limit.
+    // Set when the error needed the whole ball and no kd-tree was given.
+    let incomplete = std::cell::Cell::new(false);
+    let ball = || -> Option<&Vec<u32>> {
         let index = input.index?;
-        let ball = full.get_or_insert_with(|| {
+        Some(full_ball.get_or_init(|| {
             let mut b = Vec::new();
             index.within(center, r1, &mut b);
             b
-        });
-        idx.clone_from(ball);
-    }
-    idx.sort_unstable();
-    let pos: Vec<DVec3> = idx.iter().map(|&i| input.positions[i as usize]).collect();
-    let nrm: Vec<DVec3> = idx.iter().map(|&i| input.points[i as usize].n).collect();
-    let w: Vec<f64> = pos
-        .iter()
-        .map(|p| bspline(1.5 * (*p - center).length() / r1))
-        .collect();
-
-    let r2 = r * r;
-    // The error is a maximum: the sparse points of a large ball and then the coarse points are
-    // scanned first (they are part of the ball), and the whole ball only while the maximum
-    // stays under ε0.
-    let full_ball = std::cell::OnceCell::new();
-    if let Some(b) = full {
-        let _ = full_ball.set(b);
-    }
-    // Set when the error needed the whole ball and no kd-tree was given.
-    let incomplete = std::cell::Cell::new(false);
-    let error_of = |f: &LocalFunction| {
+        }))
+    };
+    let error_of = |f: &LocalFunction, limit: f64, first: Option<&[u32]>| {
+        let distance = |p: DVec3| f.taubin_distance(p);
         if let Some(per_rank) = params.error_rank {
             // MpuParams::error_rank: over the thinnest of sparse, coarse, ball with `per_rank`.
             let within = |set: &[u32]| {
@@ -194,76 +232,84 @@ pub(crate) fn try_fit_cell(
                     .filter(|&&i| (input.positions[i as usize] - center).length_squared() < r2)
                     .count()
             };
-            let set: &[u32] = if large && within(&sparse) >= per_rank {
+            let set: &[u32] = if let Some(first) = first {
+                if within(first) < per_rank {
+                    // Too few to rank: the first fit decides nothing.
+                    return 0.0;
+                }
+                first
+            } else if large && within(&sparse) >= per_rank {
                 &sparse
             } else if within(coarse()) >= per_rank {
                 coarse()
-            } else if let Some(index) = input.index {
-                full_ball.get_or_init(|| {
-                    let mut b = Vec::new();
-                    index.within(center, r1, &mut b);
-                    b
-                })
+            } else if let Some(ball) = ball() {
+                ball
             } else {
                 incomplete.set(true);
                 return f64::INFINITY;
             };
-            let distance = |p: DVec3| f.taubin_distance(p);
-            return ranked_error(set, input.positions, center, r2, eps0, per_rank, distance);
+            return ranked_error(set, input.positions, center, r2, limit, per_rank, distance);
         }
         let mut e = 0.0f64;
         let mut scan = |set: &[u32]| {
             for &i in set {
                 let p = input.positions[i as usize];
                 if (p - center).length_squared() < r2 {
-                    e = e.max(f.taubin_distance(p));
-                    if e > eps0 {
+                    e = e.max(distance(p));
+                    if e > limit {
                         return true;
                     }
                 }
             }
             false
         };
+        if let Some(first) = first {
+            scan(first);
+            return e;
+        }
+        if let Some(ball) = full_ball.get() {
+            // (The ball at hand: scanned alone.)
+            scan(ball);
+            return e;
+        }
         if large && scan(&sparse) {
             return e;
         }
         if scan(coarse()) {
             return e;
         }
-        let Some(index) = input.index else {
+        let Some(ball) = ball() else {
             incomplete.set(true);
             return f64::INFINITY;
         };
-        let ball = full_ball.get_or_init(|| {
-            let mut b = Vec::new();
-            index.within(center, r1, &mut b);
-            b
-        });
         scan(ball);
         e
     };
-    // `solve_unit`: the length unit of the least-squares solves, in which the relative
-    // singular-value cut-offs apply (MpuParams::fit_unit).
-    let ball = Neighbourhood {
-        positions: &pos,
-        normals: &nrm,
-        weights: &w,
-    };
-    let fit_in = |solve_unit: f64| {
-        let fit = select_and_fit(ball, center, half, solve_unit, params);
-        let error = error_of(&fit.function);
+    // The fit of `points` with the crease rescue, and its error stopped at `limit`; `None`
+    // when the error needed the kd-tree and there is none. `solve_unit`: the length unit of
+    // the least-squares solves, in which the relative singular-value cut-offs apply
+    // (MpuParams::fit_unit).
+    let fit_in = |points: &Gathered, solve_unit: f64, limit: f64, first: Option<&[u32]>| {
+        // A scan that stops above both the limit and the rescue's near-exact bound settles
+        // every decision below whatever order it reads the points in (the points of a derived
+        // kd-tree come in another order than a fresh one's).
+        let limit = limit.max(NEAR_EXACT * r);
+        let near = points.neighbourhood();
+        let fit = select_and_fit(near, center, half, solve_unit, params);
+        let error = error_of(&fit.function, limit, first);
         if incomplete.get() {
             // Without the kd-tree the error is unknown: give up before the rescue's work.
             return None;
         }
+        let error_at = |f: &LocalFunction| error_of(f, limit, first);
         let rescue = CreaseRescue {
             solve_unit,
             params,
             eps0,
             radius: r,
-            error_of: &error_of,
+            error_of: &error_at,
         };
-        let ScoredFit { fit, error } = rescue.apply(ball, ScoredFit { fit, error });
+        let ScoredFit { fit, error } = rescue.apply(near, ScoredFit { fit, error });
         // (The rescue's errors could need the whole ball too.)
         (!incomplete.get()).then_some(CellFit {
             fit,
@@ -271,118 +317,77 @@ pub(crate) fn try_fit_cell(
             fit_radius: r1,
         })
     };
-    let chosen = fit_in(params.fit_unit.unwrap_or(r1))?;
+    let solve_unit = params.fit_unit.unwrap_or(r1);
+
+    // The first fit (psi's shortcut): a cell whose fit would read many points, and that splits
+    // when its error exceeds ε0, is first fitted from at most FIRST_FIT_POINTS of its sparse
+    // or coarse points; when that fit's error among those points exceeds FIRST_FIT_MARGIN·ε0
+    // the cell splits (a function of the ball's point set, as the full fit). Otherwise, and
+    // for every leaf, the fit below decides. The margin keeps the decisions of the full fit
+    // (unchanged on the paper's models and the shared scans; docs/notes/2026-11-26-first-fits.md).
+    if may_split {
+        let source: Option<(&[u32], u64)> = if large {
+            (sparse.len() > 2 * FIRST_FIT_POINTS).then_some((&sparse[..], SPARSE))
+        } else {
+            let c = coarse().len();
+            (c >= FIRST_FIT_MIN_COARSE && (c <= 256 || c > 2 * FIRST_FIT_POINTS))
+                .then_some((&coarse()[..], COARSE))
+        };
+        if let Some((set, every)) = source {
+            let mut idx = thinned(set, every, FIRST_FIT_POINTS);
+            if idx.len() >= 3 {
+                let points = Gathered::new(input, &mut idx, center, r1);
+                let limit = FIRST_FIT_MARGIN * eps0;
+                let first = fit_in(&points, solve_unit, limit, Some(set))
+                    .expect("a first fit reads no kd-tree");
+                if first.error > limit {
+                    return Some(first);
+                }
+            }
+        }
+    }
+
+    let mut idx: Vec<u32> = if large {
+        thinned(&sparse, SPARSE, MAX_FIT_POINTS)
+    } else if coarse().len() > 256 {
+        thinned(coarse(), COARSE, MAX_FIT_POINTS)
+    } else {
+        let ball = ball()?;
+        if ball.len() > MAX_FIT_POINTS {
+            thinned(ball, 1, MAX_FIT_POINTS)
+        } else {
+            ball.clone()
+        }
+    };
+    if idx.len() < 3 {
+        idx.clone_from(ball()?);
+    }
+    let points = Gathered::new(input, &mut idx, center, r1);
+    let chosen = fit_in(&points, solve_unit, eps0, None)?;
     // MpuParams::leaf_refit: a leaf (its error is within ε0, so it will not split) with a smooth
     // fit — where world-unit cut-offs flatten the quadratic terms — also tries the
     // scale-invariant solve and keeps it when its exact error is smaller. The split decision is
     // unchanged either way: both errors are ≤ ε0. Sharp fits are kept as chosen: a lower error
     // at the points can come with a worse extrapolation along the feature (the thin slab of
     // tests/analytic.rs; docs/notes/2026-11-24-mpu-fits.md).
-    let smooth = matches!(
-        chosen.fit.kind,
-        FitKind::Bivariate | FitKind::GeneralQuadric | FitKind::Plane
-    );
-    if params.leaf_refit && params.fit_unit.is_some() && smooth && chosen.error <= eps0 {
-        let alt = fit_in(r1)?;
-        // The second solve runs the crease rescue too; a sharp result is not taken either.
-        let alt_smooth = matches!(
-            alt.fit.kind,
+    let smooth = |kind: FitKind| {
+        matches!(
+            kind,
             FitKind::Bivariate | FitKind::GeneralQuadric | FitKind::Plane
-        );
-        if alt_smooth && alt.error < chosen.error {
+        )
+    };
+    if params.leaf_refit
+        && params.fit_unit.is_some()
+        && smooth(chosen.fit.kind)
+        && chosen.error <= eps0
+    {
+        let alt = fit_in(&points, r1, eps0, None)?;
+        // The second solve runs the crease rescue too; a sharp result is not taken either.
+        if smooth(alt.fit.kind) && alt.error < chosen.error {
             return Some(alt);
         }
     }
     Some(chosen)
-}
-
-/// The crease rescue (psi's addition, explained in [`CreaseRescue::apply`]) of one cell.
-struct CreaseRescue<'a> {
-    /// The length unit of the least-squares solves (world units).
-    solve_unit: f64,
-    params: &'a MpuParams,
-    /// ε0, world units.
-    eps0: f64,
-    /// The cell's nominal support radius R, world units.
-    radius: f64,
-    /// The cell's error measure.
-    error_of: &'a dyn Fn(&LocalFunction) -> f64,
-}
-
-impl CreaseRescue<'_> {
-    /// Applied to `scored`, a fit of the points `ball`: returns the fit to keep.
-    fn apply(&self, ball: Neighbourhood<'_>, scored: ScoredFit) -> ScoredFit {
-        let params = self.params;
-        let ScoredFit { fit, error } = scored;
-
-        // psi's addition to Ohtake's selection: Ohtake tries sharp pieces only in cells with at
-        // most 2·N_min points, so a dense scan's creases are approximated by smooth fits rounded
-        // within ε0. When a smooth fit was chosen, the normals show a crease (extreme normals
-        // differ by more than 60°) and the smooth fit is not already near-exact, the sharp fit is
-        // tried too and kept if it at least halves the error. Where the smooth error exceeds ε0 it
-        // is only known to be ≥ ε0 (the computation stopped there), so the sharp fit must then reach
-        // ε0/2.
-        if params.sharp
-            && matches!(fit.kind, FitKind::Bivariate | FitKind::GeneralQuadric)
-            && error > 1e-3 * self.radius
-            && let Some(sharp) = sharp_candidate(ball, self.solve_unit, params)
-        {
-            let sharp_error = (self.error_of)(&sharp.function);
-            let better = sharp_error < 0.5 * error.min(self.eps0);
-            if better {
-                return ScoredFit {
-                    fit: sharp,
-                    error: sharp_error,
-                };
-            }
-        }
-        ScoredFit { fit, error }
-    }
-}
-
-/// The crease test of the rescue: extreme normals more than 60° apart. Ohtake's T_edge (25.8°)
-/// would also flag ordinary curvature in large cells, replacing subdivision by creases.
-const CREASE_DOT: f64 = 0.5;
-
-/// The sharp fit of a cell with many points, from approximately extreme normals found in
-/// linear time (the normal farthest from the mean, then the normal farthest from that one).
-fn sharp_candidate(
-    ball: Neighbourhood<'_>,
-    solve_unit: f64,
-    params: &MpuParams,
-) -> Option<LeafFit> {
-    let Neighbourhood {
-        positions: pos,
-        normals: nrm,
-        weights: w,
-    } = ball;
-    let mean = nrm.iter().copied().sum::<DVec3>().normalize_or_zero();
-    let argmin = |d: DVec3| (0..nrm.len()).min_by(|&a, &b| nrm[a].dot(d).total_cmp(&nrm[b].dot(d)));
-    let i = argmin(mean)?;
-    let j = argmin(nrm[i])?;
-    if nrm[i].dot(nrm[j]) >= CREASE_DOT {
-        return None;
-    }
-    let m = nrm[i].cross(nrm[j]);
-    let (k, spread) = (0..nrm.len())
-        .map(|k| (k, m.dot(nrm[k]).abs()))
-        .max_by(|a, b| a.1.total_cmp(&b.1))?;
-    let (function, kind) = if spread < params.t_corner {
-        (
-            fit_edge(pos, nrm, w, nrm[i], nrm[j], solve_unit)?,
-            FitKind::Edge,
-        )
-    } else {
-        (
-            fit_corner(pos, nrm, w, [nrm[i], nrm[j], nrm[k]], solve_unit)?,
-            FitKind::Corner,
-        )
-    };
-    Some(LeafFit {
-        function,
-        kind,
-        fallback: false,
-    })
 }
 
 #[cfg(test)]
@@ -418,8 +423,8 @@ mod tests {
         let eps0 = params.error_rel * mpu.frame.diagonal;
         let (mut same, mut gave_up) = (0, 0);
         for c in mpu.octree.cells() {
-            let full = fit_cell(&with, c.center, c.half, eps0);
-            match try_fit_cell(&without, c.center, c.half, eps0) {
+            let full = fit_cell(&with, c.center, c.half, eps0, true);
+            match try_fit_cell(&without, c.center, c.half, eps0, true) {
                 Some(f) => {
                     assert_eq!(f.fit.function, full.fit.function);
                     assert_eq!(f.fit.kind, full.fit.kind);
@@ -439,5 +444,80 @@ mod tests {
             same > 0 && gave_up > 0,
             "{same} completed, {gave_up} gave up"
         );
+    }
+
+    /// A brute-force twin of the first fit: every cell of a build decides its split as the fit
+    /// from its whole neighbourhood does (`may_split = false` skips the first fit), a cell that
+    /// does not split gets that fit bitwise, and some splits were decided by a first fit (its
+    /// function differs from the full fit's). With the paper's maximum error and with a
+    /// ranked error on noisy points.
+    #[test]
+    fn first_fits_split_exactly_the_cells_the_full_fits_split() {
+        let clean = psi_shapes::sample_builtin(60_000, 3);
+        let mut noisy = AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.35,
+        }
+        .sample(80_000, 9);
+        // Deterministic noise of about 1e-3 D along the normals.
+        for (k, p) in noisy.iter_mut().enumerate() {
+            let u =
+                ((k as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 11) as f64 / (1u64 << 53) as f64;
+            p.p += p.n * (u - 0.5) * 6e-3;
+        }
+        let ranked = MpuParams {
+            error_rank: Some(256),
+            ..MpuParams::paper()
+        };
+        // A sweep of ε0 puts some cells' errors near it at every level.
+        let mut cases: Vec<(&[psi_octree::OrientedPoint], MpuParams)> =
+            [0.002, 0.003, 0.004, 0.005, 0.007, 0.01, 0.014, 0.02, 0.03]
+                .iter()
+                .map(|&error_rel| {
+                    let params = MpuParams {
+                        error_rel,
+                        ..MpuParams::paper()
+                    };
+                    (&clean[..], params)
+                })
+                .collect();
+        cases.push((&noisy[..], ranked));
+        for (points, params) in cases {
+            let mpu = Mpu::build(points, &params).unwrap();
+            let positions = mpu.octree.positions();
+            let coarse = CoarseIndex::new(positions);
+            let input = FitInput {
+                positions,
+                points: &mpu.points,
+                index: Some(&mpu.index),
+                coarse: &coarse,
+                params: &params,
+                population: positions.len(),
+            };
+            let eps0 = params.error_rel * mpu.frame.diagonal;
+            let (mut first, mut splits) = (0, 0);
+            for c in mpu.octree.cells() {
+                let quick = fit_cell(&input, c.center, c.half, eps0, true);
+                let full = fit_cell(&input, c.center, c.half, eps0, false);
+                assert_eq!(
+                    quick.error > eps0,
+                    full.error > eps0,
+                    "cell at {}",
+                    c.center
+                );
+                assert_eq!(quick.fit_radius.to_bits(), full.fit_radius.to_bits());
+                if full.error > eps0 {
+                    splits += 1;
+                    first += usize::from(quick.fit.function != full.fit.function);
+                } else {
+                    assert_eq!(quick.fit, full.fit);
+                    assert_eq!(quick.error.to_bits(), full.error.to_bits());
+                }
+            }
+            assert!(
+                first >= 5 && first < splits,
+                "{first} of {splits} splits by a first fit"
+            );
+        }
     }
 }

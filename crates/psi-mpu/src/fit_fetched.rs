@@ -94,6 +94,7 @@ pub(crate) fn fit_fetched(
                 cell.center,
                 cell.half,
                 eps0,
+                cell.depth < params.max_depth,
             );
             if f.fit_radius + margin <= radius || n >= population {
                 // The first ball already holds the cube (1.5 R > its circumradius).

@@ -1,30 +1,24 @@
-//! A cell's fitting radius R1 (Ohtake's enlarged support radius, alg. §1.1): from the kd-tree's
-//! k-nearest distance, or from the ball of radius R when that ball settles it by itself.
+//! A cell's fitting radius R1 (Ohtake's enlarged support radius, alg. §1.1) and the ball of
+//! that radius: from one ball query a little wider than R when it holds enough points, else
+//! from the kd-tree's k-nearest distance.
 
 use glam::DVec3;
 use psi_octree::PointIndex;
 
 use crate::MpuParams;
 
-/// The enlarged fitting radius: R1 = R + m·λR for the smallest m ≥ 0 with more than N_min
-/// points in B(c, R1) (all points when there are fewer: `need` = min(N_min + 1, N)), computed
-/// from the `need`-th nearest distance instead of Ohtake's loop, with the same result.
-pub(crate) fn fit_radius(
-    index: &PointIndex,
-    params: &MpuParams,
-    need: usize,
-    center: DVec3,
-    r: f64,
-) -> f64 {
-    let nearest = index.nearest(center, need);
-    let Some(&(_, d2)) = nearest.last() else {
-        return r;
-    };
-    let d = d2.sqrt();
+/// The trial ball's radius, R + m·λR with m = ⌈TRIAL / λ⌉: wide enough to settle most cells'
+/// R1 from one query, narrow enough that its points cost little more than the ball of R.
+const TRIAL: f64 = 0.4;
+
+/// R1 from the `need`-th nearest distance `d` (world units): the smallest R + m·λR (m ≥ 0)
+/// not below `d`, the result of Ohtake's loop that grows R by λR until the ball holds more
+/// than N_min points.
+fn radius_reaching(d: f64, r: f64, lambda: f64) -> f64 {
     if d <= r {
         return r;
     }
-    let step = params.lambda * r;
+    let step = lambda * r;
     let m = ((d - r) / step).ceil();
     let mut r1 = r + m * step;
     // Guard against rounding leaving the needed point just outside.
@@ -34,26 +28,137 @@ pub(crate) fn fit_radius(
     r1
 }
 
-/// The ball of radius `r` around `center` when it settles R1 = R by itself: it holds at least
-/// `need` points and the `need`-th smallest of its distances passes [`fit_radius`]'s test. The
-/// ball holds every point within `r` (the kd-tree's own squared distances, the same a k-nearest
-/// query computes), so its `need`-th smallest distance is the `need`-th nearest distance and R1
-/// is what [`fit_radius`] would find, without its k-nearest query. `None`: ask [`fit_radius`].
-pub(crate) fn ball_settles_radius(
+/// The enlarged fitting radius: R1 = R + m·λR for the smallest m ≥ 0 with more than N_min
+/// points in B(c, R1) (all points when there are fewer: `need` = min(N_min + 1, N)), computed
+/// from the `need`-th nearest distance instead of Ohtake's loop, with the same result.
+fn fit_radius(index: &PointIndex, params: &MpuParams, need: usize, center: DVec3, r: f64) -> f64 {
+    let nearest = index.nearest(center, need);
+    let Some(&(_, d2)) = nearest.last() else {
+        return r;
+    };
+    radius_reaching(d2.sqrt(), r, params.lambda)
+}
+
+/// R1 of the cell at `center` with nominal radius `r` (world units), and the indices of the
+/// points within R1 when one trial query found them. The trial ball (radius R + m·λR, m =
+/// ⌈[`TRIAL`]/λ⌉, a radius R1 can take) holds every point within its radius with the kd-tree's
+/// own squared distances, the ones a k-nearest query computes; when it holds `need` points its
+/// `need`-th smallest distance is the `need`-th nearest distance, R1 is what [`fit_radius`]
+/// finds, and R1 is at most the trial radius, so the ball of R1 is the trial points with
+/// d² ≤ R1² (the test the kd-tree applies; in the trial's order). Otherwise R1 comes from a
+/// k-nearest query and the ball is `None`.
+pub(crate) fn settle_radius(
     index: &PointIndex,
+    params: &MpuParams,
+    need: usize,
     center: DVec3,
     r: f64,
-    need: usize,
-) -> Option<Vec<u32>> {
-    if need == 0 {
-        return None;
-    }
+) -> (f64, Option<Vec<u32>>) {
+    let m = (TRIAL / params.lambda).ceil().max(1.0);
+    let trial = r + m * (params.lambda * r);
     let mut near = Vec::new();
-    index.within_distances(center, r, &mut near);
-    if near.len() < need {
-        return None;
+    index.within_distances(center, trial, &mut near);
+    if need == 0 || near.len() < need {
+        return (fit_radius(index, params, need, center, r), None);
     }
     let mut d2: Vec<f64> = near.iter().map(|n| n.1).collect();
     let (_, kth, _) = d2.select_nth_unstable_by(need - 1, f64::total_cmp);
-    (kth.sqrt() <= r).then(|| near.into_iter().map(|n| n.0).collect())
+    let r1 = radius_reaching(kth.sqrt(), r, params.lambda);
+    if r1 > trial {
+        // (Rounding at the trial sphere: the k-nearest query decides.)
+        return (fit_radius(index, params, need, center, r), None);
+    }
+    let r1_2 = r1 * r1;
+    let ball = near
+        .into_iter()
+        .filter(|n| n.1 <= r1_2)
+        .map(|n| n.0)
+        .collect();
+    (r1, Some(ball))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A seeded stream of pseudo-random numbers in [0, 1).
+    fn numbers(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
+            s = s
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// Brute force: Ohtake's loop (R grown by λR until more than N_min points lie within it,
+    /// or all of them) and the ball of the result.
+    fn ohtake(points: &[DVec3], params: &MpuParams, center: DVec3, r: f64) -> (f64, Vec<u32>) {
+        let need = (params.n_min + 1).min(points.len());
+        let count = |r1: f64| {
+            points
+                .iter()
+                .filter(|p| (**p - center).length_squared() <= r1 * r1)
+                .count()
+        };
+        let mut m = 0.0;
+        let mut r1 = r;
+        while count(r1) < need {
+            m += 1.0;
+            r1 = r + m * params.lambda * r;
+        }
+        let ball = (0..points.len() as u32)
+            .filter(|&i| (points[i as usize] - center).length_squared() <= r1 * r1)
+            .collect();
+        (r1, ball)
+    }
+
+    #[test]
+    fn the_radius_and_ball_are_ohtakes_whether_the_trial_settles_them_or_not() {
+        let mut rnd = numbers(11);
+        // A clustered cloud: dense lumps and a sparse background, so cells of every radius
+        // see from none to hundreds of points within R.
+        let mut points = Vec::new();
+        for _ in 0..20 {
+            let c = DVec3::new(rnd(), rnd(), rnd());
+            for _ in 0..150 {
+                points.push(c + 0.03 * DVec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5));
+            }
+        }
+        for _ in 0..600 {
+            points.push(DVec3::new(rnd(), rnd(), rnd()));
+        }
+        let index = PointIndex::new(&points);
+        let params = MpuParams::paper();
+        let need = params.n_min + 1;
+        let (mut settled, mut fell_back) = (0, 0);
+        for k in 0..600 {
+            let center = DVec3::new(rnd(), rnd(), rnd());
+            let r = 0.005 * (1.0 + (k % 30) as f64);
+            let (r1, ball) = settle_radius(&index, &params, need, center, r);
+            let (want_r1, want_ball) = ohtake(&points, &params, center, r);
+            psi_shapes::assert_near!(r1, want_r1, 1e-12);
+            assert_eq!(
+                r1.to_bits(),
+                fit_radius(&index, &params, need, center, r).to_bits()
+            );
+            match ball {
+                Some(mut ball) => {
+                    ball.sort_unstable();
+                    assert_eq!(ball, want_ball, "cell {k}");
+                    let mut kd = Vec::new();
+                    index.within(center, r1, &mut kd);
+                    kd.sort_unstable();
+                    assert_eq!(ball, kd);
+                    settled += 1;
+                }
+                None => fell_back += 1,
+            }
+        }
+        assert!(
+            settled > 100 && fell_back > 20,
+            "{settled} settled, {fell_back} fell back"
+        );
+    }
 }

@@ -174,7 +174,15 @@ pub fn fit_region(
     let margin = 1e-9 * frame.root_half;
     let cache = BallCache::default();
     let fit = |cell: &Cell, inside: &[u32]| {
-        let local = (points.len() >= need).then(|| fit_cell(&input, cell.center, cell.half, eps0));
+        let local = (points.len() >= need).then(|| {
+            fit_cell(
+                &input,
+                cell.center,
+                cell.half,
+                eps0,
+                cell.depth < params.max_depth,
+            )
+        });
         match (local, far) {
             (Some(f), Some(far))
                 if ((cell.center - rc).abs() + DVec3::splat(f.fit_radius)).max_element() - rh

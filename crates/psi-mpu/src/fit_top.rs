@@ -51,8 +51,13 @@ pub fn fit_top(
     // A fit that completes from the coarse points alone splits (its error exceeds ε0), so
     // whether its cube holds points does not matter; a leaf's is told by its fetched ball.
     let cache = BallCache::default();
-    let fit = |cell: &Cell, inside: &[u32]| match try_fit_cell(&input, cell.center, cell.half, eps0)
-    {
+    let fit = |cell: &Cell, inside: &[u32]| match try_fit_cell(
+        &input,
+        cell.center,
+        cell.half,
+        eps0,
+        cell.depth < params.max_depth,
+    ) {
         Some(f) => Ok((f, !inside.is_empty(), false)),
         None => fit_fetched(cell, frame, params, population, eps0, fetch, &cache)
             .map(|(f, s)| (f, s, true)),
