@@ -19,7 +19,7 @@
 
 use anyhow::{Context, Result, bail};
 
-mod edit;
+pub(crate) mod edit;
 mod eval;
 mod formats;
 mod level_cv;

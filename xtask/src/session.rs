@@ -1,8 +1,9 @@
-//! An editing session on the bunny (issue "Interactive editing sessions"): a drag of 20 brush
-//! strokes of radius 0.012 across its back, each moving the points 0.8 mm along their normal,
-//! through `psi edit --strokes --frame-iterations` in several fresh processes (each stroke a
-//! frame, settled before the next); the time of every frame and the CPU time of every stroke,
-//! and the session's locality and accuracy against a from-scratch build of the edited points.
+//! Editing sessions on the bunny (issues "Interactive editing sessions", "Edits at any size"):
+//! drags of 20 brush strokes of radius 0.012, each moving the points 0.8 mm along their normal,
+//! one across its back and several from seeds in other places and directions, through
+//! `psi edit --strokes --frame-iterations` in several fresh processes (each stroke a frame,
+//! settled before the next); the time of every frame and the CPU time of every stroke, and each
+//! drag's locality and accuracy against a from-scratch build of the edited points.
 //! `cargo xtask session` runs it alone; `reproduce-tables` includes it.
 
 use crate::median::median;
@@ -58,24 +59,42 @@ fn strokes_json(drag: &[(DVec3, DVec3)]) -> Value {
     )
 }
 
-/// Runs the session on `model` (the bunny) with the release binary `psi`, scratch files in
-/// `out_dir`. Returns the Markdown section and its JSON.
-pub(crate) fn session(psi: &Path, model: &Path, out_dir: &Path) -> Result<(String, Value)> {
-    let points = psi::load_points(model, &psi::ReadOptions::paper())?.points;
-    let drag = drag(&points)?;
+/// Seeds of the generated drags (`bench edit`'s: a random start and direction on the surface,
+/// strokes a quarter radius apart), beside the drag across the back.
+const SEEDS: std::ops::RangeInclusive<u64> = 1..=4;
+
+/// One drag's figures over its runs.
+struct DragFigures {
+    /// Each stroke's median frame time over the runs (s).
+    frames: Vec<f64>,
+    /// Each stroke's median CPU time over the runs (s).
+    cpu: Vec<f64>,
+    /// Particles farther than 4 radii from every stroke, and how many are bitwise unchanged.
+    far: (usize, usize),
+    /// Share of the particles within 2e-3 D of a from-scratch build of the edited points.
+    within: f64,
+    /// The last run's report.
+    last: Value,
+}
+
+/// Runs `drag` (stroke centres and displacements, world units) through `psi edit --strokes` in
+/// [`RUNS`] fresh processes, scratch files in `out_dir`.
+fn run_drag(
+    psi: &Path,
+    model: &Path,
+    drag: &[(DVec3, DVec3)],
+    out_dir: &Path,
+) -> Result<DragFigures> {
     let strokes = out_dir.join("drag.json");
-    std::fs::write(
-        &strokes,
-        serde_json::to_string_pretty(&strokes_json(&drag))?,
-    )?;
+    std::fs::write(&strokes, serde_json::to_string_pretty(&strokes_json(drag))?)?;
     let (before, after, points_after, report) = (
         out_dir.join("drag-before.ply"),
         out_dir.join("drag-after.ply"),
         out_dir.join("drag-points.ply"),
         out_dir.join("drag.json.report"),
     );
-    let mut per_edit: Vec<Vec<f64>> = vec![Vec::new(); STROKES];
-    let mut cpu_per_edit: Vec<Vec<f64>> = vec![Vec::new(); STROKES];
+    let mut per_edit: Vec<Vec<f64>> = vec![Vec::new(); drag.len()];
+    let mut cpu_per_edit: Vec<Vec<f64>> = vec![Vec::new(); drag.len()];
     let mut last = Value::Null;
     for _ in 0..RUNS {
         last = run_psi_report(
@@ -97,25 +116,18 @@ pub(crate) fn session(psi: &Path, model: &Path, out_dir: &Path) -> Result<(Strin
                 .arg("-q"),
             &report,
         )?;
-        let times = last["local"]["frame_seconds_per_edit"]
-            .as_array()
-            .context("report without frame_seconds_per_edit")?;
-        for (k, t) in times.iter().enumerate() {
-            per_edit[k].push(t.as_f64().unwrap_or(f64::NAN));
-        }
-        let cpu = last["local"]["cpu_seconds_per_edit"]
-            .as_array()
-            .context("report without cpu_seconds_per_edit")?;
-        for (k, t) in cpu.iter().enumerate() {
-            cpu_per_edit[k].push(t.as_f64().unwrap_or(f64::NAN));
+        for (key, into) in [
+            ("frame_seconds_per_edit", &mut per_edit),
+            ("cpu_seconds_per_edit", &mut cpu_per_edit),
+        ] {
+            let times = last["local"][key]
+                .as_array()
+                .with_context(|| format!("report without {key}"))?;
+            for (k, t) in times.iter().enumerate().take(drag.len()) {
+                into[k].push(t.as_f64().unwrap_or(f64::NAN));
+            }
         }
     }
-    // Each edit's median over the runs; the session's median and worst of those.
-    let edit_medians: Vec<f64> = per_edit.iter().map(|v| median(v)).collect();
-    let session_median = median(&edit_medians);
-    let worst = edit_medians.iter().copied().fold(0.0, f64::max);
-    let first = edit_medians[0];
-    let cpu_median = median(&cpu_per_edit.iter().map(|v| median(v)).collect::<Vec<_>>());
     // Locality: particles farther than 4 radii from every stroke are bitwise unchanged.
     let read = |p: &Path| -> Result<Vec<OrientedPoint>> {
         Ok(psi::load_points(p, &psi::ReadOptions::paper())?.points)
@@ -142,42 +154,104 @@ pub(crate) fn session(psi: &Path, model: &Path, out_dir: &Path) -> Result<(Strin
             f.abs() / g.length().max(f64::MIN_POSITIVE) <= 2e-3 * d
         })
         .count();
-    let marked = last["local"]["marked_cells_per_edit"].clone();
-    let regenerated = last["local"]["particles_regenerated_per_edit"].clone();
-    let md = format!(
-        "\n## An editing session on the bunny (`psi edit --strokes --frame-iterations {FRAME_ITERATIONS}`: {STROKES} brush strokes of radius {RADIUS} across the back, each moving the points {} mm, each a frame of {FRAME_ITERATIONS} relaxation iterations settled before the next; {RUNS} sessions, each a fresh process; more drags: `cargo xtask bench edit`)\n\n| median frame ms | worst frame ms | first frame ms | CPU per stroke ms (median, frame and settle) | particles > 4 radii from every stroke unchanged | particles within 2e-3 D of a from-scratch build | marked cells per edit (median) | particles regenerated per edit (median) |\n|---|---|---|---|---|---|---|---|\n| {:.1} | {:.1} | {:.1} | {:.1} | {unchanged} of {} | {:.2} % | {} | {} |\n",
+    Ok(DragFigures {
+        frames: per_edit.iter().map(|v| median(v)).collect(),
+        cpu: cpu_per_edit.iter().map(|v| median(v)).collect(),
+        far: (far_old.len(), unchanged),
+        within: within as f64 / new.len().max(1) as f64,
+        last,
+    })
+}
+
+/// The median of a report's per-edit list `key`.
+fn per_edit_median(report: &Value, key: &str) -> f64 {
+    median(
+        &report["local"][key]
+            .as_array()
+            .map(|a| a.iter().filter_map(Value::as_f64).collect::<Vec<_>>())
+            .unwrap_or_default(),
+    )
+}
+
+/// Runs the session on `model` (the bunny) with the release binary `psi`, scratch files in
+/// `out_dir`: the drag across the back and the generated drags of [`SEEDS`]. Returns the
+/// Markdown section and its JSON. Frame figures are over the warm strokes (each drag's first
+/// stroke is reported apart).
+pub(crate) fn session(psi: &Path, model: &Path, out_dir: &Path) -> Result<(String, Value)> {
+    let points = psi::load_points(model, &psi::ReadOptions::paper())?.points;
+    let index = psi::octree::PointIndex::new(&points.iter().map(|p| p.p).collect::<Vec<_>>());
+    let mut drags = vec![("across the back".to_owned(), drag(&points)?)];
+    for seed in SEEDS {
+        let strokes = crate::bench::edit::drag(&points, &index, RADIUS, seed, STROKES)
+            .into_iter()
+            .filter_map(|e| match e {
+                psi::regen::Edit::Brush {
+                    center,
+                    displacement,
+                    ..
+                } => Some((center, displacement.normalize_or_zero() * DEPTH)),
+                _ => None,
+            })
+            .collect();
+        drags.push((format!("seed {seed}"), strokes));
+    }
+    let mut md = format!(
+        "\n## Editing sessions on the bunny (`psi edit --strokes --frame-iterations {FRAME_ITERATIONS}`: drags of {STROKES} brush strokes of radius {RADIUS}, each moving the points {} mm along the normal, each a frame of {FRAME_ITERATIONS} relaxation iterations settled before the next; one drag across the back and drags from seeds {}–{} (a random start and direction, strokes a quarter radius apart); {RUNS} sessions per drag, each a fresh process; frame figures over the warm strokes, each stroke's median over the sessions; more models: `cargo xtask bench edit`)\n\n| drag | median frame ms | worst frame ms | first frame ms | CPU per stroke ms (median, frame and settle) | particles > 4 radii from every stroke unchanged | particles within 2e-3 D of a from-scratch build | marked cells per edit (median) | particles regenerated per edit (median) |\n|---|---|---|---|---|---|---|---|---|\n",
         1e3 * DEPTH,
-        1e3 * session_median,
-        1e3 * worst,
-        1e3 * first,
-        1e3 * cpu_median,
-        far_old.len(),
-        100.0 * within as f64 / new.len().max(1) as f64,
-        median(
-            &marked
-                .as_array()
-                .map(|a| a.iter().filter_map(Value::as_f64).collect::<Vec<_>>())
-                .unwrap_or_default()
-        ),
-        median(
-            &regenerated
-                .as_array()
-                .map(|a| a.iter().filter_map(Value::as_f64).collect::<Vec<_>>())
-                .unwrap_or_default()
-        ),
+        SEEDS.start(),
+        SEEDS.end(),
     );
+    let (mut all_warm, mut all_cpu) = (Vec::new(), Vec::new());
+    let mut rows = Vec::new();
+    for (name, drag) in &drags {
+        let f = run_drag(psi, model, drag, out_dir)?;
+        let warm = &f.frames[1.min(f.frames.len())..];
+        let (frame_median, worst) = (median(warm), warm.iter().copied().fold(0.0, f64::max));
+        let cpu_median = median(&f.cpu);
+        all_warm.extend_from_slice(warm);
+        all_cpu.extend_from_slice(&f.cpu);
+        md.push_str(&format!(
+            "| {name} | {:.1} | {:.1} | {:.1} | {:.1} | {} of {} | {:.2} % | {} | {} |\n",
+            1e3 * frame_median,
+            1e3 * worst,
+            1e3 * f.frames.first().copied().unwrap_or(f64::NAN),
+            1e3 * cpu_median,
+            f.far.1,
+            f.far.0,
+            100.0 * f.within,
+            per_edit_median(&f.last, "marked_cells_per_edit"),
+            per_edit_median(&f.last, "particles_regenerated_per_edit"),
+        ));
+        rows.push(json!({
+            "drag": name,
+            "strokes": strokes_json(drag),
+            "frame_medians_seconds": f.frames,
+            "cpu_medians_seconds": f.cpu,
+            "median_seconds": frame_median,
+            "worst_seconds": worst,
+            "cpu_per_stroke_median_seconds": cpu_median,
+            "far_particles": f.far.0,
+            "far_particles_unchanged": f.far.1,
+            "within_2e-3_of_scratch": f.within,
+            "last_report": f.last,
+        }));
+    }
+    let (median_all, worst_all) = (
+        median(&all_warm),
+        all_warm.iter().copied().fold(0.0, f64::max),
+    );
+    md.push_str(&format!(
+        "| all drags | {:.1} | {:.1} | | {:.1} | | | | |\n",
+        1e3 * median_all,
+        1e3 * worst_all,
+        1e3 * median(&all_cpu),
+    ));
     let value = json!({
-        "strokes": strokes_json(&drag),
         "runs": RUNS,
         "frame_iterations": FRAME_ITERATIONS,
-        "frame_medians_seconds": edit_medians,
-        "cpu_per_stroke_median_seconds": cpu_median,
-        "median_seconds": session_median,
-        "worst_seconds": worst,
-        "far_particles": far_old.len(),
-        "far_particles_unchanged": unchanged,
-        "within_2e-3_of_scratch": within as f64 / new.len().max(1) as f64,
-        "last_report": last,
+        "median_seconds": median_all,
+        "worst_seconds": worst_all,
+        "drags": rows,
     });
     Ok((md, value))
 }

@@ -78,7 +78,7 @@ fn radius_for(points: &[OrientedPoint], index: &PointIndex, target: f64) -> f64 
 
 /// A drag of `strokes` brushes from seed `seed`: centres on input points, a quarter radius
 /// apart along a direction kept in the tangent plane, each pushing out by `DEPTH`·D.
-fn drag(
+pub(crate) fn drag(
     points: &[OrientedPoint],
     index: &PointIndex,
     radius: f64,
