@@ -2,10 +2,9 @@
 //! octree split over the same points is split the same way without looking at its points
 //! again, and after a brush the earlier arrangement is patched where points moved.
 
-use std::collections::HashMap;
-
 use glam::DVec3;
 
+use crate::id_map::IdMap;
 use crate::{KnownPartitions, NO_CELL, Octree};
 
 /// The depth-first octant order of cells `a` and `b` of `tree`, neither holding the other.
@@ -60,14 +59,14 @@ impl<'a> KnownPartitions<'a> {
         moved: &[u32],
         positions: &[DVec3],
         order: &mut Vec<u32>,
-    ) -> HashMap<u32, i64> {
+    ) -> IdMap<i64> {
         let old = self.old;
-        let mut gained: HashMap<u32, i64> = HashMap::new();
+        let mut gained: IdMap<i64> = IdMap::default();
         // Per earlier leaf that changes: the points leaving it and those joining it.
-        let mut leaving: HashMap<u32, Vec<u32>> = HashMap::new();
-        let mut joining: HashMap<u32, Vec<u32>> = HashMap::new();
+        let mut leaving: IdMap<Vec<u32>> = IdMap::default();
+        let mut joining: IdMap<Vec<u32>> = IdMap::default();
         for &id in moved {
-            let from = old.point_leaf[id as usize];
+            let from = old.leaf_of_point(id);
             let to = old
                 .leaf_containing(positions[id as usize])
                 .expect("moved points stay in the root cube");

@@ -36,6 +36,7 @@ mod cell;
 mod cell_at;
 mod error;
 mod geometry;
+mod id_map;
 mod known_partitions;
 mod leaf_containing;
 mod monitor;

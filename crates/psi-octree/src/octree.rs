@@ -76,7 +76,6 @@ pub struct KnownPartitions<'a> {
 pub struct OctreeBuffers {
     cells: Vec<Cell>,
     order: Vec<u32>,
-    point_leaf: Vec<u32>,
 }
 
 impl OctreeBuffers {
@@ -100,11 +99,9 @@ impl OctreeBuffers {
         let mut b = Self {
             cells: vec![blank; cells],
             order: Vec::new(),
-            point_leaf: Vec::new(),
         };
         b.cells.clear();
         touched(&mut b.order);
-        touched(&mut b.point_leaf);
         b
     }
 }
@@ -114,7 +111,6 @@ impl OctreeBuffers {
 pub struct Octree {
     pub(crate) cells: Vec<Cell>,
     pub(crate) order: Vec<u32>,
-    pub(crate) point_leaf: Vec<u32>,
     pub(crate) positions: Vec<DVec3>,
     pub(crate) params: OctreeParams,
     pub(crate) root_edge: f64,
@@ -241,7 +237,6 @@ impl Octree {
         let OctreeBuffers {
             mut cells,
             mut order,
-            point_leaf,
         } = buffers;
         cells.clear();
         cells.push(root);
@@ -259,7 +254,6 @@ impl Octree {
         let mut tree = Octree {
             cells,
             order,
-            point_leaf,
             positions: points,
             params: *params,
             root_edge: 2.0 * half,
@@ -378,15 +372,6 @@ impl Octree {
                 }
             }
         }
-        tree.point_leaf.clear();
-        tree.point_leaf.resize(tree.positions.len(), NO_CELL);
-        for (i, c) in tree.cells.iter().enumerate() {
-            if c.is_leaf() {
-                for &p in &tree.order[c.start as usize..c.end as usize] {
-                    tree.point_leaf[p as usize] = i as u32;
-                }
-            }
-        }
         Ok((tree, payloads))
     }
 
@@ -479,7 +464,6 @@ impl Octree {
         let buffers = OctreeBuffers {
             cells: self.cells,
             order: self.order,
-            point_leaf: self.point_leaf,
         };
         (buffers, self.positions)
     }
@@ -506,9 +490,12 @@ impl Octree {
         &self.order[c.start as usize..c.end as usize]
     }
 
-    /// The leaf holding input point `point` (an index into the build's `points`).
+    /// The leaf holding input point `point` (an index into the build's `points`): the leaf
+    /// containing its position, found by descending the tree (no table per point is kept, so
+    /// a rebuild after an edit does no work per point for it).
     pub fn leaf_of_point(&self, point: u32) -> u32 {
-        self.point_leaf[point as usize]
+        self.leaf_containing(self.positions[point as usize])
+            .expect("an input point lies in the root cube")
     }
 
     /// The input positions the tree was built on (shape: N, world units).
