@@ -10,6 +10,10 @@ use nalgebra::{Matrix3, SMatrix, SVector};
 /// has no plane (its least-variance direction is arbitrary in the plane across the line).
 const FLAT_SPREAD: f64 = 1e-3;
 
+/// A point is left out of a trimmed quadric fit when it lies more than this many robust
+/// standard deviations off the fit ([`QuadricFit::of_trimmed`]).
+const TRIM_MADS: f64 = 3.0;
+
 /// The least-squares plane of a point set: its centroid, unit normal (the direction of least
 /// variance; sign arbitrary) and the covariance's eigenvalues, ascending (world units²: the
 /// mean squared distance to the plane is `eigenvalues[0]`).
@@ -215,6 +219,36 @@ impl QuadricFit {
         // The residual summed directly (the normal equations' identity loses digits).
         fit.rss = points.iter().map(|p| fit.height(*p).powi(2)).sum();
         (fit.rss.is_finite() && coef.iter().all(|c| c.is_finite())).then_some(fit)
+    }
+
+    /// [`QuadricFit::of`] made robust to one stray point among `points`: when the point
+    /// farthest from the fit lies more than `floor` (world units) and more than
+    /// [`TRIM_MADS`] robust standard deviations (1.4826 × the median absolute height of the
+    /// points) off it, it is left out and the others are fitted again. (A least-squares fit
+    /// bends towards a stray neighbour, and a second stray point beside it then seems to lie on
+    /// the surface.)
+    pub(crate) fn of_trimmed(points: &[DVec3], scale: f64, floor: f64) -> Option<Self> {
+        let fit = Self::of(points, scale)?;
+        let mut heights: Vec<f64> = points.iter().map(|p| fit.height(*p).abs()).collect();
+        let (worst, largest) =
+            heights
+                .iter()
+                .copied()
+                .enumerate()
+                .fold((0, f64::NEG_INFINITY), |best, (k, h)| {
+                    if h > best.1 { (k, h) } else { best }
+                });
+        let mad = crate::median::median(&mut heights);
+        if largest <= floor.max(TRIM_MADS * 1.4826 * mad) {
+            return Some(fit);
+        }
+        let rest: Vec<DVec3> = points
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| k != worst)
+            .map(|(_, p)| *p)
+            .collect();
+        Self::of(&rest, scale).or(Some(fit))
     }
 
     /// The monomials (1, u, v, u², uv, v²) of `p` and its height over the plane, in units of
