@@ -18,7 +18,7 @@ use crate::cell_table::CellTable;
 use crate::coarse_index::CoarseIndex;
 use crate::data_footprint::DataFootprint;
 use crate::eval_nodes::{NO_FIT, eval_nodes_into};
-use crate::fit_cell::{CellFit, FitInput, fit_cell, try_fit_cell};
+use crate::fit_cell::{CellFit, FitInput, fit_cell, fit_octree_cell, try_fit_octree_cell};
 use crate::fit_store::FitStoreBuilder;
 use crate::frame::check_input_size;
 use crate::select_fit::LeafFit;
@@ -229,13 +229,7 @@ fn prefit_marked(
                             return None;
                         }
                         let cell = old_cell(c);
-                        try_fit_cell(
-                            &input,
-                            cell.center,
-                            cell.half,
-                            eps0,
-                            cell.depth < params.max_depth,
-                        )
+                        try_fit_octree_cell(&input, &cell, eps0)
                     })
                     .collect();
                 (coarse, early)
@@ -261,13 +255,7 @@ fn prefit_marked(
             }
             Some(early.unwrap_or_else(|| {
                 let cell = old_cell(c);
-                fit_cell(
-                    &input,
-                    cell.center,
-                    cell.half,
-                    eps0,
-                    cell.depth < params.max_depth,
-                )
+                fit_octree_cell(&input, &cell, eps0)
             }))
         })
         .collect();
@@ -451,13 +439,7 @@ impl Mpu {
                 fit_radius,
             } = match old.and_then(|o| marked_old.binary_search(&o).ok()) {
                 Some(k) => prefit[k].clone(),
-                None => fit_cell(
-                    &input.over(v.positions),
-                    v.cell.center,
-                    v.cell.half,
-                    eps0,
-                    v.cell.depth < params.max_depth,
-                ),
+                None => fit_octree_cell(&input.over(v.positions), v.cell, eps0),
             };
             let split = error > eps0 && v.cell.depth < params.max_depth;
             (

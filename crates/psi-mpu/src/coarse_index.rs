@@ -105,14 +105,7 @@ mod tests {
         let mpu = Mpu::build(&pts, &params).unwrap();
         let positions = mpu.octree.positions();
         let coarse = CoarseIndex::new(positions);
-        let input = FitInput {
-            positions,
-            points: &mpu.points,
-            index: Some(&mpu.index),
-            coarse: &coarse,
-            params: &params,
-            population: positions.len(),
-        };
+        let input = crate::fit_cell::input_of(&mpu, &coarse, &params);
         // The same points in reverse order, with their own trees.
         let reversed_points: Vec<_> = mpu.points.iter().rev().copied().collect();
         let reversed: Vec<DVec3> = positions.iter().rev().copied().collect();

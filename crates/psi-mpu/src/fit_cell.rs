@@ -88,6 +88,23 @@ pub(crate) fn fit_cell(
         .expect("a fit with the full index always completes")
 }
 
+/// [`fit_cell`] of an octree cell (local frame), which splits when its error exceeds `eps0`
+/// unless it is at the maximum depth.
+pub(crate) fn fit_octree_cell(input: &FitInput<'_>, cell: &psi_octree::Cell, eps0: f64) -> CellFit {
+    let may_split = cell.depth < input.params.max_depth;
+    fit_cell(input, cell.center, cell.half, eps0, may_split)
+}
+
+/// [`try_fit_cell`] of an octree cell, as [`fit_octree_cell`].
+pub(crate) fn try_fit_octree_cell(
+    input: &FitInput<'_>,
+    cell: &psi_octree::Cell,
+    eps0: f64,
+) -> Option<CellFit> {
+    let may_split = cell.depth < input.params.max_depth;
+    try_fit_cell(input, cell.center, cell.half, eps0, may_split)
+}
+
 /// The points a fit reads (shape: K each, local frame), in increasing index order.
 struct Gathered {
     positions: Vec<DVec3>,
@@ -390,6 +407,24 @@ pub(crate) fn try_fit_cell(
     Some(chosen)
 }
 
+/// The fit input of a whole build `mpu` (tests: a cell of it fitted again).
+#[cfg(test)]
+pub(crate) fn input_of<'a>(
+    mpu: &'a crate::Mpu,
+    coarse: &'a CoarseIndex,
+    params: &'a MpuParams,
+) -> FitInput<'a> {
+    let positions = mpu.octree.positions();
+    FitInput {
+        positions,
+        points: &mpu.points,
+        index: Some(&mpu.index),
+        coarse,
+        params,
+        population: positions.len(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -406,16 +441,8 @@ mod tests {
         .sample(40_000, 5);
         let params = MpuParams::paper();
         let mpu = Mpu::build(&pts, &params).unwrap();
-        let positions = mpu.octree.positions();
-        let coarse = CoarseIndex::new(positions);
-        let with = FitInput {
-            positions,
-            points: &mpu.points,
-            index: Some(&mpu.index),
-            coarse: &coarse,
-            params: &params,
-            population: positions.len(),
-        };
+        let coarse = CoarseIndex::new(mpu.octree.positions());
+        let with = input_of(&mpu, &coarse, &params);
         let without = FitInput {
             index: None,
             ..with
@@ -484,16 +511,8 @@ mod tests {
         cases.push((&noisy[..], ranked));
         for (points, params) in cases {
             let mpu = Mpu::build(points, &params).unwrap();
-            let positions = mpu.octree.positions();
-            let coarse = CoarseIndex::new(positions);
-            let input = FitInput {
-                positions,
-                points: &mpu.points,
-                index: Some(&mpu.index),
-                coarse: &coarse,
-                params: &params,
-                population: positions.len(),
-            };
+            let coarse = CoarseIndex::new(mpu.octree.positions());
+            let input = input_of(&mpu, &coarse, &params);
             let eps0 = params.error_rel * mpu.frame.diagonal;
             let (mut first, mut splits) = (0, 0);
             for c in mpu.octree.cells() {

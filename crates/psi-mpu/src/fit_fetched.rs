@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 use glam::DVec3;
 use psi_octree::{Cell, OrientedPoint};
 
-use crate::fit_cell::{CellFit, fit_cell};
+use crate::fit_cell::{CellFit, fit_octree_cell};
 use crate::region_points::{IndexedPoints, key_of_point};
 use crate::{MpuError, MpuFrame, MpuParams};
 
@@ -89,13 +89,7 @@ pub(crate) fn fit_fetched(
         let ball = cache.ball(cell.center, radius + 2.0 * margin, frame, fetch)?;
         let (indexed, n) = (&ball.0, ball.1);
         if n >= (params.n_min + 1).min(population) {
-            let f = fit_cell(
-                &indexed.input(params, population),
-                cell.center,
-                cell.half,
-                eps0,
-                cell.depth < params.max_depth,
-            );
+            let f = fit_octree_cell(&indexed.input(params, population), cell, eps0);
             if f.fit_radius + margin <= radius || n >= population {
                 // The first ball already holds the cube (1.5 R > its circumradius).
                 let surface = indexed

@@ -80,17 +80,8 @@ pub(crate) fn settle_radius(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A seeded stream of pseudo-random numbers in [0, 1).
-    fn numbers(seed: u64) -> impl FnMut() -> f64 {
-        let mut s = seed;
-        move || {
-            s = s
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
 
     /// Brute force: Ohtake's loop (R grown by λR until more than N_min points lie within it,
     /// or all of them) and the ball of the result.
@@ -116,7 +107,8 @@ mod tests {
 
     #[test]
     fn the_radius_and_ball_are_ohtakes_whether_the_trial_settles_them_or_not() {
-        let mut rnd = numbers(11);
+        let mut rng = Pcg64Mcg::seed_from_u64(11);
+        let mut rnd = move || rng.random::<f64>();
         // A clustered cloud: dense lumps and a sparse background, so cells of every radius
         // see from none to hundreds of points within R.
         let mut points = Vec::new();

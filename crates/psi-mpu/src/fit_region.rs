@@ -12,7 +12,7 @@ use glam::DVec3;
 use psi_octree::{Cell, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint};
 
 use crate::cell_table::{CellAddress, CellDecision, CellTable};
-use crate::fit_cell::{CellFit, fit_cell};
+use crate::fit_cell::{CellFit, fit_octree_cell};
 use crate::fit_fetched::{BallCache, FetchBall, fit_fetched};
 use crate::region_points::{IndexedPoints, check_population};
 use crate::{MpuError, MpuFrame, MpuParams};
@@ -174,15 +174,7 @@ pub fn fit_region(
     let margin = 1e-9 * frame.root_half;
     let cache = BallCache::default();
     let fit = |cell: &Cell, inside: &[u32]| {
-        let local = (points.len() >= need).then(|| {
-            fit_cell(
-                &input,
-                cell.center,
-                cell.half,
-                eps0,
-                cell.depth < params.max_depth,
-            )
-        });
+        let local = (points.len() >= need).then(|| fit_octree_cell(&input, cell, eps0));
         match (local, far) {
             (Some(f), Some(far))
                 if ((cell.center - rc).abs() + DVec3::splat(f.fit_radius)).max_element() - rh

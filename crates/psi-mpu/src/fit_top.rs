@@ -6,7 +6,7 @@ use glam::DVec3;
 use psi_octree::{Cell, Monitor, OrientedPoint};
 
 use crate::coarse_index::{CoarseIndex, is_coarse};
-use crate::fit_cell::{FitInput, try_fit_cell};
+use crate::fit_cell::{FitInput, try_fit_octree_cell};
 use crate::fit_fetched::{BallCache, FetchBall, fit_fetched};
 use crate::fit_region::decide_cells;
 use crate::region_points::{check_population, prepare_any};
@@ -51,13 +51,7 @@ pub fn fit_top(
     // A fit that completes from the coarse points alone splits (its error exceeds ε0), so
     // whether its cube holds points does not matter; a leaf's is told by its fetched ball.
     let cache = BallCache::default();
-    let fit = |cell: &Cell, inside: &[u32]| match try_fit_cell(
-        &input,
-        cell.center,
-        cell.half,
-        eps0,
-        cell.depth < params.max_depth,
-    ) {
+    let fit = |cell: &Cell, inside: &[u32]| match try_fit_octree_cell(&input, cell, eps0) {
         Some(f) => Ok((f, !inside.is_empty(), false)),
         None => fit_fetched(cell, frame, params, population, eps0, fetch, &cache)
             .map(|(f, s)| (f, s, true)),
