@@ -37,6 +37,11 @@ pub(crate) struct FitStore {
 }
 
 impl FitStore {
+    /// The number of chunks.
+    pub(crate) fn chunk_count(&self) -> usize {
+        self.chunks.len()
+    }
+
     #[inline]
     fn chunk(&self, id: u32) -> (&FitChunk, usize) {
         (

@@ -32,6 +32,7 @@ mod build;
 mod carry_footprint;
 mod cell_table;
 mod coarse_index;
+mod compact;
 mod crease_rescue;
 mod data_coverage;
 mod data_footprint;

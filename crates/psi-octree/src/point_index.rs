@@ -164,6 +164,14 @@ impl PointIndex {
         self.len() == 0
     }
 
+    /// Whether this version keeps more than half the moved points after which
+    /// [`PointIndex::with_moved`] builds the base again: a caller with time to spare (between
+    /// an editor's frames) builds a fresh index now rather than in a later frame.
+    pub fn is_crowded(&self) -> bool {
+        let base_len = self.tree.as_ref().map_or(0, |t| t.size());
+        2 * self.moved.len() > MOVED_FLOOR + base_len / MOVED_SHARE
+    }
+
     /// Whether id `id`'s base entry is stale.
     #[inline]
     fn is_stale(&self, id: u32) -> bool {

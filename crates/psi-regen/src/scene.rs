@@ -480,6 +480,8 @@ impl Scene {
                 &attributes,
                 &mut particle_attributes,
             );
+            // (As when a settle completes the stroke.)
+            mpu.compact();
         }
         let pending_iterations = pending
             .as_ref()
@@ -547,6 +549,8 @@ impl Scene {
                     points,
                     particle_attributes,
                 );
+                // The stroke is complete: the MPU's upkeep is done here, between frames.
+                self.mpu.compact();
             }
         }
         SettleReport {
