@@ -91,8 +91,7 @@ pub(crate) fn fit_cell(
 /// [`fit_cell`] of an octree cell (local frame), which splits when its error exceeds `eps0`
 /// unless it is at the maximum depth.
 pub(crate) fn fit_octree_cell(input: &FitInput<'_>, cell: &psi_octree::Cell, eps0: f64) -> CellFit {
-    let may_split = cell.depth < input.params.max_depth;
-    fit_cell(input, cell.center, cell.half, eps0, may_split)
+    try_fit_octree_cell(input, cell, eps0).expect("a fit with the full index always completes")
 }
 
 /// [`try_fit_cell`] of an octree cell, as [`fit_octree_cell`].
@@ -226,12 +225,9 @@ pub(crate) fn try_fit_cell(
     let large = sparse.len() > 256;
 
     let r2 = r * r;
-    // The error of `f` that decides the cell, stopping once it exceeds `limit` (world units):
-    // scanned over `first` alone (a first fit's own kind of points), or else over the sparse
-    // points of a large ball, then the coarse points (they are part of the ball), and the
-    // whole ball only while the maximum stays under the limit.
     // Set when the error needed the whole ball and no kd-tree was given.
     let incomplete = std::cell::Cell::new(false);
+    // The points within R1, from the kd-tree once (`None` without one).
     let ball = || -> Option<&Vec<u32>> {
         let index = input.index?;
         Some(full_ball.get_or_init(|| {
@@ -240,6 +236,10 @@ pub(crate) fn try_fit_cell(
             b
         }))
     };
+    // The error of `f` that decides the cell, stopping once it exceeds `limit` (world units):
+    // scanned over `first` alone (a first fit's own kind of points), or over the ball when it
+    // is at hand, or else over the sparse points of a large ball, then the coarse points (they
+    // are part of the ball), and the whole ball only while the maximum stays under the limit.
     let error_of = |f: &LocalFunction, limit: f64, first: Option<&[u32]>| {
         let distance = |p: DVec3| f.taubin_distance(p);
         if let Some(per_rank) = params.error_rank {
@@ -486,11 +486,10 @@ mod tests {
             minor: 0.35,
         }
         .sample(80_000, 9);
-        // Deterministic noise of about 1e-3 D along the normals.
-        for (k, p) in noisy.iter_mut().enumerate() {
-            let u =
-                ((k as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 11) as f64 / (1u64 << 53) as f64;
-            p.p += p.n * (u - 0.5) * 6e-3;
+        // Seeded Gaussian noise of about 1e-3 D along the normals.
+        let mut rng = <rand_pcg::Pcg64Mcg as rand::SeedableRng>::seed_from_u64(9);
+        for p in &mut noisy {
+            p.p += p.n * 1.7e-3 * psi_shapes::gaussian(&mut rng);
         }
         let ranked = MpuParams {
             error_rank: Some(256),

@@ -201,9 +201,10 @@ mod tests {
                     c.key
                 );
             }
+            // Every point is listed by the leaf its position descends to.
             for p in 0..points.len() as u32 {
-                let leaf = patched.cell(patched.leaf_of_point(p));
-                assert!(leaf.is_leaf() && patched.leaf_containing(points[p as usize]).is_some());
+                let leaf = patched.leaf_of_point(p);
+                assert!(patched.cell(leaf).is_leaf() && patched.points_in(leaf).contains(&p));
             }
             tree = patched;
         }

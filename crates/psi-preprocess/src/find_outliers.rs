@@ -42,8 +42,9 @@ const SPARSE_PART: f64 = 2.5;
 const BESIDE: f64 = 0.6;
 
 /// A core point, or a sparse part, has a neighbour near it: its nearest neighbour at most this
-/// share of its 16th-neighbour distance away (about 0.25 on a surface sampled evenly, 0.35 at a border; a
-/// stray point in a hole of the data has its 16 nearest on the hole's rim, all about as far).
+/// share of its 16th-neighbour distance away (about 0.25 on a surface sampled evenly, 0.35 at
+/// a border; a stray point in a hole of the data has its 16 nearest on the hole's rim, all
+/// about as far).
 const ISOLATED: f64 = 0.6;
 
 /// A point is off the surface when its distance to the quadric of its neighbours exceeds this
@@ -51,7 +52,7 @@ const ISOLATED: f64 = 0.6;
 const OFF_SURFACE_SPREADS: f64 = 4.0;
 
 /// See [`OFF_SURFACE_SPREADS`]; a core point lies no farther from its neighbours' quadric than
-/// the farthest of them plus this many sample spacings.
+/// the second farthest of them plus this many sample spacings.
 const OFF_SURFACE_SPACINGS: f64 = 1.5;
 
 /// Two normals agree when |n_i·n_j| reaches this (60°).
@@ -108,11 +109,11 @@ fn off_surface(fit: &QuadricFit, p: DVec3, spacing: f64) -> bool {
 }
 
 /// Whether `p` lies outside the band its neighbours `near` occupy about their quadric `fit`:
-/// farther from it than the farthest of them plus 1.5 × `spacing`. The first stage's test: a
-/// core point lies among its neighbours. (Four residual deviations let a stray point 2.5
-/// spacings off a clean but detailed surface become a core point, and a kept core point lets
-/// a second stray point beside it pass the second stage; noisy points outside the band are
-/// judged in the second stage, with the deviations.)
+/// farther from it than the second farthest of them plus 1.5 × `spacing`. The first stage's
+/// test: a core point lies among its neighbours, so that a stray point near a detailed surface
+/// does not become one and vouch for a second stray point beside it; noisy points outside the
+/// band are judged in the second stage, with the residual deviations (notes:
+/// 2026-11-26-outlier-pairs).
 fn outside_band(fit: &QuadricFit, p: DVec3, spacing: f64, near: &[DVec3]) -> bool {
     let h = fit.height(p).abs();
     let margin = OFF_SURFACE_SPACINGS * spacing;
@@ -138,8 +139,8 @@ fn outside_band(fit: &QuadricFit, p: DVec3, spacing: f64, near: &[DVec3]) -> boo
 /// the distance from p to its 16th nearest other point and a spacing d·√(π/16), a core point
 /// has d(p) ≤ 1.5 × the median of d over those neighbours and its nearest neighbour within
 /// 0.6 d(p); lies no farther from the least-squares quadric of those neighbours (refitted
-/// without the farthest of them when that one lies more than a spacing off) than the second
-/// farthest of them plus 1.5 spacings; with
+/// without the farthest of them when that one lies more than a spacing and 3 robust
+/// deviations off) than the second farthest of them plus 1.5 spacings; with
 /// `normals` (shape: N, unit, either sign), unless it lies within a quarter of a spacing of
 /// that quadric, has a normal within 60° of (either sign of) at least a quarter of theirs; and,
 /// when d(p) > 3 × the median of d over all points, has neighbours that lie on a surface
@@ -149,10 +150,11 @@ fn outside_band(fit: &QuadricFit, p: DVec3, spacing: f64, near: &[DVec3]) -> boo
 /// test and is sparser than its neighbours (d(p) up to 2.5 × theirs) but among them (its offset
 /// from their centroid in their plane at most 0.6 d(p), its nearest neighbour within 0.6 d(p)),
 /// on a quadric that fits them within a spacing, is kept. Any other point is an outlier when
-/// its nearest core point is farther than 2.5 spacings of the core points there, or when it lies
-/// farther than 4 residual standard deviations plus 1.5 spacings from the quadric of its 16
-/// nearest core points or fails the normal test against them. Inputs of at most 16 points have no outliers; a point with a
-/// non-finite coordinate is one (far). Deterministic and independent of the thread count.
+/// its nearest core point is farther than 2.5 spacings of the core points there, or when it
+/// lies farther than 4 residual standard deviations plus 1.5 spacings from the quadric of its
+/// 16 nearest core points or fails the normal test against them. Inputs of at most 16 points
+/// have no outliers; a point with a non-finite coordinate is one (far). Deterministic and
+/// independent of the thread count.
 ///
 /// ```
 /// use glam::DVec3;
@@ -253,12 +255,13 @@ fn outliers_in_order(
             let pts = near.map(|j| positions[j as usize]);
             // Most points of a surface sit among their neighbours, within a fraction of a
             // spacing of their centroid: no fit can find them off it.
+            // A point far from its nearest neighbour is neither core nor a sparse part.
+            if (positions[near[0] as usize] - positions[i]).length() > ISOLATED * reach[i] {
+                return Status::Unsure;
+            }
             let centroid = pts.iter().sum::<DVec3>() / NEIGHBOURS as f64;
-            let isolated =
-                (positions[near[0] as usize] - positions[i]).length() > ISOLATED * reach[i];
             if reach[i] <= LOCAL_DENSITY * local
                 && reach[i] <= GLOBAL_DENSITY * typical
-                && !isolated
                 && (positions[i] - centroid).length() <= LIFTED_SPACINGS * spacing_of(local)
             {
                 return Status::Core;
@@ -275,13 +278,12 @@ fn outliers_in_order(
             // sampled part of it (large triangles beside small ones, a scan's border).
             let sparse_part = reach[i] <= SPARSE_PART * local
                 && fit.sigma() <= spacing_of(local)
-                && fit.tangential_offset(positions[i]) <= BESIDE * reach[i]
-                && !isolated;
+                && fit.tangential_offset(positions[i]) <= BESIDE * reach[i];
             // A normal across the surface counts against a point a little off it.
             let lifted = fit.height(positions[i]).abs() > LIFTED_SPACINGS * spacing_of(local);
             let across = lifted && !normal_fits(i, &mut near.iter().map(|&j| j as usize));
             match (dense, on_it && !across, sparse_cloud) {
-                (true, true, false) if !isolated => Status::Core,
+                (true, true, false) => Status::Core,
                 (false, true, false) if sparse_part => Status::Inlier,
                 _ => Status::Unsure,
             }
