@@ -18,7 +18,9 @@ use crate::cell_table::CellTable;
 use crate::coarse_index::CoarseIndex;
 use crate::data_footprint::DataFootprint;
 use crate::eval_nodes::{NO_FIT, eval_nodes_into};
-use crate::fit_cell::{CellFit, FitInput, fit_cell, fit_octree_cell, try_fit_octree_cell};
+use crate::fit_cell::{
+    CellFit, FitInput, fit_cell, fit_octree_cell, refit_octree_cell, try_fit_octree_cell,
+};
 use crate::fit_store::FitStoreBuilder;
 use crate::frame::check_input_size;
 use crate::select_fit::LeafFit;
@@ -255,7 +257,8 @@ fn prefit_marked(
             }
             Some(early.unwrap_or_else(|| {
                 let cell = old_cell(c);
-                fit_octree_cell(&input, &cell, eps0)
+                let earlier_r1 = reuse.map_or(f64::NAN, |r| r.old.fit_radius[c as usize]);
+                refit_octree_cell(&input, &cell, eps0, earlier_r1)
             }))
         })
         .collect();

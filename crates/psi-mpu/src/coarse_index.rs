@@ -137,6 +137,7 @@ mod tests {
                 c.half,
                 eps0,
                 true,
+                None,
             )
             .expect("a large splitting cell needs no kd-tree");
             // Without the tree: bitwise. Reversed: the same points in another summation

@@ -37,22 +37,35 @@ pub(crate) fn fit_bivariate(
 ) -> Option<Quadric> {
     let (e1, e2) = tangent_frame(normal);
     let inv = 1.0 / scale;
-    let mut m = SMatrix::<f64, 6, 6>::zeros();
-    let mut r = SVector::<f64, 6>::zeros();
+    // The lower triangle of the normal matrix, row by row (m[i][j], j ≤ i), and the right-hand
+    // side.
+    let mut m = [[0.0f64; 6]; 6];
+    let mut r = [0.0f64; 6];
     for (p, &w) in points.iter().zip(weights) {
         if w <= 0.0 {
             continue;
         }
         let y = *p - origin;
         let (u, v, h) = (e1.dot(y) * inv, e2.dot(y) * inv, normal.dot(y) * inv);
-        let phi = SVector::<f64, 6>::from([1.0, u, v, u * u, u * v, v * v]);
+        let phi = [1.0, u, v, u * u, u * v, v * v];
         // Rows w·φ: the normal equations weight residuals by w² (as Ohtake's code). Only the
-        // lower triangle is accumulated: the symmetric eigen-solver reads nothing else.
+        // lower triangle is accumulated: the symmetric eigen-solver reads nothing else. Each
+        // entry gains φ_j·(w²φ_i) and r_i gains (w²h)·φ_i, the operations of nalgebra's
+        // `syger(1, w²φ, φ, 1)` and `r += (w²h)·φ`, so the sums are theirs bit for bit.
         let w2 = w * w;
-        m.syger(1.0, &(w2 * phi), &phi, 1.0);
-        r += (w2 * h) * phi;
+        let x = phi.map(|f| w2 * f);
+        for i in 0..6 {
+            for j in 0..=i {
+                m[i][j] += phi[j] * x[i];
+            }
+        }
+        let wh = w2 * h;
+        for i in 0..6 {
+            r[i] += wh * phi[i];
+        }
     }
-    let c = solve_pseudo_inverse6(&m, &r, CUTOFF)?;
+    let m = SMatrix::<f64, 6, 6>::from_fn(|i, j| if j <= i { m[i][j] } else { 0.0 });
+    let c = solve_pseudo_inverse6(&m, &SVector::from(r), CUTOFF)?;
     // h(u,v) in world units: scale·h(u'/scale…) with u' = u·scale.
     let (c0, c1, c2) = (c[0] * scale, c[1], c[2]);
     let (c3, c4, c5) = (c[3] * inv, c[4] * inv, c[5] * inv);

@@ -84,7 +84,7 @@ pub(crate) fn fit_cell(
     eps0: f64,
     may_split: bool,
 ) -> CellFit {
-    try_fit_cell(input, center, half, eps0, may_split)
+    try_fit_cell(input, center, half, eps0, may_split, None)
         .expect("a fit with the full index always completes")
 }
 
@@ -101,7 +101,27 @@ pub(crate) fn try_fit_octree_cell(
     eps0: f64,
 ) -> Option<CellFit> {
     let may_split = cell.depth < input.params.max_depth;
-    try_fit_cell(input, cell.center, cell.half, eps0, may_split)
+    try_fit_cell(input, cell.center, cell.half, eps0, may_split, None)
+}
+
+/// [`fit_octree_cell`] of a cell fitted before an edit with fit radius `earlier_r1` (world
+/// units): the same fit, its radius first sought near the earlier one.
+pub(crate) fn refit_octree_cell(
+    input: &FitInput<'_>,
+    cell: &psi_octree::Cell,
+    eps0: f64,
+    earlier_r1: f64,
+) -> CellFit {
+    let may_split = cell.depth < input.params.max_depth;
+    try_fit_cell(
+        input,
+        cell.center,
+        cell.half,
+        eps0,
+        may_split,
+        Some(earlier_r1),
+    )
+    .expect("a fit with the full index always completes")
 }
 
 /// The points a fit reads (shape: K each, local frame), in increasing index order.
@@ -141,12 +161,14 @@ impl Gathered {
 /// [`fit_cell`], or `None` when `input.index` is `None` and the fit needs it: only a large cell
 /// whose error exceeds ε0 among its coarse points completes without it (bitwise as with it).
 /// Local regeneration fits such cells while the kd-tree of all points is being built.
+/// `r1_hint`: a likely R1 (world units; see [`settle_radius`]), which changes no result.
 pub(crate) fn try_fit_cell(
     input: &FitInput<'_>,
     center: DVec3,
     half: f64,
     eps0: f64,
     may_split: bool,
+    r1_hint: Option<f64>,
 ) -> Option<CellFit> {
     let params = input.params;
     let r = params.alpha * 2.0 * 3f64.sqrt() * half;
@@ -167,7 +189,7 @@ pub(crate) fn try_fit_cell(
     let full_ball: std::cell::OnceCell<Vec<u32>> = std::cell::OnceCell::new();
     // R1 from the kd-tree, with the ball of R1 when the query gave it.
     let settle = |index: &PointIndex, sparse: &mut Vec<u32>| {
-        let (r1, ball) = settle_radius(index, params, need, center, r);
+        let (r1, ball) = settle_radius(index, params, need, center, r, r1_hint);
         if let Some(ball) = ball {
             let _ = full_ball.set(ball);
         }
@@ -451,7 +473,7 @@ mod tests {
         let (mut same, mut gave_up) = (0, 0);
         for c in mpu.octree.cells() {
             let full = fit_cell(&with, c.center, c.half, eps0, true);
-            match try_fit_cell(&without, c.center, c.half, eps0, true) {
+            match try_fit_cell(&without, c.center, c.half, eps0, true, None) {
                 Some(f) => {
                     assert_eq!(f.fit.function, full.fit.function);
                     assert_eq!(f.fit.kind, full.fit.kind);

@@ -40,12 +40,13 @@ fn fit_radius(index: &PointIndex, params: &MpuParams, need: usize, center: DVec3
 }
 
 /// R1 of the cell at `center` with nominal radius `r` (world units), and the indices of the
-/// points within R1 when one trial query found them. The trial ball (radius R + m·λR, m =
-/// ⌈[`TRIAL`]/λ⌉, a radius R1 can take) holds every point within its radius with the kd-tree's
+/// points within R1 when one trial query found them. The trial ball (radius R + m·λR, a radius
+/// R1 can take: the smallest such radius reaching `hint` (world units; a cell refitted after an
+/// edit passes its earlier R1, which most edits leave as it was), else m = ⌈[`TRIAL`]/λ⌉) holds every point within its radius with the kd-tree's
 /// own squared distances, the ones a k-nearest query computes; when it holds `need` points its
 /// `need`-th smallest distance is the `need`-th nearest distance, R1 is what [`fit_radius`]
 /// finds, and R1 is at most the trial radius, so the ball of R1 is the trial points with
-/// d² ≤ R1² (the test the kd-tree applies; in the trial's order). Otherwise R1 comes from a
+/// d² ≤ R1² (the test the kd-tree applies; in some order, which no decision reads). Otherwise R1 comes from a
 /// k-nearest query and the ball is `None`.
 pub(crate) fn settle_radius(
     index: &PointIndex,
@@ -53,17 +54,20 @@ pub(crate) fn settle_radius(
     need: usize,
     center: DVec3,
     r: f64,
+    hint: Option<f64>,
 ) -> (f64, Option<Vec<u32>>) {
-    let m = (TRIAL / params.lambda).ceil().max(1.0);
-    let trial = r + m * (params.lambda * r);
-    let mut near = Vec::new();
+    let trial = match hint {
+        Some(h) if h.is_finite() => radius_reaching(h, r, params.lambda),
+        _ => r + (TRIAL / params.lambda).ceil().max(1.0) * (params.lambda * r),
+    };
+    let mut near = Vec::with_capacity(8 * need);
     index.within_distances(center, trial, &mut near);
     if need == 0 || near.len() < need {
         return (fit_radius(index, params, need, center, r), None);
     }
-    let mut d2: Vec<f64> = near.iter().map(|n| n.1).collect();
-    let (_, kth, _) = d2.select_nth_unstable_by(need - 1, f64::total_cmp);
-    let r1 = radius_reaching(kth.sqrt(), r, params.lambda);
+    // (Reorders the trial's points: no decision reads their order.)
+    let (_, kth, _) = near.select_nth_unstable_by(need - 1, |a, b| a.1.total_cmp(&b.1));
+    let r1 = radius_reaching(kth.1.sqrt(), r, params.lambda);
     if r1 > trial {
         // (Rounding at the trial sphere: the k-nearest query decides.)
         return (fit_radius(index, params, need, center, r), None);
@@ -128,8 +132,15 @@ mod tests {
         for k in 0..600 {
             let center = DVec3::new(rnd(), rnd(), rnd());
             let r = 0.005 * (1.0 + (k % 30) as f64);
-            let (r1, ball) = settle_radius(&index, &params, need, center, r);
             let (want_r1, want_ball) = ohtake(&points, &params, center, r);
+            // No hint, or an earlier R1 (as after an edit): right, too small or too large.
+            let hint = match k % 5 {
+                0 | 1 => None,
+                2 => Some(want_r1),
+                3 => Some(r.max(want_r1 - 2.0 * params.lambda * r)),
+                _ => Some(want_r1 + 3.0 * params.lambda * r),
+            };
+            let (r1, ball) = settle_radius(&index, &params, need, center, r, hint);
             psi_shapes::assert_near!(r1, want_r1, 1e-12);
             assert_eq!(
                 r1.to_bits(),

@@ -49,6 +49,15 @@ impl std::fmt::Debug for PointIndex {
     }
 }
 
+/// Calls `f(item, squared distance)` for the entries of `t` with squared distance ≤ `r2`
+/// from `x`, in no particular order.
+fn ball_of(t: &ImmutableKdTree<f64, 3>, x: DVec3, r2: f64, mut f: impl FnMut(u32, f64)) {
+    t.query(&x.to_array())
+        .within::<SquaredEuclidean<f64>>(r2)
+        .unsorted()
+        .visit(|n| f(n.item, n.distance));
+}
+
 /// A kiddo tree over `points` whose item k is `item(k)`; `None` when empty or too large.
 fn tree_of(points: &[DVec3], item: impl Fn(usize) -> u32) -> Option<ImmutableKdTree<f64, 3>> {
     if points.is_empty() || points.len() >= u32::MAX as usize {
@@ -194,22 +203,23 @@ impl PointIndex {
 
     /// Calls `f(id, squared distance)` for every live entry with squared distance ≤ `r2`.
     fn each_within(&self, x: DVec3, r2: f64, mut f: impl FnMut(u32, f64)) {
-        let ball = |t: &ImmutableKdTree<f64, 3>| {
-            t.query(&x.to_array())
-                .within::<SquaredEuclidean<f64>>(r2)
-                .unsorted()
-                .execute()
-        };
+        self.each_within_base(x, r2, &mut f);
+        if let Some(o) = &self.overlay {
+            ball_of(o, x, r2, &mut f);
+        }
+    }
+
+    /// [`PointIndex::each_within`] over the base tree's live entries only.
+    fn each_within_base(&self, x: DVec3, r2: f64, mut f: impl FnMut(u32, f64)) {
         // The base's stale entries are left out; the overlay holds only live ones.
-        let base = self.tree.as_deref().map(ball).unwrap_or_default();
-        for n in &base {
-            if self.moved.is_empty() || !self.is_stale(n.item) {
-                f(n.item, n.distance);
+        let Some(t) = self.tree.as_deref() else {
+            return;
+        };
+        ball_of(t, x, r2, |id, d2| {
+            if self.moved.is_empty() || !self.is_stale(id) {
+                f(id, d2);
             }
-        }
-        for n in &self.overlay.as_ref().map(ball).unwrap_or_default() {
-            f(n.item, n.distance);
-        }
+        });
     }
 
     /// The nearest point to `x` as `(index, squared distance)`; `None` for an empty index.
@@ -255,24 +265,27 @@ impl PointIndex {
             .filter(|&(id, _)| !self.is_stale(id))
             .collect();
         let complete = out.len() == k || exhausted;
-        if let Some(o) = &self.overlay {
-            out.extend(query(o, want));
-        }
+        let overlay = self
+            .overlay
+            .as_ref()
+            .map_or_else(Vec::new, |o| query(o, want));
+        out.extend_from_slice(&overlay);
         if !complete {
             // Stale entries hid some of the base's nearest live ones, all within the k-th
             // distance of what was found (moved points are dense where they moved, so the
-            // overlay usually supplies k): gather the ball of that radius instead of asking
-            // the base for ever more neighbours.
+            // overlay usually supplies k): gather the base's ball of that radius instead of
+            // asking it for ever more neighbours. The overlay's entries within it are among
+            // its k nearest, found already.
             out.sort_by(|a, b| a.1.total_cmp(&b.1));
             let bound = if out.len() >= k {
                 out[k - 1].1
             } else {
                 f64::INFINITY
             };
-            out.clear();
+            out = overlay;
             // (Fewer than k live entries found at all: every entry.)
             let r2 = if bound.is_finite() { bound } else { f64::MAX };
-            self.each_within(x, r2, |id, d2| out.push((id, d2)));
+            self.each_within_base(x, r2, |id, d2| out.push((id, d2)));
         }
         out.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
         out.truncate(k);
