@@ -21,6 +21,7 @@ use crate::eval_nodes::{NO_FIT, eval_nodes_into};
 use crate::fit_cell::{
     CellFit, FitInput, fit_cell, fit_octree_cell, refit_octree_cell, try_fit_octree_cell,
 };
+use crate::fit_reach::reach_by_depth;
 use crate::fit_store::FitStoreBuilder;
 use crate::frame::check_input_size;
 use crate::select_fit::LeafFit;
@@ -489,6 +490,7 @@ impl Mpu {
         report.leaves_per_depth = vec![0; depth_slots];
         report.surface_leaves_per_depth = vec![0; depth_slots];
         let input = input.over(octree.positions());
+        let mut reach = vec![0.0f64; depth_slots];
         for (i, rec) in records.into_iter().enumerate() {
             let cell = octree.cell(i as u32);
             let leaf = match rec {
@@ -513,6 +515,8 @@ impl Mpu {
                     })
                 }
             };
+            let slot = &mut reach[usize::from(cell.depth)];
+            *slot = slot.max(fit_radius[i]);
             if !cell.is_leaf() {
                 continue;
             }
@@ -562,6 +566,7 @@ impl Mpu {
             cell_fit,
             fit_radius,
             fitted,
+            reach_by_depth: reach_by_depth(reach),
             frame,
             points,
             bounds,

@@ -9,7 +9,7 @@
 //! of their points is emptied when a changed position lies within its own d₉.
 
 use glam::DVec3;
-use psi_octree::{Aabb, PointIndex};
+use psi_octree::PointIndex;
 use rayon::prelude::*;
 
 use crate::Mpu;
@@ -46,32 +46,20 @@ impl Mpu {
 fn stale_entries(old: &Mpu, table: &[InputLocalSlot], changed: &[DVec3]) -> Vec<u32> {
     let origin = old.frame.origin;
     let local: Vec<DVec3> = changed.iter().map(|p| *p - origin).collect();
-    let Some(bounds) = Aabb::from_points(local.iter().copied()) else {
+    if local.is_empty() {
         return Vec::new();
-    };
+    }
     let index = PointIndex::new(&local);
     let tree = &old.octree;
-    let stale_in = |l: u32| {
+    // The leaves within 3·R1 of a changed position, with the distance from the centre to the
+    // nearest one (only the cells near the changed positions are visited).
+    let leaves = old.cells_reaching(changed, 3.0, true);
+    let stale_in = |(l, to_centre): (u32, f64)| {
         let c = tree.cell(l);
-        let reach = 3.0 * old.fit_radius[l as usize] * (1.0 + 1e-9);
-        let outside = (bounds.min - c.center)
-            .max(c.center - bounds.max)
-            .max(DVec3::ZERO);
-        // The changed position nearest the centre, if within reach (else the leaf is left
-        // alone); no changed position is nearer a point q than that one's distance less q's
-        // offset from the centre, which spares most queries.
-        let nearest = (outside.length_squared() <= reach * reach)
-            .then(|| index.nearest_one(c.center))
-            .flatten()
-            .filter(|&(_, d2)| d2 <= reach * reach);
-        let to_centre = nearest.map_or(0.0, |(_, d2)| d2.sqrt());
-        let points: &[u32] = if nearest.is_some() {
-            tree.points_in(l)
-        } else {
-            &[]
-        };
         let index = &index;
-        points.iter().copied().filter(move |&q| {
+        // No changed position is nearer a point q than the nearest one's distance to the
+        // centre less q's offset from it, which spares most queries.
+        tree.points_in(l).iter().copied().filter(move |&q| {
             table[q as usize].reach().is_some_and(|d9| {
                 let d9 = d9 * (1.0 + 1e-9);
                 let y = tree.positions()[q as usize];
@@ -80,7 +68,6 @@ fn stale_entries(old: &Mpu, table: &[InputLocalSlot], changed: &[DVec3]) -> Vec<
             })
         })
     };
-    let leaves: Vec<u32> = tree.leaves().collect();
     leaves.par_iter().flat_map_iter(|&l| stale_in(l)).collect()
 }
 

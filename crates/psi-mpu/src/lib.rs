@@ -44,6 +44,7 @@ mod fit_cell;
 mod fit_fetched;
 mod fit_general_quadric;
 mod fit_radius;
+mod fit_reach;
 mod fit_region;
 mod fit_sharp;
 mod fit_store;

@@ -26,6 +26,9 @@ pub struct Mpu {
     pub(crate) fit_radius: Vec<f64>,
     /// Per cell: fitted by this build (false where a local rebuild reused the earlier record).
     pub(crate) fitted: Vec<bool>,
+    /// Per depth: the largest fit radius of the cells at that depth or below, world units
+    /// (`fit_reach`).
+    pub(crate) reach_by_depth: Vec<f64>,
     pub(crate) nodes: Vec<EvalNode>,
     /// Per cell: the leaves whose support meets its cube, built on first use (for leaves and,
     /// as the source of their lists, inner cells).

@@ -6,6 +6,7 @@ use std::borrow::Cow;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::id_map::IdBits;
 use crate::{Aabb, Cell, NO_CELL, OctreeError};
 
 /// The deepest level a cell may have (integer keys stay exact up to 2^21 per axis).
@@ -251,6 +252,12 @@ impl Octree {
                 Default::default()
             }
         };
+        // The earlier cells with a count to correct, as bits: most cells have none, and a bit
+        // is cheaper to test than a hash lookup.
+        let gained_bits = IdBits::of(
+            gained.keys().copied(),
+            known.map_or(0, |k| k.old.cells.len()),
+        );
         let mut tree = Octree {
             cells,
             order,
@@ -258,12 +265,17 @@ impl Octree {
             params: *params,
             root_edge: 2.0 * half,
         };
-        let mut payloads: Vec<T> = Vec::new();
+        // (An earlier octree's size is a good guess at this one's.)
+        let expected = known.map_or(0, |k| k.old.cells.len());
+        tree.cells.reserve(expected);
+        let mut payloads: Vec<T> = Vec::with_capacity(expected);
         // Per cell, with known partitions: the earlier octree's cell at its address, and
         // whether its segment of `order` already holds that cell's final arrangement (then its
         // subtree's partitions are in place and nothing is copied).
-        let mut old_of: Vec<u32> = vec![if known.is_some() { 0 } else { NO_CELL }];
-        let mut in_place: Vec<bool> = vec![patch.is_some()];
+        let mut old_of: Vec<u32> = Vec::with_capacity(expected.max(1));
+        old_of.push(if known.is_some() { 0 } else { NO_CELL });
+        let mut in_place: Vec<bool> = Vec::with_capacity(expected.max(1));
+        in_place.push(patch.is_some());
         let mut level = 0..1usize;
         while !level.is_empty() {
             let decisions: Vec<(bool, T)> = {
@@ -271,6 +283,9 @@ impl Octree {
                 let old_of = &old_of;
                 (level.start..level.end)
                     .into_par_iter()
+                    // (Most cells of a rebuild after an edit take their earlier decision at
+                    // once: smaller pieces would cost more to hand out than to decide.)
+                    .with_min_len(128)
                     .map(|i| {
                         let cell = &t.cells[i];
                         decide(CellView {
@@ -288,8 +303,22 @@ impl Octree {
             for (offset, (split, payload)) in decisions.into_iter().enumerate() {
                 let i = level.start + offset;
                 payloads.push(payload);
-                if split && tree.cells[i].depth < params.max_depth {
+                let c = tree.cells[i];
+                if split && c.depth < params.max_depth {
                     to_split.push(i);
+                } else if !(in_place[i]
+                    && known
+                        .as_ref()
+                        .is_some_and(|k| k.old.cell(old_of[i]).is_leaf()))
+                {
+                    // A leaf (its segment is final): in increasing index order, as a build from
+                    // scratch leaves it. A partition copied from an earlier octree keeps that
+                    // octree's order below, which differs only under a cell whose subtree
+                    // changed; a leaf in place that was a leaf before too is sorted already.
+                    let r = &mut tree.order[c.start as usize..c.end as usize];
+                    if !r.is_sorted() {
+                        r.sort_unstable();
+                    }
                 }
             }
             // The cells' point ranges are disjoint: partition them in parallel, then append the
@@ -298,7 +327,8 @@ impl Octree {
             // for its whole subtree.
             let parts: Vec<Partition<'_>> = {
                 let t = &tree;
-                let (old_of, in_place, gained) = (&old_of, &in_place, &gained);
+                let (old_of, in_place, gained, gained_bits) =
+                    (&old_of, &in_place, &gained, &gained_bits);
                 to_split
                     .par_iter()
                     .map(|&i| {
@@ -310,7 +340,11 @@ impl Octree {
                             let mut counts = [0u32; 8];
                             for (slot, ch) in counts.iter_mut().zip(children) {
                                 let was = k.old.cell(ch);
-                                let plus = gained.get(&ch).copied().unwrap_or(0);
+                                let plus = if gained_bits.contains(ch) {
+                                    gained.get(&ch).copied().unwrap_or(0)
+                                } else {
+                                    0
+                                };
                                 *slot = (i64::from(was.end - was.start) + plus) as u32;
                             }
                             return (counts, None);
@@ -353,24 +387,6 @@ impl Octree {
                 on_level(tree.cells[level.start].depth, tree.cells.len());
             }
             level = next_start..tree.cells.len();
-        }
-        // Every leaf lists its points in increasing index order, as a build from scratch leaves
-        // them. A partition copied from an earlier octree keeps that octree's order below, which
-        // differs only under a cell whose subtree changed; sorting such leaves restores it (a
-        // leaf in place that was a leaf before too is sorted already).
-        let sorted_before = |i: usize| {
-            in_place[i]
-                && known
-                    .as_ref()
-                    .is_some_and(|k| k.old.cell(old_of[i]).is_leaf())
-        };
-        for (i, c) in tree.cells.iter().enumerate() {
-            if c.is_leaf() && !sorted_before(i) {
-                let r = &mut tree.order[c.start as usize..c.end as usize];
-                if !r.is_sorted() {
-                    r.sort_unstable();
-                }
-            }
         }
         Ok((tree, payloads))
     }

@@ -3,35 +3,15 @@
 
 use glam::DVec3;
 use psi_mpu::Mpu;
-use psi_octree::PointIndex;
-use rayon::prelude::*;
 
 /// Per cell of `mpu`: whether a changed position (world units) lies within its fit radius.
 pub fn mark_cells(mpu: &Mpu, changed: &[DVec3]) -> Vec<bool> {
-    if changed.is_empty() {
-        return vec![false; mpu.octree().cells().len()];
+    let mut marked = vec![false; mpu.octree().cells().len()];
+    // (Only the cells near the changed positions are visited: `Mpu::cells_reaching`.)
+    for (c, _) in mpu.cells_reaching(changed, 1.0, false) {
+        marked[c as usize] = true;
     }
-    let origin = mpu.frame_origin();
-    let local: Vec<DVec3> = changed.iter().map(|p| *p - origin).collect();
-    let index = PointIndex::new(&local);
-    // Cells farther from the changed points' bounding box than their fit radius cannot be
-    // marked: a box-distance test rejects most cells without a kd query.
-    let bounds = psi_octree::Aabb::from_points(local.iter().copied()).expect("non-empty");
-    mpu.octree()
-        .cells()
-        .par_iter()
-        .enumerate()
-        .map(|(i, c)| {
-            let r = mpu.fit_radius(i as u32) * (1.0 + 1e-9);
-            let outside = (bounds.min - c.center)
-                .max(c.center - bounds.max)
-                .max(DVec3::ZERO);
-            outside.length_squared() <= r * r
-                && index
-                    .nearest_one(c.center)
-                    .is_some_and(|(_, d2)| d2 <= r * r)
-        })
-        .collect()
+    marked
 }
 
 /// Brute-force twin of [`mark_cells`] (tests).
