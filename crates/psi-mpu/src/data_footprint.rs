@@ -169,7 +169,7 @@ impl DataFootprint {
         self.table[q as usize].0.get_or_init(|| {
             let positions = data.positions;
             let y = positions[q as usize];
-            let around = data.index.nearest(y, 9);
+            let around = data.index.nearest_of_entry(q, y, 9);
             let last = around.last().map_or(0.0, |n| n.1.sqrt());
             let spacing = spacing_of(last);
             let first = &around[..around.len().min(8)];

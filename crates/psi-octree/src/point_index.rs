@@ -235,6 +235,36 @@ impl PointIndex {
         self.nearest(x, 1).first().copied()
     }
 
+    /// [`PointIndex::nearest`] of entry `id` at its position `x`: the same answer (equal
+    /// distances aside, which either may order by index). A moved entry's neighbours are
+    /// mostly moved too, so that the earlier tree's nearest are stale: they are sought among
+    /// the moved entries first, and the earlier tree is asked only for its live entries within
+    /// the k-th distance found there.
+    pub fn nearest_of_entry(&self, id: u32, x: DVec3, k: usize) -> Vec<(u32, f64)> {
+        let (Some(want), Some(overlay)) = (NonZeroUsize::new(k), &self.overlay) else {
+            return self.nearest(x, k);
+        };
+        if !self.is_stale(id) {
+            return self.nearest(x, k);
+        }
+        let mut out: Vec<(u32, f64)> = overlay
+            .query(&x.to_array())
+            .nearest_n::<SquaredEuclidean<f64>>(want)
+            .execute()
+            .iter()
+            .map(|n| (n.item, n.distance))
+            .collect();
+        let Some(&(_, bound)) = out.get(k - 1) else {
+            return self.nearest(x, k);
+        };
+        // The k nearest live entries lie within the overlay's k-th distance; the overlay's
+        // entries within it are among its k nearest.
+        self.each_within_base(x, bound, |i, d2| out.push((i, d2)));
+        out.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+        out.truncate(k);
+        out
+    }
+
     /// The `k` nearest points to `x` as `(index, squared distance)`, nearest first.
     pub fn nearest(&self, x: DVec3, k: usize) -> Vec<(u32, f64)> {
         let Some(want) = NonZeroUsize::new(k) else {
@@ -372,6 +402,22 @@ mod tests {
                         assert_eq!((points[id as usize] - x).length_squared(), d2);
                     }
                     assert_eq!(index.nearest_one(x).map(|n| n.1), dist.first().copied());
+                    // From an entry's own position, moved or not.
+                    let moved_live: Vec<u32> = moved
+                        .iter()
+                        .copied()
+                        .filter(|m| ids.binary_search(m).is_ok())
+                        .collect();
+                    let e = if q % 2 == 0 && !moved_live.is_empty() {
+                        moved_live[q % moved_live.len()]
+                    } else {
+                        ids[q % ids.len()]
+                    };
+                    let y = points[e as usize];
+                    let near = index.nearest_of_entry(e, y, k);
+                    let (_, dist) = brute(&points, ids, y, 0.0);
+                    let d: Vec<f64> = near.iter().map(|n| n.1).collect();
+                    assert_eq!(d, dist[..k.min(dist.len())], "round {round} entry {e}");
                 }
             }
         }
