@@ -58,6 +58,11 @@ impl Mpu {
         self.fitted[cell as usize]
     }
 
+    /// Per cell: [`Mpu::was_refit`] (shape: one per cell of [`Mpu::octree`]).
+    pub fn refit_flags(&self) -> &[bool] {
+        &self.fitted
+    }
+
     /// The frame (origin, root cube, D) the MPU was built in.
     pub fn frame(&self) -> &MpuFrame {
         &self.frame

@@ -371,19 +371,26 @@ impl Scene {
         if carry {
             mpu.carry_footprint(&mut self.mpu, &changed);
         }
-        // New cells that were fitted again: not present before, or marked.
-        let refit: Vec<bool> = (0..mpu.octree().cells().len() as u32)
-            .map(|c| mpu.was_refit(c))
-            .collect();
+        // New cells that were fitted again: not present before, or marked; and the leaves
+        // among them and among the marked cells (lists, so that the passes below follow the
+        // edit, not the model).
+        let refit: Vec<bool> = mpu.refit_flags().to_vec();
+        let leaves_of = |m: &Mpu, flags: &[bool]| -> Vec<u32> {
+            (0..flags.len() as u32)
+                .filter(|&c| flags[c as usize] && m.octree().cell(c).is_leaf())
+                .collect()
+        };
+        let refit_leaves = leaves_of(&mpu, &refit);
+        let marked_leaves = leaves_of(&self.mpu, &marked_old);
         let mpu_seconds = t0.elapsed().as_secs_f64();
 
         let t1 = Instant::now();
         // Keep the particles whose old leaf is unmarked and whose new leaf was not refitted.
         // Outside a box around those leaves the answer is yes without a lookup.
         // (Local frame; the refitted leaves' box also bounds the relaxation below.)
-        let refit_box = Aabb::from_points(leaf_corners(&mpu, &refit));
+        let refit_box = Aabb::from_points(leaf_corners(&mpu, &refit_leaves));
         let changed_leaves = Aabb::from_points(
-            leaf_corners(&self.mpu, &marked_old)
+            leaf_corners(&self.mpu, &marked_leaves)
                 .chain(refit_box.iter().flat_map(|b| [b.min, b.max])),
         );
         let keep: Vec<bool> = self
@@ -413,9 +420,9 @@ impl Scene {
             .filter(|&i| keep[i as usize])
             .collect();
         let mut particle_attributes = self.particle_attributes.select(&kept_ids);
-        let leaves: Vec<u32> = mpu
-            .surface_leaves()
-            .filter(|&l| refit[l as usize])
+        let leaves: Vec<u32> = refit_leaves
+            .into_iter()
+            .filter(|&l| !mpu.octree().points_in(l).is_empty())
             .collect();
         particles.extend(&seed_leaves(
             &mpu,
@@ -579,17 +586,12 @@ fn check_attributes(attributes: &PointAttributes, n: usize) -> Result<(), RegenE
     }
 }
 
-/// Opposite corners (local frame) of the leaves `l` of `mpu` with `chosen[l]`, grown by a
-/// rounding margin.
-fn leaf_corners<'a>(mpu: &'a Mpu, chosen: &'a [bool]) -> impl Iterator<Item = DVec3> + 'a {
+/// Opposite corners (local frame) of the leaves `leaves` of `mpu`, grown by a rounding margin.
+fn leaf_corners<'a>(mpu: &'a Mpu, leaves: &'a [u32]) -> impl Iterator<Item = DVec3> + 'a {
     let margin = 1e-9 * mpu.octree().root().half;
-    mpu.octree()
-        .cells()
-        .iter()
-        .zip(chosen)
-        .filter(|(c, m)| **m && c.is_leaf())
-        .flat_map(move |(c, _)| {
-            let h = DVec3::splat(c.half + margin);
-            [c.center - h, c.center + h]
-        })
+    leaves.iter().flat_map(move |&l| {
+        let c = mpu.octree().cell(l);
+        let h = DVec3::splat(c.half + margin);
+        [c.center - h, c.center + h]
+    })
 }
