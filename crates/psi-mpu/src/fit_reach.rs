@@ -47,7 +47,7 @@ impl Mpu {
         while let Some(c) = stack.pop() {
             let cell = tree.cell(c);
             let reach = scale * self.reach_by_depth[usize::from(cell.depth)];
-            if !(box_cube_distance2(&bounds, cell.center, cell.half) <= reach * reach) {
+            if box_cube_distance2(&bounds, cell.center, cell.half) > reach * reach {
                 continue;
             }
             if !leaves_only || cell.is_leaf() {
@@ -66,7 +66,7 @@ impl Mpu {
                 let outside = (bounds.min - cell.center)
                     .max(cell.center - bounds.max)
                     .max(DVec3::ZERO);
-                if !(outside.length_squared() <= r * r) {
+                if outside.length_squared() > r * r {
                     return None;
                 }
                 let (_, d2) = index.nearest_one(cell.center)?;
