@@ -195,13 +195,8 @@ fn prefit_marked(
     marked: &[u32],
     monitor: &Monitor<'_>,
 ) -> Result<Prefit, Interrupted> {
-    let old_cell = |c: u32| {
-        *reuse
-            .expect("marked cells come with reuse")
-            .old
-            .octree
-            .cell(c)
-    };
+    let old = || reuse.expect("marked cells come with reuse").old;
+    let old_cell = |c: u32| *old().octree.cell(c);
     let positions = &data.positions;
     // After a brush the earlier MPU's kd-trees are brought up to date (no early fits needed).
     let derived = reuse.and_then(|r| {
@@ -257,9 +252,7 @@ fn prefit_marked(
                 return None;
             }
             Some(early.unwrap_or_else(|| {
-                let cell = old_cell(c);
-                let earlier_r1 = reuse.map_or(f64::NAN, |r| r.old.fit_radius[c as usize]);
-                refit_octree_cell(&input, &cell, eps0, earlier_r1)
+                refit_octree_cell(&input, &old_cell(c), eps0, old().fit_radius[c as usize])
             }))
         })
         .collect();

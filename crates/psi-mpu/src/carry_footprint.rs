@@ -53,7 +53,7 @@ fn stale_entries(old: &Mpu, table: &[InputLocalSlot], changed: &[DVec3]) -> Vec<
     let tree = &old.octree;
     // The leaves within 3·R1 of a changed position, with the distance from the centre to the
     // nearest one (only the cells near the changed positions are visited).
-    let leaves = old.cells_reaching(changed, 3.0, true);
+    let leaves = old.cells_reaching_local(&local, &index, 3.0, true);
     let stale_in = |(l, to_centre): (u32, f64)| {
         let c = tree.cell(l);
         let index = &index;

@@ -100,8 +100,7 @@ pub(crate) fn try_fit_octree_cell(
     cell: &psi_octree::Cell,
     eps0: f64,
 ) -> Option<CellFit> {
-    let may_split = cell.depth < input.params.max_depth;
-    try_fit_cell(input, cell.center, cell.half, eps0, may_split, None)
+    try_fit_octree_cell_near(input, cell, eps0, None)
 }
 
 /// [`fit_octree_cell`] of a cell fitted before an edit with fit radius `earlier_r1` (world
@@ -112,16 +111,20 @@ pub(crate) fn refit_octree_cell(
     eps0: f64,
     earlier_r1: f64,
 ) -> CellFit {
+    try_fit_octree_cell_near(input, cell, eps0, Some(earlier_r1))
+        .expect("a fit with the full index always completes")
+}
+
+/// [`try_fit_cell`] of an octree cell, which splits when its error exceeds `eps0` unless it
+/// is at the maximum depth, `r1_hint` a likely R1.
+fn try_fit_octree_cell_near(
+    input: &FitInput<'_>,
+    cell: &psi_octree::Cell,
+    eps0: f64,
+    r1_hint: Option<f64>,
+) -> Option<CellFit> {
     let may_split = cell.depth < input.params.max_depth;
-    try_fit_cell(
-        input,
-        cell.center,
-        cell.half,
-        eps0,
-        may_split,
-        Some(earlier_r1),
-    )
-    .expect("a fit with the full index always completes")
+    try_fit_cell(input, cell.center, cell.half, eps0, may_split, r1_hint)
 }
 
 /// The points a fit reads (shape: K each, local frame), in increasing index order.

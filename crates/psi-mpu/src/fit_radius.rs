@@ -40,14 +40,15 @@ fn fit_radius(index: &PointIndex, params: &MpuParams, need: usize, center: DVec3
 }
 
 /// R1 of the cell at `center` with nominal radius `r` (world units), and the indices of the
-/// points within R1 when one trial query found them. The trial ball (radius R + m·λR, a radius
-/// R1 can take: the smallest such radius reaching `hint` (world units; a cell refitted after an
-/// edit passes its earlier R1, which most edits leave as it was), else m = ⌈[`TRIAL`]/λ⌉) holds every point within its radius with the kd-tree's
-/// own squared distances, the ones a k-nearest query computes; when it holds `need` points its
-/// `need`-th smallest distance is the `need`-th nearest distance, R1 is what [`fit_radius`]
-/// finds, and R1 is at most the trial radius, so the ball of R1 is the trial points with
-/// d² ≤ R1² (the test the kd-tree applies; in some order, which no decision reads). Otherwise R1 comes from a
-/// k-nearest query and the ball is `None`.
+/// points within R1 when one trial query found them. The trial ball has a radius R1 can take,
+/// R + m·λR: the smallest reaching `hint` (world units; a cell refitted after an edit passes
+/// its earlier R1, which most edits leave as it was), else m = ⌈[`TRIAL`]/λ⌉. It holds every
+/// point within its radius with the kd-tree's own squared distances, the ones a k-nearest
+/// query computes; when it holds `need` points its `need`-th smallest distance is the
+/// `need`-th nearest distance, R1 is what [`fit_radius`] finds, and R1 is at most the trial
+/// radius, so the ball of R1 is the trial points with d² ≤ R1² (the test the kd-tree applies;
+/// in some order, which no decision reads). Otherwise R1 comes from a k-nearest query and the
+/// ball is `None`.
 pub(crate) fn settle_radius(
     index: &PointIndex,
     params: &MpuParams,

@@ -1,7 +1,7 @@
 //! The cells an edit reaches: those whose fit radius R1 (times a factor) holds a changed
 //! position, found by descending the octree from the root instead of testing every cell. A
 //! subtree is left when the changed positions' bounding box lies farther from its cube than
-//! the factor times the largest R1 at its depth or below ([`Mpu::reach_by_depth`]), which no
+//! the factor times the largest R1 at its depth or below (`Mpu::reach_by_depth`), which no
 //! cell inside can then reach; the cells left are tested against the nearest changed position
 //! in parallel. The cost follows the cells near the edit, not the model.
 
@@ -36,6 +36,18 @@ impl Mpu {
     ) -> Vec<(u32, f64)> {
         let origin = self.frame.origin;
         let local: Vec<DVec3> = changed.iter().map(|p| *p - origin).collect();
+        self.cells_reaching_local(&local, &PointIndex::new(&local), factor, leaves_only)
+    }
+
+    /// [`Mpu::cells_reaching`] of the changed positions `local` (shape: K, local frame),
+    /// `index` their kd-tree.
+    pub(crate) fn cells_reaching_local(
+        &self,
+        local: &[DVec3],
+        index: &PointIndex,
+        factor: f64,
+        leaves_only: bool,
+    ) -> Vec<(u32, f64)> {
         let Some(bounds) = Aabb::from_points(local.iter().copied()) else {
             return Vec::new();
         };
@@ -58,7 +70,6 @@ impl Mpu {
             }
         }
         near.sort_unstable();
-        let index = PointIndex::new(&local);
         near.par_iter()
             .filter_map(|&c| {
                 let cell = tree.cell(c);

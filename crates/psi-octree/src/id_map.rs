@@ -1,7 +1,7 @@
 //! Hash maps keyed by cell or point indices, with a multiplicative hash (Knuth's Fibonacci
 //! hashing, TAOCP vol. 3 §6.4) instead of the standard library's SipHash: the keys are our own
 //! indices, not adversarial input, and a rebuild after an edit looks one up for every cell it
-//! copies; and sets of such indices as bits, which tell most of those lookups they would miss.
+//! copies.
 
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
@@ -32,30 +32,6 @@ impl Hasher for IdHasher {
 /// A map from indices.
 pub(crate) type IdMap<V> = HashMap<u32, V, BuildHasherDefault<IdHasher>>;
 
-/// A set of indices below a bound, one bit each.
-pub(crate) struct IdBits(Vec<u64>);
-
-impl IdBits {
-    /// The set of `ids` (each below `bound`; larger ones are left out).
-    pub(crate) fn of(ids: impl Iterator<Item = u32>, bound: usize) -> Self {
-        let mut words = vec![0u64; bound.div_ceil(64)];
-        for id in ids {
-            if let Some(w) = words.get_mut((id / 64) as usize) {
-                *w |= 1 << (id % 64);
-            }
-        }
-        Self(words)
-    }
-
-    /// Whether `id` is in the set.
-    #[inline]
-    pub(crate) fn contains(&self, id: u32) -> bool {
-        self.0
-            .get((id / 64) as usize)
-            .is_some_and(|w| w & (1 << (id % 64)) != 0)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -82,11 +58,5 @@ mod tests {
         }
         assert_eq!(map.get(&7007), Some(&7007));
         assert_eq!(map.get(&7008), None);
-        // The bits of the keys: exactly the keys, and nothing at or past the bound.
-        let bits = IdBits::of(map.keys().copied().chain([70_000]), 10_000);
-        for k in 0..10_100u32 {
-            assert_eq!(bits.contains(k), k < 10_000 && k % 7 == 0, "{k}");
-        }
-        assert!(!bits.contains(70_000));
     }
 }

@@ -6,7 +6,6 @@ use std::borrow::Cow;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::id_map::IdBits;
 use crate::{Aabb, Cell, NO_CELL, OctreeError};
 
 /// The deepest level a cell may have (integer keys stay exact up to 2^21 per axis).
@@ -252,12 +251,6 @@ impl Octree {
                 Default::default()
             }
         };
-        // The earlier cells with a count to correct, as bits: most cells have none, and a bit
-        // is cheaper to test than a hash lookup.
-        let gained_bits = IdBits::of(
-            gained.keys().copied(),
-            known.map_or(0, |k| k.old.cells.len()),
-        );
         let mut tree = Octree {
             cells,
             order,
@@ -327,8 +320,7 @@ impl Octree {
             // for its whole subtree.
             let parts: Vec<Partition<'_>> = {
                 let t = &tree;
-                let (old_of, in_place, gained, gained_bits) =
-                    (&old_of, &in_place, &gained, &gained_bits);
+                let (old_of, in_place, gained) = (&old_of, &in_place, &gained);
                 to_split
                     .par_iter()
                     .map(|&i| {
@@ -340,11 +332,7 @@ impl Octree {
                             let mut counts = [0u32; 8];
                             for (slot, ch) in counts.iter_mut().zip(children) {
                                 let was = k.old.cell(ch);
-                                let plus = if gained_bits.contains(ch) {
-                                    gained.get(&ch).copied().unwrap_or(0)
-                                } else {
-                                    0
-                                };
+                                let plus = gained.get(&ch).copied().unwrap_or(0);
                                 *slot = (i64::from(was.end - was.start) + plus) as u32;
                             }
                             return (counts, None);

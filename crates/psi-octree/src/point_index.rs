@@ -58,6 +58,16 @@ fn ball_of(t: &ImmutableKdTree<f64, 3>, x: DVec3, r2: f64, mut f: impl FnMut(u32
         .visit(|n| f(n.item, n.distance));
 }
 
+/// The `k` entries of `t` nearest `x` as `(item, squared distance)`, nearest first.
+fn nearest_of(t: &ImmutableKdTree<f64, 3>, x: DVec3, k: NonZeroUsize) -> Vec<(u32, f64)> {
+    t.query(&x.to_array())
+        .nearest_n::<SquaredEuclidean<f64>>(k)
+        .execute()
+        .iter()
+        .map(|n| (n.item, n.distance))
+        .collect()
+}
+
 /// A kiddo tree over `points` whose item k is `item(k)`; `None` when empty or too large.
 fn tree_of(points: &[DVec3], item: impl Fn(usize) -> u32) -> Option<ImmutableKdTree<f64, 3>> {
     if points.is_empty() || points.len() >= u32::MAX as usize {
@@ -247,13 +257,7 @@ impl PointIndex {
         if !self.is_stale(id) {
             return self.nearest(x, k);
         }
-        let mut out: Vec<(u32, f64)> = overlay
-            .query(&x.to_array())
-            .nearest_n::<SquaredEuclidean<f64>>(want)
-            .execute()
-            .iter()
-            .map(|n| (n.item, n.distance))
-            .collect();
+        let mut out = nearest_of(overlay, x, want);
         let Some(&(_, bound)) = out.get(k - 1) else {
             return self.nearest(x, k);
         };
@@ -270,14 +274,7 @@ impl PointIndex {
         let Some(want) = NonZeroUsize::new(k) else {
             return Vec::new();
         };
-        let query = |t: &ImmutableKdTree<f64, 3>, k: NonZeroUsize| -> Vec<(u32, f64)> {
-            t.query(&x.to_array())
-                .nearest_n::<SquaredEuclidean<f64>>(k)
-                .execute()
-                .iter()
-                .map(|n| (n.item, n.distance))
-                .collect()
-        };
+        let query = |t: &ImmutableKdTree<f64, 3>, k: NonZeroUsize| nearest_of(t, x, k);
         let Some(base) = &self.tree else {
             return self
                 .overlay
