@@ -92,10 +92,12 @@ pub(crate) fn fit_fetched(
             let f = fit_octree_cell(&indexed.input(params, population), cell, eps0);
             if f.fit_radius + margin <= radius || n >= population {
                 // The first ball already holds the cube (1.5 R > its circumradius).
-                let surface = indexed
-                    .positions()
-                    .iter()
-                    .any(|&x| key_of_point(frame, x, cell.depth) == cell.key);
+                // (Only points in or at the cube can be in it: the exact rule for those alone.)
+                let reach = cell.half + margin;
+                let surface = indexed.positions().iter().any(|&x| {
+                    (x - cell.center).abs().max_element() <= reach
+                        && key_of_point(frame, x, cell.depth) == cell.key
+                });
                 return Ok((f, surface));
             }
             radius = (f.fit_radius + margin).max(1.25 * radius);

@@ -8,10 +8,11 @@
 //! Record layout (little endian, 56 bytes): input index u64, position 3 × f64 (world units),
 //! normal 3 × f64.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashSet};
 use std::fs::{self, File};
 use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 use glam::DVec3;
 use psi_mpu::{MpuFrame, is_coarse_point};
@@ -60,12 +61,16 @@ pub struct StoreManifest {
     pub coarse: StoredTile,
 }
 
-/// A finished store, its manifest read and trusted; files are checked as they are read.
+/// A finished store, its manifest read and trusted; files are checked as they are read (each
+/// file's size every time, its checksum the first time this store, or a clone of it, reads it).
 #[derive(Clone, Debug)]
 pub struct TileStore {
     dir: PathBuf,
     manifest: StoreManifest,
     by_key: BTreeMap<[u32; 3], usize>,
+    /// The files whose checksum matched already (a far ball reads the same tiles many times:
+    /// hashing them at every read took more time than the fits).
+    verified: Arc<Mutex<HashSet<PathBuf>>>,
 }
 
 /// Writes points into a store, buffering at most about `buffer_points` of them in memory.
@@ -318,6 +323,7 @@ impl TileStore {
             dir: dir.to_path_buf(),
             manifest,
             by_key,
+            verified: Arc::default(),
         })
     }
 
@@ -338,7 +344,8 @@ impl TileStore {
             .map_or(0, |&i| self.manifest.tiles[i].points)
     }
 
-    /// Reads a file of records, checking its size and checksum against `entry`.
+    /// Reads a file of records, checking its size against `entry`, and its checksum the first
+    /// time.
     fn read_records(&self, path: &Path, entry: &StoredTile) -> Result<Vec<u8>, TileError> {
         let bytes = fs::read(path).map_err(|e| io_error(path, e))?;
         if bytes.len() as u64 != entry.points * RECORD as u64 {
@@ -352,6 +359,10 @@ impl TileStore {
                 ),
             ));
         }
+        let verified = || self.verified.lock().expect("not poisoned");
+        if verified().contains(path) {
+            return Ok(bytes);
+        }
         let sum = hex(&Sha256::digest(&bytes));
         if sum != entry.sha256 {
             return Err(io_error(
@@ -359,6 +370,7 @@ impl TileStore {
                 "its SHA-256 does not match the manifest: the file is corrupted",
             ));
         }
+        verified().insert(path.to_path_buf());
         Ok(bytes)
     }
 
@@ -389,7 +401,8 @@ impl TileStore {
             let bytes = self.read_records(&path, &self.manifest.tiles[i])?;
             found.extend(decode(&bytes, keep));
         }
-        found.sort_unstable_by_key(|(i, _)| *i);
+        // (Each file lists its points in input order: a stable sort merges the runs.)
+        found.sort_by_key(|(i, _)| *i);
         Ok(found.into_iter().map(|(_, p)| p).collect())
     }
 

@@ -255,6 +255,30 @@ fn a_damaged_or_truncated_tile_file_is_refused_by_name() {
     }
 }
 
+/// A store hashes each file the first time it reads it (a far ball reads the same tiles many
+/// times); its size is checked at every read, and a store opened afresh hashes again.
+#[test]
+fn a_store_checks_a_file_once_and_its_size_at_every_read() {
+    let dir = scratch("checked-once");
+    let points = noisy_torus(4_000, 9);
+    let store = store_of(&points, 1, &dir);
+    let path = dir.join("coarse.pts");
+    let coarse = store.coarse_points().unwrap();
+    assert!(!coarse.is_empty());
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes[20] ^= 1;
+    std::fs::write(&path, &bytes).unwrap();
+    // The same store (and its clones) trusts the bytes it checked: this read is not hashed.
+    assert_eq!(store.clone().coarse_points().unwrap().len(), coarse.len());
+    let err = TileStore::open(&dir).unwrap().coarse_points().unwrap_err();
+    assert!(err.to_string().contains("coarse.pts"), "{err}");
+    bytes.truncate(bytes.len() - 7);
+    std::fs::write(&path, &bytes).unwrap();
+    let err = store.coarse_points().unwrap_err();
+    assert!(err.to_string().contains("truncated"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn a_new_store_removes_only_the_files_a_store_writes() {
     let dir = scratch("own-files");
