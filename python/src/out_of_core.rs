@@ -38,7 +38,7 @@ fn inputs_arg(value: &Bound<'_, PyAny>) -> PyResult<Vec<PathBuf>> {
 /// within `max_memory` (bytes, or a size such as "4GiB"), writing the particles to `output`
 /// and the tile files to `scratch` (default: beside `output`). The same run as `psi sample
 /// INPUT --max-memory SIZE`: bitwise its particles. The points are used as given (with their
-/// normals; no outlier search or noise estimate out of core yet). Returns the run's report
+/// normals; no outlier search, noise estimate or ceiling on spacing out of core yet). Returns the run's report
 /// (the CLI's `--json`). A rerun with the same scratch resumes from its tile files.
 #[pyfunction]
 #[pyo3(signature = (inputs, output, *, max_memory, scratch=None, k=1, iterations=20,

@@ -354,9 +354,9 @@ def sample_files(
     points streamed into tile files in ``scratch`` (default ``<output>.psi-scratch``), the MPU
     and the particles made tile by tile, the particles written to ``output`` (PLY, or LAS/LAZ by
     extension). As ``psi sample INPUT --max-memory SIZE``: bitwise its particles. The points are
-    used as given (they need normals; no outlier search or noise estimate out of core yet). A
-    rerun with the same scratch resumes from its files. Returns the CLI's ``--json`` report
-    (``tiles``: count, depth, points per tile, halos, seconds, ...). Stages ``"read"``,
+    used as given (they need normals; no outlier search, noise estimate or ceiling on spacing out
+    of core yet). A rerun with the same scratch resumes from its files. Returns the CLI's
+    ``--json`` report (``tiles``: count, depth, points per tile, halos, seconds, ...). Stages ``"read"``,
     ``"tiles"``, ``"sample tiles"``. ``ValueError`` for inputs without normals, a bad size, a
     budget too small (naming what is needed); ``OSError`` when a file cannot be read."""
 
