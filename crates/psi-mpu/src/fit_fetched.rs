@@ -28,6 +28,16 @@ pub(crate) struct BallCache {
 /// fetched balls may keep in memory.
 const CACHED_POINTS: usize = 1 << 18;
 
+/// A fetched ball's radius over the one asked for (the margin kept for neighbouring cells).
+/// Far cells are mostly empty cells whose radius grows until it meets the data, where the
+/// count of points climbs steeply with the radius: twice the radius fetched and indexed far
+/// more points than the fit reads (notes: 2026-11-26-far-balls).
+const WIDER: f64 = 1.1;
+
+/// How a ball with too few points for a fit grows before it is fetched again (gently, for the
+/// same reason).
+const GROW: f64 = 1.1;
+
 /// A fetched ball: every input point within `radius` of `center` (local frame) is in `points`.
 struct FetchedBall {
     center: DVec3,
@@ -37,7 +47,7 @@ struct FetchedBall {
 
 impl BallCache {
     /// Indexed points holding every input point within `radius` of local `center`, and how
-    /// many they are: from a cached ball, or fetched (a ball twice as wide, kept for the next).
+    /// many they are: from a cached ball, or fetched (a ball [`WIDER`], kept for the next).
     fn ball(
         &self,
         center: DVec3,
@@ -54,7 +64,7 @@ impl BallCache {
                 return Ok(Arc::clone(&b.points));
             }
         }
-        let wide = 2.0 * radius;
+        let wide = WIDER * radius;
         let points = fetch(center + frame.origin, wide).map_err(MpuError::Fetch)?;
         let n = points.len();
         let indexed = Arc::new((IndexedPoints::new(&points, frame)?, n));
@@ -102,7 +112,7 @@ pub(crate) fn fit_fetched(
             }
             radius = (f.fit_radius + margin).max(1.25 * radius);
         } else {
-            radius *= 2.0;
+            radius *= GROW;
         }
     }
 }

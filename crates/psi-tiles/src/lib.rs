@@ -29,6 +29,7 @@ mod decide_tiles;
 mod error;
 mod point_source;
 mod sample_tiles;
+mod sub_cells;
 mod tile_buckets;
 mod tile_params;
 mod tile_report;

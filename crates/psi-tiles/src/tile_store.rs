@@ -1,7 +1,9 @@
 //! Points partitioned into tile files on disk (the out-of-core input of a tiled build): one
 //! file per non-empty tile cube at the tile depth, each point with its index in the whole
-//! input, in increasing index order; the coarse points in a file of their own; a manifest with
-//! the frame, the counts and every file's SHA-256, written last (temporary file, then rename),
+//! input, grouped by sub-cell and in increasing index order within each (`sub_cells.rs`, so a
+//! small box reads only part of a file); the coarse points in a file of their own, in index
+//! order; a manifest with the frame, the counts, the sub-cell runs and every file's SHA-256,
+//! written last (temporary file, then rename),
 //! so a store without a manifest is unfinished and one whose file fails its checksum is
 //! refused by name.
 //!
@@ -10,7 +12,7 @@
 
 use std::collections::{BTreeMap, HashSet};
 use std::fs::{self, File};
-use std::io::{BufWriter, Read, Write};
+use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
@@ -21,9 +23,12 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::TileError;
+use crate::sub_cells::{SUB, SUB_LEVELS, order_by_sub_cell, sub_cell_ranges};
 
 /// Bytes of one point record.
-const RECORD: usize = 56;
+pub(crate) const RECORD: usize = 56;
+/// The manifest format this code writes and reads.
+const VERSION: u32 = 2;
 /// The manifest's file name in a store directory.
 const MANIFEST: &str = "manifest.json";
 
@@ -36,12 +41,16 @@ pub struct StoredTile {
     pub points: u64,
     /// SHA-256 of the file, hexadecimal.
     pub sha256: String,
+    /// A tile file's runs by sub-cell: `runs[s]` records come before sub-cell `s` (shape
+    /// 8³ + 1; `sub_cells.rs`); empty for the coarse points' file.
+    #[serde(default)]
+    pub runs: Vec<u64>,
 }
 
 /// What a store holds: the frame and count of the whole input, the depth, the files.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StoreManifest {
-    /// Format version (1).
+    /// Format version (2: tile files grouped by sub-cell).
     pub version: u32,
     /// What the points came from, as the writer's caller described it (a file's path, size
     /// and time): a run finds its own store by it and resumes.
@@ -228,15 +237,20 @@ impl TileWriter {
         self.coarse.flush().map_err(|e| io_error(&coarse_path, e))?;
         let mut tiles = Vec::new();
         for (&key, &points) in &self.counts {
+            // Each file grouped by sub-cell, one at a time (a tile fits in memory).
             let path = tile_path(&self.dir, key);
+            let bytes = fs::read(&path).map_err(|e| io_error(&path, e))?;
+            let (bytes, runs) = order_by_sub_cell(&self.frame, self.depth, key, &bytes);
+            crate::write_atomically(&path, &bytes)?;
             tiles.push(StoredTile {
                 key,
                 points,
-                sha256: file_sha256(&path)?,
+                sha256: hex(&Sha256::digest(&bytes)),
+                runs,
             });
         }
         let manifest = StoreManifest {
-            version: 1,
+            version: VERSION,
             source: self.source.clone(),
             frame: self.frame,
             frame_bits: frame_bits(&self.frame),
@@ -247,6 +261,7 @@ impl TileWriter {
                 key: [0; 3],
                 points: self.coarse_count,
                 sha256: file_sha256(&coarse_path)?,
+                runs: Vec::new(),
             },
         };
         let text = serde_json::to_string_pretty(&manifest).expect("serialisable");
@@ -307,7 +322,7 @@ impl TileStore {
         let mut manifest: StoreManifest =
             serde_json::from_str(&text).map_err(|e| io_error(&path, e))?;
         manifest.frame = frame_from_bits(manifest.frame_bits);
-        if manifest.version != 1 {
+        if manifest.version != VERSION {
             return Err(io_error(
                 &path,
                 format!("unknown version {}", manifest.version),
@@ -349,15 +364,7 @@ impl TileStore {
     fn read_records(&self, path: &Path, entry: &StoredTile) -> Result<Vec<u8>, TileError> {
         let bytes = fs::read(path).map_err(|e| io_error(path, e))?;
         if bytes.len() as u64 != entry.points * RECORD as u64 {
-            return Err(io_error(
-                path,
-                format!(
-                    "{} bytes where the manifest says {} points ({} bytes): truncated or replaced",
-                    bytes.len(),
-                    entry.points,
-                    entry.points * RECORD as u64
-                ),
-            ));
+            return Err(wrong_size(path, bytes.len() as u64, entry.points));
         }
         let verified = || self.verified.lock().expect("not poisoned");
         if verified().contains(path) {
@@ -374,6 +381,44 @@ impl TileStore {
         Ok(bytes)
     }
 
+    /// The records `ranges` (first, end; records) of a file, or all of it (`None`): checked
+    /// as [`TileStore::read_records`] does; once checked, only the ranges are read.
+    fn read_ranges(
+        &self,
+        path: &Path,
+        entry: &StoredTile,
+        ranges: Option<&[(u64, u64)]>,
+    ) -> Result<Vec<u8>, TileError> {
+        let checked = self.verified.lock().expect("not poisoned").contains(path);
+        let Some(ranges) = ranges.filter(|_| checked) else {
+            let bytes = self.read_records(path, entry)?;
+            return Ok(match ranges {
+                None => bytes,
+                Some(ranges) => ranges
+                    .iter()
+                    .flat_map(|&(a, b)| &bytes[a as usize * RECORD..b as usize * RECORD])
+                    .copied()
+                    .collect(),
+            });
+        };
+        let mut f = File::open(path).map_err(|e| io_error(path, e))?;
+        let len = f.metadata().map_err(|e| io_error(path, e))?.len();
+        if len != entry.points * RECORD as u64 {
+            return Err(wrong_size(path, len, entry.points));
+        }
+        let total: u64 = ranges.iter().map(|(a, b)| b - a).sum();
+        let mut out = vec![0u8; total as usize * RECORD];
+        let mut at = 0;
+        for &(a, b) in ranges {
+            let n = (b - a) as usize * RECORD;
+            f.seek(SeekFrom::Start(a * RECORD as u64))
+                .and_then(|_| f.read_exact(&mut out[at..at + n]))
+                .map_err(|e| io_error(path, e))?;
+            at += n;
+        }
+        Ok(out)
+    }
+
     /// The coarse points ([`is_coarse_point`]), in increasing input index order.
     pub fn coarse_points(&self) -> Result<Vec<OrientedPoint>, TileError> {
         let path = self.dir.join("coarse.pts");
@@ -385,23 +430,34 @@ impl TileStore {
     }
 
     /// Every point whose position (world units) satisfies `keep`, from the tiles whose keys
-    /// lie in `lo..=hi` per axis, in increasing input index order.
+    /// lie in `lo..=hi` per axis and, within each, the sub-cells whose keys
+    /// [`SUB_LEVELS`] deeper lie in `fine.0..=fine.1`; in increasing input index order.
     fn gather_keys(
         &self,
         lo: [u32; 3],
         hi: [u32; 3],
+        fine: ([u32; 3], [u32; 3]),
         keep: &dyn Fn(DVec3) -> bool,
     ) -> Result<Vec<OrientedPoint>, TileError> {
         let mut found: Vec<(u64, OrientedPoint)> = Vec::new();
+        let cells = (SUB * SUB * SUB) as usize;
         for (&key, &i) in self.by_key.range(lo..=hi) {
             if (0..3).any(|a| key[a] < lo[a] || key[a] > hi[a]) {
                 continue;
             }
+            let entry = &self.manifest.tiles[i];
+            let within = |k: [u32; 3]| -> [u32; 3] {
+                std::array::from_fn(|a| k[a].saturating_sub(key[a] * SUB).min(SUB - 1))
+            };
+            let (sub_lo, sub_hi) = (within(fine.0), within(fine.1));
+            let whole = sub_lo == [0; 3] && sub_hi == [SUB - 1; 3];
+            let ranges = (!whole && entry.runs.len() == cells + 1)
+                .then(|| sub_cell_ranges(&entry.runs, sub_lo, sub_hi));
             let path = tile_path(&self.dir, key);
-            let bytes = self.read_records(&path, &self.manifest.tiles[i])?;
+            let bytes = self.read_ranges(&path, entry, ranges.as_deref())?;
             found.extend(decode(&bytes, keep));
         }
-        // (Each file lists its points in input order: a stable sort merges the runs.)
+        // (Each run of records is in input order: a stable sort merges them.)
         found.sort_by_key(|(i, _)| *i);
         Ok(found.into_iter().map(|(_, p)| p).collect())
     }
@@ -416,19 +472,20 @@ impl TileStore {
     ) -> Result<Vec<OrientedPoint>, TileError> {
         let frame = self.manifest.frame;
         let reach = half + halo;
-        let slack = 2.0 * frame.root_half / f64::from(1u32 << self.manifest.depth);
         let world = center + frame.origin;
-        let lo = tile_key(
-            &frame,
-            self.manifest.depth,
-            world - DVec3::splat(reach + slack),
-        );
-        let hi = tile_key(
-            &frame,
-            self.manifest.depth,
-            world + DVec3::splat(reach + slack),
-        );
-        self.gather_keys(lo, hi, &|p| {
+        // The keys of the box grown by one cell at `depth` (a point on a face may be keyed to
+        // either side).
+        let keys = |depth: u8| {
+            let slack = 2.0 * frame.root_half / f64::from(1u32 << depth);
+            let grown = DVec3::splat(reach + slack);
+            (
+                tile_key(&frame, depth, world - grown),
+                tile_key(&frame, depth, world + grown),
+            )
+        };
+        let (lo, hi) = keys(self.manifest.depth);
+        let fine = keys(self.manifest.depth + SUB_LEVELS);
+        self.gather_keys(lo, hi, fine, &|p| {
             (p - frame.origin - center).abs().max_element() <= reach
         })
     }
@@ -444,6 +501,17 @@ impl TileStore {
                     .collect()
             })
     }
+}
+
+/// The error for a file of `len` bytes whose manifest entry says `points` records.
+fn wrong_size(path: &Path, len: u64, points: u64) -> TileError {
+    io_error(
+        path,
+        format!(
+            "{len} bytes where the manifest says {points} points ({} bytes): truncated or replaced",
+            points * RECORD as u64
+        ),
+    )
 }
 
 /// The records of `bytes` whose position satisfies `keep`, with their input indices.

@@ -96,6 +96,48 @@ fn a_store_gives_back_every_point_in_input_order_and_the_coarse_ones() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// Boxes and balls of every size gathered from a store (the files grouped by sub-cell, read
+/// whole the first time and by runs after) are the brute-force ones, in input order.
+#[test]
+fn boxes_and_balls_of_any_size_are_the_brute_force_ones() {
+    use rand::RngExt;
+    let points = noisy_torus(20_000, 11);
+    for depth in [1u8, 2] {
+        let dir = scratch(&format!("boxes-{depth}"));
+        let store = store_of(&points, depth, &dir);
+        let frame = store.manifest().frame;
+        let mut rng = Pcg64Mcg::seed_from_u64(u64::from(depth));
+        for round in 0..60 {
+            // Centres anywhere in the root cube, some on a tile or sub-cell face.
+            let mut local = DVec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0;
+            local = frame.root_center + local * frame.root_half;
+            if round % 4 == 0 {
+                local.x = frame.root_center.x;
+            }
+            let half = frame.root_half * 0.3 * rng.random::<f64>().powi(2);
+            let halo = frame.root_half * 0.05 * rng.random::<f64>();
+            let reach = half + halo;
+            let brute: Vec<OrientedPoint> = points
+                .iter()
+                .copied()
+                .filter(|p| (p.p - frame.origin - local).abs().max_element() <= reach)
+                .collect();
+            for pass in 0..2 {
+                let got = store.gather_box(local, half, halo).unwrap();
+                assert_eq!(got, brute, "depth {depth}, round {round}, pass {pass}");
+            }
+            let (c, r) = (local + frame.origin, reach);
+            let ball: Vec<OrientedPoint> = points
+                .iter()
+                .copied()
+                .filter(|p| (p.p - c).length() <= r)
+                .collect();
+            assert_eq!(store.gather_ball(c, r).unwrap(), ball, "round {round}");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
+
 #[test]
 fn the_cells_above_the_tiles_from_the_coarse_points_are_those_from_all_points() {
     let params = MpuParams::paper();
