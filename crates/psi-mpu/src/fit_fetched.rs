@@ -8,6 +8,7 @@ use glam::DVec3;
 use psi_octree::{Cell, OrientedPoint};
 
 use crate::fit_cell::{CellFit, fit_octree_cell};
+use crate::fit_radius::radius_reaching;
 use crate::region_points::{IndexedPoints, key_of_point};
 use crate::{MpuError, MpuFrame, MpuParams};
 
@@ -15,6 +16,11 @@ use crate::{MpuError, MpuFrame, MpuParams};
 /// every input point within `radius` of `centre` (more is allowed), in increasing order of
 /// input index, or why it could not.
 pub type FetchBall<'a> = dyn Fn(DVec3, f64) -> Result<Vec<OrientedPoint>, String> + Sync + 'a;
+
+/// The distance (world units) from a world position to its `k`-th nearest input point, or
+/// `None` when the source cannot tell (or the input has fewer than `k` points); or why it
+/// failed. With it, a far cell's ball is fetched at its fit radius R1 itself.
+pub type KthDistance<'a> = dyn Fn(DVec3, usize) -> Result<Option<f64>, String> + Sync + 'a;
 
 /// Balls fetched before, each with its points indexed: a cell whose ball lies inside one of
 /// them fits from it without a fetch (neighbouring far cells read nearly the same ball, and
@@ -52,6 +58,7 @@ impl BallCache {
         &self,
         center: DVec3,
         radius: f64,
+        wider: f64,
         frame: &MpuFrame,
         fetch: &FetchBall<'_>,
     ) -> Result<Arc<(IndexedPoints, usize)>, MpuError> {
@@ -64,7 +71,7 @@ impl BallCache {
                 return Ok(Arc::clone(&b.points));
             }
         }
-        let wide = WIDER * radius;
+        let wide = wider * radius;
         let points = fetch(center + frame.origin, wide).map_err(MpuError::Fetch)?;
         let n = points.len();
         let indexed = Arc::new((IndexedPoints::new(&points, frame)?, n));
@@ -82,8 +89,9 @@ impl BallCache {
 }
 
 /// One cell fitted from the points within a ball around it (from `cache`, or fetched), the
-/// ball grown until it holds the fit's radius (then every point the fit reads was there).
-/// Returns the fit and whether the cell's cube holds input points.
+/// ball grown until it holds the fit's radius (then every point the fit reads was there);
+/// with `kth`, the first ball is the one of R1 (from the N_min + 1-th nearest distance,
+/// Ohtake's rule). Returns the fit and whether the cell's cube holds input points.
 pub(crate) fn fit_fetched(
     cell: &Cell,
     frame: &MpuFrame,
@@ -91,12 +99,23 @@ pub(crate) fn fit_fetched(
     population: usize,
     eps0: f64,
     fetch: &FetchBall<'_>,
+    kth: Option<&KthDistance<'_>>,
     cache: &BallCache,
 ) -> Result<(CellFit, bool), MpuError> {
     let margin = 1e-9 * frame.root_half;
-    let mut radius = cell.support_radius(params.alpha) * 1.5;
+    let r = cell.support_radius(params.alpha);
+    let mut radius = r * 1.5;
+    let mut wider = WIDER;
+    if let Some(kth) = kth {
+        let need = (params.n_min + 1).min(population);
+        if let Some(d) = kth(cell.center + frame.origin, need).map_err(MpuError::Fetch)? {
+            // (Rounding may leave the fit's R1 a step above: the loop then grows the ball.)
+            radius = radius_reaching(d, r, params.lambda) + margin;
+            wider = 1.0;
+        }
+    }
     loop {
-        let ball = cache.ball(cell.center, radius + 2.0 * margin, frame, fetch)?;
+        let ball = cache.ball(cell.center, radius + 2.0 * margin, wider, frame, fetch)?;
         let (indexed, n) = (&ball.0, ball.1);
         if n >= (params.n_min + 1).min(population) {
             let f = fit_octree_cell(&indexed.input(params, population), cell, eps0);

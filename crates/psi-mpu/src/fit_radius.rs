@@ -14,7 +14,7 @@ const TRIAL: f64 = 0.4;
 /// R1 from the `need`-th nearest distance `d` (world units): the smallest R + m·λR (m ≥ 0)
 /// not below `d`, the result of Ohtake's loop that grows R by λR until the ball holds more
 /// than N_min points.
-fn radius_reaching(d: f64, r: f64, lambda: f64) -> f64 {
+pub(crate) fn radius_reaching(d: f64, r: f64, lambda: f64) -> f64 {
     if d <= r {
         return r;
     }

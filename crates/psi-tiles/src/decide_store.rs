@@ -120,6 +120,7 @@ fn decide_store_top(
     }
     let coarse = store.coarse_points()?;
     let fetch = |c, r| store.gather_ball(c, r).map_err(|e| e.to_string());
+    let kth = |c, k| store.kth_distance(c, k).map_err(|e| e.to_string());
     let fit = fit_top(
         &coarse,
         population,
@@ -127,6 +128,7 @@ fn decide_store_top(
         params,
         tiles.depth + tiles.shared_levels,
         &fetch,
+        Some(&kth),
         &monitor.quiet(),
     )?;
     let outcome = TileOutcome {

@@ -56,9 +56,11 @@ pub(crate) fn decide_tile(
         // A cell whose fit reads beyond the halo (an empty cell's radius grows to the nearest
         // data) fetches its own ball instead of widening the whole tile's halo.
         let fetch = |c, r| source.gather_ball(c, r).map_err(|e| e.to_string());
+        let kth = |c, k| source.kth_distance(c, k).map_err(|e| e.to_string());
         let far = FarBalls {
             halo: halo - margin,
             fetch: &fetch,
+            kth: Some(&kth),
         };
         let input = RegionPoints {
             points: &local,

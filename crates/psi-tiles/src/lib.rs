@@ -27,6 +27,7 @@ mod decide_store;
 mod decide_tile;
 mod decide_tiles;
 mod error;
+mod kth_distance;
 mod point_source;
 mod sample_tiles;
 mod sub_cells;

@@ -25,6 +25,12 @@ pub trait PointSource: Sync {
         halo: f64,
     ) -> Result<Vec<OrientedPoint>, TileError>;
 
+    /// The distance (world units) from world position `center` to its `k`-th nearest input
+    /// point, or `None` when this source does not tell (the default) or has fewer points.
+    fn kth_distance(&self, _center: DVec3, _k: usize) -> Result<Option<f64>, TileError> {
+        Ok(None)
+    }
+
     /// The points within `radius` of world position `center`, in increasing input index order.
     fn gather_ball(&self, center: DVec3, radius: f64) -> Result<Vec<OrientedPoint>, TileError> {
         let frame = self.frame();
@@ -99,5 +105,9 @@ impl PointSource for TileStore {
 
     fn gather_ball(&self, center: DVec3, radius: f64) -> Result<Vec<OrientedPoint>, TileError> {
         TileStore::gather_ball(self, center, radius)
+    }
+
+    fn kth_distance(&self, center: DVec3, k: usize) -> Result<Option<f64>, TileError> {
+        TileStore::kth_distance(self, center, k)
     }
 }

@@ -121,7 +121,7 @@ fn is_store_file(name: &str) -> bool {
         || keyed("cells-", ".bin")
 }
 
-fn tile_path(dir: &Path, key: [u32; 3]) -> PathBuf {
+pub(crate) fn tile_path(dir: &Path, key: [u32; 3]) -> PathBuf {
     dir.join(format!("tile-{}-{}-{}.pts", key[0], key[1], key[2]))
 }
 
@@ -383,7 +383,7 @@ impl TileStore {
 
     /// The records `ranges` (first, end; records) of a file, or all of it (`None`): checked
     /// as [`TileStore::read_records`] does; once checked, only the ranges are read.
-    fn read_ranges(
+    pub(crate) fn read_ranges(
         &self,
         path: &Path,
         entry: &StoredTile,

@@ -97,7 +97,8 @@ fn a_store_gives_back_every_point_in_input_order_and_the_coarse_ones() {
 }
 
 /// Boxes and balls of every size gathered from a store (the files grouped by sub-cell, read
-/// whole the first time and by runs after) are the brute-force ones, in input order.
+/// whole the first time and by runs after) are the brute-force ones, in input order; so are
+/// the k-th nearest distances.
 #[test]
 fn boxes_and_balls_of_any_size_are_the_brute_force_ones() {
     use rand::RngExt;
@@ -133,6 +134,13 @@ fn boxes_and_balls_of_any_size_are_the_brute_force_ones() {
                 .filter(|p| (p.p - c).length() <= r)
                 .collect();
             assert_eq!(store.gather_ball(c, r).unwrap(), ball, "round {round}");
+            // The k-th nearest distance, against sorting every distance.
+            let mut d: Vec<f64> = points.iter().map(|p| (p.p - c).length()).collect();
+            d.sort_by(f64::total_cmp);
+            for k in [1, 16, 300] {
+                let got = store.kth_distance(c, k).unwrap().expect("enough points");
+                assert_eq!(got.to_bits(), d[k - 1].to_bits(), "round {round}, k {k}");
+            }
         }
         std::fs::remove_dir_all(&dir).unwrap();
     }
@@ -165,17 +173,26 @@ fn the_cells_above_the_tiles_from_the_coarse_points_are_those_from_all_points() 
                 .filter(|p| (p.p - c).length() <= r)
                 .collect())
         };
-        let top = fit_top(
-            &coarse,
-            points.len(),
-            &frame,
-            &params,
-            until,
-            &fetch,
-            &Monitor::silent(),
-        )
-        .unwrap();
-        assert_eq!(top.cells, all.cells);
+        // The k-th nearest distance by brute force: balls fetched at R1 itself.
+        let kth = |c: DVec3, k: usize| {
+            let mut d: Vec<f64> = points.iter().map(|p| (p.p - c).length()).collect();
+            d.sort_by(f64::total_cmp);
+            Ok(d.get(k.wrapping_sub(1)).copied())
+        };
+        for kth in [None, Some(&kth as &psi_mpu::KthDistance<'_>)] {
+            let top = fit_top(
+                &coarse,
+                points.len(),
+                &frame,
+                &params,
+                until,
+                &fetch,
+                kth,
+                &Monitor::silent(),
+            )
+            .unwrap();
+            assert_eq!(top.cells, all.cells);
+        }
         assert!(
             fetched.load(Ordering::Relaxed) > 0,
             "no cell needed its whole ball"
