@@ -22,6 +22,16 @@ pub type FetchBall<'a> = dyn Fn(DVec3, f64) -> Result<Vec<OrientedPoint>, String
 /// failed. With it, a far cell's ball is fetched at its fit radius R1 itself.
 pub type KthDistance<'a> = dyn Fn(DVec3, usize) -> Result<Option<f64>, String> + Sync + 'a;
 
+/// Where the points of cells fitted from their whole ball come from.
+#[derive(Clone, Copy)]
+pub struct BallSource<'a> {
+    /// The balls.
+    pub fetch: &'a FetchBall<'a>,
+    /// The k-th nearest distance, when the source can tell: the first ball fetched is then
+    /// the one of the cell's fit radius.
+    pub kth: Option<&'a KthDistance<'a>>,
+}
+
 /// Balls fetched before, each with its points indexed: a cell whose ball lies inside one of
 /// them fits from it without a fetch (neighbouring far cells read nearly the same ball, and
 /// indexing a ball costs more than fitting from it). Any superset of a ball gives the same fit.
@@ -90,7 +100,7 @@ impl BallCache {
 
 /// One cell fitted from the points within a ball around it (from `cache`, or fetched), the
 /// ball grown until it holds the fit's radius (then every point the fit reads was there);
-/// with `kth`, the first ball is the one of R1 (from the N_min + 1-th nearest distance,
+/// with `source.kth`, the first ball is the one of R1 (from the N_min + 1-th nearest distance,
 /// Ohtake's rule). Returns the fit and whether the cell's cube holds input points.
 pub(crate) fn fit_fetched(
     cell: &Cell,
@@ -98,10 +108,10 @@ pub(crate) fn fit_fetched(
     params: &MpuParams,
     population: usize,
     eps0: f64,
-    fetch: &FetchBall<'_>,
-    kth: Option<&KthDistance<'_>>,
+    source: &BallSource<'_>,
     cache: &BallCache,
 ) -> Result<(CellFit, bool), MpuError> {
+    let BallSource { fetch, kth } = *source;
     let margin = 1e-9 * frame.root_half;
     let r = cell.support_radius(params.alpha);
     let mut radius = r * 1.5;

@@ -13,7 +13,7 @@ use psi_octree::{Cell, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint
 
 use crate::cell_table::{CellAddress, CellDecision, CellTable};
 use crate::fit_cell::{CellFit, fit_octree_cell};
-use crate::fit_fetched::{BallCache, FetchBall, KthDistance, fit_fetched};
+use crate::fit_fetched::{BallCache, BallSource, fit_fetched};
 use crate::region_points::{IndexedPoints, check_population};
 use crate::{MpuError, MpuFrame, MpuParams};
 
@@ -135,10 +135,7 @@ pub struct FarBalls<'a> {
     /// The halo the region's points hold: ∞-distance beyond its cube, world units.
     pub halo: f64,
     /// Where the balls come from.
-    pub fetch: &'a FetchBall<'a>,
-    /// The k-th nearest distance, when the source can tell: a far cell's ball is then fetched
-    /// at its fit radius.
-    pub kth: Option<&'a KthDistance<'a>>,
+    pub source: BallSource<'a>,
 }
 
 /// Decides the cells of `region` from `input` ([`RegionPoints`]) in `frame` with `params`:
@@ -184,16 +181,14 @@ pub fn fit_region(
                     + margin
                     > far.halo =>
             {
-                let (f, surface) = fit_fetched(
-                    cell, frame, params, population, eps0, far.fetch, far.kth, &cache,
-                )?;
+                let (f, surface) =
+                    fit_fetched(cell, frame, params, population, eps0, &far.source, &cache)?;
                 Ok((f, surface, true))
             }
             (Some(f), _) => Ok((f, !inside.is_empty(), false)),
             (None, Some(far)) => {
-                let (f, surface) = fit_fetched(
-                    cell, frame, params, population, eps0, far.fetch, far.kth, &cache,
-                )?;
+                let (f, surface) =
+                    fit_fetched(cell, frame, params, population, eps0, &far.source, &cache)?;
                 Ok((f, surface, true))
             }
             (None, None) => unreachable!("returned above"),

@@ -7,7 +7,7 @@ use psi_octree::{Cell, Monitor, OrientedPoint};
 
 use crate::coarse_index::{CoarseIndex, is_coarse};
 use crate::fit_cell::{FitInput, try_fit_octree_cell};
-use crate::fit_fetched::{BallCache, FetchBall, KthDistance, fit_fetched};
+use crate::fit_fetched::{BallCache, BallSource, fit_fetched};
 use crate::fit_region::decide_cells;
 use crate::region_points::{check_population, prepare_any};
 use crate::{MpuError, MpuFrame, MpuParams, Region, RegionFit};
@@ -23,18 +23,17 @@ pub fn is_coarse_point(frame: &MpuFrame, p: DVec3) -> bool {
 /// points whose position hash selects them, shape C, in increasing input index order; the
 /// only points an out-of-core build holds for these levels), fetching the ball of the few
 /// cells whose fit needs every point (a cell with few points, or one whose error stays under
-/// ε0 among the coarse ones) through `fetch` (at the fit radius, with `kth`). Bitwise the decisions of a build over all
+/// ε0 among the coarse ones) from `source`. Bitwise the decisions of a build over all
 /// `population` points in `frame`.
 ///
-/// Errors as [`fit_region`], and [`MpuError::Fetch`] from `fetch`.
+/// Errors as [`fit_region`], and [`MpuError::Fetch`] from `source`.
 pub fn fit_top(
     coarse: &[OrientedPoint],
     population: usize,
     frame: &MpuFrame,
     params: &MpuParams,
     until: u8,
-    fetch: &FetchBall<'_>,
-    kth: Option<&KthDistance<'_>>,
+    source: &BallSource<'_>,
     monitor: &Monitor<'_>,
 ) -> Result<RegionFit, MpuError> {
     check_population(params, population)?;
@@ -54,7 +53,7 @@ pub fn fit_top(
     let cache = BallCache::default();
     let fit = |cell: &Cell, inside: &[u32]| match try_fit_octree_cell(&input, cell, eps0) {
         Some(f) => Ok((f, !inside.is_empty(), false)),
-        None => fit_fetched(cell, frame, params, population, eps0, fetch, kth, &cache)
+        None => fit_fetched(cell, frame, params, population, eps0, source, &cache)
             .map(|(f, s)| (f, s, true)),
     };
     let mut out = decide_cells(

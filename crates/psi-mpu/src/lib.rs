@@ -68,7 +68,7 @@ pub use data_coverage::data_coverage;
 pub use data_footprint::{DataAnchor, FootprintTest};
 pub use error::MpuError;
 pub use evaluate::{BACKGROUND_WEIGHT, LeafEvaluation};
-pub use fit_fetched::{FetchBall, KthDistance};
+pub use fit_fetched::{BallSource, FetchBall, KthDistance};
 pub use fit_region::{FarBalls, Region, RegionFit, RegionPoints, fit_region};
 pub use fit_top::{fit_top, is_coarse_point};
 pub use frame::MpuFrame;

@@ -7,7 +7,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use psi_mpu::{MpuParams, fit_top};
+use psi_mpu::{BallSource, MpuParams, fit_top};
 use psi_octree::Monitor;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
@@ -127,8 +127,10 @@ fn decide_store_top(
         &manifest.frame,
         params,
         tiles.depth + tiles.shared_levels,
-        &fetch,
-        Some(&kth),
+        &BallSource {
+            fetch: &fetch,
+            kth: Some(&kth),
+        },
         &monitor.quiet(),
     )?;
     let outcome = TileOutcome {

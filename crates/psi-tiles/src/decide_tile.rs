@@ -6,7 +6,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use psi_mpu::{
-    CellAddress, CellTable, FarBalls, MpuFrame, MpuParams, Region, RegionPoints, fit_region,
+    BallSource, CellAddress, CellTable, FarBalls, MpuFrame, MpuParams, Region, RegionPoints,
+    fit_region,
 };
 use psi_octree::Monitor;
 use rayon::prelude::*;
@@ -59,8 +60,10 @@ pub(crate) fn decide_tile(
         let kth = |c, k| source.kth_distance(c, k).map_err(|e| e.to_string());
         let far = FarBalls {
             halo: halo - margin,
-            fetch: &fetch,
-            kth: Some(&kth),
+            source: BallSource {
+                fetch: &fetch,
+                kth: Some(&kth),
+            },
         };
         let input = RegionPoints {
             points: &local,

@@ -186,8 +186,7 @@ fn the_cells_above_the_tiles_from_the_coarse_points_are_those_from_all_points() 
                 &frame,
                 &params,
                 until,
-                &fetch,
-                kth,
+                &psi_mpu::BallSource { fetch: &fetch, kth },
                 &Monitor::silent(),
             )
             .unwrap();
