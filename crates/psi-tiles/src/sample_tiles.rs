@@ -58,12 +58,11 @@ pub struct TiledSampling {
     pub report: TileSampleReport,
 }
 
-/// What [`sample_region`] does: seed only, or seed and relax (with the σ scale adapting, or
-/// held at the given value).
-#[derive(Clone, Copy)]
+/// What [`sample_region`] does: seed only, or seed and relax.
+#[derive(Clone, Copy, PartialEq)]
 enum Pass {
     Seed,
-    Relax(Option<f64>),
+    Relax,
 }
 
 /// One region's particles, with the leaf each was seeded in.
@@ -145,27 +144,13 @@ pub fn sample_tiled(
         field.scale = 1.0 / per_leaf.max(1e-12).sqrt();
         done.store(0, std::sync::atomic::Ordering::Relaxed);
     }
-    // The σ scale c adapts toward one energy over all particles; relaxed alone, each region
-    // settles on its own c (docs/notes/2026-11-25-tiles.md), which would make the spacing
-    // differ from tile to tile. So: a first pass for the scale, its mean over all particles,
-    // then every region relaxed again from its seeds with that scale held.
+    // Each region relaxes once, its σ scale c adapting to its own particles and band. (Holding
+    // one c for all, the mean of a first pass, cost a second relaxation of every region and
+    // was no more even per level: notes 2026-11-25-tiles and 2026-11-26-far-balls.)
     monitor.report("sample tiles", 0, total);
-    let first: Vec<Result<RegionParticles, TileError>> = regions
-        .par_iter()
-        .map(|r| per_region(r, &field, Pass::Relax(None)))
-        .collect();
-    let (mut sum, mut count) = (0.0, 0usize);
-    for out in first {
-        let p = out?.relaxed;
-        // (Summed in region order, each region's particles in order: no thread dependence.)
-        sum += (0..p.len()).map(|i| p.sigma[i] / p.target[i]).sum::<f64>();
-        count += p.len();
-    }
-    let scale = if count > 0 { sum / count as f64 } else { 1.0 };
-    done.store(0, std::sync::atomic::Ordering::Relaxed);
     let outs: Vec<Result<RegionParticles, TileError>> = regions
         .par_iter()
-        .map(|r| per_region(r, &field, Pass::Relax(Some(scale))))
+        .map(|r| per_region(r, &field, Pass::Relax))
         .collect();
     // Back in the whole sampling's order: by leaf index, a leaf's particles in seeding order.
     let mut all: Vec<(u32, usize, usize)> = Vec::new();
@@ -285,28 +270,21 @@ fn sample_region(
         leaves.extend(std::iter::repeat_n(l, s.len()));
         seeds.extend(&s);
     }
-    let Pass::Relax(scale) = pass else {
+    if pass == Pass::Seed {
         return Ok(RegionParticles {
             leaves,
             seeds,
             ..empty()
         });
-    };
+    }
     let neighbours = seed_leaves(&mpu, &near, field, params);
     let mut particles = seeds.clone();
     particles.extend(&neighbours);
-    let mut params = *params;
-    if let Some(c) = scale {
-        for i in 0..particles.len() {
-            particles.sigma[i] = c * particles.target[i];
-        }
-        params.adapt_sigma = false;
-    }
     let options = RelaxOptions {
         monitor: monitor.quiet(),
         ..Default::default()
     };
-    relax(&mpu, &mut particles, field, &params, options);
+    relax(&mpu, &mut particles, field, params, options);
     monitor.check()?;
     let n = seeds.len();
     let keep: Vec<bool> = (0..particles.len()).map(|i| i < n).collect();
