@@ -9,7 +9,8 @@ use std::collections::BinaryHeap;
 use glam::DVec3;
 
 use crate::sub_cells::SUB;
-use crate::tile_store::{RECORD, tile_key, tile_path};
+use crate::tile_records::{RECORD, record_position, tile_key};
+use crate::tile_store::tile_path;
 use crate::{TileError, TileStore};
 
 /// A squared distance ordered by `total_cmp`, for the heap of the k nearest.
@@ -91,10 +92,7 @@ impl TileStore {
                 let range = [(t.runs[s], t.runs[s + 1])];
                 let bytes = self.read_ranges(&tile_path(self.dir(), t.key), t, Some(&range))?;
                 for r in bytes.chunks_exact(RECORD) {
-                    let f = |j: usize| {
-                        f64::from_le_bytes(r[8 + 8 * j..16 + 8 * j].try_into().expect("8 bytes"))
-                    };
-                    let e2 = (DVec3::new(f(0), f(1), f(2)) - center).length_squared();
+                    let e2 = (record_position(r) - center).length_squared();
                     if heap.len() < k {
                         heap.push(Dist2(e2));
                     } else if heap.peek().is_some_and(|top| e2 < top.0) {

@@ -33,6 +33,7 @@ mod sample_tiles;
 mod sub_cells;
 mod tile_buckets;
 mod tile_params;
+mod tile_records;
 mod tile_report;
 mod tile_store;
 mod write_atomically;

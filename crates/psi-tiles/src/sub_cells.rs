@@ -6,19 +6,13 @@
 use glam::DVec3;
 use psi_mpu::MpuFrame;
 
-use crate::tile_store::{RECORD, tile_key};
+use crate::tile_records::{RECORD, record_position, tile_key};
 
 /// Levels below the tile at which its records are grouped (8 × 8 × 8 sub-cells).
 pub(crate) const SUB_LEVELS: u8 = 3;
 
 /// Sub-cells per axis of a tile.
 pub(crate) const SUB: u32 = 1 << SUB_LEVELS;
-
-/// The world position of a record (bytes 8..32).
-fn record_position(r: &[u8]) -> DVec3 {
-    let f = |k: usize| f64::from_le_bytes(r[8 + 8 * k..16 + 8 * k].try_into().expect("8 bytes"));
-    DVec3::new(f(0), f(1), f(2))
-}
 
 /// The sub-cell (per axis, `0..SUB`) of world position `p` in the tile `key` at `depth`:
 /// its key [`SUB_LEVELS`] deeper, relative to the tile, clamped into it (a point on a face,

@@ -5,7 +5,7 @@ use glam::DVec3;
 use psi_mpu::MpuFrame;
 use psi_octree::OrientedPoint;
 
-use crate::tile_store::tile_key;
+use crate::tile_records::tile_key;
 
 /// Per tile key (at one depth), the indices of the points whose tile it is, increasing.
 pub(crate) struct TileBuckets {

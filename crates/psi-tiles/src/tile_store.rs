@@ -24,9 +24,8 @@ use sha2::{Digest, Sha256};
 
 use crate::TileError;
 use crate::sub_cells::{SUB, SUB_LEVELS, order_by_sub_cell, sub_cell_ranges};
+use crate::tile_records::{RECORD, tile_key};
 
-/// Bytes of one point record.
-pub(crate) const RECORD: usize = 56;
 /// The manifest format this code writes and reads.
 const VERSION: u32 = 2;
 /// The manifest's file name in a store directory.
@@ -123,18 +122,6 @@ fn is_store_file(name: &str) -> bool {
 
 pub(crate) fn tile_path(dir: &Path, key: [u32; 3]) -> PathBuf {
     dir.join(format!("tile-{}-{}-{}.pts", key[0], key[1], key[2]))
-}
-
-/// The key at `depth` of the tile cube holding world position `p` (clamped to the root cube;
-/// gathering filters by distance, so which of two tiles a point on a face lands in does not
-/// matter).
-pub(crate) fn tile_key(frame: &MpuFrame, depth: u8, p: DVec3) -> [u32; 3] {
-    let side = 1u32 << depth;
-    let low = frame.root_center - DVec3::splat(frame.root_half);
-    let edge = 2.0 * frame.root_half / f64::from(side);
-    let k = ((p - frame.origin - low) / edge).floor();
-    let clamp = |v: f64| (v.max(0.0) as u32).min(side - 1);
-    [clamp(k.x), clamp(k.y), clamp(k.z)]
 }
 
 fn push_record(out: &mut Vec<u8>, index: u64, p: &OrientedPoint) {
