@@ -8,7 +8,7 @@ use std::collections::BinaryHeap;
 
 use glam::DVec3;
 
-use crate::sub_cells::SUB;
+use crate::sub_cells::{SUB, box_distance, sub_cell_box};
 use crate::tile_records::{RECORD, record_position, tile_key};
 use crate::tile_store::tile_path;
 use crate::{TileError, TileStore};
@@ -44,13 +44,8 @@ impl TileStore {
             return Ok(None);
         }
         let frame = m.frame;
-        let low = frame.origin + frame.root_center - DVec3::splat(frame.root_half);
         let tile_edge = 2.0 * frame.root_half / f64::from(1u32 << m.depth);
-        let sub_edge = tile_edge / f64::from(SUB);
-        // A sub-cell's box grown by this much holds its points (a point is keyed by the same
-        // floor arithmetic, up to rounding; see `sub_cells.rs`).
-        let slack = 1e-9 * frame.root_half + 1e-12 * center.abs().max_element();
-        let mut reach = 2.0 * sub_edge;
+        let mut reach = 2.0 * tile_edge / f64::from(SUB);
         loop {
             let grown = DVec3::splat(reach + tile_edge);
             let lo = tile_key(&frame, m.depth, center - grown);
@@ -70,15 +65,9 @@ impl TileStore {
                         (s as u32 / SUB) % SUB,
                         s as u32 / (SUB * SUB),
                     ];
-                    let corner = DVec3::from_array(std::array::from_fn(|a| {
-                        f64::from(t.key[a] * SUB + sub[a])
-                    }));
-                    let min = low + corner * sub_edge - DVec3::splat(slack);
-                    let max = min + DVec3::splat(sub_edge + 2.0 * slack);
-                    let gap = (min - center).max(center - max).max(DVec3::ZERO);
-                    let d2 = gap.length_squared();
-                    if d2 <= reach * reach {
-                        near.push((d2, i, s));
+                    let d = box_distance(center, sub_cell_box(&frame, m.depth, t.key, sub));
+                    if d <= reach {
+                        near.push((d * d, i, s));
                     }
                 }
             }

@@ -60,22 +60,52 @@ pub(crate) fn order_by_sub_cell(
 }
 
 /// The record ranges (first, end; records) of the sub-cells `lo..=hi` per axis (sub-cell
-/// coordinates within the tile, `hi` at most `SUB - 1`), one per row along x, given the
-/// tile's `runs`; adjoining rows merged, empty ones left out.
-pub(crate) fn sub_cell_ranges(runs: &[u64], lo: [u32; 3], hi: [u32; 3]) -> Vec<(u64, u64)> {
+/// coordinates within the tile, `hi` at most `SUB - 1`) that `touches` keeps, given the
+/// tile's `runs`; adjoining ones merged, empty ones left out.
+pub(crate) fn sub_cell_ranges(
+    runs: &[u64],
+    lo: [u32; 3],
+    hi: [u32; 3],
+    touches: &dyn Fn([u32; 3]) -> bool,
+) -> Vec<(u64, u64)> {
     let mut out: Vec<(u64, u64)> = Vec::new();
     for z in lo[2]..=hi[2] {
         for y in lo[1]..=hi[1] {
-            let first = runs[linear([lo[0], y, z])];
-            let end = runs[linear([hi[0], y, z]) + 1];
-            match out.last_mut() {
-                Some(last) if last.1 == first => last.1 = end,
-                _ if end > first => out.push((first, end)),
-                _ => {}
+            for x in lo[0]..=hi[0] {
+                let s = linear([x, y, z]);
+                let (first, end) = (runs[s], runs[s + 1]);
+                if end == first || !touches([x, y, z]) {
+                    continue;
+                }
+                match out.last_mut() {
+                    Some(last) if last.1 == first => last.1 = end,
+                    _ => out.push((first, end)),
+                }
             }
         }
     }
     out
+}
+
+/// The box (world units, min and max) of sub-cell `sub` of the tile `key` at `depth`, grown by
+/// far more than rounding, so that it holds every point keyed to the sub-cell.
+pub(crate) fn sub_cell_box(
+    frame: &MpuFrame,
+    depth: u8,
+    key: [u32; 3],
+    sub: [u32; 3],
+) -> (DVec3, DVec3) {
+    let low = frame.origin + frame.root_center - DVec3::splat(frame.root_half);
+    let edge = 2.0 * frame.root_half / f64::from(1u32 << (depth + SUB_LEVELS));
+    let slack = 1e-9 * frame.root_half + 1e-12 * low.abs().max_element();
+    let corner = DVec3::from_array(std::array::from_fn(|a| f64::from(key[a] * SUB + sub[a])));
+    let min = low + corner * edge - DVec3::splat(slack);
+    (min, min + DVec3::splat(edge + 2.0 * slack))
+}
+
+/// The distance from `x` to the box (`min`, `max`): 0 inside.
+pub(crate) fn box_distance(x: DVec3, (min, max): (DVec3, DVec3)) -> f64 {
+    (min - x).max(x - max).max(DVec3::ZERO).length()
 }
 
 #[cfg(test)]
@@ -138,7 +168,7 @@ mod tests {
             ([0, 0, 0], [7, 7, 7]),
             ([3, 3, 3], [3, 3, 3]),
         ] {
-            let from_ranges: Vec<u64> = sub_cell_ranges(&runs, lo, hi)
+            let from_ranges: Vec<u64> = sub_cell_ranges(&runs, lo, hi, &|_| true)
                 .iter()
                 .flat_map(|&(a, b)| {
                     grouped[a as usize * RECORD..b as usize * RECORD]

@@ -23,7 +23,9 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::TileError;
-use crate::sub_cells::{SUB, SUB_LEVELS, order_by_sub_cell, sub_cell_ranges};
+use crate::sub_cells::{
+    SUB, SUB_LEVELS, box_distance, order_by_sub_cell, sub_cell_box, sub_cell_ranges,
+};
 use crate::tile_records::{RECORD, tile_key};
 
 /// The manifest format this code writes and reads.
@@ -424,6 +426,7 @@ impl TileStore {
         lo: [u32; 3],
         hi: [u32; 3],
         fine: ([u32; 3], [u32; 3]),
+        ball: Option<(DVec3, f64)>,
         keep: &dyn Fn(DVec3) -> bool,
     ) -> Result<Vec<OrientedPoint>, TileError> {
         let mut found: Vec<(u64, OrientedPoint)> = Vec::new();
@@ -437,9 +440,16 @@ impl TileStore {
                 std::array::from_fn(|a| k[a].saturating_sub(key[a] * SUB).min(SUB - 1))
             };
             let (sub_lo, sub_hi) = (within(fine.0), within(fine.1));
-            let whole = sub_lo == [0; 3] && sub_hi == [SUB - 1; 3];
+            let whole = sub_lo == [0; 3] && sub_hi == [SUB - 1; 3] && ball.is_none();
+            // (For a ball, only the sub-cells it reaches.)
+            let depth = self.manifest.depth;
+            let touches = |sub: [u32; 3]| {
+                ball.is_none_or(|(c, r)| {
+                    box_distance(c, sub_cell_box(&self.manifest.frame, depth, key, sub)) <= r
+                })
+            };
             let ranges = (!whole && entry.runs.len() == cells + 1)
-                .then(|| sub_cell_ranges(&entry.runs, sub_lo, sub_hi));
+                .then(|| sub_cell_ranges(&entry.runs, sub_lo, sub_hi, &touches));
             let path = tile_path(&self.dir, key);
             let bytes = self.read_ranges(&path, entry, ranges.as_deref())?;
             found.extend(decode(&bytes, keep));
@@ -459,9 +469,18 @@ impl TileStore {
     ) -> Result<Vec<OrientedPoint>, TileError> {
         let frame = self.manifest.frame;
         let reach = half + halo;
-        let world = center + frame.origin;
-        // The keys of the box grown by one cell at `depth` (a point on a face may be keyed to
-        // either side).
+        let (lo, hi, fine) = self.keys_around(center + frame.origin, reach);
+        self.gather_keys(lo, hi, fine, None, &|p| {
+            (p - frame.origin - center).abs().max_element() <= reach
+        })
+    }
+
+    /// The tile keys and the sub-cell keys ([`SUB_LEVELS`] deeper) of the cube of half-edge
+    /// `reach` around world position `world`, grown by one cell at each depth (a point on a
+    /// face may be keyed to either side).
+    #[allow(clippy::type_complexity)]
+    fn keys_around(&self, world: DVec3, reach: f64) -> ([u32; 3], [u32; 3], ([u32; 3], [u32; 3])) {
+        let frame = self.manifest.frame;
         let keys = |depth: u8| {
             let slack = 2.0 * frame.root_half / f64::from(1u32 << depth);
             let grown = DVec3::splat(reach + slack);
@@ -471,22 +490,16 @@ impl TileStore {
             )
         };
         let (lo, hi) = keys(self.manifest.depth);
-        let fine = keys(self.manifest.depth + SUB_LEVELS);
-        self.gather_keys(lo, hi, fine, &|p| {
-            (p - frame.origin - center).abs().max_element() <= reach
-        })
+        (lo, hi, keys(self.manifest.depth + SUB_LEVELS))
     }
 
     /// The points within `radius` of world position `center` (and perhaps a few more), in
     /// increasing input index order.
     pub fn gather_ball(&self, center: DVec3, radius: f64) -> Result<Vec<OrientedPoint>, TileError> {
-        let frame = self.manifest.frame;
-        self.gather_box(center - frame.origin, 0.0, radius)
-            .map(|v| {
-                v.into_iter()
-                    .filter(|p| (p.p - center).length() <= radius)
-                    .collect()
-            })
+        let (lo, hi, fine) = self.keys_around(center, radius);
+        self.gather_keys(lo, hi, fine, Some((center, radius)), &|p| {
+            (p - center).length() <= radius
+        })
     }
 }
 
