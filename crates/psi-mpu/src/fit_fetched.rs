@@ -116,21 +116,22 @@ pub(crate) fn fit_fetched(
     let r = cell.support_radius(params.alpha);
     let mut radius = r * 1.5;
     let mut wider = WIDER;
-    if let Some(kth) = kth {
-        let need = (params.n_min + 1).min(population);
-        if let Some(d) = kth(cell.center + frame.origin, need).map_err(MpuError::Fetch)? {
-            // (Rounding may leave the fit's R1 a step above: the loop then grows the ball.)
-            radius = radius_reaching(d, r, params.lambda) + margin;
-            wider = 1.0;
-        }
+    let need = (params.n_min + 1).min(population);
+    if let Some(kth) = kth
+        && let Some(d) = kth(cell.center + frame.origin, need).map_err(MpuError::Fetch)?
+    {
+        // (Rounding may leave the fit's R1 a step above: the loop then grows the ball.)
+        radius = radius_reaching(d, r, params.lambda) + margin;
+        wider = 1.0;
     }
     loop {
         let ball = cache.ball(cell.center, radius + 2.0 * margin, wider, frame, fetch)?;
         let (indexed, n) = (&ball.0, ball.1);
-        if n >= (params.n_min + 1).min(population) {
+        if n >= need {
             let f = fit_octree_cell(&indexed.input(params, population), cell, eps0);
             if f.fit_radius + margin <= radius || n >= population {
-                // The first ball already holds the cube (1.5 R > its circumradius).
+                // The first ball already holds the cube (1.5 R, or R1 ≥ R, exceeds its
+                // circumradius).
                 // (Only points in or at the cube can be in it: the exact rule for those alone.)
                 let reach = cell.half + margin;
                 let surface = indexed.positions().iter().any(|&x| {

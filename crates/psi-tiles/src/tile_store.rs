@@ -3,12 +3,8 @@
 //! input, grouped by sub-cell and in increasing index order within each (`sub_cells.rs`, so a
 //! small box reads only part of a file); the coarse points in a file of their own, in index
 //! order; a manifest with the frame, the counts, the sub-cell runs and every file's SHA-256,
-//! written last (temporary file, then rename),
-//! so a store without a manifest is unfinished and one whose file fails its checksum is
-//! refused by name.
-//!
-//! Record layout (little endian, 56 bytes): input index u64, position 3 × f64 (world units),
-//! normal 3 × f64.
+//! written last (temporary file, then rename), so a store without a manifest is unfinished and
+//! one whose file fails its checksum is refused by name. Records: `tile_records.rs`.
 
 use std::collections::{BTreeMap, HashSet};
 use std::fs::{self, File};
@@ -26,7 +22,7 @@ use crate::TileError;
 use crate::sub_cells::{
     SUB, SUB_LEVELS, box_distance, order_by_sub_cell, sub_cell_box, sub_cell_ranges,
 };
-use crate::tile_records::{RECORD, tile_key};
+use crate::tile_records::{RECORD, record_position, tile_key};
 
 /// The manifest format this code writes and reads.
 const VERSION: u32 = 2;
@@ -522,7 +518,7 @@ fn decode(bytes: &[u8], keep: &dyn Fn(DVec3) -> bool) -> Vec<(u64, OrientedPoint
     bytes
         .chunks_exact(RECORD)
         .filter_map(|r| {
-            let p = DVec3::new(f(r, 0), f(r, 1), f(r, 2));
+            let p = record_position(r);
             keep(p).then(|| {
                 let index = u64::from_le_bytes(r[..8].try_into().expect("8 bytes"));
                 (
