@@ -17,7 +17,7 @@ use std::time::Instant;
 use psi_io::{Format, PointStream, ReadOptions, chunk_oriented_points};
 use psi_mpu::{MpuFrame, MpuParams};
 use psi_octree::{Aabb, Monitor, OrientedPoint};
-use psi_particles::{ParticleParams, Particles};
+use psi_particles::{ParticleParams, Particles, Quality};
 use psi_tiles::{
     TileParams, TileReport, TileSampleReport, TileStore, TileWriter, decide_store, sample_tiled,
 };
@@ -51,6 +51,8 @@ pub struct OutOfCore {
 pub struct OutOfCoreRun {
     /// The particles.
     pub particles: Particles,
+    /// Their quality (surface distance, spacing per depth level).
+    pub after: Quality,
     /// Points read (zero normals dropped).
     pub points: u64,
     /// Points dropped for a zero normal.
@@ -204,6 +206,7 @@ pub fn sample_files_out_of_core(
         .map_err(|e| fail(e.to_string()))?;
     Ok(OutOfCoreRun {
         particles: sampled.particles,
+        after: sampled.after,
         points: part.points,
         dropped: part.dropped,
         tiles: decisions.report,
@@ -446,6 +449,7 @@ pub fn out_of_core_json(
             "count": run.particles.len(),
             "k": particle_params.k,
             "iterations": particle_params.iterations,
+            "after": run.after,
         },
         "tiles": {
             "count": run.tiles.count,

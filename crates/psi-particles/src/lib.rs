@@ -52,6 +52,7 @@ pub use particle_grid::{GRID_EDGE_FACTOR, ParticleGrid};
 pub use particles::Particles;
 pub use quality::{
     LevelStats, Quality, SpacingStats, measure_quality, nearest_neighbour_distances,
+    quality_from_surface_distances, surface_distances,
 };
 pub use relax::{RelaxOptions, RelaxRegion, Relaxation, relax};
 pub use sample::{

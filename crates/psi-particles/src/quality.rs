@@ -89,23 +89,32 @@ pub(crate) fn nearest_other_distances(
 
 /// Measures `particles` on `mpu`.
 pub fn measure_quality(mpu: &Mpu, particles: &Particles) -> Quality {
+    quality_from_surface_distances(particles, &surface_distances(mpu, &particles.positions))
+}
+
+/// |f|/|∇f| of `mpu` at each of `positions` (shape: N, world units), relative to D (shape: N).
+pub fn surface_distances(mpu: &Mpu, positions: &[DVec3]) -> Vec<f64> {
     let d = mpu.diagonal();
-    let adherence: Vec<f64> = particles
-        .positions
+    positions
         .par_iter()
         .map(|x| {
             let (f, g) = mpu.value_and_gradient(*x);
             f.abs() / g.length().max(1e-300) / d
         })
-        .collect();
+        .collect()
+}
+
+/// The quality of `particles` given their surface distances (shape: N, relative to D, as
+/// [`surface_distances`] gives them; measured by the caller, perhaps piece by piece).
+pub fn quality_from_surface_distances(particles: &Particles, surface: &[f64]) -> Quality {
     let nn = nearest_neighbour_distances(&particles.positions);
     let mut by_depth: BTreeMap<u8, Vec<f64>> = BTreeMap::new();
     for (i, &dist) in nn.iter().enumerate() {
         by_depth.entry(particles.depth[i]).or_default().push(dist);
     }
     Quality {
-        max_surface_distance: adherence.iter().copied().fold(0.0, f64::max),
-        mean_surface_distance: adherence.iter().sum::<f64>() / adherence.len().max(1) as f64,
+        max_surface_distance: surface.iter().copied().fold(0.0, f64::max),
+        mean_surface_distance: surface.iter().sum::<f64>() / surface.len().max(1) as f64,
         spacing: stats(&nn),
         levels: by_depth
             .into_iter()

@@ -28,6 +28,7 @@ mod decide_tile;
 mod decide_tiles;
 mod error;
 mod kth_distance;
+mod leaf_cover;
 mod point_source;
 mod sample_tiles;
 mod sub_cells;
@@ -42,7 +43,9 @@ pub use decide_store::{decide_store, decide_store_tile, decide_store_top_keys};
 pub use decide_tiles::{TiledDecisions, build_tiled, decide_tiled};
 pub use error::TileError;
 pub use point_source::{PointSource, PointsInMemory};
-pub use sample_tiles::{BAND, BAND_HALO, STITCH, TileSampleReport, TiledSampling, sample_tiled};
+pub use sample_tiles::{
+    BAND, BAND_HALO, LEAF_MARGIN, STITCH, TileSampleReport, TiledSampling, sample_tiled,
+};
 pub use tile_params::TileParams;
 pub use tile_report::TileReport;
 pub use tile_store::{StoreManifest, StoredTile, TileStore, TileWriter};

@@ -25,6 +25,20 @@ pub trait PointSource: Sync {
         halo: f64,
     ) -> Result<Vec<OrientedPoint>, TileError>;
 
+    /// The points of [`PointSource::gather_box`] whose world position `keep` accepts, in
+    /// increasing input index order.
+    fn gather_box_where(
+        &self,
+        center: DVec3,
+        half: f64,
+        halo: f64,
+        keep: &(dyn Fn(DVec3) -> bool + Sync),
+    ) -> Result<Vec<OrientedPoint>, TileError> {
+        let mut points = self.gather_box(center, half, halo)?;
+        points.retain(|p| keep(p.p));
+        Ok(points)
+    }
+
     /// The distance (world units) from world position `center` to its `k`-th nearest input
     /// point, or `None` when this source does not tell (the default) or has fewer points.
     fn kth_distance(&self, _center: DVec3, _k: usize) -> Result<Option<f64>, TileError> {
@@ -83,6 +97,23 @@ impl PointSource for PointsInMemory<'_> {
             .gather(self.points, &self.frame, center, half, halo);
         Ok(ids.iter().map(|&i| self.points[i as usize]).collect())
     }
+
+    fn gather_box_where(
+        &self,
+        center: DVec3,
+        half: f64,
+        halo: f64,
+        keep: &(dyn Fn(DVec3) -> bool + Sync),
+    ) -> Result<Vec<OrientedPoint>, TileError> {
+        let ids = self
+            .buckets
+            .gather(self.points, &self.frame, center, half, halo);
+        Ok(ids
+            .iter()
+            .map(|&i| self.points[i as usize])
+            .filter(|p| keep(p.p))
+            .collect())
+    }
 }
 
 impl PointSource for TileStore {
@@ -101,6 +132,16 @@ impl PointSource for TileStore {
         halo: f64,
     ) -> Result<Vec<OrientedPoint>, TileError> {
         TileStore::gather_box(self, center, half, halo)
+    }
+
+    fn gather_box_where(
+        &self,
+        center: DVec3,
+        half: f64,
+        halo: f64,
+        keep: &(dyn Fn(DVec3) -> bool + Sync),
+    ) -> Result<Vec<OrientedPoint>, TileError> {
+        TileStore::gather_box_where(self, center, half, halo, keep)
     }
 
     fn gather_ball(&self, center: DVec3, radius: f64) -> Result<Vec<OrientedPoint>, TileError> {

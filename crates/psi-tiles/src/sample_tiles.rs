@@ -11,12 +11,14 @@ use glam::DVec3;
 use psi_mpu::{BuildOptions, CellAddress, Mpu, MpuParams, Region};
 use psi_octree::Monitor;
 use psi_particles::{
-    DensityField, ParticleParams, Particles, RelaxOptions, RelaxRegion, relax, seed_leaves,
+    DensityField, ParticleParams, Particles, Quality, RelaxOptions, RelaxRegion,
+    quality_from_surface_distances, relax, seed_leaves, surface_distances,
 };
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::decide_tile::tile_keys;
+use crate::leaf_cover::LeafCover;
 use crate::{PointSource, TileError, TiledDecisions};
 
 /// The band a region relaxes with: the surface leaves outside it within this many of their own
@@ -30,6 +32,13 @@ pub const BAND_HALO: f64 = 0.5;
 /// with the neighbouring regions' particles fixed.
 pub const STITCH: f64 = 3.0;
 
+/// A region reads the points within this many of their own edges of the leaves whose particles
+/// it moves (the band's included): the seeds read their leaf's points, the relaxation the data
+/// around each particle ([`psi_mpu::Mpu::near_data_from`]), which moves about a spacing (a
+/// leaf's edge for one seed per leaf); the fits come from the decisions. (Two edges read 1.7 ×
+/// the points and spaced them no better: notes 2026-11-26-leaf-cover.)
+pub const LEAF_MARGIN: f64 = 1.0;
+
 /// What a tiled sampling did.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct TileSampleReport {
@@ -39,6 +48,9 @@ pub struct TileSampleReport {
     pub band: f64,
     /// Particles seeded in the bands (relaxed as neighbours, then dropped), all regions.
     pub band_particles: usize,
+    /// Input points read for the regions' MPUs, relaxing and stitching (a point counts once
+    /// for every region that reads it).
+    pub points_read: usize,
     /// Seconds stitching.
     pub stitch_seconds: f64,
     /// Seconds.
@@ -54,6 +66,8 @@ pub struct TiledSampling {
     pub seeds: Particles,
     /// The density field (the whole sampling's).
     pub field: DensityField,
+    /// The relaxed particles' quality, each measured in the region that moved it last.
+    pub after: Quality,
     /// What it did.
     pub report: TileSampleReport,
 }
@@ -65,13 +79,18 @@ enum Pass {
     Relax,
 }
 
-/// One region's particles, with the leaf each was seeded in.
+/// One region's particles, with the leaf each was seeded in (index and address).
 struct RegionParticles {
     leaves: Vec<u32>,
+    cells: Vec<CellAddress>,
     seeds: Particles,
     relaxed: Particles,
+    /// |f|/|∇f| / D of each relaxed particle.
+    surface: Vec<f64>,
     band: usize,
     halo: f64,
+    /// Input points read.
+    read: usize,
 }
 
 /// Samples the MPU `decisions` describe, region by region, reading points from `source`, with
@@ -155,10 +174,11 @@ pub fn sample_tiled(
     // Back in the whole sampling's order: by leaf index, a leaf's particles in seeding order.
     let mut all: Vec<(u32, usize, usize)> = Vec::new();
     let mut parts = Vec::with_capacity(outs.len());
-    let (mut band_particles, mut band) = (0, 0.0f64);
+    let (mut band_particles, mut band, mut points_read) = (0, 0.0f64, 0);
     for (r, out) in outs.into_iter().enumerate() {
         let out = out?;
         band_particles += out.band;
+        points_read += out.read;
         band = band.max(out.halo);
         all.extend(out.leaves.iter().enumerate().map(|(i, &l)| (l, r, i)));
         parts.push(out);
@@ -172,17 +192,28 @@ pub fn sample_tiled(
         let members: Vec<usize> = (0..regions.len())
             .filter(|&r| colour(&regions[r], depth) == c)
             .collect();
-        let updates: Vec<Result<Option<Particles>, TileError>> = members
+        let updates: Vec<Result<Option<Stitched>, TileError>> = members
             .par_iter()
             .map(|&r| {
                 stitch_region(
-                    source, decisions, mpu_params, params, &field, &regions, r, &state, monitor,
+                    source,
+                    decisions,
+                    mpu_params,
+                    params,
+                    &field,
+                    &regions,
+                    r,
+                    &state,
+                    &parts[r].cells,
+                    monitor,
                 )
             })
             .collect();
         for (&r, u) in members.iter().zip(updates) {
-            if let Some(p) = u? {
-                state[r] = p;
+            if let Some(stitched) = u? {
+                state[r] = stitched.particles;
+                parts[r].surface = stitched.surface;
+                points_read += stitched.read;
             }
         }
     }
@@ -193,11 +224,14 @@ pub fn sample_tiled(
     all.sort_unstable();
     let mut seeds = Particles::default();
     let mut particles = Particles::default();
+    let mut surface = Vec::with_capacity(all.len());
     for &(_, r, i) in &all {
         copy_one(&parts[r].seeds, i, &mut seeds);
         copy_one(&parts[r].relaxed, i, &mut particles);
+        surface.push(parts[r].surface[i]);
     }
     Ok(TiledSampling {
+        after: quality_from_surface_distances(&particles, &surface),
         particles,
         seeds,
         field,
@@ -205,6 +239,7 @@ pub fn sample_tiled(
             regions: regions.len(),
             band,
             band_particles,
+            points_read,
             stitch_seconds,
             seconds: t0.elapsed().as_secs_f64(),
         },
@@ -239,15 +274,32 @@ fn sample_region(
     pass: Pass,
     monitor: &Monitor<'_>,
 ) -> Result<RegionParticles, TileError> {
-    let (near, halo) = band_of(decisions, region);
+    let (near, _) = band_of(decisions, region);
+    let own_cells: Vec<CellAddress> = decisions
+        .surface
+        .iter()
+        .copied()
+        .filter(|&(d, key)| inside(d, key, region))
+        .collect();
+    let gathered: Vec<CellAddress> = own_cells.iter().chain(&near).copied().collect();
+    let cover = LeafCover::new(&decisions.frame, &gathered, LEAF_MARGIN);
+    let halo = cover
+        .as_ref()
+        .map_or(0.0, |c| reach_beyond(c, region, decisions));
     let empty = || RegionParticles {
         leaves: Vec::new(),
+        cells: Vec::new(),
         seeds: Particles::default(),
         relaxed: Particles::default(),
+        surface: Vec::new(),
         band: 0,
         halo,
+        read: 0,
     };
-    let Some(mpu) = region_mpu(source, decisions, mpu_params, region, halo, monitor)? else {
+    if own_cells.is_empty() {
+        return Ok(empty());
+    }
+    let Some(mpu) = region_mpu(source, decisions, mpu_params, cover.as_ref(), monitor)? else {
         return Ok(empty());
     };
     let tree = mpu.octree();
@@ -264,15 +316,19 @@ fn sample_region(
         .collect();
     // Seeds leaf by leaf, to know each particle's leaf (a leaf may give fewer than k).
     let mut leaves = Vec::new();
+    let mut cells = Vec::new();
     let mut seeds = Particles::default();
     for &l in &own {
         let s = seed_leaves(&mpu, &[l], field, params);
+        let cell = tree.cell(l);
         leaves.extend(std::iter::repeat_n(l, s.len()));
+        cells.extend(std::iter::repeat_n((cell.depth, cell.key), s.len()));
         seeds.extend(&s);
     }
     if pass == Pass::Seed {
         return Ok(RegionParticles {
             leaves,
+            cells,
             seeds,
             ..empty()
         });
@@ -291,10 +347,13 @@ fn sample_region(
     particles.retain_mask(&keep);
     Ok(RegionParticles {
         leaves,
+        cells,
         seeds,
+        surface: surface_distances(&mpu, &particles.positions),
         relaxed: particles,
         band: neighbours.len(),
         halo,
+        read: mpu.points().len(),
     })
 }
 
@@ -327,18 +386,29 @@ fn band_of(decisions: &TiledDecisions, region: &Region) -> (Vec<CellAddress>, f6
     (near, halo)
 }
 
-/// The MPU of `region` and its `halo`: every cell from the decisions (so the global octree,
-/// leaf indices and f), the points gathered around it (`None` without any).
+/// How far (∞-norm, world units) `cover` reaches beyond `region`'s cube.
+fn reach_beyond(cover: &LeafCover, region: &Region, decisions: &TiledDecisions) -> f64 {
+    let (c, h) = region.cube(&decisions.frame);
+    let (cc, ch) = cover.bounding_cube(&decisions.frame);
+    ((cc - c).abs() + DVec3::splat(ch - h))
+        .max_element()
+        .max(0.0)
+}
+
+/// An MPU with every cell from the decisions (so the global octree, leaf indices and f) and
+/// the points `cover` holds (`None` without any).
 fn region_mpu(
     source: &dyn PointSource,
     decisions: &TiledDecisions,
     mpu_params: &MpuParams,
-    region: &Region,
-    halo: f64,
+    cover: Option<&LeafCover>,
     monitor: &Monitor<'_>,
 ) -> Result<Option<Mpu>, TileError> {
-    let (center, half) = region.cube(&decisions.frame);
-    let points = source.gather_box(center, half, halo)?;
+    let Some(cover) = cover else {
+        return Ok(None);
+    };
+    let (center, half) = cover.bounding_cube(&decisions.frame);
+    let points = source.gather_box_where(center, half, 0.0, &|p| cover.holds(p))?;
     if points.is_empty() {
         return Ok(None);
     }
@@ -349,6 +419,13 @@ fn region_mpu(
         ..Default::default()
     };
     Ok(Some(Mpu::build_with(points, mpu_params, options)?))
+}
+
+/// A region's particles after stitching, their surface distances and the points read.
+struct Stitched {
+    particles: Particles,
+    surface: Vec<f64>,
+    read: usize,
 }
 
 /// The stitching colour of a region: tiles by the parity of their key (tiles of one colour do
@@ -373,8 +450,9 @@ fn stitch_region(
     regions: &[Region],
     r: usize,
     state: &[Particles],
+    cells: &[CellAddress],
     monitor: &Monitor<'_>,
-) -> Result<Option<Particles>, TileError> {
+) -> Result<Option<Stitched>, TileError> {
     let region = &regions[r];
     let own = &state[r];
     if own.is_empty() {
@@ -393,7 +471,12 @@ fn stitch_region(
         return Ok(None);
     }
     let (_, halo) = band_of(decisions, region);
-    let Some(mpu) = region_mpu(source, decisions, mpu_params, region, halo, monitor)? else {
+    let moving: Vec<CellAddress> = (0..own.len())
+        .filter(|&i| movable[i])
+        .map(|i| cells[i])
+        .collect();
+    let cover = LeafCover::new(&frame, &moving, LEAF_MARGIN);
+    let Some(mpu) = region_mpu(source, decisions, mpu_params, cover.as_ref(), monitor)? else {
         return Ok(None);
     };
     let mut particles = own.clone();
@@ -401,15 +484,12 @@ fn stitch_region(
         if q == r {
             continue;
         }
-        let near: Vec<bool> = other
-            .positions
-            .iter()
-            .map(|&x| local(x).abs().max_element() <= half + halo)
-            .collect();
-        let mut kept = other.clone();
-        kept.retain_mask(&near);
-        movable.extend(std::iter::repeat_n(false, kept.len()));
-        particles.extend(&kept);
+        for (i, &x) in other.positions.iter().enumerate() {
+            if local(x).abs().max_element() <= half + halo {
+                copy_one(other, i, &mut particles);
+                movable.push(false);
+            }
+        }
     }
     let options = RelaxOptions {
         region: RelaxRegion {
@@ -422,5 +502,9 @@ fn stitch_region(
     monitor.check()?;
     let keep: Vec<bool> = (0..particles.len()).map(|i| i < own.len()).collect();
     particles.retain_mask(&keep);
-    Ok(Some(particles))
+    Ok(Some(Stitched {
+        surface: surface_distances(&mpu, &particles.positions),
+        particles,
+        read: mpu.points().len(),
+    }))
 }

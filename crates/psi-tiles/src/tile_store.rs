@@ -463,11 +463,23 @@ impl TileStore {
         half: f64,
         halo: f64,
     ) -> Result<Vec<OrientedPoint>, TileError> {
+        self.gather_box_where(center, half, halo, &|_| true)
+    }
+
+    /// The points of [`TileStore::gather_box`] whose world position `keep` accepts, in
+    /// increasing input index order.
+    pub fn gather_box_where(
+        &self,
+        center: DVec3,
+        half: f64,
+        halo: f64,
+        keep: &dyn Fn(DVec3) -> bool,
+    ) -> Result<Vec<OrientedPoint>, TileError> {
         let frame = self.manifest.frame;
         let reach = half + halo;
         let (lo, hi, fine) = self.keys_around(center + frame.origin, reach);
         self.gather_keys(lo, hi, fine, None, &|p| {
-            (p - frame.origin - center).abs().max_element() <= reach
+            (p - frame.origin - center).abs().max_element() <= reach && keep(p)
         })
     }
 
