@@ -10,7 +10,7 @@
 //! [`build_tiled`]; on disk: [`TileWriter`] and [`TileStore`] (checksummed tile files),
 //! [`decide_store`] (one decisions file per tile, so a run resumes; its two tasks
 //! [`decide_store_top_keys`] and [`decide_store_tile`] for a cluster); particles:
-//! [`sample_tiled`] (seeds exactly the whole sampling's; relaxed per region and stitched).
+//! [`sample_tiled`] (seeds exactly the whole sampling's; relaxed region by region, each next to the regions finished before it).
 //!
 //! ```
 //! use psi_mpu::MpuParams;

@@ -1,10 +1,12 @@
 //! Particles tile by tile: each region (a tile, or a leaf above the tiles that holds points)
 //! seeds its own surface leaves exactly as the whole sampling does — its MPU is assembled from
 //! every cell's decision, so the octree, its leaf indices and f are the global ones, and its
-//! leaves hold all their points — and relaxes them together with the particles of a band of
-//! neighbouring leaves, seeded the same way, which it then drops. The particles come back in
-//! the whole sampling's order (by leaf index), the seeds bitwise the whole sampling's.
+//! leaves hold all their points — and relaxes them, colour by colour: with the particles of the
+//! regions finished before it fixed, and a band of fresh seeds in the neighbouring leaves of
+//! the others, which it then drops. The particles come back in the whole sampling's order (by
+//! leaf index), the seeds bitwise the whole sampling's.
 
+use std::collections::HashMap;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -19,6 +21,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::decide_tile::tile_keys;
 use crate::leaf_cover::LeafCover;
+use crate::tile_records::tile_key;
 use crate::{PointSource, TileError, TiledDecisions};
 
 /// The band a region relaxes with: the surface leaves outside it within this many of their own
@@ -28,9 +31,10 @@ pub const BAND: f64 = 3.0;
 /// A region gathers the points within at most this fraction of its edge around it for its band.
 pub const BAND_HALO: f64 = 0.5;
 
-/// Particles within this many of their spacings (2σ̂) of a region's faces are relaxed again
-/// with the neighbouring regions' particles fixed.
-pub const STITCH: f64 = 3.0;
+/// A region also moves the finished particles outside it within this many of their spacings
+/// (2σ̂) of its cube, where that is less than half its edge (so that no two regions of one
+/// colour move the same particle): the stitch across its faces.
+pub const STITCH: f64 = 1.5;
 
 /// A region reads the points within this many of their own edges of the leaves whose particles
 /// it moves (the band's included): the seeds read their leaf's points, the relaxation the data
@@ -51,7 +55,8 @@ pub struct TileSampleReport {
     /// Input points read for the regions' MPUs, relaxing and stitching (a point counts once
     /// for every region that reads it).
     pub points_read: usize,
-    /// Seconds stitching.
+    /// Seconds stitching: relaxing the regions after the first colour, which meet finished
+    /// ones.
     pub stitch_seconds: f64,
     /// Seconds.
     pub seconds: f64,
@@ -72,17 +77,40 @@ pub struct TiledSampling {
     pub report: TileSampleReport,
 }
 
-/// What [`sample_region`] does: seed only, or seed and relax.
-#[derive(Clone, Copy, PartialEq)]
-enum Pass {
+/// What [`sample_region`] does: seed only, or seed and relax next to the regions finished.
+#[derive(Clone, Copy)]
+enum Pass<'a> {
     Seed,
-    Relax,
+    Relax(&'a Finished<'a>),
 }
 
-/// One region's particles, with the leaf each was seeded in (index and address).
+/// The regions relaxed so far.
+struct Finished<'a> {
+    /// Region index by the address of its top cell.
+    owner: &'a HashMap<CellAddress, usize>,
+    /// The particles of each region finished.
+    done: &'a [Option<RegionParticles>],
+    /// The tile depth.
+    depth: u8,
+}
+
+impl Finished<'_> {
+    /// Whether the region holding leaf `(d, key)` is finished.
+    fn holds(&self, (d, key): CellAddress) -> bool {
+        let top = if d >= self.depth {
+            (self.depth, key.map(|k| k >> (d - self.depth)))
+        } else {
+            (d, key)
+        };
+        self.owner
+            .get(&top)
+            .is_some_and(|&r| self.done[r].is_some())
+    }
+}
+
+/// One region's particles, with the leaf each was seeded in.
 struct RegionParticles {
     leaves: Vec<u32>,
-    cells: Vec<CellAddress>,
     seeds: Particles,
     relaxed: Particles,
     /// |f|/|∇f| / D of each relaxed particle.
@@ -91,6 +119,9 @@ struct RegionParticles {
     halo: f64,
     /// Input points read.
     read: usize,
+    /// Finished particles this region moved: (region, index, the particle, its surface
+    /// distance).
+    moved: Vec<(usize, usize, Particles, f64)>,
 }
 
 /// Samples the MPU `decisions` describe, region by region, reading points from `source`, with
@@ -138,13 +169,13 @@ pub fn sample_tiled(
         cap: None,
         ceiling: None,
     };
-    let done = std::sync::atomic::AtomicU64::new(0);
+    let counted = std::sync::atomic::AtomicU64::new(0);
     let total = regions.len() as u64;
-    let per_region = |region: &Region, field: &DensityField, pass: Pass| {
+    let per_region = |region: &Region, field: &DensityField, pass: Pass<'_>| {
         let out = sample_region(
             source, decisions, mpu_params, params, field, region, pass, monitor,
         );
-        let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        let k = counted.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         monitor.report("sample tiles", k, total);
         out
     };
@@ -161,66 +192,68 @@ pub fn sample_tiled(
         }
         let per_leaf = seeds as f64 / decisions.surface.len().max(1) as f64;
         field.scale = 1.0 / per_leaf.max(1e-12).sqrt();
-        done.store(0, std::sync::atomic::Ordering::Relaxed);
+        counted.store(0, std::sync::atomic::Ordering::Relaxed);
     }
-    // Each region relaxes once, its σ scale c adapting to its own particles and band. (Holding
-    // one c for all, the mean of a first pass, cost a second relaxation of every region and
-    // was no more even per level: notes 2026-11-25-tiles and 2026-11-26-far-balls.)
+    // Colour by colour (tiles by the parity of their key, so that one colour's tiles do not
+    // touch; the leaves above the tiles last): a region relaxes with the particles of the
+    // regions finished before fixed, so the first colour's σ scale c adapts and the others
+    // take it from their neighbours. A colour's regions run at once, each reading only the
+    // colours before it: the result does not depend on their order. (This replaces a
+    // relaxation of every region followed by a stitch of their faces, which built every
+    // region's MPU twice: notes 2026-11-26-leaf-cover.)
     monitor.report("sample tiles", 0, total);
-    let outs: Vec<Result<RegionParticles, TileError>> = regions
-        .par_iter()
-        .map(|r| per_region(r, &field, Pass::Relax))
+    let owner: HashMap<CellAddress, usize> = regions
+        .iter()
+        .enumerate()
+        .map(|(i, r)| ((r.depth, r.key), i))
         .collect();
+    let mut done: Vec<Option<RegionParticles>> = (0..regions.len()).map(|_| None).collect();
+    let mut t1 = Instant::now();
+    for c in 0..9 {
+        if c == 1 {
+            t1 = Instant::now();
+        }
+        let members: Vec<usize> = (0..regions.len())
+            .filter(|&r| colour(&regions[r], depth) == c)
+            .collect();
+        let finished = Finished {
+            owner: &owner,
+            done: &done,
+            depth,
+        };
+        let outs: Vec<Result<RegionParticles, TileError>> = members
+            .par_iter()
+            .map(|&r| per_region(&regions[r], &field, Pass::Relax(&finished)))
+            .collect();
+        let mut moved = std::collections::HashSet::new();
+        for (&r, out) in members.iter().zip(outs) {
+            let mut out = out?;
+            // (No two regions of a colour move the same particle: [`STITCH`].)
+            for (q, i, p, s) in std::mem::take(&mut out.moved) {
+                debug_assert!(
+                    moved.insert((q, i)),
+                    "particle {i} of region {q} moved twice"
+                );
+                let other = done[q].as_mut().expect("finished");
+                set_one(&mut other.relaxed, i, &p);
+                other.surface[i] = s;
+            }
+            done[r] = Some(out);
+        }
+    }
+    let stitch_seconds = t1.elapsed().as_secs_f64();
     // Back in the whole sampling's order: by leaf index, a leaf's particles in seeding order.
     let mut all: Vec<(u32, usize, usize)> = Vec::new();
-    let mut parts = Vec::with_capacity(outs.len());
+    let mut parts = Vec::with_capacity(done.len());
     let (mut band_particles, mut band, mut points_read) = (0, 0.0f64, 0);
-    for (r, out) in outs.into_iter().enumerate() {
-        let out = out?;
+    for (r, out) in done.into_iter().enumerate() {
+        let out = out.expect("every colour relaxed");
         band_particles += out.band;
         points_read += out.read;
         band = band.max(out.halo);
         all.extend(out.leaves.iter().enumerate().map(|(i, &l)| (l, r, i)));
         parts.push(out);
     }
-    // Stitching, colour by colour: a region's face particles relaxed again with the others'
-    // current particles fixed; regions of one colour at once, each reading the state before
-    // its colour (the result does not depend on their order).
-    let t1 = Instant::now();
-    let mut state: Vec<Particles> = parts.iter().map(|p| p.relaxed.clone()).collect();
-    for c in 0..9 {
-        let members: Vec<usize> = (0..regions.len())
-            .filter(|&r| colour(&regions[r], depth) == c)
-            .collect();
-        let updates: Vec<Result<Option<Stitched>, TileError>> = members
-            .par_iter()
-            .map(|&r| {
-                stitch_region(
-                    source,
-                    decisions,
-                    mpu_params,
-                    params,
-                    &field,
-                    &regions,
-                    r,
-                    &state,
-                    &parts[r].cells,
-                    monitor,
-                )
-            })
-            .collect();
-        for (&r, u) in members.iter().zip(updates) {
-            if let Some(stitched) = u? {
-                state[r] = stitched.particles;
-                parts[r].surface = stitched.surface;
-                points_read += stitched.read;
-            }
-        }
-    }
-    for (part, p) in parts.iter_mut().zip(state) {
-        part.relaxed = p;
-    }
-    let stitch_seconds = t1.elapsed().as_secs_f64();
     all.sort_unstable();
     let mut seeds = Particles::default();
     let mut particles = Particles::default();
@@ -246,6 +279,15 @@ pub fn sample_tiled(
     })
 }
 
+/// Particle `i` of `to` set to the first of `from`.
+fn set_one(to: &mut Particles, i: usize, from: &Particles) {
+    to.positions[i] = from.positions[0];
+    to.normals[i] = from.normals[0];
+    to.depth[i] = from.depth[0];
+    to.sigma[i] = from.sigma[0];
+    to.target[i] = from.target[0];
+}
+
 fn copy_one(from: &Particles, i: usize, to: &mut Particles) {
     to.positions.push(from.positions[i]);
     to.normals.push(from.normals[i]);
@@ -259,10 +301,10 @@ fn inside(depth: u8, key: [u32; 3], region: &Region) -> bool {
     depth >= region.depth && (0..3).all(|a| key[a] >> (depth - region.depth) == region.key[a])
 }
 
-/// One region: its band (the surface leaves within [`BAND`] of their edges of its cube), its
-/// MPU from the points of the region and the band's leaves with a margin of their edge, its
-/// surface leaves seeded, and (unless `pass` only seeds) relaxed together with the band's particles,
-/// which are then dropped.
+/// One region: its surface leaves seeded and (unless `pass` only seeds) relaxed with the
+/// particles of the finished regions near it fixed and fresh seeds in its band (the surface
+/// leaves of the other regions within [`BAND`] of their edges of its cube), which are then
+/// dropped; its MPU from the points around its own and the fresh band's leaves.
 #[allow(clippy::too_many_arguments)]
 fn sample_region(
     source: &dyn PointSource,
@@ -271,30 +313,68 @@ fn sample_region(
     params: &ParticleParams,
     field: &DensityField,
     region: &Region,
-    pass: Pass,
+    pass: Pass<'_>,
     monitor: &Monitor<'_>,
 ) -> Result<RegionParticles, TileError> {
-    let (near, _) = band_of(decisions, region);
+    let (mut near, reach) = band_of(decisions, region);
+    let finished = match pass {
+        Pass::Seed => None,
+        Pass::Relax(f) => Some(f),
+    };
+    // (Where a region is finished its particles stand in for the band's seeds.)
+    near.retain(|&a| finished.is_none_or(|f| !f.holds(a)));
+    let frame = decisions.frame;
+    let (center, half) = region.cube(&frame);
+    let stitching = region_stitches(region, decisions.report.depth);
+    // The finished particles near the cube: (region, index, movable).
+    let mut fixed: Vec<(usize, usize, bool)> = Vec::new();
+    for (q, other) in finished.iter().flat_map(|f| f.done.iter().enumerate()) {
+        let Some(other) = other else { continue };
+        for (i, &x) in other.relaxed.positions.iter().enumerate() {
+            let out = ((x - frame.origin - center).abs() - DVec3::splat(half)).max_element();
+            if out <= reach {
+                let w = STITCH * 2.0 * other.relaxed.target[i];
+                fixed.push((q, i, stitching && out < w && w < half));
+            }
+        }
+    }
+    let moving: Vec<CellAddress> = fixed
+        .iter()
+        .filter(|f| f.2)
+        .map(|&(q, i, _)| {
+            let p = &finished.expect("finished particles").done[q]
+                .as_ref()
+                .expect("finished")
+                .relaxed;
+            let d = p.depth[i];
+            (d, tile_key(&frame, d, p.positions[i]))
+        })
+        .collect();
     let own_cells: Vec<CellAddress> = decisions
         .surface
         .iter()
         .copied()
         .filter(|&(d, key)| inside(d, key, region))
         .collect();
-    let gathered: Vec<CellAddress> = own_cells.iter().chain(&near).copied().collect();
+    let gathered: Vec<CellAddress> = own_cells
+        .iter()
+        .chain(&near)
+        .chain(&moving)
+        .copied()
+        .collect();
     let cover = LeafCover::new(&decisions.frame, &gathered, LEAF_MARGIN);
     let halo = cover
         .as_ref()
         .map_or(0.0, |c| reach_beyond(c, region, decisions));
     let empty = || RegionParticles {
         leaves: Vec::new(),
-        cells: Vec::new(),
         seeds: Particles::default(),
         relaxed: Particles::default(),
         surface: Vec::new(),
         band: 0,
         halo,
         read: 0,
+        moved: Vec::new(),
     };
     if own_cells.is_empty() {
         return Ok(empty());
@@ -316,44 +396,59 @@ fn sample_region(
         .collect();
     // Seeds leaf by leaf, to know each particle's leaf (a leaf may give fewer than k).
     let mut leaves = Vec::new();
-    let mut cells = Vec::new();
     let mut seeds = Particles::default();
     for &l in &own {
         let s = seed_leaves(&mpu, &[l], field, params);
-        let cell = tree.cell(l);
         leaves.extend(std::iter::repeat_n(l, s.len()));
-        cells.extend(std::iter::repeat_n((cell.depth, cell.key), s.len()));
         seeds.extend(&s);
     }
-    if pass == Pass::Seed {
+    let Some(finished) = finished else {
         return Ok(RegionParticles {
             leaves,
-            cells,
             seeds,
             ..empty()
         });
-    }
+    };
     let neighbours = seed_leaves(&mpu, &near, field, params);
     let mut particles = seeds.clone();
     particles.extend(&neighbours);
+    let mut movable = vec![true; particles.len()];
+    let start = particles.len();
+    for &(q, i, m) in &fixed {
+        let other = &finished.done[q].as_ref().expect("finished").relaxed;
+        copy_one(other, i, &mut particles);
+        movable.push(m);
+    }
     let options = RelaxOptions {
+        region: RelaxRegion {
+            movable: Some(&movable),
+            ..Default::default()
+        },
         monitor: monitor.quiet(),
-        ..Default::default()
     };
     relax(&mpu, &mut particles, field, params, options);
     monitor.check()?;
+    let mut moved = Vec::new();
+    for (k, &(q, i, m)) in fixed.iter().enumerate() {
+        if m {
+            let mut p = Particles::default();
+            copy_one(&particles, start + k, &mut p);
+            let s = surface_distances(&mpu, &p.positions)[0];
+            moved.push((q, i, p, s));
+        }
+    }
     let n = seeds.len();
     let keep: Vec<bool> = (0..particles.len()).map(|i| i < n).collect();
     particles.retain_mask(&keep);
     Ok(RegionParticles {
         leaves,
-        cells,
         seeds,
         surface: surface_distances(&mpu, &particles.positions),
         relaxed: particles,
         band: neighbours.len(),
         halo,
         read: mpu.points().len(),
+        moved,
     })
 }
 
@@ -421,11 +516,10 @@ fn region_mpu(
     Ok(Some(Mpu::build_with(points, mpu_params, options)?))
 }
 
-/// A region's particles after stitching, their surface distances and the points read.
-struct Stitched {
-    particles: Particles,
-    surface: Vec<f64>,
-    read: usize,
+/// Whether `region` moves finished particles: the tiles do; the leaves above them (the last
+/// colour, which may touch one another) do not.
+fn region_stitches(region: &Region, tile_depth: u8) -> bool {
+    region.depth == tile_depth
 }
 
 /// The stitching colour of a region: tiles by the parity of their key (tiles of one colour do
@@ -436,75 +530,4 @@ fn colour(region: &Region, tile_depth: u8) -> usize {
     }
     let k = region.key;
     ((k[0] & 1) | ((k[1] & 1) << 1) | ((k[2] & 1) << 2)) as usize
-}
-
-/// Stitching one region: its particles within [`STITCH`] spacings of its faces relaxed again
-/// with every other particle near it fixed (the others' current state).
-#[allow(clippy::too_many_arguments)]
-fn stitch_region(
-    source: &dyn PointSource,
-    decisions: &TiledDecisions,
-    mpu_params: &MpuParams,
-    params: &ParticleParams,
-    field: &DensityField,
-    regions: &[Region],
-    r: usize,
-    state: &[Particles],
-    cells: &[CellAddress],
-    monitor: &Monitor<'_>,
-) -> Result<Option<Stitched>, TileError> {
-    let region = &regions[r];
-    let own = &state[r];
-    if own.is_empty() {
-        return Ok(None);
-    }
-    let frame = decisions.frame;
-    let (center, half) = region.cube(&frame);
-    let local = |x: DVec3| x - frame.origin - center;
-    let mut movable: Vec<bool> = (0..own.len())
-        .map(|i| {
-            let to_face = half - local(own.positions[i]).abs().max_element();
-            to_face < STITCH * 2.0 * own.target[i]
-        })
-        .collect();
-    if !movable.contains(&true) {
-        return Ok(None);
-    }
-    let (_, halo) = band_of(decisions, region);
-    let moving: Vec<CellAddress> = (0..own.len())
-        .filter(|&i| movable[i])
-        .map(|i| cells[i])
-        .collect();
-    let cover = LeafCover::new(&frame, &moving, LEAF_MARGIN);
-    let Some(mpu) = region_mpu(source, decisions, mpu_params, cover.as_ref(), monitor)? else {
-        return Ok(None);
-    };
-    let mut particles = own.clone();
-    for (q, other) in state.iter().enumerate() {
-        if q == r {
-            continue;
-        }
-        for (i, &x) in other.positions.iter().enumerate() {
-            if local(x).abs().max_element() <= half + halo {
-                copy_one(other, i, &mut particles);
-                movable.push(false);
-            }
-        }
-    }
-    let options = RelaxOptions {
-        region: RelaxRegion {
-            movable: Some(&movable),
-            ..Default::default()
-        },
-        monitor: monitor.quiet(),
-    };
-    relax(&mpu, &mut particles, field, params, options);
-    monitor.check()?;
-    let keep: Vec<bool> = (0..particles.len()).map(|i| i < own.len()).collect();
-    particles.retain_mask(&keep);
-    Ok(Some(Stitched {
-        surface: surface_distances(&mpu, &particles.positions),
-        particles,
-        read: mpu.points().len(),
-    }))
 }
