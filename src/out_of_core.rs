@@ -32,6 +32,11 @@ const BYTES_PER_TILE_POINT: u64 = 1500;
 /// Bytes a point of the whole input costs wherever it is: its coarse copy (1 in 16 of 56
 /// bytes) and its share of the cell table.
 const BYTES_PER_INPUT_POINT: u64 = 8;
+
+/// Memory of one point held by the relaxation's MPU (an MPU assembled from the decisions: the
+/// point, its local position, the kd-tree, the octree's order and the data footprint's cache),
+/// with room to spare.
+const BYTES_PER_RELAX_POINT: u64 = 400;
 /// Points streamed per chunk.
 const CHUNK: usize = 1 << 18;
 
@@ -68,6 +73,15 @@ pub struct OutOfCoreRun {
 }
 
 impl OutOfCore {
+    /// The input points the particles' relaxation may hold (its MPU's data test) for `points`
+    /// input points: what the budget leaves after the share of the whole input
+    /// ([`sample_files_out_of_core`] relaxes all particles at once; their number follows the
+    /// surface, not the input).
+    pub fn relax_points_for(&self, points: u64) -> usize {
+        let shared = points.saturating_mul(BYTES_PER_INPUT_POINT);
+        (self.max_memory.saturating_sub(shared) / BYTES_PER_RELAX_POINT) as usize
+    }
+
     /// The tile depth for `points` input points: the shallowest (at least 1, at most 8)
     /// whose tiles, about `points / 4^depth` each on a surface, fit the budget with two
     /// built at once; an error naming the memory needed when even the whole input's share
@@ -174,7 +188,7 @@ fn for_each_points(
 /// come; each read as `format`, or as its extension says) out of core:
 /// the MPU with `mpu_params` decided tile by tile, bitwise the in-core build of the same
 /// points, and particles with `particle_params` (k per leaf: the in-core seeds and count;
-/// relaxed tile by tile and stitched). Tile files go to `options.scratch`; a run that finds
+/// seeded tile by tile, then relaxed at once). Tile files go to `options.scratch`; a run that finds
 /// the files of an earlier run on the same file there resumes from them. Progress: stages
 /// `"read"`, `"tiles"`, `"sample tiles"`.
 ///
@@ -202,8 +216,16 @@ pub fn sample_files_out_of_core(
         decide_store(store, mpu_params, &tiles, monitor).map_err(|e| fail(e.to_string()))?;
     let decide_seconds = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
-    let sampled = sample_tiled(store, &decisions, mpu_params, particle_params, monitor)
-        .map_err(|e| fail(e.to_string()))?;
+    let relax_points = options.relax_points_for(part.points);
+    let sampled = sample_tiled(
+        store,
+        &decisions,
+        mpu_params,
+        particle_params,
+        relax_points,
+        monitor,
+    )
+    .map_err(|e| fail(e.to_string()))?;
     Ok(OutOfCoreRun {
         particles: sampled.particles,
         after: sampled.after,
@@ -468,7 +490,8 @@ pub fn out_of_core_json(
                 "read": run.seconds[0],
                 "decide": run.seconds[1],
                 "sample": run.seconds[2],
-                "stitch": run.sampling.stitch_seconds,
+                "seed": run.sampling.seed_seconds,
+                "relax": run.sampling.relax_seconds,
             },
             "sampling": run.sampling,
             "preprocessing": "none (points used as given)",

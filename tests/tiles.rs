@@ -60,10 +60,11 @@ fn the_bunny_tiled_in_memory_and_from_disk_is_the_whole_build() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// Particles tile by tile on the bunny: the seeds are bitwise the whole sampling's and the
-/// count the same; after relaxation and stitching every particle is on the surface, and the
-/// spacing is as even overall. Per level the CV is still up to about twice the whole
-/// sampling's (notes: tiles — the target of issue 26 is 1.05×; what is left is said there).
+/// Particles tile by tile on the bunny: the seeds are bitwise the whole sampling's; with every
+/// point in the relaxation the particles are too, and with a thinned data test (a tenth of the
+/// points fit) the count is the same, every particle on the surface and the spacing as even
+/// overall (within 5 %) and per level within 1.5 × (measured up to 1.4 ×; issue 26 asks for
+/// 1.05 ×).
 #[test]
 fn the_bunny_sampled_tile_by_tile_has_the_whole_samplings_seeds_and_count() {
     use psi::particles::{initialize, measure_quality};
@@ -75,7 +76,11 @@ fn the_bunny_sampled_tile_by_tile_has_the_whole_samplings_seeds_and_count() {
         .unwrap()
         .points;
     let mparams = MpuParams::paper();
-    let pparams = ParticleParams::paper();
+    // (Tiles do not apply the ceiling on spacing.)
+    let pparams = ParticleParams {
+        max_spacing: Some(f64::INFINITY),
+        ..ParticleParams::paper()
+    };
     let whole = Mpu::build(&points, &mparams).unwrap();
     let expected = sample(&whole, &pparams);
     let tiles = TileParams {
@@ -85,10 +90,24 @@ fn the_bunny_sampled_tile_by_tile_has_the_whole_samplings_seeds_and_count() {
     };
     let decisions = decide_tiled(&points, &mparams, &tiles, &Monitor::silent()).unwrap();
     let source = PointsInMemory::new(&points, decisions.frame, tiles.depth);
-    let tiled = sample_tiled(&source, &decisions, &mparams, &pparams, &Monitor::silent()).unwrap();
-    assert_eq!(tiled.seeds, initialize(&whole, &pparams).particles);
+    let run = |relax_points: usize| {
+        sample_tiled(
+            &source,
+            &decisions,
+            &mparams,
+            &pparams,
+            relax_points,
+            &Monitor::silent(),
+        )
+        .unwrap()
+    };
+    let exact = run(points.len());
+    assert_eq!(exact.seeds, initialize(&whole, &pparams).particles);
+    assert_eq!(exact.particles, expected.particles);
+    assert!(exact.report.regions >= 8);
+    let tiled = run(points.len() / 10);
+    assert_eq!(tiled.seeds, exact.seeds);
     assert_eq!(tiled.particles.len(), expected.particles.len());
-    assert!(tiled.report.regions >= 8 && tiled.report.band_particles > 0);
     let a = measure_quality(&whole, &expected.particles);
     let b = measure_quality(&whole, &tiled.particles);
     assert!(
@@ -104,7 +123,13 @@ fn the_bunny_sampled_tile_by_tile_has_the_whole_samplings_seeds_and_count() {
     );
     for (la, lb) in a.levels.iter().zip(&b.levels) {
         if la.spacing.count >= 100 {
-            assert!(lb.spacing.cv <= 2.0 * la.spacing.cv, "level {}", la.depth);
+            assert!(
+                lb.spacing.cv <= 1.5 * la.spacing.cv,
+                "level {}: {} vs {}",
+                la.depth,
+                lb.spacing.cv,
+                la.spacing.cv
+            );
         }
     }
 }

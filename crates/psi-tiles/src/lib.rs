@@ -10,7 +10,8 @@
 //! [`build_tiled`]; on disk: [`TileWriter`] and [`TileStore`] (checksummed tile files),
 //! [`decide_store`] (one decisions file per tile, so a run resumes; its two tasks
 //! [`decide_store_top_keys`] and [`decide_store_tile`] for a cluster); particles:
-//! [`sample_tiled`] (seeds exactly the whole sampling's; relaxed region by region, each next to the regions finished before it).
+//! [`sample_tiled`] (seeds exactly the whole sampling's, region by region; one relaxation of
+//! them all, on the decisions and the points the memory allows).
 //!
 //! ```
 //! use psi_mpu::MpuParams;
@@ -43,9 +44,7 @@ pub use decide_store::{decide_store, decide_store_tile, decide_store_top_keys};
 pub use decide_tiles::{TiledDecisions, build_tiled, decide_tiled};
 pub use error::TileError;
 pub use point_source::{PointSource, PointsInMemory};
-pub use sample_tiles::{
-    BAND, BAND_HALO, LEAF_MARGIN, STITCH, TileSampleReport, TiledSampling, sample_tiled,
-};
+pub use sample_tiles::{SEED_MARGIN, TileSampleReport, TiledSampling, sample_tiled};
 pub use tile_params::TileParams;
 pub use tile_report::TileReport;
 pub use tile_store::{StoreManifest, StoredTile, TileStore, TileWriter};

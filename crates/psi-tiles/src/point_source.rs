@@ -39,6 +39,22 @@ pub trait PointSource: Sync {
         Ok(points)
     }
 
+    /// The points a relaxation's MPU holds for its data test, in increasing input index order:
+    /// every input point when there are at most `at_most`, else about `at_most` of them, each
+    /// kept with probability `at_most / N` by a hash of its position (so the same whatever the
+    /// tiling; one pass over the input).
+    fn relaxation_points(&self, at_most: usize) -> Result<Vec<OrientedPoint>, TileError> {
+        let frame = self.frame();
+        let n = self.population();
+        if n <= at_most {
+            return self.gather_box(frame.root_center, frame.root_half, 0.0);
+        }
+        let rate = at_most as f64 / n as f64;
+        self.gather_box_where(frame.root_center, frame.root_half, 0.0, &|p| {
+            position_hash(p) < rate
+        })
+    }
+
     /// The distance (world units) from world position `center` to its `k`-th nearest input
     /// point, or `None` when this source does not tell (the default) or has fewer points.
     fn kth_distance(&self, _center: DVec3, _k: usize) -> Result<Option<f64>, TileError> {
@@ -52,6 +68,17 @@ pub trait PointSource: Sync {
         points.retain(|p| (p.p - center).length() <= radius);
         Ok(points)
     }
+}
+
+/// A hash of world position `p` in [0, 1) (SplitMix64's finaliser over the coordinates' bits).
+fn position_hash(p: DVec3) -> f64 {
+    let mix = |mut x: u64| {
+        x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        x ^ (x >> 31)
+    };
+    let h = mix(p.x.to_bits() ^ mix(p.y.to_bits() ^ mix(p.z.to_bits())));
+    (h >> 11) as f64 / (1u64 << 53) as f64
 }
 
 /// The input in memory, bucketed by the cubes at a depth for gathering.

@@ -2,8 +2,9 @@
 //! of core (issue "Beyond one machine"). Inputs are the built-in model sampled at each N with a
 //! fixed seed, written as binary PCD with normals (nothing large is committed); each is sampled
 //! by the release `psi` in core (the points as given: `--keep-outliers --no-noise-estimate
-//! --keep-inward-normals`) and with `--max-memory` (default 1GiB): wall time, points per
-//! second, peak memory, the tiles, and whether the counts agree. Writes
+//! --keep-inward-normals`; skipped when psi's estimate exceeds the memory available) and with
+//! `--max-memory` (default 1GiB): wall time, points per second, peak memory, the tiles, whether
+//! the counts agree, and the tiled particles' per-level spacing CV and surface distance. Writes
 //! `target/xtask/scale/scale.md` and `scale.json`.
 //!
 //! `cargo xtask bench scale 1000000,3000000 1GiB`
@@ -68,8 +69,8 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         "# Scale: in core and out of core (`--max-memory {budget}`)\n\n\
          Built-in model sampled at N points (seed 1), binary PCD with normals; release build, \
          {} threads.\n\n\
-         | N | in core s | in core peak MiB | estimate MiB | out of core s | out of core peak MiB | tiles (depth) | counts |\n\
-         |---|---|---|---|---|---|---|---|\n",
+         | N | in core s | in core peak MiB | estimate MiB | out of core s | out of core peak MiB | tiles (depth) | counts | tiled CV per level | tiled max \\|f\\|/\\|∇f\\| / D |\n\
+         |---|---|---|---|---|---|---|---|---|---|\n",
         rayon::current_num_threads()
     );
     for &n in &sizes {
@@ -79,20 +80,28 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         }
         let i = input.to_str().context("path")?;
         let core_out = dir.join(format!("core-{n}.ply"));
-        let (core, core_s) = timed(
-            &psi_bin,
-            &[
-                "sample",
-                i,
-                "--keep-outliers",
-                "--no-noise-estimate",
-                "--keep-inward-normals",
-                "-o",
-                core_out.to_str().context("path")?,
-                "-q",
-            ],
-            &dir.join(format!("core-{n}.json")),
-        )?;
+        let est = psi::estimate_in_core_bytes(n as u64, true) as f64 / 1048576.0;
+        // (With a tenth to spare: a run near all of memory would swap, not measure.)
+        let fits = psi::available_memory_bytes().is_none_or(|a| est * 1048576.0 < 0.9 * a as f64);
+        let (core, core_s) = if !fits {
+            println!("{n}: in core skipped (psi estimates {est:.0} MiB, more than available)");
+            (Value::Null, f64::NAN)
+        } else {
+            timed(
+                &psi_bin,
+                &[
+                    "sample",
+                    i,
+                    "--keep-outliers",
+                    "--no-noise-estimate",
+                    "--keep-inward-normals",
+                    "-o",
+                    core_out.to_str().context("path")?,
+                    "-q",
+                ],
+                &dir.join(format!("core-{n}.json")),
+            )?
+        };
         let scratch = dir.join(format!("scratch-{n}"));
         let _ = std::fs::remove_dir_all(&scratch);
         let ooc_out = dir.join(format!("ooc-{n}.ply"));
@@ -112,22 +121,38 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             &dir.join(format!("ooc-{n}.json")),
         )?;
         let mib = |v: &Value| v["peak_memory_bytes"].as_f64().unwrap_or(f64::NAN) / 1048576.0;
-        let est = psi::estimate_in_core_bytes(n as u64, true) as f64 / 1048576.0;
+        let after = &ooc["particles"]["after"];
+        let levels: Vec<String> = after["levels"]
+            .as_array()
+            .map(|l| {
+                l.iter()
+                    .map(|v| {
+                        format!(
+                            "{}: {:.3}",
+                            v["depth"],
+                            v["spacing"]["cv"].as_f64().unwrap_or(f64::NAN)
+                        )
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
         let counts = (&core["particles"]["count"], &ooc["particles"]["count"]);
         md += &format!(
-            "| {n} | {core_s:.2} | {:.0} | {est:.0} | {ooc_s:.2} | {:.0} | {} ({}) | {} / {} |\n",
+            "| {n} | {core_s:.2} | {:.0} | {est:.0} | {ooc_s:.2} | {:.0} | {} ({}) | {} / {} | {} | {:.1e} |\n",
             mib(&core),
             mib(&ooc),
             ooc["tiles"]["count"],
             ooc["tiles"]["depth"],
             counts.0,
-            counts.1
+            counts.1,
+            levels.join(", "),
+            after["max_surface_distance"].as_f64().unwrap_or(f64::NAN)
         );
         rows.push(json!({
             "points": n, "in_core_seconds": core_s, "in_core_peak_bytes": core["peak_memory_bytes"],
             "estimate_bytes": est * 1048576.0, "out_of_core_seconds": ooc_s,
             "out_of_core_peak_bytes": ooc["peak_memory_bytes"], "tiles": ooc["tiles"],
-            "counts": [counts.0, counts.1],
+            "counts": [counts.0, counts.1], "out_of_core_after": after,
         }));
         println!("{n}: in core {core_s:.2} s, out of core {ooc_s:.2} s");
     }
