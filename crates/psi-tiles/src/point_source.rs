@@ -17,26 +17,24 @@ pub trait PointSource: Sync {
     fn population(&self) -> usize;
 
     /// The points within ∞-distance `halo` of the cube with local centre `center` and
-    /// half-edge `half` (world units), in increasing input index order.
-    fn gather_box(
-        &self,
-        center: DVec3,
-        half: f64,
-        halo: f64,
-    ) -> Result<Vec<OrientedPoint>, TileError>;
-
-    /// The points of [`PointSource::gather_box`] whose world position `keep` accepts, in
-    /// increasing input index order.
+    /// half-edge `half` (world units) whose world position `keep` accepts, in increasing input
+    /// index order.
     fn gather_box_where(
         &self,
         center: DVec3,
         half: f64,
         halo: f64,
         keep: &(dyn Fn(DVec3) -> bool + Sync),
+    ) -> Result<Vec<OrientedPoint>, TileError>;
+
+    /// Every point of [`PointSource::gather_box_where`]'s box.
+    fn gather_box(
+        &self,
+        center: DVec3,
+        half: f64,
+        halo: f64,
     ) -> Result<Vec<OrientedPoint>, TileError> {
-        let mut points = self.gather_box(center, half, halo)?;
-        points.retain(|p| keep(p.p));
-        Ok(points)
+        self.gather_box_where(center, half, halo, &|_| true)
     }
 
     /// The points a relaxation's MPU holds for its data test, in increasing input index order:
@@ -113,18 +111,6 @@ impl PointSource for PointsInMemory<'_> {
         self.points.len()
     }
 
-    fn gather_box(
-        &self,
-        center: DVec3,
-        half: f64,
-        halo: f64,
-    ) -> Result<Vec<OrientedPoint>, TileError> {
-        let ids = self
-            .buckets
-            .gather(self.points, &self.frame, center, half, halo);
-        Ok(ids.iter().map(|&i| self.points[i as usize]).collect())
-    }
-
     fn gather_box_where(
         &self,
         center: DVec3,
@@ -150,15 +136,6 @@ impl PointSource for TileStore {
 
     fn population(&self) -> usize {
         self.manifest().population as usize
-    }
-
-    fn gather_box(
-        &self,
-        center: DVec3,
-        half: f64,
-        halo: f64,
-    ) -> Result<Vec<OrientedPoint>, TileError> {
-        TileStore::gather_box(self, center, half, halo)
     }
 
     fn gather_box_where(
