@@ -1,7 +1,7 @@
-//! The points a region's particles need: the union of some leaves' cubes, each grown by a
-//! margin of its own edge, as a grid of fine cells (a superset: a fine cell counts when it
-//! meets a grown cube). A region gathers only the points the cover holds, instead of a box
-//! as wide as its coarsest neighbour needs.
+//! The points a region's seeds need: the union of its leaves' cubes, each grown by a margin of
+//! its own edge, as a grid of fine cells (a superset: a fine cell counts when it meets a grown
+//! cube). A region gathers only the points the cover holds, not every point of its cube's
+//! neighbourhood.
 
 use glam::DVec3;
 use psi_mpu::{CellAddress, MpuFrame, Region};

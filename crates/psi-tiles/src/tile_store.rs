@@ -456,18 +456,8 @@ impl TileStore {
     }
 
     /// The points within ∞-distance `halo` of the cube with local centre `center` and
-    /// half-edge `half` (world units), in increasing input index order.
-    pub fn gather_box(
-        &self,
-        center: DVec3,
-        half: f64,
-        halo: f64,
-    ) -> Result<Vec<OrientedPoint>, TileError> {
-        self.gather_box_where(center, half, halo, &|_| true)
-    }
-
-    /// The points of [`TileStore::gather_box`] whose world position `keep` accepts, in
-    /// increasing input index order.
+    /// half-edge `half` (world units) whose world position `keep` accepts, in increasing input
+    /// index order ([`crate::PointSource::gather_box_where`]; its `gather_box` keeps all).
     pub fn gather_box_where(
         &self,
         center: DVec3,

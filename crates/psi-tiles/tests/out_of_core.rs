@@ -13,7 +13,7 @@ use psi_mpu::{
 };
 use psi_octree::{Aabb, Monitor, OrientedPoint};
 use psi_shapes::{AnalyticShape, gaussian_vector};
-use psi_tiles::{TileParams, TileStore, TileWriter, decide_store, decide_tiled};
+use psi_tiles::{PointSource, TileParams, TileStore, TileWriter, decide_store, decide_tiled};
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 
