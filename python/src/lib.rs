@@ -40,6 +40,7 @@ fn psi_python(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_partition, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_top, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_tile, m)?)?;
+    m.add_function(wrap_pyfunction!(out_of_core::_ooc_sample, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(render::render_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(mpu::_rust_loop_seconds, m)?)?;

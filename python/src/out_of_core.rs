@@ -34,6 +34,31 @@ fn inputs_arg(value: &Bound<'_, PyAny>) -> PyResult<Vec<PathBuf>> {
     Ok(many)
 }
 
+/// Runs `work` on a rayon pool of `threads` threads of its own, or on the global pool
+/// (`None`); `Err` tells why the pool could not start. A Dask worker runs one task per
+/// thread, so its tasks ask for one each.
+fn on_threads<T: Send>(
+    threads: Option<usize>,
+    work: impl FnOnce() -> T + Send,
+) -> Result<T, String> {
+    match threads {
+        None => Ok(work()),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .thread_name(|i| format!("psi-task-{i}"))
+            .build()
+            .map(|pool| pool.install(work))
+            .map_err(|e| format!("psi: could not start {n} threads: {e}")),
+    }
+}
+
+/// `threads` as a pool size: `None`, or a whole number from 1 on.
+fn threads_arg(threads: Option<i128>) -> PyResult<Option<usize>> {
+    threads
+        .map(|n| bounded::<u32>("threads", n, 1, 4096).map(|n| n as usize))
+        .transpose()
+}
+
 /// Samples `inputs` (a path, or a list of paths read as one input in that order) out of core
 /// within `max_memory` (bytes, or a size such as "4GiB"), writing the particles to `output`
 /// and the tile files to `scratch` (default: beside `output`). The same run as `psi sample
@@ -56,6 +81,49 @@ pub(crate) fn sample_files<'py>(
     mpu_error: Option<f64>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    run_sample_files(
+        py, inputs, output, max_memory, scratch, k, iterations, seed, mpu_error, progress, None,
+    )
+}
+
+/// Task of `psi.distributed.sample_files` (not API): [`sample_files`] on a pool of `threads`.
+#[pyfunction]
+#[pyo3(signature = (inputs, output, *, max_memory, scratch=None, k=1, iterations=20,
+    seed=2007, mpu_error=None, threads=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn _ooc_sample<'py>(
+    py: Python<'py>,
+    inputs: &Bound<'py, PyAny>,
+    output: PathBuf,
+    max_memory: &Bound<'py, PyAny>,
+    scratch: Option<PathBuf>,
+    k: i128,
+    iterations: i128,
+    seed: i128,
+    mpu_error: Option<f64>,
+    threads: Option<i128>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let threads = threads_arg(threads)?;
+    run_sample_files(
+        py, inputs, output, max_memory, scratch, k, iterations, seed, mpu_error, None, threads,
+    )
+}
+
+/// [`sample_files`], on a pool of `threads` ([`on_threads`]).
+#[allow(clippy::too_many_arguments)]
+fn run_sample_files<'py>(
+    py: Python<'py>,
+    inputs: &Bound<'py, PyAny>,
+    output: PathBuf,
+    max_memory: &Bound<'py, PyAny>,
+    scratch: Option<PathBuf>,
+    k: i128,
+    iterations: i128,
+    seed: i128,
+    mpu_error: Option<f64>,
+    progress: Option<&Bound<'py, PyAny>>,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyAny>> {
     let inputs = inputs_arg(inputs)?;
     let max_memory = memory_arg(max_memory)?;
     let particle_params =
@@ -70,23 +138,26 @@ pub(crate) fn sample_files<'py>(
     let progress = Progress::from_arg(py, progress)?;
     let (work_inputs, work_options) = (inputs.clone(), options.clone());
     let run = monitored(py, &progress, move |monitor| {
-        psi::sample_files_out_of_core(
-            &work_inputs,
-            None,
-            &mpu_params,
-            &particle_params,
-            &work_options,
-            monitor,
-        )
-        .and_then(|run| {
-            psi::save_particles(
-                &output,
-                &run.particles,
-                &psi::io::PointAttributes::default(),
-            )?;
-            Ok(run)
+        on_threads(threads, || {
+            psi::sample_files_out_of_core(
+                &work_inputs,
+                None,
+                &mpu_params,
+                &particle_params,
+                &work_options,
+                monitor,
+            )
+            .and_then(|run| {
+                psi::save_particles(
+                    &output,
+                    &run.particles,
+                    &psi::io::PointAttributes::default(),
+                )?;
+                Ok(run)
+            })
         })
     })?
+    .map_err(value_error)?
     .map_err(|e| psi_error(py, e, Some("sampling out of core")))?;
     let report = psi::out_of_core_json(&inputs, &mpu_params, &particle_params, &options, &run);
     crate::json::to_python(py, &report)
@@ -122,14 +193,16 @@ fn open_store(scratch: &std::path::Path) -> PyResult<psi::tiles::TileStore> {
 /// Task of `psi.distributed.sample_files` (not API): the inputs streamed into the tile files
 /// in `scratch` (or the store of an earlier run found there); returns the point count.
 #[pyfunction]
-#[pyo3(signature = (inputs, max_memory, scratch, mpu_error=None))]
+#[pyo3(signature = (inputs, max_memory, scratch, mpu_error=None, threads=None))]
 pub(crate) fn _ooc_partition(
     py: Python<'_>,
     inputs: &Bound<'_, PyAny>,
     max_memory: &Bound<'_, PyAny>,
     scratch: PathBuf,
     mpu_error: Option<f64>,
+    threads: Option<i128>,
 ) -> PyResult<u64> {
+    let threads = threads_arg(threads)?;
     let inputs = inputs_arg(inputs)?;
     let options = psi::OutOfCore {
         max_memory: memory_arg(max_memory)?,
@@ -138,14 +211,17 @@ pub(crate) fn _ooc_partition(
     };
     let params = mpu_params(mpu_error)?;
     let part = crate::errors::detached(py, move || {
-        psi::partition_files(
-            &inputs,
-            None,
-            &params,
-            &options,
-            &psi::octree::Monitor::silent(),
-        )
+        on_threads(threads, || {
+            psi::partition_files(
+                &inputs,
+                None,
+                &params,
+                &options,
+                &psi::octree::Monitor::silent(),
+            )
+        })
     })?
+    .map_err(value_error)?
     .map_err(|e| psi_error(py, e, Some("sampling out of core")))?;
     Ok(part.points)
 }
@@ -153,18 +229,28 @@ pub(crate) fn _ooc_partition(
 /// Task of `psi.distributed.sample_files` (not API): the cells above the tiles decided (or
 /// found); returns the tiles' keys.
 #[pyfunction]
-#[pyo3(signature = (scratch, mpu_error=None))]
+#[pyo3(signature = (scratch, mpu_error=None, threads=None))]
 pub(crate) fn _ooc_top(
     py: Python<'_>,
     scratch: PathBuf,
     mpu_error: Option<f64>,
+    threads: Option<i128>,
 ) -> PyResult<Vec<(u32, u32, u32)>> {
+    let threads = threads_arg(threads)?;
     let store = open_store(&scratch)?;
     let params = mpu_params(mpu_error)?;
     let keys = crate::errors::detached(py, move || {
-        let tiles = psi::out_of_core_tiles(&store);
-        psi::tiles::decide_store_top_keys(&store, &params, &tiles, &psi::octree::Monitor::silent())
+        on_threads(threads, || {
+            let tiles = psi::out_of_core_tiles(&store);
+            psi::tiles::decide_store_top_keys(
+                &store,
+                &params,
+                &tiles,
+                &psi::octree::Monitor::silent(),
+            )
+        })
     })?
+    .map_err(value_error)?
     .map_err(|e| value_error(e.to_string()))?;
     Ok(keys.into_iter().map(|k| (k[0], k[1], k[2])).collect())
 }
@@ -172,25 +258,30 @@ pub(crate) fn _ooc_top(
 /// Task of `psi.distributed.sample_files` (not API): one tile decided and its decisions file
 /// written (or found intact).
 #[pyfunction]
-#[pyo3(signature = (scratch, key, mpu_error=None))]
+#[pyo3(signature = (scratch, key, mpu_error=None, threads=None))]
 pub(crate) fn _ooc_tile(
     py: Python<'_>,
     scratch: PathBuf,
     key: (u32, u32, u32),
     mpu_error: Option<f64>,
+    threads: Option<i128>,
 ) -> PyResult<()> {
+    let threads = threads_arg(threads)?;
     let store = open_store(&scratch)?;
     let params = mpu_params(mpu_error)?;
     crate::errors::detached(py, move || {
-        let tiles = psi::out_of_core_tiles(&store);
-        let key = [key.0, key.1, key.2];
-        psi::tiles::decide_store_tile(
-            &store,
-            &params,
-            &tiles,
-            key,
-            &psi::octree::Monitor::silent(),
-        )
+        on_threads(threads, || {
+            let tiles = psi::out_of_core_tiles(&store);
+            let key = [key.0, key.1, key.2];
+            psi::tiles::decide_store_tile(
+                &store,
+                &params,
+                &tiles,
+                key,
+                &psi::octree::Monitor::silent(),
+            )
+        })
     })?
+    .map_err(value_error)?
     .map_err(|e| value_error(e.to_string()))
 }

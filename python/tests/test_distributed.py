@@ -27,8 +27,9 @@ def client():
 def test_the_cluster_writes_the_clis_particles(cli, client, tmp_path):
     bunny = model("bunny.ply")
     out = tmp_path / "dask.ply"
+    # Two threads per task here (one by default): the particles do not depend on it.
     report = psi.distributed.sample_files(bunny, out, client, max_memory="256MiB",
-                                          scratch=tmp_path / "s-dask")
+                                          scratch=tmp_path / "s-dask", threads=2)
     ref = tmp_path / "cli.ply"
     run_cli(cli, "sample", bunny, "--max-memory", "256MiB", "-o", ref,
             "--scratch", tmp_path / "s-cli")

@@ -31,6 +31,7 @@ mod error;
 mod kth_distance;
 mod leaf_cover;
 mod point_source;
+mod run_digests;
 mod sample_tiles;
 mod sub_cells;
 mod tile_buckets;

@@ -2,11 +2,13 @@
 //! file per non-empty tile cube at the tile depth, each point with its index in the whole
 //! input, grouped by sub-cell and in increasing index order within each (`sub_cells.rs`, so a
 //! small box reads only part of a file); the coarse points in a file of their own, in index
-//! order; a manifest with the frame, the counts, the sub-cell runs and every file's SHA-256,
-//! written last (temporary file, then rename), so a store without a manifest is unfinished and
-//! one whose file fails its checksum is refused by name. Records: `tile_records.rs`.
+//! order. Each file ends with a SHA-256 per run of records (`run_digests.rs`), so a reader
+//! checks what it reads and no more. A manifest with the frame, the counts, the sub-cell runs
+//! and every file's checksum is written last (temporary file, then rename), so a store without
+//! a manifest is unfinished and one whose file fails its checksum is refused by name. Records:
+//! `tile_records.rs`.
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::{BTreeMap, HashMap};
 use std::fs::{self, File};
 use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
@@ -19,13 +21,14 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::TileError;
+use crate::run_digests::{check_runs, run_digests, trailer_len, trailer_sum};
 use crate::sub_cells::{
     SUB, SUB_LEVELS, box_distance, order_by_sub_cell, sub_cell_box, sub_cell_ranges,
 };
 use crate::tile_records::{RECORD, record_position, tile_key};
 
 /// The manifest format this code writes and reads.
-const VERSION: u32 = 2;
+const VERSION: u32 = 3;
 /// The manifest's file name in a store directory.
 const MANIFEST: &str = "manifest.json";
 
@@ -36,18 +39,19 @@ pub struct StoredTile {
     pub key: [u32; 3],
     /// Points in the file.
     pub points: u64,
-    /// SHA-256 of the file, hexadecimal.
+    /// SHA-256 of the file's trailer (the SHA-256 of each run, `run_digests.rs`),
+    /// hexadecimal.
     pub sha256: String,
-    /// A tile file's runs by sub-cell: `runs[s]` records come before sub-cell `s` (shape
-    /// 8³ + 1; `sub_cells.rs`); empty for the coarse points' file.
-    #[serde(default)]
+    /// The file's runs: `runs[s]` records come before run `s`. A tile file's runs are its
+    /// sub-cells (shape 8³ + 1; `sub_cells.rs`); the coarse points' file is one run
+    /// (`[0, points]`).
     pub runs: Vec<u64>,
 }
 
 /// What a store holds: the frame and count of the whole input, the depth, the files.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StoreManifest {
-    /// Format version (2: tile files grouped by sub-cell).
+    /// Format version (2: tile files grouped by sub-cell; 3: a checksum per run).
     pub version: u32,
     /// What the points came from, as the writer's caller described it (a file's path, size
     /// and time): a run finds its own store by it and resumes.
@@ -68,15 +72,16 @@ pub struct StoreManifest {
 }
 
 /// A finished store, its manifest read and trusted; files are checked as they are read (each
-/// file's size every time, its checksum the first time this store, or a clone of it, reads it).
+/// file's size every time, each run of records against its checksum the first time this
+/// store, or a clone of it, reads it).
 #[derive(Clone, Debug)]
 pub struct TileStore {
     dir: PathBuf,
     manifest: StoreManifest,
     by_key: BTreeMap<[u32; 3], usize>,
-    /// The files whose checksum matched already (a far ball reads the same tiles many times:
+    /// Per file, the runs checked already (a far ball reads the same tiles many times:
     /// hashing them at every read took more time than the fits).
-    verified: Arc<Mutex<HashSet<PathBuf>>>,
+    checked: Arc<Mutex<HashMap<PathBuf, Vec<bool>>>>,
 }
 
 /// Writes points into a store, buffering at most about `buffer_points` of them in memory.
@@ -226,11 +231,12 @@ impl TileWriter {
             let path = tile_path(&self.dir, key);
             let bytes = fs::read(&path).map_err(|e| io_error(&path, e))?;
             let (bytes, runs) = order_by_sub_cell(&self.frame, self.depth, key, &bytes);
-            crate::write_atomically(&path, &bytes)?;
+            let trailer = run_digests(&bytes, &runs);
+            crate::write_atomically::write_parts_atomically(&path, &[&bytes, &trailer])?;
             tiles.push(StoredTile {
                 key,
                 points,
-                sha256: hex(&Sha256::digest(&bytes)),
+                sha256: trailer_sum(&trailer),
                 runs,
             });
         }
@@ -245,8 +251,8 @@ impl TileWriter {
             coarse: StoredTile {
                 key: [0; 3],
                 points: self.coarse_count,
-                sha256: file_sha256(&coarse_path)?,
-                runs: Vec::new(),
+                sha256: append_digest(&coarse_path)?,
+                runs: vec![0, self.coarse_count],
             },
         };
         let text = serde_json::to_string_pretty(&manifest).expect("serialisable");
@@ -280,9 +286,14 @@ fn frame_from_bits(b: [u64; 8]) -> MpuFrame {
     }
 }
 
-/// SHA-256 of a file's bytes, hexadecimal.
-fn file_sha256(path: &Path) -> Result<String, TileError> {
-    let mut f = File::open(path).map_err(|e| io_error(path, e))?;
+/// Appends to the file at `path` (whole records, one run) its SHA-256, as its trailer
+/// (`run_digests.rs`); returns the manifest's checksum of it.
+fn append_digest(path: &Path) -> Result<String, TileError> {
+    let mut f = fs::OpenOptions::new()
+        .read(true)
+        .append(true)
+        .open(path)
+        .map_err(|e| io_error(path, e))?;
     let mut h = Sha256::new();
     let mut buf = vec![0u8; 1 << 20];
     loop {
@@ -292,11 +303,10 @@ fn file_sha256(path: &Path) -> Result<String, TileError> {
         }
         h.update(&buf[..n]);
     }
-    Ok(hex(&h.finalize()))
-}
-
-pub(crate) fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
+    let trailer = h.finalize();
+    f.write_all(&trailer).map_err(|e| io_error(path, e))?;
+    f.sync_all().map_err(|e| io_error(path, e))?;
+    Ok(trailer_sum(&trailer))
 }
 
 impl TileStore {
@@ -323,7 +333,7 @@ impl TileStore {
             dir: dir.to_path_buf(),
             manifest,
             by_key,
-            verified: Arc::default(),
+            checked: Arc::default(),
         })
     }
 
@@ -344,53 +354,25 @@ impl TileStore {
             .map_or(0, |&i| self.manifest.tiles[i].points)
     }
 
-    /// Reads a file of records, checking its size against `entry`, and its checksum the first
-    /// time.
-    fn read_records(&self, path: &Path, entry: &StoredTile) -> Result<Vec<u8>, TileError> {
-        let bytes = fs::read(path).map_err(|e| io_error(path, e))?;
-        if bytes.len() as u64 != entry.points * RECORD as u64 {
-            return Err(wrong_size(path, bytes.len() as u64, entry.points));
-        }
-        let verified = || self.verified.lock().expect("not poisoned");
-        if verified().contains(path) {
-            return Ok(bytes);
-        }
-        let sum = hex(&Sha256::digest(&bytes));
-        if sum != entry.sha256 {
-            return Err(io_error(
-                path,
-                "its SHA-256 does not match the manifest: the file is corrupted",
-            ));
-        }
-        verified().insert(path.to_path_buf());
-        Ok(bytes)
-    }
-
-    /// The records `ranges` (first, end; records) of a file, or all of it (`None`): checked
-    /// as [`TileStore::read_records`] does; once checked, only the ranges are read.
+    /// The records `ranges` (first, end; records, whole runs) of a file, or all of it
+    /// (`None`). Its size is checked against `entry` at every read; the runs read that this
+    /// store has not checked before are checked against the file's trailer, and the trailer
+    /// against the manifest.
     pub(crate) fn read_ranges(
         &self,
         path: &Path,
         entry: &StoredTile,
         ranges: Option<&[(u64, u64)]>,
     ) -> Result<Vec<u8>, TileError> {
-        let checked = self.verified.lock().expect("not poisoned").contains(path);
-        let Some(ranges) = ranges.filter(|_| checked) else {
-            let bytes = self.read_records(path, entry)?;
-            return Ok(match ranges {
-                None => bytes,
-                Some(ranges) => ranges
-                    .iter()
-                    .flat_map(|&(a, b)| &bytes[a as usize * RECORD..b as usize * RECORD])
-                    .copied()
-                    .collect(),
-            });
-        };
         let mut f = File::open(path).map_err(|e| io_error(path, e))?;
         let len = f.metadata().map_err(|e| io_error(path, e))?.len();
-        if len != entry.points * RECORD as u64 {
-            return Err(wrong_size(path, len, entry.points));
+        let records = entry.points * RECORD as u64;
+        let expected = records + trailer_len(entry.runs.len());
+        if len != expected || entry.runs.last() != Some(&entry.points) {
+            return Err(wrong_size(path, len, entry.points, expected));
         }
+        let whole = [(0, entry.points)];
+        let ranges = ranges.unwrap_or(&whole);
         let total: u64 = ranges.iter().map(|(a, b)| b - a).sum();
         let mut out = vec![0u8; total as usize * RECORD];
         let mut at = 0;
@@ -401,13 +383,31 @@ impl TileStore {
                 .map_err(|e| io_error(path, e))?;
             at += n;
         }
+        let runs = entry.runs.len() - 1;
+        let mut checked = (self.checked.lock().expect("not poisoned"))
+            .get(path)
+            .cloned()
+            .unwrap_or_else(|| vec![false; runs]);
+        let mut trailer = || -> Result<Vec<u8>, String> {
+            let mut trailer = vec![0u8; (len - records) as usize];
+            f.seek(SeekFrom::Start(records))
+                .and_then(|_| f.read_exact(&mut trailer))
+                .map_err(|e| e.to_string())?;
+            if trailer_sum(&trailer) != entry.sha256 {
+                return Err("its SHA-256 does not match the manifest".into());
+            }
+            Ok(trailer)
+        };
+        check_runs(&out, ranges, &entry.runs, &mut checked, &mut trailer)
+            .map_err(|why| io_error(path, format!("{why}: the file is corrupted")))?;
+        (self.checked.lock().expect("not poisoned")).insert(path.to_path_buf(), checked);
         Ok(out)
     }
 
     /// The coarse points ([`is_coarse_point`]), in increasing input index order.
     pub fn coarse_points(&self) -> Result<Vec<OrientedPoint>, TileError> {
         let path = self.dir.join("coarse.pts");
-        let bytes = self.read_records(&path, &self.manifest.coarse)?;
+        let bytes = self.read_ranges(&path, &self.manifest.coarse, None)?;
         Ok(decode(&bytes, &|_| true)
             .into_iter()
             .map(|(_, p)| p)
@@ -501,13 +501,13 @@ impl TileStore {
     }
 }
 
-/// The error for a file of `len` bytes whose manifest entry says `points` records.
-fn wrong_size(path: &Path, len: u64, points: u64) -> TileError {
+/// The error for a file of `len` bytes whose manifest entry says `points` records and
+/// `expected` bytes with its trailer.
+fn wrong_size(path: &Path, len: u64, points: u64, expected: u64) -> TileError {
     io_error(
         path,
         format!(
-            "{len} bytes where the manifest says {points} points ({} bytes): truncated or replaced",
-            points * RECORD as u64
+            "{len} bytes where the manifest says {points} points ({expected} bytes): truncated or replaced"
         ),
     )
 }

@@ -9,6 +9,11 @@ use crate::TileError;
 
 /// Writes `bytes` to `path` atomically (a temporary file in the same directory, renamed).
 pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), TileError> {
+    write_parts_atomically(path, &[bytes])
+}
+
+/// Writes `parts`, one after the other, to `path` atomically ([`write_atomically`]).
+pub(crate) fn write_parts_atomically(path: &Path, parts: &[&[u8]]) -> Result<(), TileError> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -24,7 +29,9 @@ pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), TileErro
     let err = |p: &Path, e: std::io::Error| TileError::Store(format!("{}: {e}", p.display()));
     let write = || -> Result<(), TileError> {
         let mut f = fs::File::create(&tmp).map_err(|e| err(&tmp, e))?;
-        f.write_all(bytes).map_err(|e| err(&tmp, e))?;
+        for bytes in parts {
+            f.write_all(bytes).map_err(|e| err(&tmp, e))?;
+        }
         f.sync_all().map_err(|e| err(&tmp, e))?;
         drop(f);
         fs::rename(&tmp, path).map_err(|e| err(path, e))

@@ -313,6 +313,48 @@ fn a_damaged_or_truncated_tile_file_is_refused_by_name() {
     }
 }
 
+/// A reader checks the runs it reads (a halo reads a few sub-cells of a neighbouring tile):
+/// a damaged record is refused by any box that reads its sub-cell, even by a store that never
+/// read the whole file, and does not stop a box that reads only other sub-cells.
+#[test]
+fn a_box_checks_the_runs_it_reads_and_only_those() {
+    let dir = scratch("runs-checked");
+    let points = noisy_torus(20_000, 4);
+    let store = store_of(&points, 1, &dir);
+    let m = store.manifest().clone();
+    let t = m.tiles.iter().max_by_key(|t| t.points).unwrap();
+    let path = dir.join(format!("tile-{}-{}-{}.pts", t.key[0], t.key[1], t.key[2]));
+    let mut bytes = std::fs::read(&path).unwrap();
+    let at = |r: &[u8], k: usize| f64::from_le_bytes(r[8 + 8 * k..16 + 8 * k].try_into().unwrap());
+    let position = |i: usize| {
+        let r = &bytes[i * 56..(i + 1) * 56];
+        DVec3::new(at(r, 0), at(r, 1), at(r, 2))
+    };
+    // The first record (of the first non-empty sub-cell) and the tile's last one, far from it.
+    let (damaged, far) = (position(0), position(t.points as usize - 1));
+    assert!((damaged - far).length() > 0.5, "{damaged} {far}");
+    bytes[40] ^= 1;
+    std::fs::write(&path, &bytes).unwrap();
+    let small = 0.01;
+    let gather = |p: DVec3| {
+        TileStore::open(&dir)
+            .unwrap()
+            .gather_box_where(p - m.frame.origin, small, 0.0, &|_| true)
+    };
+    let err = gather(damaged).unwrap_err().to_string();
+    assert!(
+        err.contains(&path.display().to_string()) && err.contains("corrupted"),
+        "{err}"
+    );
+    let near_far = gather(far).unwrap();
+    let brute = points
+        .iter()
+        .filter(|p| (p.p - far).abs().max_element() <= small)
+        .count();
+    assert_eq!(near_far.len(), brute);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// A store hashes each file the first time it reads it (a far ball reads the same tiles many
 /// times); its size is checked at every read, and a store opened afresh hashes again.
 #[test]

@@ -39,12 +39,16 @@ def sample_files(
     iterations: int = 20,
     seed: int = 2007,
     mpu_error: Optional[float] = None,
+    threads: int = 1,
 ) -> Dict[str, Any]:
     """``psi.sample_files`` as Dask tasks on ``client`` (a ``LocalCluster`` of worker
     processes when ``None``, closed afterwards). The tiling is a function of the inputs and
     ``max_memory`` alone, so the particles written to ``output`` are bitwise those of
     ``psi sample INPUT --max-memory SIZE`` and of ``psi.sample_files``; ``max_memory`` bounds
-    what psi allocates in a task, not the worker's own baseline. Returns the run's report."""
+    what psi allocates in a task, not the worker's own baseline. Each task runs psi on
+    ``threads`` threads of its own (Dask's convention is one task per worker thread, so one;
+    give more for workers started with fewer threads than their cores); the particles do not
+    depend on it. Returns the run's report."""
     from dask.distributed import Client, LocalCluster
 
     paths = [fspath(p) for p in ([inputs] if isinstance(inputs, (str, PathLike)) else inputs)]
@@ -59,11 +63,13 @@ def sample_files(
         def submit(f: Any, *a: Any, **kw: Any) -> Any:
             return client.submit(f, *a, pure=False, retries=RETRIES, **kw)
 
-        submit(_psi._ooc_partition, paths, max_memory, scratch_dir, mpu_error).result()
-        keys = submit(_psi._ooc_top, scratch_dir, mpu_error).result()
-        client.gather([submit(_psi._ooc_tile, scratch_dir, key, mpu_error) for key in keys])
+        submit(_psi._ooc_partition, paths, max_memory, scratch_dir, mpu_error, threads).result()
+        keys = submit(_psi._ooc_top, scratch_dir, mpu_error, threads).result()
+        client.gather(
+            [submit(_psi._ooc_tile, scratch_dir, key, mpu_error, threads) for key in keys]
+        )
         report: Dict[str, Any] = submit(
-            _psi.sample_files,
+            _psi._ooc_sample,
             paths,
             fspath(output),
             max_memory=max_memory,
@@ -72,6 +78,7 @@ def sample_files(
             iterations=iterations,
             seed=seed,
             mpu_error=mpu_error,
+            threads=threads,
         ).result()
         return report
     finally:
