@@ -1,7 +1,7 @@
 //! Sampling a file larger than memory (issue "Beyond one machine"): its points streamed into
 //! tile files in a scratch directory, the MPU decided tile by tile from them
-//! ([`psi_tiles::decide_store`]), the particles seeded and relaxed tile by tile
-//! ([`psi_tiles::sample_tiled`]). The CLI's `--max-memory` and Python's `sample_files` both
+//! ([`psi_tiles::decide_store`]), the particles seeded by octant of the root
+//! ([`psi_tiles::seed_store_octant`]) and relaxed at once ([`psi_tiles::sample_tiled_from`]). The CLI's `--max-memory` and Python's `sample_files` both
 //! run this.
 //!
 //! The preprocessing steps that read the whole input (the outlier search, the noise estimate,
@@ -19,7 +19,8 @@ use psi_mpu::{MpuFrame, MpuParams};
 use psi_octree::{Aabb, Monitor, OrientedPoint};
 use psi_particles::{ParticleParams, Particles, Quality};
 use psi_tiles::{
-    TileParams, TileReport, TileSampleReport, TileStore, TileWriter, decide_store, sample_tiled,
+    TileParams, TileReport, TileSampleReport, TileStore, TileWriter, decide_store,
+    sample_tiled_from, seed_store_octant,
 };
 
 use crate::PsiError;
@@ -217,12 +218,25 @@ pub fn sample_files_out_of_core(
     let decide_seconds = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
     let relax_points = options.relax_points_for(part.points);
-    let sampled = sample_tiled(
+    // Each octant's seeds from its file (a cluster's task wrote it), or seeded and written.
+    let seeds_of = |octant| {
+        seed_store_octant(
+            store,
+            &tiles,
+            &decisions,
+            mpu_params,
+            particle_params,
+            octant,
+            monitor,
+        )
+    };
+    let sampled = sample_tiled_from(
         store,
         &decisions,
         mpu_params,
         particle_params,
         relax_points,
+        &seeds_of,
         monitor,
     )
     .map_err(|e| fail(e.to_string()))?;
@@ -342,8 +356,7 @@ pub fn partition_files(
 }
 
 /// The tiling a run out of core uses on `store`: its depth, the default halo and shared
-/// levels (what [`psi_tiles::decide_store_top_keys`] and [`psi_tiles::decide_store_tile`]
-/// take on a cluster).
+/// levels (what the tasks of [`psi_tiles::decide_store`] take on a cluster).
 pub fn out_of_core_tiles(store: &TileStore) -> TileParams {
     TileParams {
         depth: store.manifest().depth,

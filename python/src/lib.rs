@@ -38,8 +38,11 @@ fn psi_python(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sample::load_particles, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::sample_files, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_partition, m)?)?;
+    m.add_function(wrap_pyfunction!(out_of_core::_ooc_top_upper, m)?)?;
+    m.add_function(wrap_pyfunction!(out_of_core::_ooc_top_group, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_top, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_tile, m)?)?;
+    m.add_function(wrap_pyfunction!(out_of_core::_ooc_seed, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_sample, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(render::render_mesh, m)?)?;

@@ -86,6 +86,51 @@ pub(crate) fn sample_files<'py>(
     )
 }
 
+/// Task of `psi.distributed.sample_files` (not API): the seeds of one octant of the root
+/// (key at depth 1) written to their file (or found intact), after every tile is decided.
+#[pyfunction]
+#[pyo3(signature = (scratch, octant, *, k=1, iterations=20, seed=2007, mpu_error=None,
+    threads=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn _ooc_seed(
+    py: Python<'_>,
+    scratch: PathBuf,
+    octant: (u32, u32, u32),
+    k: i128,
+    iterations: i128,
+    seed: i128,
+    mpu_error: Option<f64>,
+    threads: Option<i128>,
+) -> PyResult<()> {
+    let threads = threads_arg(threads)?;
+    let particle_params =
+        crate::sample::particle_params(iterations, Some(k), None, false, None, seed)?;
+    let store = open_store(&scratch)?;
+    let params = mpu_params(mpu_error)?;
+    crate::errors::detached(py, move || {
+        on_threads(threads, || {
+            let silent = psi::octree::Monitor::silent();
+            let tiles = psi::out_of_core_tiles(&store);
+            let decisions = psi::tiles::decide_store(&store, &params, &tiles, &silent)?;
+            let octant = [octant.0, octant.1, octant.2];
+            if psi::tiles::seed_octants(&decisions).contains(&octant) {
+                psi::tiles::seed_store_octant(
+                    &store,
+                    &tiles,
+                    &decisions,
+                    &params,
+                    &particle_params,
+                    octant,
+                    &silent,
+                )?;
+            }
+            Ok::<(), psi::tiles::TileError>(())
+        })
+    })?
+    .map_err(value_error)?
+    .map_err(|e| value_error(e.to_string()))
+}
+
 /// Task of `psi.distributed.sample_files` (not API): [`sample_files`] on a pool of `threads`.
 #[pyfunction]
 #[pyo3(signature = (inputs, output, *, max_memory, scratch=None, k=1, iterations=20,
@@ -226,8 +271,67 @@ pub(crate) fn _ooc_partition(
     Ok(part.points)
 }
 
-/// Task of `psi.distributed.sample_files` (not API): the cells above the tiles decided (or
-/// found); returns the tiles' keys.
+/// Task of `psi.distributed.sample_files` (not API): the levels above the groups of the pass
+/// above the tiles decided (or found); returns the groups' keys.
+#[pyfunction]
+#[pyo3(signature = (scratch, mpu_error=None, threads=None))]
+pub(crate) fn _ooc_top_upper(
+    py: Python<'_>,
+    scratch: PathBuf,
+    mpu_error: Option<f64>,
+    threads: Option<i128>,
+) -> PyResult<Vec<(u32, u32, u32)>> {
+    let threads = threads_arg(threads)?;
+    let store = open_store(&scratch)?;
+    let params = mpu_params(mpu_error)?;
+    let keys = crate::errors::detached(py, move || {
+        on_threads(threads, || {
+            let tiles = psi::out_of_core_tiles(&store);
+            psi::tiles::decide_store_top_upper(
+                &store,
+                &params,
+                &tiles,
+                &psi::octree::Monitor::silent(),
+            )
+        })
+    })?
+    .map_err(value_error)?
+    .map_err(|e| value_error(e.to_string()))?;
+    Ok(keys.into_iter().map(|k| (k[0], k[1], k[2])).collect())
+}
+
+/// Task of `psi.distributed.sample_files` (not API): one group of the pass above the tiles
+/// decided and its decisions file written (or found intact).
+#[pyfunction]
+#[pyo3(signature = (scratch, key, mpu_error=None, threads=None))]
+pub(crate) fn _ooc_top_group(
+    py: Python<'_>,
+    scratch: PathBuf,
+    key: (u32, u32, u32),
+    mpu_error: Option<f64>,
+    threads: Option<i128>,
+) -> PyResult<()> {
+    let threads = threads_arg(threads)?;
+    let store = open_store(&scratch)?;
+    let params = mpu_params(mpu_error)?;
+    crate::errors::detached(py, move || {
+        on_threads(threads, || {
+            let tiles = psi::out_of_core_tiles(&store);
+            psi::tiles::decide_store_top_group(
+                &store,
+                &params,
+                &tiles,
+                [key.0, key.1, key.2],
+                &psi::octree::Monitor::silent(),
+            )
+        })
+    })?
+    .map_err(value_error)?
+    .map_err(|e| value_error(e.to_string()))
+}
+
+/// Task of `psi.distributed.sample_files` (not API): the cells above the tiles merged from
+/// the groups' files (or found); returns the tiles' keys.
 #[pyfunction]
 #[pyo3(signature = (scratch, mpu_error=None, threads=None))]
 pub(crate) fn _ooc_top(

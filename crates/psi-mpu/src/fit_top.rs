@@ -36,6 +36,32 @@ pub fn fit_top(
     source: &BallSource<'_>,
     monitor: &Monitor<'_>,
 ) -> Result<RegionFit, MpuError> {
+    fit_top_region(
+        coarse,
+        population,
+        frame,
+        params,
+        &Region::top(until),
+        source,
+        monitor,
+    )
+}
+
+/// [`fit_top`] of the cells of `region` only (its top cell and those below it, down to, not
+/// including, `region.until`), so that the pass above the tiles can be split into a task per
+/// cell at some depth: the decisions of the regions together are those of one pass, bit for
+/// bit (each cell's fit reads only the coarse points and its fetched ball).
+///
+/// Errors as [`fit_top`].
+pub fn fit_top_region(
+    coarse: &[OrientedPoint],
+    population: usize,
+    frame: &MpuFrame,
+    params: &MpuParams,
+    region: &Region,
+    source: &BallSource<'_>,
+    monitor: &Monitor<'_>,
+) -> Result<RegionFit, MpuError> {
     check_population(params, population)?;
     let data = prepare_any(coarse, frame)?;
     let coarse_index = CoarseIndex::new(&data.positions);
@@ -60,12 +86,12 @@ pub fn fit_top(
         data.positions.clone(),
         frame,
         params,
-        &Region::top(until),
+        region,
         None,
         monitor,
         &fit,
     )?;
-    // (The top region's cube is the root: nothing reaches beyond what is fetched.)
+    // (Every coarse point is given, and the rest is fetched: nothing reaches beyond.)
     out.reach = 0.0;
     out.crossing = 0;
     Ok(out)

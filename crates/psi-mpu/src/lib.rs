@@ -70,7 +70,7 @@ pub use error::MpuError;
 pub use evaluate::{BACKGROUND_WEIGHT, LeafEvaluation};
 pub use fit_fetched::{BallSource, FetchBall, KthDistance};
 pub use fit_region::{FarBalls, Region, RegionFit, RegionPoints, fit_region};
-pub use fit_top::{fit_top, is_coarse_point};
+pub use fit_top::{fit_top, fit_top_region, is_coarse_point};
 pub use frame::MpuFrame;
 pub use local_function::{FitKind, LocalFunction};
 pub use mpu::Mpu;

@@ -1,27 +1,20 @@
 //! A tiled build out of core: the cells above the tiles decided from the coarse points (and
-//! the few balls they need in full, read from the tile files), then each tile from its file
-//! and the neighbours' points within its halo. Each tile's decisions go to a file of their own
-//! (checksummed, written atomically), so an interrupted run resumes without redoing finished
-//! tiles, and a damaged decisions file is decided again, never used.
+//! the few balls they need in full, read from the tile files) — the root's levels down to
+//! [`TOP_GROUP_DEPTH`], then one group per cell there (tasks of their own on a cluster) — then
+//! each tile from its file and the neighbours' points within its halo. Each region's
+//! decisions go to a file of their own (checksummed, written atomically), so an interrupted
+//! run resumes without redoing finished ones, and a damaged decisions file is decided again,
+//! never used.
 
-use std::path::Path;
 use std::time::Instant;
 
-use psi_mpu::{BallSource, MpuParams, fit_top};
-use psi_octree::Monitor;
-use serde::{Deserialize, Serialize};
+use psi_mpu::{BallSource, MpuParams, Region, fit_top_region};
+use psi_octree::{Monitor, OrientedPoint};
 use sha2::{Digest, Sha256};
 
-use crate::decide_tile::{TileOutcome, decide_all, decide_tile};
-use crate::{TileError, TileParams, TileStore, TiledDecisions, write_atomically};
-
-/// What a decisions file holds: one region's decisions and what they were made from
-/// ([`fingerprint`]: a file left by a run on other points or parameters is not taken).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-struct RegionRecord {
-    fingerprint: String,
-    outcome: TileOutcome,
-}
+use crate::decide_tile::{TileOutcome, decide_all, decide_tile, tile_keys};
+use crate::record_file::{read_record, write_record};
+use crate::{TileError, TileParams, TileStore, TiledDecisions};
 
 /// Decides every cell of the MPU of the points in `store` with `params` (tiles at the store's
 /// depth, as `tiles` says): bitwise the decisions of a build over all the
@@ -56,9 +49,49 @@ pub fn decide_store(
     })
 }
 
-/// The first task of [`decide_store`] (a cluster runs it alone): the cells above the tiles,
-/// decided from the coarse points (or taken from an intact decisions file). Returns the
-/// tiles' keys, in order, for [`decide_store_tile`].
+/// The pass above the tiles is split at this depth: one region for the levels above it, then
+/// one per cell at it (at most 8), each a task of its own on a cluster.
+pub const TOP_GROUP_DEPTH: u8 = 1;
+
+/// The first task of [`decide_store`] (a cluster runs it alone): the levels above
+/// [`TOP_GROUP_DEPTH`], decided from the coarse points (or taken from an intact decisions
+/// file). Returns the keys of the groups below, in order, for [`decide_store_top_group`].
+///
+/// Errors as [`decide_store`].
+pub fn decide_store_top_upper(
+    store: &TileStore,
+    params: &MpuParams,
+    tiles: &TileParams,
+    monitor: &Monitor<'_>,
+) -> Result<Vec<[u32; 3]>, TileError> {
+    check_tiles(store, tiles)?;
+    let print = fingerprint(store, params, tiles);
+    let coarse = CoarseOnce::default();
+    let upper = decide_top_part(store, params, tiles, &print, None, &coarse, monitor)?;
+    Ok(group_keys(&upper, tiles))
+}
+
+/// One group of the pass above the tiles (a cluster's task): the cells at and below the
+/// cell `key` at [`TOP_GROUP_DEPTH`], down to the tiles' shared levels, decided and written
+/// (or found intact). Needs the file of [`decide_store_top_upper`].
+///
+/// Errors as [`decide_store`].
+pub fn decide_store_top_group(
+    store: &TileStore,
+    params: &MpuParams,
+    tiles: &TileParams,
+    key: [u32; 3],
+    monitor: &Monitor<'_>,
+) -> Result<(), TileError> {
+    check_tiles(store, tiles)?;
+    let print = fingerprint(store, params, tiles);
+    let coarse = CoarseOnce::default();
+    decide_top_part(store, params, tiles, &print, Some(key), &coarse, monitor).map(|_| ())
+}
+
+/// The task after the groups of [`decide_store`] (a cluster runs it alone): the cells above
+/// the tiles, merged from the groups' files (any missing is decided here). Returns the tiles'
+/// keys, in order, for [`decide_store_tile`].
 ///
 /// Errors as [`decide_store`].
 pub fn decide_store_top_keys(
@@ -104,7 +137,8 @@ fn check_tiles(store: &TileStore, tiles: &TileParams) -> Result<(), TileError> {
     Ok(())
 }
 
-/// The cells above the tiles: from their decisions file, or decided and written.
+/// The cells above the tiles: from their decisions file, or merged from the upper levels'
+/// and the groups' (each from its file, or decided and written), and written.
 fn decide_store_top(
     store: &TileStore,
     params: &MpuParams,
@@ -112,21 +146,98 @@ fn decide_store_top(
     print: &str,
     monitor: &Monitor<'_>,
 ) -> Result<TileOutcome, TileError> {
-    let manifest = store.manifest();
-    let population = manifest.population as usize;
     let top_path = store.dir().join("cells-top.bin");
     if let Some(r) = read_record(&top_path, print) {
         return Ok(r);
     }
-    let coarse = store.coarse_points()?;
+    // The coarse points read once for all parts; the parts one after the other (each fit
+    // runs on every thread), so that one copy of the coarse structures is held at a time.
+    let coarse = CoarseOnce::default();
+    let mut top = decide_top_part(store, params, tiles, print, None, &coarse, monitor)?;
+    let groups = group_keys(&top, tiles)
+        .iter()
+        .map(|&key| decide_top_part(store, params, tiles, print, Some(key), &coarse, monitor))
+        .collect::<Result<Vec<_>, _>>()?;
+    // In group order, so the surface's order does not depend on which task finished first.
+    for g in groups {
+        top.cells.merge(g.cells).map_err(|a| {
+            TileError::Store(format!(
+                "the cell {a:?} was decided by two groups above the tiles"
+            ))
+        })?;
+        top.surface.extend(g.surface);
+    }
+    write_record(&top_path, print, &top)?;
+    Ok(top)
+}
+
+/// The keys of the groups under the upper levels `upper` decided (none when the pass above
+/// the tiles ends above [`TOP_GROUP_DEPTH`]).
+fn group_keys(upper: &TileOutcome, tiles: &TileParams) -> Vec<[u32; 3]> {
+    if tiles.depth + tiles.shared_levels <= TOP_GROUP_DEPTH {
+        return Vec::new();
+    }
+    tile_keys(&upper.cells, TOP_GROUP_DEPTH)
+}
+
+/// The store's coarse points, read the first time a part of the pass above the tiles needs
+/// them (a part found in its file needs none).
+#[derive(Default)]
+struct CoarseOnce(std::sync::OnceLock<Vec<OrientedPoint>>);
+
+impl CoarseOnce {
+    fn get(&self, store: &TileStore) -> Result<&[OrientedPoint], TileError> {
+        if let Some(c) = self.0.get() {
+            return Ok(c);
+        }
+        let read = store.coarse_points()?;
+        Ok(self.0.get_or_init(|| read))
+    }
+}
+
+/// One part of the pass above the tiles, from its decisions file or decided and written: the
+/// levels above [`TOP_GROUP_DEPTH`] (`group` `None`), or the group under the cell `group` at
+/// it, down to the tiles' shared levels.
+fn decide_top_part(
+    store: &TileStore,
+    params: &MpuParams,
+    tiles: &TileParams,
+    print: &str,
+    group: Option<[u32; 3]>,
+    coarse: &CoarseOnce,
+    monitor: &Monitor<'_>,
+) -> Result<TileOutcome, TileError> {
+    let manifest = store.manifest();
+    let population = manifest.population as usize;
+    let until = tiles.depth + tiles.shared_levels;
+    let (path, region) = match group {
+        None => (
+            store.dir().join("cells-upper.bin"),
+            Region::top(until.min(TOP_GROUP_DEPTH)),
+        ),
+        Some(key) => (
+            store
+                .dir()
+                .join(format!("cells-group-{}-{}-{}.bin", key[0], key[1], key[2])),
+            Region {
+                depth: TOP_GROUP_DEPTH,
+                key,
+                until: Some(until),
+            },
+        ),
+    };
+    if let Some(r) = read_record(&path, print) {
+        return Ok(r);
+    }
+    let coarse = coarse.get(store)?;
     let fetch = |c, r| store.gather_ball(c, r).map_err(|e| e.to_string());
     let kth = |c, k| store.kth_distance(c, k).map_err(|e| e.to_string());
-    let fit = fit_top(
-        &coarse,
+    let fit = fit_top_region(
+        coarse,
         population,
         &manifest.frame,
         params,
-        tiles.depth + tiles.shared_levels,
+        &region,
         &BallSource {
             fetch: &fetch,
             kth: Some(&kth),
@@ -142,7 +253,7 @@ fn decide_store_top(
         halo_points: coarse.len(),
         surface: fit.surface,
     };
-    write_record(&top_path, print, &outcome)?;
+    write_record(&path, print, &outcome)?;
     Ok(outcome)
 }
 
@@ -180,7 +291,7 @@ fn decide_store_tile_with(
 
 /// What a run's decisions depend on: the store's files (their checksums), the parameters and
 /// the first halo, hashed.
-fn fingerprint(store: &TileStore, params: &MpuParams, tiles: &TileParams) -> String {
+pub(crate) fn fingerprint(store: &TileStore, params: &MpuParams, tiles: &TileParams) -> String {
     let mut h = Sha256::new();
     let m = store.manifest();
     h.update(format!(
@@ -196,28 +307,4 @@ fn fingerprint(store: &TileStore, params: &MpuParams, tiles: &TileParams) -> Str
         h.update(&t.sha256);
     }
     h.finalize().iter().map(|b| format!("{b:02x}")).collect()
-}
-
-/// A decisions file's record, if the file is there, whole and intact (its last 32 bytes the
-/// SHA-256 of the rest) and made from what `print` names.
-fn read_record(path: &Path, print: &str) -> Option<TileOutcome> {
-    let bytes = std::fs::read(path).ok()?;
-    let (body, sum) = bytes.split_at(bytes.len().checked_sub(32)?);
-    if Sha256::digest(body).as_slice() != sum {
-        tracing::warn!("{}: checksum mismatch, decided again", path.display());
-        return None;
-    }
-    let record: RegionRecord = postcard::from_bytes(body).ok()?;
-    (record.fingerprint == print).then_some(record.outcome)
-}
-
-fn write_record(path: &Path, print: &str, outcome: &TileOutcome) -> Result<(), TileError> {
-    let record = RegionRecord {
-        fingerprint: print.to_string(),
-        outcome: outcome.clone(),
-    };
-    let mut bytes = postcard::to_stdvec(&record).expect("serialisable");
-    let sum = Sha256::digest(&bytes);
-    bytes.extend_from_slice(&sum);
-    write_atomically(path, &bytes)
 }

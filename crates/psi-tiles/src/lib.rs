@@ -8,8 +8,9 @@
 //! are bitwise those of the build over all points, and the MPU assembled from them
 //! ([`psi_mpu::BuildOptions::known_cells`]) equals it. In memory: [`decide_tiled`],
 //! [`build_tiled`]; on disk: [`TileWriter`] and [`TileStore`] (checksummed tile files),
-//! [`decide_store`] (one decisions file per tile, so a run resumes; its two tasks
-//! [`decide_store_top_keys`] and [`decide_store_tile`] for a cluster); particles:
+//! [`decide_store`] (one decisions file per tile, so a run resumes; its tasks for a cluster
+//! [`decide_store_top_upper`], [`decide_store_top_group`], [`decide_store_top_keys`] and
+//! [`decide_store_tile`]); particles:
 //! [`sample_tiled`] (seeds exactly the whole sampling's, region by region; one relaxation of
 //! them all, on the decisions and the points the memory allows).
 //!
@@ -31,8 +32,10 @@ mod error;
 mod kth_distance;
 mod leaf_cover;
 mod point_source;
+mod record_file;
 mod run_digests;
 mod sample_tiles;
+mod seed_store;
 mod sub_cells;
 mod tile_buckets;
 mod tile_params;
@@ -41,11 +44,18 @@ mod tile_report;
 mod tile_store;
 mod write_atomically;
 
-pub use decide_store::{decide_store, decide_store_tile, decide_store_top_keys};
+pub use decide_store::{
+    TOP_GROUP_DEPTH, decide_store, decide_store_tile, decide_store_top_group,
+    decide_store_top_keys, decide_store_top_upper,
+};
 pub use decide_tiles::{TiledDecisions, build_tiled, decide_tiled};
 pub use error::TileError;
 pub use point_source::{PointSource, PointsInMemory};
-pub use sample_tiles::{SEED_MARGIN, TileSampleReport, TiledSampling, sample_tiled};
+pub use sample_tiles::{
+    OctantSeeds, SEED_MARGIN, TileSampleReport, TiledSampling, sample_tiled, sample_tiled_from,
+    seed_octant, seed_octants,
+};
+pub use seed_store::seed_store_octant;
 pub use tile_params::TileParams;
 pub use tile_report::TileReport;
 pub use tile_store::{StoreManifest, StoredTile, TileStore, TileWriter};

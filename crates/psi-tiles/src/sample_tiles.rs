@@ -1,7 +1,8 @@
 //! Particles out of core: each region (a tile, or a leaf above the tiles that holds points)
 //! seeds its own surface leaves exactly as the whole sampling does — its MPU is assembled from
 //! every cell's decision, so the octree, its leaf indices and f are the global ones, and it
-//! reads the points of its leaves — and then all seeds relax at once on one MPU assembled from
+//! reads the points of its leaves; the regions are seeded by octant of the root (a cluster's
+//! task each, [`seed_octant`]) — and then all seeds relax at once on one MPU assembled from
 //! the decisions with the points the memory allows: every input point when they fit (then the
 //! particles are bitwise the whole sampling's), else a thinned subset for the relaxation's data
 //! test. The particles are few (they follow the surface, not the input's density), so one
@@ -60,40 +61,21 @@ pub struct TiledSampling {
     pub report: TileSampleReport,
 }
 
-/// One region's seeds, with the leaf each was seeded in, and the points it read.
-struct RegionSeeds {
-    leaves: Vec<u32>,
-    seeds: Particles,
-    read: usize,
+/// The seeds of the regions in one octant of the root ([`seed_octant`]), in region order.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct OctantSeeds {
+    /// The leaf each seed was seeded in (its index in the decisions' octree).
+    pub leaves: Vec<u32>,
+    /// The seeds (their σ not yet scaled: [`sample_tiled_from`] sets it).
+    pub seeds: Particles,
+    /// Regions seeded.
+    pub regions: usize,
+    /// Input points read (a point counts once for every region that reads it).
+    pub read: usize,
 }
 
-/// Samples the MPU `decisions` describe, reading points from `source`, with `params` (k
-/// particles per surface leaf; exact counts and uniform mode throw darts over the whole input
-/// and are refused here): the regions' seeds (in parallel), then one relaxation of them all
-/// whose MPU holds at most `relax_points` input points (all of them when there are no more:
-/// then the particles are bitwise [`psi_particles::sample`]'s without the ceiling on spacing).
-/// The result does not depend on the regions' order or the thread count. Progress: stage
-/// `"sample tiles"` (regions seeded), then `"relax"`.
-///
-/// Errors: [`TileError::BadParameter`] for an exact count or uniform mode, the point source's
-/// errors, an interruption.
-pub fn sample_tiled(
-    source: &dyn PointSource,
-    decisions: &TiledDecisions,
-    mpu_params: &MpuParams,
-    params: &ParticleParams,
-    relax_points: usize,
-    monitor: &Monitor<'_>,
-) -> Result<TiledSampling, TileError> {
-    if params.count.is_some() || params.density == psi_particles::DensityMode::Uniform {
-        return Err(TileError::BadParameter(
-            "a tiled sampling seeds k particles per leaf; an exact count or uniform spacing \
-             needs the whole input in memory"
-                .into(),
-        ));
-    }
-    let t0 = Instant::now();
-    let frame = decisions.frame;
+/// The regions of a tiled sampling: the tiles, then the surface leaves above the tile depth.
+fn regions_of(decisions: &TiledDecisions) -> Vec<Region> {
     let depth = decisions.report.depth;
     let mut regions: Vec<Region> = tile_keys(&decisions.cells, depth)
         .into_iter()
@@ -106,25 +88,138 @@ pub fn sample_tiled(
             .filter(|a| a.0 < depth)
             .map(|&(d, key)| Region::tile(d, key)),
     );
+    regions
+}
+
+/// The octant of the root (its key at depth 1) that holds `region`.
+fn octant_of(region: &Region) -> [u32; 3] {
+    region.key.map(|k| k >> region.depth.saturating_sub(1))
+}
+
+/// The octants of the root that hold regions to seed, in key order: the tasks of
+/// [`seed_octant`].
+pub fn seed_octants(decisions: &TiledDecisions) -> Vec<[u32; 3]> {
+    let mut octants: Vec<[u32; 3]> = regions_of(decisions).iter().map(octant_of).collect();
+    octants.sort_unstable();
+    octants.dedup();
+    octants
+}
+
+/// The density field of the seeds: the depth range of the surface leaves, σ not yet scaled.
+fn base_field(decisions: &TiledDecisions) -> DensityField {
     let depths = decisions.surface.iter().map(|a| a.0);
-    let mut field = DensityField {
+    DensityField {
         d_min: depths.clone().min().unwrap_or(0),
         d_max: depths.max().unwrap_or(0),
-        root_edge: 2.0 * frame.root_half,
+        root_edge: 2.0 * decisions.frame.root_half,
         scale: 1.0,
         uniform: None,
         cap: None,
         ceiling: None,
-    };
-    let counted = std::sync::atomic::AtomicU64::new(0);
-    let total = regions.len() as u64;
-    monitor.report("sample tiles", 0, total);
-    let outs: Vec<Result<RegionSeeds, TileError>> = regions
+    }
+}
+
+/// Seeds the regions in the octant `octant` (key at depth 1) of the MPU `decisions` describe,
+/// reading points from `source` (in parallel; the result does not depend on the thread
+/// count). One task of [`sample_tiled`]; its seeds are bitwise those the whole sampling seeds
+/// in these regions' leaves.
+///
+/// Errors: the point source's, an interruption.
+pub fn seed_octant(
+    source: &dyn PointSource,
+    decisions: &TiledDecisions,
+    mpu_params: &MpuParams,
+    params: &ParticleParams,
+    octant: [u32; 3],
+    monitor: &Monitor<'_>,
+) -> Result<OctantSeeds, TileError> {
+    let field = base_field(decisions);
+    let regions: Vec<Region> = regions_of(decisions)
+        .into_iter()
+        .filter(|r| octant_of(r) == octant)
+        .collect();
+    let outs: Vec<Result<OctantSeeds, TileError>> = regions
         .par_iter()
         .map(|region| {
-            let out = seed_region(
+            seed_region(
                 source, decisions, mpu_params, params, &field, region, monitor,
-            );
+            )
+        })
+        .collect();
+    let mut all = OctantSeeds {
+        regions: regions.len(),
+        ..OctantSeeds::default()
+    };
+    for out in outs {
+        let out = out?;
+        all.leaves.extend(out.leaves);
+        all.seeds.extend(&out.seeds);
+        all.read += out.read;
+    }
+    Ok(all)
+}
+
+/// Samples the MPU `decisions` describe, reading points from `source`, with `params` (k
+/// particles per surface leaf; exact counts and uniform mode throw darts over the whole input
+/// and are refused here): the regions' seeds (by octant, in parallel), then one relaxation of
+/// them all whose MPU holds at most `relax_points` input points (all of them when there are no
+/// more: then the particles are bitwise [`psi_particles::sample`]'s without the ceiling on
+/// spacing). The result does not depend on the order of the octants or the thread count.
+/// Progress: stage `"sample tiles"` (octants seeded), then `"relax"`.
+///
+/// Errors: [`TileError::BadParameter`] for an exact count or uniform mode, the point source's
+/// errors, an interruption.
+pub fn sample_tiled(
+    source: &dyn PointSource,
+    decisions: &TiledDecisions,
+    mpu_params: &MpuParams,
+    params: &ParticleParams,
+    relax_points: usize,
+    monitor: &Monitor<'_>,
+) -> Result<TiledSampling, TileError> {
+    let seeds_of = |octant| seed_octant(source, decisions, mpu_params, params, octant, monitor);
+    sample_tiled_from(
+        source,
+        decisions,
+        mpu_params,
+        params,
+        relax_points,
+        &seeds_of,
+        monitor,
+    )
+}
+
+/// [`sample_tiled`] with each octant's seeds from `seeds_of` ([`seed_octant`]'s, or those a
+/// cluster's task wrote to a file).
+///
+/// Errors as [`sample_tiled`], and `seeds_of`'s.
+pub fn sample_tiled_from(
+    source: &dyn PointSource,
+    decisions: &TiledDecisions,
+    mpu_params: &MpuParams,
+    params: &ParticleParams,
+    relax_points: usize,
+    seeds_of: &(dyn Fn([u32; 3]) -> Result<OctantSeeds, TileError> + Sync),
+    monitor: &Monitor<'_>,
+) -> Result<TiledSampling, TileError> {
+    if params.count.is_some() || params.density == psi_particles::DensityMode::Uniform {
+        return Err(TileError::BadParameter(
+            "a tiled sampling seeds k particles per leaf; an exact count or uniform spacing \
+             needs the whole input in memory"
+                .into(),
+        ));
+    }
+    let t0 = Instant::now();
+    let frame = decisions.frame;
+    let mut field = base_field(decisions);
+    let octants = seed_octants(decisions);
+    let counted = std::sync::atomic::AtomicU64::new(0);
+    let total = octants.len() as u64;
+    monitor.report("sample tiles", 0, total);
+    let outs: Vec<Result<OctantSeeds, TileError>> = octants
+        .par_iter()
+        .map(|&octant| {
+            let out = seeds_of(octant);
             let k = counted.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             monitor.report("sample tiles", k, total);
             out
@@ -133,10 +228,11 @@ pub fn sample_tiled(
     // The whole sampling's order: by leaf index, a leaf's particles in seeding order.
     let mut all: Vec<(u32, usize, usize)> = Vec::new();
     let mut parts = Vec::with_capacity(outs.len());
-    let mut points_read = 0;
+    let (mut points_read, mut regions) = (0, 0);
     for (r, out) in outs.into_iter().enumerate() {
         let out = out?;
         points_read += out.read;
+        regions += out.regions;
         all.extend(out.leaves.iter().enumerate().map(|(i, &l)| (l, r, i)));
         parts.push(out);
     }
@@ -183,7 +279,7 @@ pub fn sample_tiled(
         field,
         after,
         report: TileSampleReport {
-            regions: regions.len(),
+            regions,
             points_read,
             relax_points: held,
             seed_seconds,
@@ -216,18 +312,14 @@ fn seed_region(
     field: &DensityField,
     region: &Region,
     monitor: &Monitor<'_>,
-) -> Result<RegionSeeds, TileError> {
+) -> Result<OctantSeeds, TileError> {
     let own: Vec<CellAddress> = decisions
         .surface
         .iter()
         .copied()
         .filter(|&(d, key)| inside(d, key, region))
         .collect();
-    let empty = RegionSeeds {
-        leaves: Vec::new(),
-        seeds: Particles::default(),
-        read: 0,
-    };
+    let empty = OctantSeeds::default();
     let Some(cover) = LeafCover::new(&decisions.frame, &own, SEED_MARGIN) else {
         return Ok(empty);
     };
@@ -257,9 +349,10 @@ fn seed_region(
         leaves.extend(std::iter::repeat_n(l, s.len()));
         seeds.extend(&s);
     }
-    Ok(RegionSeeds {
+    Ok(OctantSeeds {
         leaves,
         seeds,
+        regions: 1,
         read,
     })
 }

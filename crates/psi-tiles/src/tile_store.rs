@@ -119,7 +119,10 @@ fn is_store_file(name: &str) -> bool {
     };
     name == "coarse.pts"
         || name == "cells-top.bin"
+        || name == "cells-upper.bin"
         || keyed("tile-", ".pts")
+        || keyed("cells-group-", ".bin")
+        || keyed("seeds-", ".bin")
         || keyed("cells-", ".bin")
 }
 

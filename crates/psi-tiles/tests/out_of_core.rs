@@ -12,8 +12,12 @@ use psi_mpu::{
     is_coarse_point,
 };
 use psi_octree::{Aabb, Monitor, OrientedPoint};
+use psi_particles::ParticleParams;
 use psi_shapes::{AnalyticShape, gaussian_vector};
-use psi_tiles::{PointSource, TileParams, TileStore, TileWriter, decide_store, decide_tiled};
+use psi_tiles::{
+    PointSource, PointsInMemory, TileParams, TileStore, TileWriter, decide_store, decide_tiled,
+    sample_tiled, sample_tiled_from, seed_octants, seed_store_octant,
+};
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 
@@ -258,7 +262,16 @@ fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
         })
         .collect();
     files.sort();
-    assert_eq!(files.len(), first.report.count + 1);
+    let named =
+        |p: &PathBuf, prefix: &str| p.file_name().unwrap().to_string_lossy().starts_with(prefix);
+    // A file per tile, the levels above the groups, a group per octant of the root, the merge.
+    let groups: Vec<PathBuf> = files
+        .iter()
+        .filter(|p| named(p, "cells-group-"))
+        .cloned()
+        .collect();
+    assert_eq!(groups.len(), 8);
+    assert_eq!(files.len(), first.report.count + 2 + groups.len());
     let inode = |p: &PathBuf| std::fs::metadata(p).unwrap().ino();
     let before: Vec<u64> = files.iter().map(inode).collect();
     // As if killed before two tiles finished, and a third file damaged on disk.
@@ -278,6 +291,25 @@ fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
             _ => assert_eq!(inode(f), before[i], "{} was redone", f.display()),
         }
     }
+    // The pass above the tiles killed after its groups: one group lost, one damaged.
+    let top = dir.join("cells-top.bin");
+    let upper = inode(&dir.join("cells-upper.bin"));
+    std::fs::remove_file(&top).unwrap();
+    std::fs::remove_file(&groups[0]).unwrap();
+    let mut bytes = std::fs::read(&groups[1]).unwrap();
+    bytes[0] ^= 0x40;
+    std::fs::write(&groups[1], &bytes).unwrap();
+    let damaged = inode(&groups[1]);
+    let third = decide_store(&store, &params, &tiles(2, 0.1), &Monitor::silent()).unwrap();
+    assert_eq!(third.cells, first.cells);
+    assert_eq!(third.surface, first.surface);
+    assert!(top.exists() && groups[0].exists());
+    assert_ne!(
+        inode(&groups[1]),
+        damaged,
+        "the damaged group was decided again"
+    );
+    assert_eq!(inode(&dir.join("cells-upper.bin")), upper);
     // Decisions made with other parameters are not taken for these.
     let other = MpuParams {
         error_rel: 2.0 * params.error_rel,
@@ -403,5 +435,60 @@ fn a_store_without_its_manifest_is_unfinished_and_refused() {
     std::fs::remove_file(store.dir().join("manifest.json")).unwrap();
     let err = TileStore::open(&dir).unwrap_err();
     assert!(err.to_string().contains("manifest.json"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The seeds by octant of the root (a cluster's tasks) from the store's files equal the seeds
+/// in memory, bitwise, and so do the particles; a lost or damaged seeds file is seeded again,
+/// the others are taken as they are.
+#[test]
+fn seeds_by_octant_in_files_equal_the_seeds_in_memory_and_resume() {
+    use std::os::unix::fs::MetadataExt;
+    let points = noisy_torus(20_000, 7);
+    let params = MpuParams::paper();
+    let pparams = ParticleParams {
+        max_spacing: Some(f64::INFINITY),
+        ..ParticleParams::paper()
+    };
+    let silent = Monitor::silent();
+    let dir = scratch("seeds");
+    let store = store_of(&points, 2, &dir);
+    let t = tiles(2, 0.25);
+    let decisions = decide_store(&store, &params, &t, &silent).unwrap();
+    let octants = seed_octants(&decisions);
+    assert!(octants.len() >= 4, "{octants:?}");
+    let source = PointsInMemory::new(&points, decisions.frame, 2);
+    let expected = sample_tiled(&source, &decisions, &params, &pparams, 2_000, &silent).unwrap();
+    let from_files = || {
+        let seeds_of = |o| seed_store_octant(&store, &t, &decisions, &params, &pparams, o, &silent);
+        sample_tiled_from(
+            &store, &decisions, &params, &pparams, 2_000, &seeds_of, &silent,
+        )
+        .unwrap()
+    };
+    let first = from_files();
+    assert_eq!(first.seeds, expected.seeds);
+    assert_eq!(first.particles, expected.particles);
+    assert_eq!(first.report.regions, expected.report.regions);
+    let file = |o: [u32; 3]| dir.join(format!("seeds-{}-{}-{}.bin", o[0], o[1], o[2]));
+    let inode = |o: [u32; 3]| std::fs::metadata(file(o)).unwrap().ino();
+    let before: Vec<u64> = octants.iter().map(|&o| inode(o)).collect();
+    std::fs::remove_file(file(octants[0])).unwrap();
+    let mut bytes = std::fs::read(file(octants[1])).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x10;
+    std::fs::write(file(octants[1]), &bytes).unwrap();
+    let damaged = inode(octants[1]);
+    let again = from_files();
+    assert_eq!(again.particles, first.particles);
+    assert!(file(octants[0]).exists());
+    assert_ne!(
+        inode(octants[1]),
+        damaged,
+        "the damaged file was seeded again"
+    );
+    for (i, &o) in octants.iter().enumerate().skip(2) {
+        assert_eq!(inode(o), before[i], "octant {o:?} was seeded again");
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -1,13 +1,15 @@
 """The same tiles on a Dask cluster: ``sample_files`` runs a run out of core (``psi sample
 --max-memory``) as Dask tasks on a ``dask.distributed.Client`` — the partition of the inputs
-into tile files, the cells above the tiles, one task per tile, then the sampling and the
-writing — and writes bitwise the particles the command line writes.
+into tile files, the cells above the tiles (one task per octant of the root), one task per
+tile, the seeds (one task per octant), then the relaxation and the writing — and writes bitwise
+the particles the command line writes.
 
 Needs ``dask[distributed]`` (``pip install "./python[dask]"``). Every task reads and writes the
-scratch directory, so on a real cluster it must be on a file system every worker sees. Each
-task is a pure function of the inputs, the budget and its tile: a worker lost while it runs one
-costs a retry (the files are written whole or not at all), never a different result; a rerun
-with the same scratch resumes from the files there.
+scratch directory, so on a real cluster it must be on a file system every worker sees. The
+cells above the tiles are a task for the root's levels, then one per octant of the root, then
+one that merges them. Each task is a pure function of the inputs, the budget and its part: a
+worker lost while it runs one costs a retry (the files are written whole or not at all), never
+a different result; a rerun with the same scratch resumes from the files there.
 """
 
 import importlib
@@ -64,9 +66,22 @@ def sample_files(
             return client.submit(f, *a, pure=False, retries=RETRIES, **kw)
 
         submit(_psi._ooc_partition, paths, max_memory, scratch_dir, mpu_error, threads).result()
+        groups = submit(_psi._ooc_top_upper, scratch_dir, mpu_error, threads).result()
+        client.gather(
+            [submit(_psi._ooc_top_group, scratch_dir, g, mpu_error, threads) for g in groups]
+        )
         keys = submit(_psi._ooc_top, scratch_dir, mpu_error, threads).result()
         client.gather(
             [submit(_psi._ooc_tile, scratch_dir, key, mpu_error, threads) for key in keys]
+        )
+        # The seeds by octant of the root (a task for an octant without regions does nothing).
+        octants = [(x, y, z) for z in (0, 1) for y in (0, 1) for x in (0, 1)]
+        client.gather(
+            [
+                submit(_psi._ooc_seed, scratch_dir, o, k=k, iterations=iterations, seed=seed,
+                       mpu_error=mpu_error, threads=threads)
+                for o in octants
+            ]
         )
         report: Dict[str, Any] = submit(
             _psi._ooc_sample,
