@@ -102,33 +102,26 @@ pub(crate) fn _ooc_seed(
     mpu_error: Option<f64>,
     threads: Option<i128>,
 ) -> PyResult<()> {
-    let threads = threads_arg(threads)?;
     let particle_params =
         crate::sample::particle_params(iterations, Some(k), None, false, None, seed)?;
-    let store = open_store(&scratch)?;
-    let params = mpu_params(mpu_error)?;
-    crate::errors::detached(py, move || {
-        on_threads(threads, || {
-            let silent = psi::octree::Monitor::silent();
-            let tiles = psi::out_of_core_tiles(&store);
-            let decisions = psi::tiles::decide_store(&store, &params, &tiles, &silent)?;
-            let octant = [octant.0, octant.1, octant.2];
-            if psi::tiles::seed_octants(&decisions).contains(&octant) {
-                psi::tiles::seed_store_octant(
-                    &store,
-                    &tiles,
-                    &decisions,
-                    &params,
-                    &particle_params,
-                    octant,
-                    &silent,
-                )?;
-            }
-            Ok::<(), psi::tiles::TileError>(())
-        })
-    })?
-    .map_err(value_error)?
-    .map_err(|e| value_error(e.to_string()))
+    store_task(py, &scratch, mpu_error, threads, |store, params, tiles| {
+        let silent = psi::octree::Monitor::silent();
+        let decisions = psi::tiles::decide_store(store, params, tiles, &silent)?;
+        let octant = [octant.0, octant.1, octant.2];
+        if !psi::tiles::seed_octants(&decisions).contains(&octant) {
+            return Ok(());
+        }
+        psi::tiles::seed_store_octant(
+            store,
+            tiles,
+            &decisions,
+            params,
+            &particle_params,
+            octant,
+            &silent,
+        )
+        .map(|_| ())
+    })
 }
 
 /// Task of `psi.distributed.sample_files` (not API): [`sample_files`] on a pool of `threads`.
@@ -235,6 +228,33 @@ fn open_store(scratch: &std::path::Path) -> PyResult<psi::tiles::TileStore> {
     psi::tiles::TileStore::open(&scratch.join("tiles")).map_err(|e| value_error(e.to_string()))
 }
 
+/// Runs a task of `psi.distributed.sample_files` on the store in `scratch`: `work` with the
+/// store, the MPU parameters (ε from `mpu_error`) and the run's tiling, on a pool of
+/// `threads` ([`on_threads`]) with the interpreter released; its error as a `ValueError`.
+fn store_task<T: Send>(
+    py: Python<'_>,
+    scratch: &std::path::Path,
+    mpu_error: Option<f64>,
+    threads: Option<i128>,
+    work: impl FnOnce(
+        &psi::tiles::TileStore,
+        &psi::MpuParams,
+        &psi::tiles::TileParams,
+    ) -> Result<T, psi::tiles::TileError>
+    + Send,
+) -> PyResult<T> {
+    let threads = threads_arg(threads)?;
+    let store = open_store(scratch)?;
+    let params = mpu_params(mpu_error)?;
+    crate::errors::detached(py, move || {
+        on_threads(threads, || {
+            work(&store, &params, &psi::out_of_core_tiles(&store))
+        })
+    })?
+    .map_err(value_error)?
+    .map_err(|e| value_error(e.to_string()))
+}
+
 /// Task of `psi.distributed.sample_files` (not API): the inputs streamed into the tile files
 /// in `scratch` (or the store of an earlier run found there); returns the point count.
 #[pyfunction]
@@ -281,22 +301,9 @@ pub(crate) fn _ooc_top_upper(
     mpu_error: Option<f64>,
     threads: Option<i128>,
 ) -> PyResult<Vec<(u32, u32, u32)>> {
-    let threads = threads_arg(threads)?;
-    let store = open_store(&scratch)?;
-    let params = mpu_params(mpu_error)?;
-    let keys = crate::errors::detached(py, move || {
-        on_threads(threads, || {
-            let tiles = psi::out_of_core_tiles(&store);
-            psi::tiles::decide_store_top_upper(
-                &store,
-                &params,
-                &tiles,
-                &psi::octree::Monitor::silent(),
-            )
-        })
-    })?
-    .map_err(value_error)?
-    .map_err(|e| value_error(e.to_string()))?;
+    let keys = store_task(py, &scratch, mpu_error, threads, |store, params, tiles| {
+        psi::tiles::decide_store_top_upper(store, params, tiles, &psi::octree::Monitor::silent())
+    })?;
     Ok(keys.into_iter().map(|k| (k[0], k[1], k[2])).collect())
 }
 
@@ -311,23 +318,16 @@ pub(crate) fn _ooc_top_group(
     mpu_error: Option<f64>,
     threads: Option<i128>,
 ) -> PyResult<()> {
-    let threads = threads_arg(threads)?;
-    let store = open_store(&scratch)?;
-    let params = mpu_params(mpu_error)?;
-    crate::errors::detached(py, move || {
-        on_threads(threads, || {
-            let tiles = psi::out_of_core_tiles(&store);
-            psi::tiles::decide_store_top_group(
-                &store,
-                &params,
-                &tiles,
-                [key.0, key.1, key.2],
-                &psi::octree::Monitor::silent(),
-            )
-        })
-    })?
-    .map_err(value_error)?
-    .map_err(|e| value_error(e.to_string()))
+    store_task(py, &scratch, mpu_error, threads, |store, params, tiles| {
+        let key = [key.0, key.1, key.2];
+        psi::tiles::decide_store_top_group(
+            store,
+            params,
+            tiles,
+            key,
+            &psi::octree::Monitor::silent(),
+        )
+    })
 }
 
 /// Task of `psi.distributed.sample_files` (not API): the cells above the tiles merged from
@@ -340,22 +340,9 @@ pub(crate) fn _ooc_top(
     mpu_error: Option<f64>,
     threads: Option<i128>,
 ) -> PyResult<Vec<(u32, u32, u32)>> {
-    let threads = threads_arg(threads)?;
-    let store = open_store(&scratch)?;
-    let params = mpu_params(mpu_error)?;
-    let keys = crate::errors::detached(py, move || {
-        on_threads(threads, || {
-            let tiles = psi::out_of_core_tiles(&store);
-            psi::tiles::decide_store_top_keys(
-                &store,
-                &params,
-                &tiles,
-                &psi::octree::Monitor::silent(),
-            )
-        })
-    })?
-    .map_err(value_error)?
-    .map_err(|e| value_error(e.to_string()))?;
+    let keys = store_task(py, &scratch, mpu_error, threads, |store, params, tiles| {
+        psi::tiles::decide_store_top_keys(store, params, tiles, &psi::octree::Monitor::silent())
+    })?;
     Ok(keys.into_iter().map(|k| (k[0], k[1], k[2])).collect())
 }
 
@@ -370,22 +357,8 @@ pub(crate) fn _ooc_tile(
     mpu_error: Option<f64>,
     threads: Option<i128>,
 ) -> PyResult<()> {
-    let threads = threads_arg(threads)?;
-    let store = open_store(&scratch)?;
-    let params = mpu_params(mpu_error)?;
-    crate::errors::detached(py, move || {
-        on_threads(threads, || {
-            let tiles = psi::out_of_core_tiles(&store);
-            let key = [key.0, key.1, key.2];
-            psi::tiles::decide_store_tile(
-                &store,
-                &params,
-                &tiles,
-                key,
-                &psi::octree::Monitor::silent(),
-            )
-        })
-    })?
-    .map_err(value_error)?
-    .map_err(|e| value_error(e.to_string()))
+    store_task(py, &scratch, mpu_error, threads, |store, params, tiles| {
+        let key = [key.0, key.1, key.2];
+        psi::tiles::decide_store_tile(store, params, tiles, key, &psi::octree::Monitor::silent())
+    })
 }
