@@ -67,7 +67,8 @@ pub fn decide_store_top_upper(
     check_tiles(store, tiles)?;
     let print = fingerprint(store, params, tiles);
     let coarse = CoarseOnce::default();
-    let upper = decide_top_part(store, params, tiles, &print, None, &coarse, monitor)?;
+    let part = TopPart::Upper;
+    let upper = decide_top_part(store, params, tiles, &print, part, &coarse, monitor)?;
     Ok(group_keys(&upper, tiles))
 }
 
@@ -86,7 +87,8 @@ pub fn decide_store_top_group(
     check_tiles(store, tiles)?;
     let print = fingerprint(store, params, tiles);
     let coarse = CoarseOnce::default();
-    decide_top_part(store, params, tiles, &print, Some(key), &coarse, monitor).map(|_| ())
+    let part = TopPart::Octant(key);
+    decide_top_part(store, params, tiles, &print, part, &coarse, monitor).map(|_| ())
 }
 
 /// The task after the groups of [`decide_store`] (a cluster runs it alone): the cells above
@@ -137,8 +139,10 @@ fn check_tiles(store: &TileStore, tiles: &TileParams) -> Result<(), TileError> {
     Ok(())
 }
 
-/// The cells above the tiles: from their decisions file, or merged from the upper levels'
-/// and the groups' (each from its file, or decided and written), and written.
+/// The cells above the tiles: from their decisions file; else, when a cluster's first task
+/// left the upper levels' file, merged from the upper levels' and the groups' (each from its
+/// file, or decided and written); else decided in one pass (one octree and one coarse index
+/// for all: the merge of the parts is this pass's table, bit for bit, tested). Written.
 fn decide_store_top(
     store: &TileStore,
     params: &MpuParams,
@@ -150,13 +154,35 @@ fn decide_store_top(
     if let Some(r) = read_record(&top_path, print) {
         return Ok(r);
     }
+    let coarse = CoarseOnce::default();
+    if !store.dir().join(UPPER_FILE).exists() {
+        return decide_top_part(
+            store,
+            params,
+            tiles,
+            print,
+            TopPart::Whole,
+            &coarse,
+            monitor,
+        );
+    }
     // The coarse points read once for all parts; the parts one after the other (each fit
     // runs on every thread), so that one copy of the coarse structures is held at a time.
-    let coarse = CoarseOnce::default();
-    let mut top = decide_top_part(store, params, tiles, print, None, &coarse, monitor)?;
+    let mut top = decide_top_part(
+        store,
+        params,
+        tiles,
+        print,
+        TopPart::Upper,
+        &coarse,
+        monitor,
+    )?;
     let groups = group_keys(&top, tiles)
         .iter()
-        .map(|&key| decide_top_part(store, params, tiles, print, Some(key), &coarse, monitor))
+        .map(|&key| {
+            let part = TopPart::Octant(key);
+            decide_top_part(store, params, tiles, print, part, &coarse, monitor)
+        })
         .collect::<Result<Vec<_>, _>>()?;
     // In group order, so the surface's order does not depend on which task finished first.
     for g in groups {
@@ -195,27 +221,41 @@ impl CoarseOnce {
     }
 }
 
-/// One part of the pass above the tiles, from its decisions file or decided and written: the
-/// levels above [`TOP_GROUP_DEPTH`] (`group` `None`), or the group under the cell `group` at
-/// it, down to the tiles' shared levels.
+/// The upper levels' decisions file (a cluster's first task of the pass above the tiles).
+const UPPER_FILE: &str = "cells-upper.bin";
+
+/// A part of the pass above the tiles.
+#[derive(Clone, Copy)]
+enum TopPart {
+    /// All of it, in one pass.
+    Whole,
+    /// The levels above [`TOP_GROUP_DEPTH`].
+    Upper,
+    /// The cell with this key at [`TOP_GROUP_DEPTH`] and those below it, down to the tiles'
+    /// shared levels.
+    Octant([u32; 3]),
+}
+
+/// One part of the pass above the tiles, from its decisions file or decided and written.
 fn decide_top_part(
     store: &TileStore,
     params: &MpuParams,
     tiles: &TileParams,
     print: &str,
-    group: Option<[u32; 3]>,
+    part: TopPart,
     coarse: &CoarseOnce,
     monitor: &Monitor<'_>,
 ) -> Result<TileOutcome, TileError> {
     let manifest = store.manifest();
     let population = manifest.population as usize;
     let until = tiles.depth + tiles.shared_levels;
-    let (path, region) = match group {
-        None => (
-            store.dir().join("cells-upper.bin"),
+    let (path, region) = match part {
+        TopPart::Whole => (store.dir().join("cells-top.bin"), Region::top(until)),
+        TopPart::Upper => (
+            store.dir().join(UPPER_FILE),
             Region::top(until.min(TOP_GROUP_DEPTH)),
         ),
-        Some(key) => (
+        TopPart::Octant(key) => (
             store
                 .dir()
                 .join(format!("cells-group-{}-{}-{}.bin", key[0], key[1], key[2])),

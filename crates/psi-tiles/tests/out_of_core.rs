@@ -15,8 +15,9 @@ use psi_octree::{Aabb, Monitor, OrientedPoint};
 use psi_particles::ParticleParams;
 use psi_shapes::{AnalyticShape, gaussian_vector};
 use psi_tiles::{
-    PointSource, PointsInMemory, TileParams, TileStore, TileWriter, decide_store, decide_tiled,
-    sample_tiled, sample_tiled_from, seed_octants, seed_store_octant,
+    PointSource, PointsInMemory, TileParams, TileStore, TileWriter, decide_store,
+    decide_store_top_group, decide_store_top_upper, decide_tiled, sample_tiled, sample_tiled_from,
+    seed_octants, seed_store_octant,
 };
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
@@ -250,7 +251,25 @@ fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
     let params = MpuParams::paper();
     let dir = scratch("resume");
     let store = store_of(&points, 2, &dir);
-    let first = decide_store(&store, &params, &tiles(2, 0.1), &Monitor::silent()).unwrap();
+    // As a cluster runs it: the upper levels, each octant of the root, then the rest.
+    let t = tiles(2, 0.1);
+    for key in decide_store_top_upper(&store, &params, &t, &Monitor::silent()).unwrap() {
+        decide_store_top_group(&store, &params, &t, key, &Monitor::silent()).unwrap();
+    }
+    let first = decide_store(&store, &params, &t, &Monitor::silent()).unwrap();
+    // The same as the command line's one pass above the tiles, bit for bit.
+    let one_dir = scratch("resume-one-pass");
+    let one_pass = decide_store(
+        &store_of(&points, 2, &one_dir),
+        &params,
+        &t,
+        &Monitor::silent(),
+    );
+    let one_pass = one_pass.unwrap();
+    assert_eq!(one_pass.cells, first.cells);
+    assert_eq!(one_pass.surface, first.surface);
+    assert!(!one_dir.join("cells-upper.bin").exists());
+    std::fs::remove_dir_all(&one_dir).unwrap();
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())
