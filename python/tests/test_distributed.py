@@ -1,9 +1,12 @@
 """``psi.distributed.sample_files`` on a ``LocalCluster`` of two worker processes: bitwise the
 command line's particles, also when a worker is killed while tile tasks run."""
 
+import json
 import os
+import re
 import signal
 import threading
+import time
 
 import pytest
 
@@ -11,6 +14,9 @@ import psi
 from conftest import model, run_cli
 
 distributed = pytest.importorskip("dask.distributed")
+
+#: A tile's decisions file (the pass above the tiles writes cells-top, cells-upper, cells-group-*).
+TILE_FILE = re.compile(r"cells-\d+-\d+-\d+\.bin$")
 import psi.distributed  # noqa: E402
 
 
@@ -49,16 +55,32 @@ def test_a_worker_killed_during_tile_tasks_costs_a_retry_not_the_result(client, 
     ref = tmp_path / "ref.ply"
     psi.sample_files(src, ref, max_memory="128MiB", scratch=tmp_path / "s-ref")
     pids = list(client.run(os.getpid).values())
-    # Kill one worker process shortly after the tasks start (the nanny starts a new one).
-    killer = threading.Timer(2.0, os.kill, args=(pids[0], signal.SIGKILL))
+    out = tmp_path / "dask.ply"
+    tiles = tmp_path / "s-dask" / "tiles"
+    killed = {}
+
+    def kill_during_tile_tasks():
+        # Kill one worker process as soon as the first tile's decisions are written, while the
+        # other tile tasks run (the nanny starts a new worker).
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline:
+            done = [p for p in tiles.glob("cells-*.bin") if TILE_FILE.match(p.name)]
+            if done:
+                killed["tiles done"] = len(done)
+                killed["output written"] = out.exists()
+                os.kill(pids[0], signal.SIGKILL)
+                return
+            time.sleep(0.005)
+
+    killer = threading.Thread(target=kill_during_tile_tasks, daemon=True)
     killer.start()
-    try:
-        out = tmp_path / "dask.ply"
-        psi.distributed.sample_files(src, out, client, max_memory="128MiB",
-                                     scratch=tmp_path / "s-dask")
-    finally:
-        killer.cancel()
-    # The kill happened while the run was going: the timer fired before it ended.
+    psi.distributed.sample_files(src, out, client, max_memory="128MiB",
+                                 scratch=tmp_path / "s-dask")
+    killer.join(timeout=60)
+    # The kill came while tile tasks were left to run, before the output was written.
+    manifest = json.loads((tiles / "manifest.json").read_text())
+    assert killed and not killed["output written"], killed
+    assert killed["tiles done"] < len(manifest["tiles"]), killed
     client.wait_for_workers(2, timeout=60)
     assert pids[0] not in client.run(os.getpid).values()
     assert out.read_bytes() == ref.read_bytes()
