@@ -22,10 +22,15 @@ REACTION = 0.5
 
 CHILD = r"""
 import os
+import signal
 import sys
 import time
 import numpy as np
 import psi
+
+# Python's own Ctrl-C handler, even when the test runs where SIGINT is ignored and children
+# inherit that (a shell's background job, `nohup ... &`): the test is about psi's reaction.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 
 def sphere(n, seed, bumps=True):
     rng = np.random.default_rng(seed)
