@@ -226,6 +226,7 @@ pub fn sample_files_out_of_core(
             &decisions,
             mpu_params,
             particle_params,
+            relax_points,
             octant,
             monitor,
         )

@@ -89,13 +89,14 @@ pub(crate) fn sample_files<'py>(
 /// Task of `psi.distributed.sample_files` (not API): the seeds of one octant of the root
 /// (key at depth 1) written to their file (or found intact), after every tile is decided.
 #[pyfunction]
-#[pyo3(signature = (scratch, octant, *, k=1, iterations=20, seed=2007, mpu_error=None,
-    threads=None))]
+#[pyo3(signature = (scratch, octant, *, max_memory, k=1, iterations=20, seed=2007,
+    mpu_error=None, threads=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn _ooc_seed(
     py: Python<'_>,
     scratch: PathBuf,
     octant: (u32, u32, u32),
+    max_memory: &Bound<'_, PyAny>,
     k: i128,
     iterations: i128,
     seed: i128,
@@ -104,8 +105,14 @@ pub(crate) fn _ooc_seed(
 ) -> PyResult<()> {
     let particle_params =
         crate::sample::particle_params(iterations, Some(k), None, false, None, seed)?;
+    let budget = psi::OutOfCore {
+        max_memory: memory_arg(max_memory)?,
+        scratch: scratch.clone(),
+        tile_depth: None,
+    };
     store_task(py, &scratch, mpu_error, threads, |store, params, tiles| {
         let silent = psi::octree::Monitor::silent();
+        let relax_points = budget.relax_points_for(store.manifest().population);
         let decisions = psi::tiles::decide_store(store, params, tiles, &silent)?;
         let octant = [octant.0, octant.1, octant.2];
         if !psi::tiles::seed_octants(&decisions).contains(&octant) {
@@ -117,6 +124,7 @@ pub(crate) fn _ooc_seed(
             &decisions,
             params,
             &particle_params,
+            relax_points,
             octant,
             &silent,
         )

@@ -16,7 +16,7 @@ use rayon::prelude::*;
 
 use crate::cell_table::CellTable;
 use crate::coarse_index::CoarseIndex;
-use crate::data_footprint::DataFootprint;
+use crate::data_footprint::{DataFootprint, PointFootprint};
 use crate::eval_nodes::{NO_FIT, eval_nodes_into};
 use crate::fit_cell::{
     CellFit, FitInput, fit_cell, fit_octree_cell, refit_octree_cell, try_fit_octree_cell,
@@ -88,6 +88,13 @@ pub struct BuildOptions<'a> {
     /// ([`Mpu::carry_footprint`], which it must call): the build leaves the table empty
     /// instead of filling a fresh one (64 bytes a point).
     pub carry_footprint: bool,
+    /// The points are a thinned subset of an input, and these (shape: N, one per point given)
+    /// are what the whole input says of each ([`Mpu::point_footprint`] on an MPU over the
+    /// whole input, or over the points around): the footprint test ([`Mpu::near_data_from`])
+    /// reads the whole input's spacing and edges from them instead of the subset's. The
+    /// subset must hold every point of the input that is not interior. `None`: the points
+    /// are the input.
+    pub whole_footprint: Option<&'a [PointFootprint]>,
     /// Progress (stage `"mpu"`: octree levels decided of `max_depth + 1`) and interruption:
     /// once its stop flag is set, no cell splits any more and the build returns
     /// [`MpuError::Interrupted`].
@@ -313,8 +320,16 @@ impl Mpu {
             known_cells,
             synced,
             carry_footprint,
+            whole_footprint,
             monitor,
         } = options;
+        if whole_footprint.is_some_and(|w| w.len() != points.len()) {
+            return Err(MpuError::BadParameter(format!(
+                "{} whole-input footprints for {} points",
+                whole_footprint.map_or(0, <[PointFootprint]>::len),
+                points.len()
+            )));
+        }
         let frame = match frame {
             Some(f) => f,
             None => MpuFrame::for_points(&points, params)?,
@@ -543,6 +558,10 @@ impl Mpu {
             DataFootprint::default()
         } else {
             DataFootprint::new_in(input_local, n)
+        };
+        let footprint = match whole_footprint {
+            Some(whole) => footprint.thinned(whole),
+            None => footprint,
         };
         report.seconds = start.elapsed().as_secs_f64();
         report.phase_seconds = crate::BuildPhases {

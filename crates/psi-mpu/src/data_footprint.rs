@@ -6,7 +6,7 @@
 use std::sync::{Arc, OnceLock};
 
 use glam::DVec3;
-use psi_octree::{OrientedPoint, PointIndex};
+use psi_octree::{OrientedPoint, PointIndex, all_k_nearest};
 
 /// The input as the footprint reads it.
 #[derive(Clone, Copy)]
@@ -42,6 +42,41 @@ pub(crate) struct InputLocal {
 }
 
 impl InputLocal {
+    /// The entry of input point `q` from its 9 nearest points `around` (itself and 8
+    /// neighbours, as `(index, squared distance)`, nearest first; the centroid is of the
+    /// first 8).
+    fn from_nearest(data: InputData<'_>, q: u32, around: &[(u32, f64)]) -> InputLocal {
+        let positions = data.positions;
+        let y = positions[q as usize];
+        let last = around.last().map_or(0.0, |n| n.1.sqrt());
+        let spacing = spacing_of(last);
+        let first = &around[..around.len().min(8)];
+        let centroid = first
+            .iter()
+            .map(|&(i, _)| positions[i as usize])
+            .sum::<DVec3>()
+            / first.len().max(1) as f64;
+        let n = data.points[q as usize].n;
+        let offset = centroid - y;
+        let interior = (offset - n * offset.dot(n)).length() <= 0.5 * spacing;
+        let mut near = [0u32; 8];
+        let mut near_len = 0;
+        for &(i, _) in around {
+            if i != q && near_len < near.len() {
+                near[near_len] = i;
+                near_len += 1;
+            }
+        }
+        InputLocal {
+            centroid_offset: [offset.x as f32, offset.y as f32, offset.z as f32],
+            last,
+            near,
+            near_len: near_len as u8,
+            full: around.len() >= 9,
+            interior,
+        }
+    }
+
     /// d₈·√(π/8), world units ([`DataFootprint::spacing`]).
     #[inline]
     fn spacing(&self) -> f64 {
@@ -53,6 +88,94 @@ impl InputLocal {
     #[inline]
     fn beyond(&self) -> f64 {
         if self.full { self.last } else { f64::INFINITY }
+    }
+}
+
+/// What the whole input says about one of its points ([`crate::Mpu::point_footprint`]): carried
+/// with the point into an MPU over a thinned subset of the input, so that the subset's
+/// footprint test reads the whole input's spacing and edges ([`crate::BuildOptions`]'s
+/// `whole_footprint`). 24 bytes.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PointFootprint {
+    /// Centroid of the point's 8 nearest input points (itself included) minus the point, local
+    /// frame axes (world units, f32).
+    centroid_offset: [f32; 3],
+    /// The input spacing at the point, d₈·√(π/8) (world units, f32).
+    spacing: f32,
+    /// Whether the point lies well inside the data ([`crate::Mpu::input_is_interior`]).
+    interior: bool,
+    /// Its hops from the data's edge, at most [`DEEP`] ([`crate::Mpu::point_footprints`]).
+    hops: u8,
+    /// The fraction of the input's points around it that the subset holds (1 for the input
+    /// itself; [`PointFootprint::thinned_to`]).
+    rate: f32,
+    /// Points fewer hops than this from the data's edge take the whole test in a subset, the
+    /// others the lenient one ([`PointFootprint::thinned_to`]).
+    exact_hops: u8,
+}
+
+/// A point whose 8 nearest have their centroid farther than this fraction of a spacing from it
+/// (tangentially) counts as an edge point for the thinned test's band
+/// (`DataFootprint::near_edge`): an interior point of a jittered grid's is about 0.1 away, a
+/// straight border's 0.45, a half disc's 0.95.
+pub const BAND_EDGE_OFFSET: f64 = 0.4;
+
+/// [`PointFootprint::hops`] of a point three or more hops from the data's edge.
+pub const DEEP: u8 = 3;
+
+impl PointFootprint {
+    /// Whether the point lies well inside the data (its neighbours surround it).
+    pub fn interior(&self) -> bool {
+        self.interior
+    }
+
+    /// Its hops from the data's edge: 0 for a point at the edge (not interior, or its
+    /// neighbours' centroid [`BAND_EDGE_OFFSET`] of a spacing away), 1 for one of whose 8
+    /// nearest is, 2 for one with such a neighbour, else [`DEEP`].
+    pub fn hops(&self) -> u8 {
+        self.hops
+    }
+
+    /// This footprint in a subset that holds the fraction `rate` (in (0, 1]) of the input
+    /// points deeper in the data and every point fewer than `exact_hops + 1` hops from its edge
+    /// (or none, for `exact_hops` 0): the footprint test at a point fewer than `exact_hops`
+    /// hops from the edge is the whole test, at the others the lenient one (`thinned_test`).
+    /// The subset keeps one hop more than it tests exactly, so that a position beside the
+    /// band's inner side finds a lenient point nearer than the exact ones.
+    pub fn thinned_to(self, rate: f64, exact_hops: u8) -> PointFootprint {
+        PointFootprint {
+            rate: rate as f32,
+            exact_hops,
+            ..self
+        }
+    }
+
+    /// The footprint of a point not measured on the whole input: interior, deep, its spacing
+    /// unknown (0), so that the thinned test reads the subset's own spacing there.
+    pub fn unmeasured() -> PointFootprint {
+        PointFootprint {
+            centroid_offset: [0.0; 3],
+            spacing: 0.0,
+            interior: true,
+            hops: DEEP,
+            rate: 1.0,
+            exact_hops: 0,
+        }
+    }
+
+    /// The hops tested exactly ([`PointFootprint::thinned_to`]).
+    pub fn exact_hops(&self) -> u8 {
+        self.exact_hops
+    }
+
+    /// The input spacing at the point, world units.
+    pub fn spacing(&self) -> f64 {
+        f64::from(self.spacing)
+    }
+
+    fn centroid_offset(&self) -> DVec3 {
+        let [x, y, z] = self.centroid_offset.map(f64::from);
+        DVec3::new(x, y, z)
     }
 }
 
@@ -113,6 +236,9 @@ pub struct FootprintTest {
 #[derive(Clone, Debug, Default)]
 pub(crate) struct DataFootprint {
     table: Arc<Vec<InputLocalSlot>>,
+    /// The whole input's footprint at each point, when the points are a thinned subset of it
+    /// (shape: N).
+    whole: Option<Arc<[PointFootprint]>>,
 }
 
 impl DataFootprint {
@@ -122,7 +248,78 @@ impl DataFootprint {
         memory.resize_with(n, InputLocalSlot::default);
         Self {
             table: Arc::new(memory),
+            whole: None,
         }
+    }
+
+    /// This footprint reading `whole` (shape: N, one per point) for the spacing and edges of
+    /// the points, a thinned subset of an input `whole` describes (see `near_data_from`).
+    pub(crate) fn thinned(self, whole: &[PointFootprint]) -> Self {
+        Self {
+            whole: Some(whole.into()),
+            ..self
+        }
+    }
+
+    /// What this footprint says of each of points `qs` (its own points' spacing and edges,
+    /// not a carried whole input's), with their hops from the data's edge: 0 for a point that
+    /// is not interior, 1 for one of whose 8 nearest is, 2 for one with such a neighbour, else
+    /// [`DEEP`], edges as [`DataFootprint::near_edge`] tells; a point whose 9 nearest may lie
+    /// beyond the points given (`complete`(its local position, the distance to its 9th
+    /// nearest) false) counts as interior there. Reads the table, lazily filled (see
+    /// `fill_all`).
+    /// Shape: as `qs`.
+    pub(crate) fn point_footprints(
+        &self,
+        data: InputData<'_>,
+        qs: &[u32],
+        complete: &dyn Fn(DVec3, f64) -> bool,
+    ) -> Vec<PointFootprint> {
+        // A point whose 9 nearest may lie beyond the points given counts as interior.
+        let interior = |q: u32| {
+            !self.near_edge(data, q)
+                || !complete(data.positions[q as usize], self.local(data, q).last)
+        };
+        // Per point: 0 not known, 1 not touching an edge, 2 touching one (itself or a
+        // neighbour not interior).
+        let mut touches = vec![0u8; data.positions.len()];
+        let mut touches_edge = |q: u32| {
+            let t = &mut touches[q as usize];
+            if *t == 0 {
+                let local = self.local(data, q);
+                let edge = !interior(q)
+                    || local.near[..usize::from(local.near_len)]
+                        .iter()
+                        .any(|&j| !interior(j));
+                *t = 1 + u8::from(edge);
+            }
+            *t == 2
+        };
+        qs.iter()
+            .map(|&q| {
+                let local = *self.local(data, q);
+                let hops = if !interior(q) {
+                    0
+                } else if touches_edge(q) {
+                    1
+                } else if local.near[..usize::from(local.near_len)]
+                    .iter()
+                    .any(|&j| touches_edge(j))
+                {
+                    2
+                } else {
+                    DEEP
+                };
+                PointFootprint {
+                    centroid_offset: local.centroid_offset,
+                    spacing: local.spacing() as f32,
+                    interior: local.interior,
+                    hops,
+                    rate: 1.0,
+                    exact_hops: DEEP - 1,
+                }
+            })
+            .collect()
     }
 
     /// The table's memory, when no other MPU shares it.
@@ -141,6 +338,7 @@ impl DataFootprint {
     pub(crate) fn from_table(table: Vec<InputLocalSlot>) -> Self {
         Self {
             table: Arc::new(table),
+            whole: None,
         }
     }
 
@@ -167,37 +365,34 @@ impl DataFootprint {
     /// its 9 nearest points (itself and 8 neighbours; the centroid is of the first 8).
     fn local(&self, data: InputData<'_>, q: u32) -> &InputLocal {
         self.table[q as usize].0.get_or_init(|| {
-            let positions = data.positions;
-            let y = positions[q as usize];
-            let around = data.index.nearest_of_entry(q, y, 9);
-            let last = around.last().map_or(0.0, |n| n.1.sqrt());
-            let spacing = spacing_of(last);
-            let first = &around[..around.len().min(8)];
-            let centroid = first
-                .iter()
-                .map(|&(i, _)| positions[i as usize])
-                .sum::<DVec3>()
-                / first.len().max(1) as f64;
-            let n = data.points[q as usize].n;
-            let offset = centroid - y;
-            let interior = (offset - n * offset.dot(n)).length() <= 0.5 * spacing;
-            let mut near = [0u32; 8];
-            let mut near_len = 0;
-            for &(i, _) in &around {
-                if i != q && near_len < near.len() {
-                    near[near_len] = i;
-                    near_len += 1;
-                }
-            }
-            InputLocal {
-                centroid_offset: [offset.x as f32, offset.y as f32, offset.z as f32],
-                last,
-                near,
-                near_len: near_len as u8,
-                full: around.len() >= 9,
-                interior,
-            }
+            let y = data.positions[q as usize];
+            InputLocal::from_nearest(data, q, &data.index.nearest_of_entry(q, y, 9))
         })
+    }
+
+    /// Whether input point `q` lies at or near the data's edge, as the thinned test's band
+    /// counts it: not interior, or the centroid of its 8 nearest more than
+    /// [`BAND_EDGE_OFFSET`] of a spacing from it in its tangent plane (a point on the straight
+    /// border of a regular sampling, about 0.45, passes the interior test).
+    pub(crate) fn near_edge(&self, data: InputData<'_>, q: u32) -> bool {
+        let local = self.local(data, q);
+        if !local.interior {
+            return true;
+        }
+        let n = data.points[q as usize].n;
+        let [x, y, z] = local.centroid_offset.map(f64::from);
+        let offset = DVec3::new(x, y, z);
+        (offset - n * offset.dot(n)).length() > BAND_EDGE_OFFSET * local.spacing()
+    }
+
+    /// Fills every entry of the table at once ([`psi_octree::all_k_nearest`]: a grid instead
+    /// of a kd-tree query per point), for a caller that reads them all.
+    pub(crate) fn fill_all(&self, data: InputData<'_>) {
+        all_k_nearest(data.positions, data.index, 9, |q, around| {
+            self.table[q as usize]
+                .0
+                .get_or_init(|| InputLocal::from_nearest(data, q, around));
+        });
     }
 
     /// Whether local position `y` lies inside the data's footprint, and the new anchor (see
@@ -223,6 +418,15 @@ impl DataFootprint {
         };
         let local = self.local(data, q);
         let q_position = data.positions[q as usize];
+        if let Some(whole) = &self.whole {
+            let at_q = Nearest {
+                q,
+                position: q_position,
+                normal: data.points[q as usize].n,
+                d2,
+            };
+            return thinned_test(whole[q as usize], local.last, at_q, y, reach);
+        }
         let new_anchor = Some(DataAnchor {
             point: q,
             position: q_position,
@@ -273,6 +477,60 @@ impl DataFootprint {
         }
         (best.1 < bound * bound).then_some(best)
     }
+}
+
+/// The footprint test of local position `y` on a thinned subset of the input whose points
+/// carry the whole input's footprint (`whole`, of q, the subset point nearest y; world units).
+/// The subset holds every point within a band along the data's edge (`psi_tiles`' thinned
+/// data: two hops wide, or less for a small input with long edges), so near an edge the subset
+/// point nearest y is the input's nearest:
+/// - q in the band but its innermost hop ([`PointFootprint::thinned_to`]): the whole test at q (within `reach` × its spacing; then
+///   within half a spacing of an interior q, or the centroid of its 8 nearest within a spacing
+///   of y in q's tangent plane);
+/// - q farther inside: y is inside when it lies within `reach` × the distance at which a
+///   point of the subset has its 8th nearest: the larger of q's own (`subset_d8`) and the
+///   one its rate implies, d₈ = spacing/√(rate·π/8). The edge test on the subset's own
+///   neighbours would reject where the subset is irregular (a hashed subset of a regular
+///   input most of all), which made the thinned relaxation's spacing less even
+///   (docs/notes/2026-11-27-carried-footprint.md).
+///
+/// The anchor's fast radius is half the whole spacing at an interior point, as in the whole
+/// test.
+fn thinned_test(
+    whole: PointFootprint,
+    subset_d8: f64,
+    q: Nearest,
+    y: DVec3,
+    reach: f64,
+) -> FootprintTest {
+    let spacing = whole.spacing();
+    let anchor = Some(DataAnchor {
+        point: q.q,
+        position: q.position,
+        fast_radius: if whole.interior { 0.5 * spacing } else { -1.0 },
+    });
+    let d = q.d2.sqrt();
+    let inside = if whole.hops >= whole.exact_hops {
+        let rate_d8 = spacing / (f64::from(whole.rate) * std::f64::consts::PI / 8.0).sqrt();
+        d <= reach * rate_d8.max(subset_d8)
+    } else {
+        let offset = q.position + whole.centroid_offset() - y;
+        let tangential = (offset - q.normal * offset.dot(q.normal)).length();
+        d <= reach * spacing && ((whole.interior && d <= 0.5 * spacing) || tangential <= spacing)
+    };
+    FootprintTest { inside, anchor }
+}
+
+/// The subset point nearest a tested position.
+#[derive(Clone, Copy)]
+struct Nearest {
+    q: u32,
+    /// Its position, local frame.
+    position: DVec3,
+    /// Its unit normal.
+    normal: DVec3,
+    /// Its squared distance to the position, world units².
+    d2: f64,
 }
 
 #[cfg(test)]

@@ -65,7 +65,7 @@ pub use buffers::MpuBuffers;
 pub use build::{BuildOptions, Reuse};
 pub use cell_table::{CellAddress, CellDecision, CellTable};
 pub use data_coverage::data_coverage;
-pub use data_footprint::{DataAnchor, FootprintTest};
+pub use data_footprint::{BAND_EDGE_OFFSET, DEEP, DataAnchor, FootprintTest, PointFootprint};
 pub use error::MpuError;
 pub use evaluate::{BACKGROUND_WEIGHT, LeafEvaluation};
 pub use fit_fetched::{BallSource, FetchBall, KthDistance};

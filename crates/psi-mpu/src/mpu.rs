@@ -7,7 +7,7 @@ use glam::DVec3;
 use psi_octree::{Aabb, Octree, OrientedPoint, PointIndex};
 
 use crate::coarse_index::CoarseIndex;
-use crate::data_footprint::{DataFootprint, FootprintTest, InputData};
+use crate::data_footprint::{DataFootprint, FootprintTest, InputData, PointFootprint};
 use crate::eval_nodes::{EvalNode, NO_FIT};
 use crate::fit_store::FitStore;
 use crate::{BuildReport, DataAnchor, FitKind, LocalFunction, MpuFrame, MpuParams};
@@ -186,6 +186,38 @@ impl Mpu {
     ) -> FootprintTest {
         self.footprint
             .near_data_from(self.input_data(), x - self.frame.origin, reach, anchor)
+    }
+
+    /// What the input says about each of its points `qs` (the spacing, whether it is
+    /// interior, the centroid of its 8 nearest, its hops from the data's edge): to carry with
+    /// the points into an MPU over a thinned subset of the input
+    /// (`BuildOptions::whole_footprint`). Shape: as `qs`. Reads the footprint's cache (fill it
+    /// first with [`Mpu::fill_footprint`] when `qs` are most points).
+    /// `complete(x, r)` tells whether every input point within `r` (world units) of world
+    /// position `x` is among this MPU's points (false: the point's neighbours may be cut off,
+    /// and it is not taken for an edge point on their account).
+    pub fn point_footprints(
+        &self,
+        qs: &[u32],
+        complete: &dyn Fn(DVec3, f64) -> bool,
+    ) -> Vec<PointFootprint> {
+        let origin = self.frame.origin;
+        let world = |x: DVec3, r: f64| complete(x + origin, r);
+        self.footprint
+            .point_footprints(self.input_data(), qs, &world)
+    }
+
+    /// Fills the footprint's cache for every input point at once (a grid's 9 nearest instead
+    /// of a kd-tree query each: `psi_octree::all_k_nearest`).
+    pub fn fill_footprint(&self) {
+        self.footprint.fill_all(self.input_data());
+    }
+
+    /// Whether input point `q` lies at or near the data's edge as [`Mpu::point_footprints`]
+    /// counts it: not interior, or its 8 nearest points' centroid more than
+    /// [`crate::BAND_EDGE_OFFSET`] of a spacing from it in its tangent plane.
+    pub fn input_near_edge(&self, q: u32) -> bool {
+        self.footprint.near_edge(self.input_data(), q)
     }
 
     /// Whether input point `q` lies well inside the data: its own 8 nearest points (itself

@@ -32,6 +32,7 @@
 //! assert!(tree.points_in(leaf).len() <= 32 || tree.cell(leaf).depth == 12);
 //! ```
 
+mod all_nearest;
 mod cell;
 mod cell_at;
 mod error;
@@ -47,6 +48,7 @@ mod point_index;
 mod points_within;
 mod support_cells;
 
+pub use all_nearest::all_k_nearest;
 pub use cell::{Cell, NO_CELL};
 pub use error::OctreeError;
 pub use geometry::{Aabb, OrientedPoint};

@@ -365,6 +365,7 @@ impl Scene {
             synced: synced.as_deref(),
             // A brush carries the footprint table over (below) when that is the cheaper way.
             carry_footprint: carry,
+            whole_footprint: None,
             monitor: *monitor,
         };
         let mut mpu = Mpu::build_with(points, &self.mpu_params, options)?;

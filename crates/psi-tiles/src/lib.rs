@@ -37,6 +37,7 @@ mod run_digests;
 mod sample_tiles;
 mod seed_store;
 mod sub_cells;
+mod thinned_data;
 mod tile_buckets;
 mod tile_params;
 mod tile_records;
@@ -56,6 +57,7 @@ pub use sample_tiles::{
     seed_octant, seed_octants,
 };
 pub use seed_store::seed_store_octant;
+pub use thinned_data::ThinnedData;
 pub use tile_params::TileParams;
 pub use tile_report::TileReport;
 pub use tile_store::{StoreManifest, StoredTile, TileStore, TileWriter};

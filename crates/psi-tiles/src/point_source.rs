@@ -71,7 +71,7 @@ pub trait PointSource: Sync {
 /// A hash of world position `p` in [0, 1) (SplitMix64's finaliser over the coordinates' bits):
 /// uniform in its top bits, as a fraction needs. (psi-mpu's coarse-point hash is read modulo 16
 /// and is not meant to be.)
-fn position_hash(p: DVec3) -> f64 {
+pub(crate) fn position_hash(p: DVec3) -> f64 {
     let mix = |mut x: u64| {
         x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
         x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);

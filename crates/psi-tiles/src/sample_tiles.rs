@@ -10,6 +10,8 @@
 
 use std::time::Instant;
 
+use glam::DVec3;
+
 use psi_mpu::{BuildOptions, CellAddress, Mpu, MpuParams, Region};
 use psi_octree::Monitor;
 use psi_particles::{
@@ -21,6 +23,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::decide_tile::tile_keys;
 use crate::leaf_cover::LeafCover;
+use crate::thinned_data::ThinnedData;
 use crate::{PointSource, TileError, TiledDecisions};
 
 /// A region reads the points within this fraction of their own edge of its leaves (the seeds
@@ -72,6 +75,9 @@ pub struct OctantSeeds {
     pub regions: usize,
     /// Input points read (a point counts once for every region that reads it).
     pub read: usize,
+    /// The octant's share of the relaxation's data when the input does not fit it
+    /// ([`ThinnedData`]; empty when it does).
+    pub thinned: ThinnedData,
 }
 
 /// The regions of a tiled sampling: the tiles, then the surface leaves above the tile depth.
@@ -122,7 +128,8 @@ fn base_field(decisions: &TiledDecisions) -> DensityField {
 /// Seeds the regions in the octant `octant` (key at depth 1) of the MPU `decisions` describe,
 /// reading points from `source` (in parallel; the result does not depend on the thread
 /// count). One task of [`sample_tiled`]; its seeds are bitwise those the whole sampling seeds
-/// in these regions' leaves.
+/// in these regions' leaves. When the relaxation may hold fewer than all input points
+/// (`relax_points`), the octant's share of its thinned data comes with them.
 ///
 /// Errors: the point source's, an interruption.
 pub fn seed_octant(
@@ -130,10 +137,12 @@ pub fn seed_octant(
     decisions: &TiledDecisions,
     mpu_params: &MpuParams,
     params: &ParticleParams,
+    relax_points: usize,
     octant: [u32; 3],
     monitor: &Monitor<'_>,
 ) -> Result<OctantSeeds, TileError> {
     let field = base_field(decisions);
+    let thin = thinning_rate(source.population(), relax_points);
     let regions: Vec<Region> = regions_of(decisions)
         .into_iter()
         .filter(|r| octant_of(r) == octant)
@@ -141,9 +150,13 @@ pub fn seed_octant(
     let outs: Vec<Result<OctantSeeds, TileError>> = regions
         .par_iter()
         .map(|region| {
-            seed_region(
-                source, decisions, mpu_params, params, &field, region, monitor,
-            )
+            let seeding = Seeding {
+                mpu_params,
+                params,
+                field: &field,
+                thin,
+            };
+            seed_region(source, decisions, &seeding, region, monitor)
         })
         .collect();
     let mut all = OctantSeeds {
@@ -155,8 +168,24 @@ pub fn seed_octant(
         all.leaves.extend(out.leaves);
         all.seeds.extend(&out.seeds);
         all.read += out.read;
+        all.thinned.extend(out.thinned);
     }
     Ok(all)
+}
+
+/// The rate at which the seeding keeps interior points for the relaxation's thinned data
+/// (`ThinnedData`): `None` when every one of `population` points fits in `relax_points`.
+fn thinning_rate(population: usize, relax_points: usize) -> Option<f64> {
+    (population > relax_points).then(|| relax_points as f64 / population as f64)
+}
+
+/// What every region of a seeding reads.
+struct Seeding<'a> {
+    mpu_params: &'a MpuParams,
+    params: &'a ParticleParams,
+    field: &'a DensityField,
+    /// [`thinning_rate`].
+    thin: Option<f64>,
 }
 
 /// Samples the MPU `decisions` describe, reading points from `source`, with `params` (k
@@ -177,7 +206,17 @@ pub fn sample_tiled(
     relax_points: usize,
     monitor: &Monitor<'_>,
 ) -> Result<TiledSampling, TileError> {
-    let seeds_of = |octant| seed_octant(source, decisions, mpu_params, params, octant, monitor);
+    let seeds_of = |octant| {
+        seed_octant(
+            source,
+            decisions,
+            mpu_params,
+            params,
+            relax_points,
+            octant,
+            monitor,
+        )
+    };
     sample_tiled_from(
         source,
         decisions,
@@ -229,10 +268,12 @@ pub fn sample_tiled_from(
     let mut all: Vec<(u32, usize, usize)> = Vec::new();
     let mut parts = Vec::with_capacity(outs.len());
     let (mut points_read, mut regions) = (0, 0);
+    let mut thinned = ThinnedData::default();
     for (r, out) in outs.into_iter().enumerate() {
-        let out = out?;
+        let mut out = out?;
         points_read += out.read;
         regions += out.regions;
+        thinned.extend(std::mem::take(&mut out.thinned));
         all.extend(out.leaves.iter().enumerate().map(|(i, &l)| (l, r, i)));
         parts.push(out);
     }
@@ -252,7 +293,14 @@ pub fn sample_tiled_from(
     }
     let seed_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let points = source.relaxation_points(relax_points)?;
+    // Every input point when they fit, else the octants' thinned data.
+    let (points, footprints) = match thinning_rate(source.population(), relax_points) {
+        None => (source.relaxation_points(relax_points)?, None),
+        Some(rate) => {
+            let data = thinned.at_most(relax_points, rate);
+            (data.points, Some(data.footprints))
+        }
+    };
     let held = points.len();
     let mut particles = seeds.clone();
     let after = if points.is_empty() {
@@ -261,6 +309,7 @@ pub fn sample_tiled_from(
         let options = BuildOptions {
             frame: Some(frame),
             known_cells: Some(&decisions.cells),
+            whole_footprint: footprints.as_deref(),
             monitor: monitor.quiet(),
             ..Default::default()
         };
@@ -307,12 +356,16 @@ fn inside(depth: u8, key: [u32; 3], region: &Region) -> bool {
 fn seed_region(
     source: &dyn PointSource,
     decisions: &TiledDecisions,
-    mpu_params: &MpuParams,
-    params: &ParticleParams,
-    field: &DensityField,
+    seeding: &Seeding<'_>,
     region: &Region,
     monitor: &Monitor<'_>,
 ) -> Result<OctantSeeds, TileError> {
+    let Seeding {
+        mpu_params,
+        params,
+        field,
+        thin,
+    } = *seeding;
     let own: Vec<CellAddress> = decisions
         .surface
         .iter()
@@ -340,6 +393,7 @@ fn seed_region(
     let tree = mpu.octree();
     let mut leaves = Vec::new();
     let mut seeds = Particles::default();
+    let mut own_leaves = Vec::new();
     for l in mpu.surface_leaves() {
         let cell = tree.cell(l);
         if !inside(cell.depth, cell.key, region) {
@@ -348,11 +402,44 @@ fn seed_region(
         let s = seed_leaves(&mpu, &[l], field, params);
         leaves.extend(std::iter::repeat_n(l, s.len()));
         seeds.extend(&s);
+        own_leaves.push(l);
+    }
+    let mut thinned = ThinnedData::default();
+    if let Some(rate) = thin {
+        // Every input point lies in a surface leaf, and the region's own are in the cover:
+        // a ball holds no point the region lacks when its 6 axis extremes and 8 diagonal ones
+        // lie in the cover or in the region's cube (the cover's cells are cubes far larger
+        // than the ball).
+        let (rc, rh) = region.cube(&decisions.frame);
+        let in_region = |x: DVec3| {
+            let t = (x - decisions.frame.origin - rc).abs();
+            t.max_element() <= rh
+        };
+        let complete = |x: DVec3, r: f64| {
+            let d = r / 3f64.sqrt();
+            (0..14).all(|k| {
+                let offset = if k < 6 {
+                    let mut o = DVec3::ZERO;
+                    o[k / 2] = if k % 2 == 0 { r } else { -r };
+                    o
+                } else {
+                    let b = k - 6;
+                    DVec3::new(
+                        if b & 1 == 0 { d } else { -d },
+                        if b & 2 == 0 { d } else { -d },
+                        if b & 4 == 0 { d } else { -d },
+                    )
+                };
+                in_region(x + offset) || cover.holds(x + offset)
+            })
+        };
+        thinned.keep_from_region(&mpu, &own_leaves, rate, &complete);
     }
     Ok(OctantSeeds {
         leaves,
         seeds,
         regions: 1,
         read,
+        thinned,
     })
 }

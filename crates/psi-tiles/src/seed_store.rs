@@ -16,22 +16,25 @@ use crate::{
 };
 
 /// The seeds of the octant `octant` (key at depth 1) of the MPU `decisions` describe (decided
-/// from `store` with `mpu_params` and `tiles`), with `params`: from the octant's seeds file
+/// from `store` with `mpu_params` and `tiles`), with `params` and the relaxation's budget of
+/// `relax_points` input points: from the octant's seeds file
 /// when it is intact and made from the same, else seeded from `store` and written.
 ///
 /// Errors as [`seed_octant`], and a file that cannot be written.
+#[allow(clippy::too_many_arguments)]
 pub fn seed_store_octant(
     store: &TileStore,
     tiles: &TileParams,
     decisions: &TiledDecisions,
     mpu_params: &MpuParams,
     params: &ParticleParams,
+    relax_points: usize,
     octant: [u32; 3],
     monitor: &Monitor<'_>,
 ) -> Result<OctantSeeds, TileError> {
     let mut h = Sha256::new();
     h.update(fingerprint(store, mpu_params, tiles));
-    h.update(format!("{params:?} {SEED_MARGIN}"));
+    h.update(format!("{params:?} {SEED_MARGIN} {relax_points}"));
     let print: String = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
     let path = store.dir().join(format!(
         "seeds-{}-{}-{}.bin",
@@ -41,7 +44,15 @@ pub fn seed_store_octant(
         return Ok(seeds);
     }
     let source: &dyn PointSource = store;
-    let seeds = seed_octant(source, decisions, mpu_params, params, octant, monitor)?;
+    let seeds = seed_octant(
+        source,
+        decisions,
+        mpu_params,
+        params,
+        relax_points,
+        octant,
+        monitor,
+    )?;
     write_record(&path, &print, &seeds)?;
     Ok(seeds)
 }

@@ -479,7 +479,8 @@ fn seeds_by_octant_in_files_equal_the_seeds_in_memory_and_resume() {
     let source = PointsInMemory::new(&points, decisions.frame, 2);
     let expected = sample_tiled(&source, &decisions, &params, &pparams, 2_000, &silent).unwrap();
     let from_files = || {
-        let seeds_of = |o| seed_store_octant(&store, &t, &decisions, &params, &pparams, o, &silent);
+        let seeds_of =
+            |o| seed_store_octant(&store, &t, &decisions, &params, &pparams, 2_000, o, &silent);
         sample_tiled_from(
             &store, &decisions, &params, &pparams, 2_000, &seeds_of, &silent,
         )

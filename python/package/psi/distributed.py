@@ -78,8 +78,8 @@ def sample_files(
         octants = [(x, y, z) for z in (0, 1) for y in (0, 1) for x in (0, 1)]
         client.gather(
             [
-                submit(_psi._ooc_seed, scratch_dir, o, k=k, iterations=iterations, seed=seed,
-                       mpu_error=mpu_error, threads=threads)
+                submit(_psi._ooc_seed, scratch_dir, o, max_memory=max_memory, k=k,
+                       iterations=iterations, seed=seed, mpu_error=mpu_error, threads=threads)
                 for o in octants
             ]
         )

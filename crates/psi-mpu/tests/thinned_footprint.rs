@@ -1,0 +1,104 @@
+//! The footprint test on a thinned subset that carries the whole input's footprint
+//! (`BuildOptions::whole_footprint`) against the whole input's own test (the oracle), on an
+//! open, jittered square patch with a round hole: the thinned test keeps every point within two
+//! hops of the data's edge and a quarter of the others, and must answer as the whole test does
+//! wherever the answer is clear (well inside the data, well beyond its edges), and mostly in
+//! between. The subset's own test, without the carried footprint, is checked to fail that.
+
+use glam::DVec3;
+use psi_mpu::{BuildOptions, DEEP, Mpu, MpuParams};
+use psi_octree::OrientedPoint;
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+
+#[test]
+fn a_thinned_subset_with_the_whole_footprint_tests_as_the_whole_input() {
+    let (side, h) = (80usize, 0.0125);
+    let (hole, radius) = (DVec3::new(0.5, 0.5, 0.0), 0.2);
+    let mut rng = Pcg64Mcg::seed_from_u64(5);
+    let points: Vec<OrientedPoint> = (0..side * side)
+        .map(|k| {
+            let (i, j) = ((k % side) as f64, (k / side) as f64);
+            let jitter = DVec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, 0.0);
+            OrientedPoint {
+                p: DVec3::new(i * h, j * h, 0.0) + 0.3 * h * jitter,
+                n: DVec3::Z,
+            }
+        })
+        .filter(|p| (p.p - hole).length() > radius)
+        .collect();
+    let params = MpuParams::paper();
+    let whole = Mpu::build(&points, &params).unwrap();
+    whole.fill_footprint();
+    let all: Vec<u32> = (0..points.len() as u32).collect();
+    let footprints = whole.point_footprints(&all, &|_, _| true);
+    // The band (two hops of the edge) whole, every fourth of the others.
+    let kept: Vec<usize> = (0..points.len())
+        .filter(|&i| footprints[i].hops() < DEEP || i % 4 == 0)
+        .collect();
+    let band = kept
+        .iter()
+        .filter(|&&i| footprints[i].hops() < DEEP)
+        .count();
+    assert!(band > 100 && band < points.len() / 2, "band {band}");
+    let rate = (kept.len() - band) as f64 / (points.len() - band) as f64;
+    let subset: Vec<OrientedPoint> = kept.iter().map(|&i| whole.points()[i]).collect();
+    let carried: Vec<_> = kept
+        .iter()
+        .map(|&i| footprints[i].thinned_to(rate, DEEP - 1))
+        .collect();
+    let frame = Some(*whole.frame());
+    let thinned = Mpu::build_with(
+        &subset[..],
+        &params,
+        BuildOptions {
+            frame,
+            whole_footprint: Some(&carried),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let own = Mpu::build_with(
+        &subset[..],
+        &params,
+        BuildOptions {
+            frame,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    // Positions on the plane over and around the patch; "clear" ones lie more than two steps
+    // inside the data or beyond its edge (the outer square's or the hole's).
+    let (mut clear, mut agree, mut all_tests, mut own_agree) = (0, 0, 0, 0);
+    for _ in 0..20_000 {
+        let x = DVec3::new(
+            -0.1 + 1.2 * rng.random::<f64>(),
+            -0.1 + 1.2 * rng.random::<f64>(),
+            0.0,
+        );
+        let edge = (side - 1) as f64 * h;
+        let to_square = x.x.min(x.y).min(edge - x.x).min(edge - x.y);
+        let to_hole = (x - hole).length() - radius;
+        let depth = to_square.min(to_hole);
+        let expected = whole.near_data_from(x, 1.0, None).inside;
+        let got = thinned.near_data_from(x, 1.0, None).inside;
+        all_tests += 1;
+        agree += usize::from(got == expected);
+        own_agree += usize::from(own.near_data_from(x, 1.0, None).inside == expected);
+        if depth.abs() > 2.0 * h {
+            clear += 1;
+            assert_eq!(got, expected, "{x:?}: {depth} from the edge");
+            assert_eq!(expected, depth > 0.0, "the oracle at {x:?}");
+        }
+    }
+    assert!(clear > 15_000, "{clear}");
+    assert!(
+        agree as f64 >= 0.98 * all_tests as f64,
+        "{agree} of {all_tests} agree"
+    );
+    // The subset's own test rejects inside the data where its points look irregular.
+    assert!(
+        (own_agree as f64) < 0.98 * all_tests as f64,
+        "{own_agree} of {all_tests}: the subset's own test agrees as well"
+    );
+}

@@ -1,0 +1,177 @@
+//! The relaxation's data when the input does not fit: a thinned subset of the input points that
+//! carries what the whole input says of each ([`PointFootprint`]: its spacing, whether it is
+//! interior, the centroid of its neighbours, its hops from the data's edge), so that the
+//! footprint test on the subset accepts where the whole test would (`psi_mpu`'s
+//! `thinned_test`; docs/notes/2026-11-27-carried-footprint.md).
+//!
+//! Each region of the seeding holds the points of its leaves with a margin, so it measures the
+//! footprint of its own points on the whole input there. It keeps every point within two hops
+//! of the data's edge (where the test reads the input at its own resolution) and the others
+//! whose position hash lies below the rate. The relaxation takes the regions' points in the
+//! seeding's order and thins them to its budget.
+
+use glam::DVec3;
+use psi_mpu::{DEEP, Mpu, PointFootprint};
+use psi_octree::OrientedPoint;
+use serde::{Deserialize, Serialize};
+
+use crate::point_source::position_hash;
+
+/// A thinned subset of the input with the whole input's footprint at each point, in the order
+/// of the seeding (octant, region, leaf, then input order: a function of the input and the
+/// tiling, not of the threads or the workers).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ThinnedData {
+    /// The points, world frame (shape: N).
+    pub points: Vec<OrientedPoint>,
+    /// What the whole input says of each (shape: N).
+    pub footprints: Vec<PointFootprint>,
+}
+
+impl ThinnedData {
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Appends the points of `leaves` of `mpu` (an MPU over the points around them, its leaf
+    /// indices the whole octree's; one region of the seeding) that lie in a band along the
+    /// data's edge or whose position hash is below `rate` (in [0, 1]), with their footprint
+    /// on `mpu`'s points. The band is the points within two hops of the edge, or one, the
+    /// widest that fits the region's share of the budget (`rate` × its points), else none
+    /// (an irregular sampling whose every tenth point looks like an edge point, or a tiny
+    /// share): a bound on what the seeding carries. Each footprint records the hops tested
+    /// exactly ([`PointFootprint::thinned_to`]); the relaxation narrows the bands alike
+    /// everywhere ([`ThinnedData::at_most`]).
+    /// `complete` as [`Mpu::point_footprints`]'.
+    pub(crate) fn keep_from_region(
+        &mut self,
+        mpu: &Mpu,
+        leaves: &[u32],
+        rate: f64,
+        complete: &dyn Fn(DVec3, f64) -> bool,
+    ) {
+        let input = mpu.points();
+        let tree = mpu.octree();
+        let qs: Vec<u32> = leaves
+            .iter()
+            .flat_map(|&l| tree.points_in(l).iter().copied())
+            .collect();
+        let share = rate * qs.len() as f64;
+        // Measuring every point costs a 9-nearest query each; where the sample says that even
+        // the one-hop band would not fit (an irregular sampling's many seeming edge points),
+        // nothing is measured and every kept point takes the lenient test.
+        let sample: Vec<u32> = qs.iter().copied().step_by(SAMPLE_STRIDE).collect();
+        let seeming_edges = sample
+            .iter()
+            .filter(|&&q| {
+                let x = input[q as usize].p;
+                mpu.input_near_edge(q) && complete(x, 2.0 * mpu.input_spacing(q))
+            })
+            .count();
+        let edge_share = seeming_edges as f64 / sample.len().max(1) as f64;
+        if edge_share * ONE_HOP_PER_EDGE_POINT * qs.len() as f64 > share {
+            for &q in &qs {
+                let p = input[q as usize];
+                if position_hash(p.p) < rate {
+                    self.points.push(p);
+                    self.footprints.push(PointFootprint::unmeasured());
+                }
+            }
+            return;
+        }
+        mpu.fill_footprint();
+        let footprints = mpu.point_footprints(&qs, complete);
+        let within = |k: u8| footprints.iter().filter(|f| f.hops() < k).count() as f64;
+        let band = [DEEP, DEEP - 1]
+            .into_iter()
+            .find(|&k| within(k) <= share)
+            .unwrap_or(0);
+        let exact = band.saturating_sub(1);
+        for (&q, f) in qs.iter().zip(footprints) {
+            let p = input[q as usize];
+            if f.hops() < band || position_hash(p.p) < rate {
+                self.points.push(p);
+                self.footprints.push(f.thinned_to(rate, exact));
+            }
+        }
+    }
+
+    /// Appends `other`'s points.
+    pub(crate) fn extend(&mut self, other: ThinnedData) {
+        self.points.extend(other.points);
+        self.footprints.extend(other.footprints);
+    }
+
+    /// The points in the order given, about `at_most`
+    /// of them (a hash threshold keeps the expected number): every point of the bands along
+    /// the data's edge, and the others of the lowest position hash (kept at `rate`, so that
+    /// their hashes lie below it). The bands are the regions', narrowed alike everywhere (two
+    /// hops wide, one, or none) until they take at most half the budget: a survey's edges are
+    /// a small share of its points, a small scan's or an irregular sampling's may not be.
+    /// Each footprint records the rate of the points outside the bands and the hops tested
+    /// exactly ([`PointFootprint::thinned_to`]).
+    pub(crate) fn at_most(self, at_most: usize, rate: f64) -> ThinnedData {
+        let widest = [DEEP - 1, 1, 0];
+        let exact_within =
+            |cap: u8| move |f: &PointFootprint| f.thinned_to(1.0, f.exact_hops().min(cap));
+        let band_at = |cap: u8| {
+            self.footprints
+                .iter()
+                .filter(|f| in_band(&exact_within(cap)(f)))
+                .count()
+        };
+        let cap = widest
+            .into_iter()
+            .find(|&c| band_at(c) <= at_most / 2)
+            .unwrap_or(0);
+        let footprints: Vec<PointFootprint> =
+            self.footprints.iter().map(exact_within(cap)).collect();
+        let hashes: Vec<f64> = self.points.iter().map(|p| position_hash(p.p)).collect();
+        let band = footprints.iter().filter(|f| in_band(f)).count();
+        // The others: those kept at `rate`, and a narrowed band's outer points (kept whatever
+        // their hash), which the same threshold thins alike.
+        let eligible = (0..self.len())
+            .filter(|&i| !in_band(&footprints[i]) && hashes[i] < rate)
+            .count();
+        let left = at_most.saturating_sub(band);
+        let deep_rate = if eligible <= left {
+            rate
+        } else {
+            rate * left as f64 / eligible as f64
+        };
+        let order: Vec<usize> = (0..self.len())
+            .filter(|&i| in_band(&footprints[i]) || hashes[i] < deep_rate)
+            .collect();
+        // A rate of 0 (no deep point kept) would make the lenient test's reach infinite.
+        let deep_rate = deep_rate.clamp(1e-6, 1.0);
+        ThinnedData {
+            points: order.iter().map(|&i| self.points[i]).collect(),
+            footprints: order
+                .iter()
+                .map(|&i| {
+                    let f = footprints[i];
+                    f.thinned_to(deep_rate, f.exact_hops())
+                })
+                .collect(),
+        }
+    }
+}
+
+/// One point in this many of a region is asked whether it is interior, to estimate its share
+/// of edge points before measuring them all.
+const SAMPLE_STRIDE: usize = 16;
+
+/// Points within one hop of an edge per edge point, about (an isolated one and its 8 nearest;
+/// fewer along an edge, where they share neighbours).
+const ONE_HOP_PER_EDGE_POINT: f64 = 5.0;
+
+/// Whether a point is in its region's band along the data's edge (kept whatever its hash).
+fn in_band(f: &PointFootprint) -> bool {
+    f.exact_hops() > 0 && f.hops() <= f.exact_hops()
+}
