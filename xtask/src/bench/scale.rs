@@ -7,8 +7,9 @@
 //! `--keep-outliers --no-noise-estimate --keep-inward-normals --max-spacing inf`; skipped when
 //! psi's estimate exceeds the memory available) and with `--max-memory` (default 1GiB): wall
 //! time, peak memory, the tiles, whether the counts agree, and per level the spacing CV out of
-//! core over in core (issue 26: within 5 %) and the tiled surface distance. Writes
-//! `target/xtask/scale/scale.md` and `scale.json`.
+//! core over in core (issue 26: within 5 %) and the tiled surface distance; for the dragon,
+//! the tiled particles' checks of `reproduce-tables` against the mesh (distance, coverage at
+//! 1.5 mean spacings). Writes `target/xtask/scale/scale.md` and `scale.json`.
 //!
 //! `cargo xtask bench scale 1000000,3000000 1GiB dragon`
 
@@ -48,6 +49,24 @@ fn write_pcd(path: &Path, n: usize, mut next: impl FnMut() -> psi::OrientedPoint
     f.flush()?;
     drop(f);
     std::fs::rename(&partial, path).with_context(|| format!("renaming to {}", path.display()))
+}
+
+/// The dragon mesh the inputs are sampled from.
+fn dragon_mesh() -> std::path::PathBuf {
+    crate::project_root().join("../shared/models/stanford_dragon_vrip_raw.ply")
+}
+
+/// `reproduce-tables`' checks of the particles in `particles` (their run's report `report`)
+/// against the dragon mesh: distances over the mesh's bounding-box diagonal D, coverage.
+fn mesh_checks(particles: &Path, report: &Value) -> Result<Value> {
+    let mesh = psi::load_mesh(&dragon_mesh())?;
+    let (lo, hi) = mesh.vertices.iter().fold(
+        (psi::DVec3::INFINITY, psi::DVec3::NEG_INFINITY),
+        |(lo, hi), v| (lo.min(*v), hi.max(*v)),
+    );
+    let mut with_diagonal = report.clone();
+    with_diagonal["input"]["bbox_diagonal"] = json!((hi - lo).length());
+    crate::tables::check(&dragon_mesh(), particles, &with_diagonal)
 }
 
 /// Writes the input of `n` points of `model` to `path`.
@@ -111,6 +130,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
     let dir = crate::project_root().join("target/xtask/scale");
     std::fs::create_dir_all(&dir)?;
     let mut rows = Vec::new();
+    let mut md_checks = String::new();
     let mut md = format!(
         "# Scale: in core and out of core (`--max-memory {budget}`)\n\n\
          Model `{model}` sampled at N points (seed 1), binary PCD with normals; release build, \
@@ -210,6 +230,30 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             "in_core_after": core["particles"]["after"],
         }));
         println!("{n}: in core {core_s:.2} s, out of core {ooc_s:.2} s");
+        if model == "dragon" {
+            let checks = mesh_checks(&ooc_out, &ooc)?;
+            md_checks += &format!(
+                "| {n} | {:.1e} / {:.1e} / {:.1e} | {:.2} % | {:.2} % |\n",
+                checks["distance"]["mean"].as_f64().unwrap_or(f64::NAN),
+                checks["distance"]["p99"].as_f64().unwrap_or(f64::NAN),
+                checks["distance"]["max"].as_f64().unwrap_or(f64::NAN),
+                100.0
+                    * checks["distance"]["within_2e-3"]
+                        .as_f64()
+                        .unwrap_or(f64::NAN),
+                100.0 * checks["coverage_1.5_spacing"].as_f64().unwrap_or(f64::NAN),
+            );
+            if let Some(row) = rows.last_mut() {
+                row["out_of_core_mesh_checks"] = checks;
+            }
+        }
+    }
+    if !md_checks.is_empty() {
+        md += &format!(
+            "\nOut of core against the dragon mesh (`reproduce-tables`' checks):\n\n\
+             | N | distance mean / p99 / max (D) | within 2e-3 D | coverage (1.5 spacings) |\n\
+             |---|---|---|---|\n{md_checks}"
+        );
     }
     std::fs::write(dir.join("scale.md"), &md)?;
     std::fs::write(
