@@ -148,4 +148,3 @@ pub(crate) fn coverage(reference: &Reference, particles: &[DVec3], radius: f64) 
         .count();
     covered as f64 / samples.len() as f64
 }
-
