@@ -77,15 +77,13 @@ fn real_models_sampled_tile_by_tile_have_the_whole_samplings_seeds_count_and_spa
 }
 
 /// Per-level spacing CV of a thinned tiled sampling over the whole one's, at most, for levels of
-/// at least 1000 particles, when the relaxation holds half the points (measured 0.94–1.02 but
-/// the armadillo's level 8, 1037 particles: 1.08; issue 26 asks 5 % of runs out of core, whose
-/// relaxation holds millions of points: `cargo xtask bench scale`). With a quarter or a tenth
-/// of these models of 35 000 to 170 000 points the kept points are only 1 to 4 times the
-/// particles, and the lenient test's reach is a fraction of their spacing; where the band along
-/// the data's edge then does not fit, the bunny's holes are tested leniently too (its level 7
-/// at a tenth: 1.25; every other level 0.93–1.16): those are held to
-/// [`LEVEL_CV_RATIO_SPARSE`]. The old subset test gave up to 1.29 at a half and 1.40 at a
-/// tenth on the bunny (docs/notes/2026-11-27-carried-footprint.md).
+/// at least 1000 particles, when the relaxation holds half the points (issue 26 asks 5 % of
+/// runs out of core, whose relaxation holds millions of points: `cargo xtask bench scale`).
+/// With a quarter or a tenth of these models of 35 000 to 170 000 points the kept points are
+/// only 1 to 4 times the particles, and the lenient test's reach is a fraction of their
+/// spacing; where the band along the data's edge then does not fit, the bunny's holes are
+/// tested leniently too: those are held to [`LEVEL_CV_RATIO_SPARSE`]. Measured ratios, and the
+/// old subset test's: docs/notes/2026-11-27-carried-footprint.md.
 const LEVEL_CV_RATIO: f64 = 1.1;
 /// See [`LEVEL_CV_RATIO`].
 const LEVEL_CV_RATIO_SPARSE: f64 = 1.3;

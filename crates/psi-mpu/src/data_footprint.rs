@@ -58,7 +58,7 @@ impl InputLocal {
             / first.len().max(1) as f64;
         let n = data.points[q as usize].n;
         let offset = centroid - y;
-        let interior = (offset - n * offset.dot(n)).length() <= 0.5 * spacing;
+        let interior = tangential_length(offset, n) <= 0.5 * spacing;
         let mut near = [0u32; 8];
         let mut near_len = 0;
         for &(i, _) in around {
@@ -83,6 +83,12 @@ impl InputLocal {
         spacing_of(self.last)
     }
 
+    /// The centroid of the point's 8 nearest minus the point, local frame, world units.
+    #[inline]
+    fn centroid_offset(&self) -> DVec3 {
+        vector_of(self.centroid_offset)
+    }
+
     /// Every input point but the point and `near` is at least this far from the point, world
     /// units (the 9th nearest's distance; ∞ when there are no more points).
     #[inline]
@@ -91,7 +97,7 @@ impl InputLocal {
     }
 }
 
-/// What the whole input says about one of its points ([`crate::Mpu::point_footprint`]): carried
+/// What the whole input says about one of its points ([`crate::Mpu::point_footprints`]): carried
 /// with the point into an MPU over a thinned subset of the input, so that the subset's
 /// footprint test reads the whole input's spacing and edges ([`crate::BuildOptions`]'s
 /// `whole_footprint`). 24 bytes.
@@ -174,9 +180,21 @@ impl PointFootprint {
     }
 
     fn centroid_offset(&self) -> DVec3 {
-        let [x, y, z] = self.centroid_offset.map(f64::from);
-        DVec3::new(x, y, z)
+        vector_of(self.centroid_offset)
     }
+}
+
+/// A stored f32 vector as a `DVec3` (the same frame and units).
+#[inline]
+fn vector_of(v: [f32; 3]) -> DVec3 {
+    let [x, y, z] = v.map(f64::from);
+    DVec3::new(x, y, z)
+}
+
+/// The length of `v`'s component in the plane normal to unit `n` (the units of `v`).
+#[inline]
+fn tangential_length(v: DVec3, n: DVec3) -> f64 {
+    (v - n * v.dot(n)).length()
 }
 
 /// The input spacing d₈·√(π/8) for a distance d₈ to the 8th neighbour (world units): the
@@ -203,7 +221,7 @@ impl InputLocalSlot {
     }
 }
 
-/// An input point a particle was near, with what [`DataFootprint::near_data_from`] reads of it:
+/// An input point a particle was near, with what [`crate::Mpu::near_data_from`] reads of it:
 /// kept by the particle between moves.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DataAnchor {
@@ -222,7 +240,7 @@ impl DataAnchor {
     }
 }
 
-/// The answer of the footprint test ([`DataFootprint::near_data_from`]).
+/// The answer of the footprint test ([`crate::Mpu::near_data_from`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FootprintTest {
     /// Whether the position lies inside the data's footprint.
@@ -262,8 +280,8 @@ impl DataFootprint {
     }
 
     /// What this footprint says of each of points `qs` (its own points' spacing and edges,
-    /// not a carried whole input's), with their hops from the data's edge: 0 for a point that
-    /// is not interior, 1 for one of whose 8 nearest is, 2 for one with such a neighbour, else
+    /// not a carried whole input's), with their hops from the data's edge: 0 for a point at
+    /// the edge, 1 for one of whose 8 nearest is, 2 for one with such a neighbour, else
     /// [`DEEP`], edges as [`DataFootprint::near_edge`] tells; a point whose 9 nearest may lie
     /// beyond the points given (`complete`(its local position, the distance to its 9th
     /// nearest) false) counts as interior there. Reads the table, lazily filled (see
@@ -380,9 +398,7 @@ impl DataFootprint {
             return true;
         }
         let n = data.points[q as usize].n;
-        let [x, y, z] = local.centroid_offset.map(f64::from);
-        let offset = DVec3::new(x, y, z);
-        (offset - n * offset.dot(n)).length() > BAND_EDGE_OFFSET * local.spacing()
+        tangential_length(local.centroid_offset(), n) > BAND_EDGE_OFFSET * local.spacing()
     }
 
     /// Fills every entry of the table at once ([`psi_octree::all_k_nearest`]: a grid instead
@@ -446,10 +462,8 @@ impl DataFootprint {
             return answer(true, new_anchor);
         }
         let n = data.points[q as usize].n;
-        let [cx, cy, cz] = local.centroid_offset.map(f64::from);
-        let offset = q_position + DVec3::new(cx, cy, cz) - y;
-        let tangential = (offset - n * offset.dot(n)).length();
-        answer(tangential <= spacing, new_anchor)
+        let offset = q_position + local.centroid_offset() - y;
+        answer(tangential_length(offset, n) <= spacing, new_anchor)
     }
 
     /// The input point nearest to local `y` and its squared distance, when the cached 9 nearest
@@ -515,8 +529,9 @@ fn thinned_test(
         d <= reach * rate_d8.max(subset_d8)
     } else {
         let offset = q.position + whole.centroid_offset() - y;
-        let tangential = (offset - q.normal * offset.dot(q.normal)).length();
-        d <= reach * spacing && ((whole.interior && d <= 0.5 * spacing) || tangential <= spacing)
+        d <= reach * spacing
+            && ((whole.interior && d <= 0.5 * spacing)
+                || tangential_length(offset, q.normal) <= spacing)
     };
     FootprintTest { inside, anchor }
 }

@@ -19,14 +19,14 @@ pub fn is_coarse_point(frame: &MpuFrame, p: DVec3) -> bool {
     is_coarse(p - frame.origin)
 }
 
-/// [`fit_region`] of the cells above depth `until` from the input's coarse points alone (the
+/// [`crate::fit_region`] of the cells above depth `until` from the input's coarse points alone (the
 /// points whose position hash selects them, shape C, in increasing input index order; the
 /// only points an out-of-core build holds for these levels), fetching the ball of the few
 /// cells whose fit needs every point (a cell with few points, or one whose error stays under
 /// ε0 among the coarse ones) from `source`. Bitwise the decisions of a build over all
 /// `population` points in `frame`.
 ///
-/// Errors as [`fit_region`], and [`MpuError::Fetch`] from `source`.
+/// Errors as [`crate::fit_region`], and [`MpuError::Fetch`] from `source`.
 pub fn fit_top(
     coarse: &[OrientedPoint],
     population: usize,

@@ -6,25 +6,17 @@
 
 use glam::DVec3;
 use psi_mpu::{Mpu, MpuParams};
-use psi_octree::OrientedPoint;
 use psi_shapes::assert_near;
-use rand::{RngExt, SeedableRng};
+
+mod common;
+use common::jittered_patch;
+use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 
 #[test]
 fn spacing_and_interior_equal_brute_force_and_find_the_border() {
     let (side, h) = (40usize, 0.025);
-    let mut rng = Pcg64Mcg::seed_from_u64(11);
-    let points: Vec<OrientedPoint> = (0..side * side)
-        .map(|k| {
-            let (i, j) = ((k % side) as f64, (k / side) as f64);
-            let jitter = DVec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, 0.0);
-            OrientedPoint {
-                p: DVec3::new(i * h, j * h, 0.0) + 0.3 * h * jitter,
-                n: DVec3::Z,
-            }
-        })
-        .collect();
+    let points = jittered_patch(side, h, &mut Pcg64Mcg::seed_from_u64(11));
     let mpu = Mpu::build(&points, &MpuParams::paper()).expect("patch builds");
     let pts = mpu.points();
     let (mut inner, mut corners) = (0, 0);

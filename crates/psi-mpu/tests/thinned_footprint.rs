@@ -11,20 +11,16 @@ use psi_octree::OrientedPoint;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
+mod common;
+use common::jittered_patch;
+
 #[test]
 fn a_thinned_subset_with_the_whole_footprint_tests_as_the_whole_input() {
     let (side, h) = (80usize, 0.0125);
     let (hole, radius) = (DVec3::new(0.5, 0.5, 0.0), 0.2);
     let mut rng = Pcg64Mcg::seed_from_u64(5);
-    let points: Vec<OrientedPoint> = (0..side * side)
-        .map(|k| {
-            let (i, j) = ((k % side) as f64, (k / side) as f64);
-            let jitter = DVec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, 0.0);
-            OrientedPoint {
-                p: DVec3::new(i * h, j * h, 0.0) + 0.3 * h * jitter,
-                n: DVec3::Z,
-            }
-        })
+    let points: Vec<OrientedPoint> = jittered_patch(side, h, &mut rng)
+        .into_iter()
         .filter(|p| (p.p - hole).length() > radius)
         .collect();
     let params = MpuParams::paper();

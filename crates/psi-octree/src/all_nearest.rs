@@ -22,10 +22,10 @@ const MAX_RING: i64 = 2;
 /// Calls `each(i, nearest)` for every point `i` of `positions` (shape N, any frame) with its
 /// `k` nearest points (itself included) as `(index, squared distance)`, nearest first, equal
 /// distances by index; fewer when there are fewer than `k` points. `index` is a kd-tree over
-/// `positions`, asked for the points whose k nearest lie beyond [`MAX_RING`] cells (those may
-/// order equal distances otherwise). Points are visited cell by cell of a grid whose cells
-/// hold about `k` / 2 points of a surface; the order of the calls is a function of the
-/// positions.
+/// `positions`, asked for the points whose k nearest lie beyond `MAX_RING` cells (those may
+/// order equal distances otherwise). Points are visited cell by cell of a grid whose cell edge
+/// is `CELL_PER_KTH` × the median distance to the k-th nearest; the order of the calls is a
+/// function of the positions.
 pub fn all_k_nearest(
     positions: &[DVec3],
     index: &PointIndex,
@@ -65,8 +65,8 @@ pub fn all_k_nearest(
     let mut order: Vec<u32> = (0..n as u32).collect();
     let keys: Vec<[i64; 3]> = positions.iter().map(|&p| cell_of(p)).collect();
     order.sort_unstable_by_key(|&i| (keys[i as usize], i));
-    let mut cells: HashMap<[i64; 3], (usize, usize), BuildHasherDefault<CellHasher>> =
-        HashMap::default();
+    // The runs of `order` that share a cell, in order, and a map from cell to run.
+    let mut runs: Vec<([i64; 3], usize, usize)> = Vec::new();
     let mut start = 0;
     while start < n {
         let key = keys[order[start] as usize];
@@ -74,15 +74,16 @@ pub fn all_k_nearest(
         while end < n && keys[order[end] as usize] == key {
             end += 1;
         }
-        cells.insert(key, (start, end));
+        runs.push((key, start, end));
         start = end;
     }
+    let cells: HashMap<[i64; 3], (usize, usize), BuildHasherDefault<CellHasher>> = runs
+        .iter()
+        .map(|&(key, start, end)| (key, (start, end)))
+        .collect();
     let mut candidates: Vec<u32> = Vec::new();
     let mut found: Vec<(u32, f64)> = Vec::with_capacity(n.min(4096));
-    let mut start = 0;
-    while start < n {
-        let key = keys[order[start] as usize];
-        let (_, end) = cells[&key];
+    for &(key, start, end) in &runs {
         // Rings of cells around this one until every point of the cell has its k nearest
         // within the searched cube.
         let mut ring = 1i64;
@@ -141,7 +142,6 @@ pub fn all_k_nearest(
                 pending.clear();
             }
         }
-        start = end;
     }
 }
 

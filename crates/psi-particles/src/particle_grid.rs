@@ -28,7 +28,7 @@ const CUBES_PER_POINT: usize = 4;
 
 impl ParticleGrid {
     /// Buckets `positions` (shape: N, world units) in cubes of edge about `edge` (larger when
-    /// the box of the positions would need more than [`CUBES_PER_POINT`] cubes per point).
+    /// the box of the positions would need more than `CUBES_PER_POINT` cubes per point).
     /// Non-finite positions are left out.
     pub fn new(positions: &[DVec3], edge: f64) -> Self {
         let finite = positions.iter().filter(|p| p.is_finite());

@@ -26,6 +26,27 @@ use crate::leaf_cover::LeafCover;
 use crate::thinned_data::ThinnedData;
 use crate::{PointSource, TileError, TiledDecisions};
 
+/// The unit directions of a ball's 6 axis extremes and 8 diagonal ones (±1/√3 on each axis).
+const BALL_EXTREMES: [[f64; 3]; 14] = {
+    const D: f64 = 0.577_350_269_189_625_8; // 1/√3
+    [
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+        [D, D, D],
+        [-D, D, D],
+        [D, -D, D],
+        [-D, -D, D],
+        [D, D, -D],
+        [-D, D, -D],
+        [D, -D, -D],
+        [-D, -D, -D],
+    ]
+};
+
 /// A region reads the points within this fraction of their own edge of its leaves (the seeds
 /// read their leaf's points; the margin only absorbs rounding at the faces).
 pub const SEED_MARGIN: f64 = 0.125;
@@ -416,21 +437,9 @@ fn seed_region(
             t.max_element() <= rh
         };
         let complete = |x: DVec3, r: f64| {
-            let d = r / 3f64.sqrt();
-            (0..14).all(|k| {
-                let offset = if k < 6 {
-                    let mut o = DVec3::ZERO;
-                    o[k / 2] = if k % 2 == 0 { r } else { -r };
-                    o
-                } else {
-                    let b = k - 6;
-                    DVec3::new(
-                        if b & 1 == 0 { d } else { -d },
-                        if b & 2 == 0 { d } else { -d },
-                        if b & 4 == 0 { d } else { -d },
-                    )
-                };
-                in_region(x + offset) || cover.holds(x + offset)
+            BALL_EXTREMES.iter().all(|&[a, b, c]| {
+                let y = x + DVec3::new(a, b, c) * r;
+                in_region(y) || cover.holds(y)
             })
         };
         thinned.keep_from_region(&mpu, &own_leaves, rate, &complete);

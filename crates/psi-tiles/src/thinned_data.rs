@@ -108,8 +108,7 @@ impl ThinnedData {
         self.footprints.extend(other.footprints);
     }
 
-    /// The points in the order given, about `at_most`
-    /// of them (a hash threshold keeps the expected number): every point of the bands along
+    /// The points in the order given, about `at_most` of them (a hash threshold keeps the expected number): every point of the bands along
     /// the data's edge, and the others of the lowest position hash (kept at `rate`, so that
     /// their hashes lie below it). The bands are the regions', narrowed alike everywhere (two
     /// hops wide, one, or none) until they take at most half the budget: a survey's edges are
@@ -118,12 +117,12 @@ impl ThinnedData {
     /// exactly ([`PointFootprint::thinned_to`]).
     pub(crate) fn at_most(self, at_most: usize, rate: f64) -> ThinnedData {
         let widest = [DEEP - 1, 1, 0];
-        let exact_within =
-            |cap: u8| move |f: &PointFootprint| f.thinned_to(1.0, f.exact_hops().min(cap));
+        // A footprint with its band narrowed to at most `cap` hops tested exactly.
+        let narrowed = |f: &PointFootprint, cap: u8| f.thinned_to(1.0, f.exact_hops().min(cap));
         let band_at = |cap: u8| {
             self.footprints
                 .iter()
-                .filter(|f| in_band(&exact_within(cap)(f)))
+                .filter(|f| in_band(&narrowed(f, cap)))
                 .count()
         };
         let cap = widest
@@ -131,7 +130,7 @@ impl ThinnedData {
             .find(|&c| band_at(c) <= at_most / 2)
             .unwrap_or(0);
         let footprints: Vec<PointFootprint> =
-            self.footprints.iter().map(exact_within(cap)).collect();
+            self.footprints.iter().map(|f| narrowed(f, cap)).collect();
         let hashes: Vec<f64> = self.points.iter().map(|p| position_hash(p.p)).collect();
         let band = footprints.iter().filter(|f| in_band(f)).count();
         // The others: those kept at `rate`, and a narrowed band's outer points (kept whatever
