@@ -28,6 +28,7 @@ mod files;
 mod memory_estimate;
 mod out_of_core;
 mod prepare;
+mod read_ahead;
 pub mod render;
 pub mod report;
 

@@ -25,6 +25,7 @@ use psi_tiles::{
 
 use crate::PsiError;
 use crate::files::{check_not_dir, extension_format, open_error, read_error};
+use crate::read_ahead::read_ahead;
 
 /// Bytes a tile's build holds per point of the tile: its points with their halo in the MPU's
 /// arrays, kd-tree and footprint table, and the balls its far cells fetch (the peaks this is
@@ -331,10 +332,16 @@ pub fn partition_files(
     let buffer = (options.max_memory / 4 / 56).max(1 << 16) as usize;
     let mut writer =
         TileWriter::create(&dir, frame, depth, buffer, &source).map_err(|e| fail(e.to_string()))?;
-    let dropped = for_each_input(paths, format, |chunk| {
-        writer.push(chunk).map_err(|e| fail(e.to_string()))?;
-        monitor.check().map_err(|_| fail("interrupted".into()))
-    })?;
+    // Decoding the input (on a thread of its own when the pool has two) overlaps with
+    // writing the tiles.
+    let dropped = read_ahead(
+        |visit| for_each_input(paths, format, visit),
+        |chunk| {
+            writer.push(chunk).map_err(|e| fail(e.to_string()))?;
+            monitor.check().map_err(|_| fail("interrupted".into()))
+        },
+        || fail("stopped".into()),
+    )?;
     let store = writer.finish().map_err(|e| fail(e.to_string()))?;
     // The files must not have changed between the two passes.
     let now = paths
