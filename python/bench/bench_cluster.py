@@ -2,7 +2,8 @@
 
 ``psi.distributed.sample_files`` on one input with the same budget on ``LocalCluster``s of
 1, 2, ... worker processes of one thread each: the wall time of each, the speed-up over one
-worker, and whether the particles written are bitwise the same (they must be: the tiling is a
+worker, each task function's span and busy time (Dask's task stream), and whether the
+particles written are bitwise the same (they must be: the tiling is a
 function of the input and the budget alone). Each run starts from an empty scratch directory.
 
     python python/bench/bench_cluster.py INPUT [--max-memory 1GiB] [--workers 1,2]
@@ -20,13 +21,34 @@ from pathlib import Path
 import psi.distributed
 
 
+def stages(task_stream):
+    """Per task function (the key's prefix): tasks, wall span from the first start to the
+    last stop, and the summed compute time, in seconds."""
+    spans = {}
+    for task in task_stream:
+        name = task["key"].rsplit("-", 1)[0]
+        for s in task["startstops"]:
+            if s["action"] != "compute":
+                continue
+            a = spans.setdefault(
+                name, {"tasks": 0, "start": s["start"], "stop": s["stop"], "busy": 0.0}
+            )
+            a["tasks"] += 1
+            a["start"], a["stop"] = min(a["start"], s["start"]), max(a["stop"], s["stop"])
+            a["busy"] += s["stop"] - s["start"]
+    return {
+        k: {"tasks": v["tasks"], "span": v["stop"] - v["start"], "busy": v["busy"]}
+        for k, v in sorted(spans.items(), key=lambda kv: kv[1]["start"])
+    }
+
+
 def run(input_path, workers, max_memory, work):
-    from dask.distributed import Client, LocalCluster
+    from dask.distributed import Client, LocalCluster, get_task_stream
 
     out = work / f"particles-{workers}.ply"
     scratch = work / f"scratch-{workers}"
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True) as cluster:
-        with Client(cluster) as client:
+        with Client(cluster) as client, get_task_stream(client) as stream:
             t = time.perf_counter()
             report = psi.distributed.sample_files(
                 input_path, out, client, max_memory=max_memory, scratch=scratch
@@ -39,7 +61,7 @@ def run(input_path, workers, max_memory, work):
         "seconds": seconds,
         "particles": report["particles"]["count"],
         "sha256": digest,
-        "stages": report["tiles"]["seconds"],
+        "tasks": stages(stream.data),
     }
 
 
@@ -62,6 +84,10 @@ def main():
             f"| {r['workers']} | {r['seconds']:.1f} | {base / r['seconds']:.2f}× | "
             f"{r['particles']} | {'yes' if same else 'NO'} |"
         )
+    for r in rows:
+        print(f"{r['workers']} worker(s): " + ", ".join(
+            f"{k} {v['tasks']}× span {v['span']:.1f} s busy {v['busy']:.1f} s"
+            for k, v in r["tasks"].items()))
     if args.out:
         Path(args.out).write_text(json.dumps(rows, indent=1))
 

@@ -3,8 +3,11 @@ command line's particles, also when a worker is killed while tile tasks run."""
 
 import json
 import os
+import platform
 import re
 import signal
+import subprocess
+import sys
 import threading
 import time
 
@@ -87,3 +90,37 @@ def test_a_worker_killed_during_tile_tasks_costs_a_retry_not_the_result(client, 
     client.wait_for_workers(2, timeout=60)
     assert pids[0] not in client.run(os.getpid).values()
     assert out.read_bytes() == ref.read_bytes()
+
+
+FAULTS = """
+import resource, sys
+import psi.distributed
+if sys.argv[1] == "tuned":
+    psi.distributed._tune_allocator()
+before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+for _ in range(100):
+    block = bytearray(4 << 20)  # 4 MiB, written whole
+    del block
+print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+"""
+
+
+@pytest.mark.skipif(
+    not (sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc"),
+    reason="the allocator tuning is for glibc",
+)
+def test_tasks_undo_the_mmap_threshold_dasks_worker_environment_fixes():
+    # Dask's nanny sets MALLOC_TRIM_THRESHOLD_; glibc then maps every block above 128 KiB
+    # afresh, so 100 blocks of 4 MiB fault in about 100 × 1024 pages. A tuned process reuses
+    # the first block's pages.
+    env = dict(os.environ, MALLOC_TRIM_THRESHOLD_="65536")
+    env.pop("MALLOC_MMAP_THRESHOLD_", None)
+
+    def faults(mode):
+        out = subprocess.run([sys.executable, "-c", FAULTS, mode], env=env, check=True,
+                             capture_output=True, text=True)
+        return int(out.stdout)
+
+    plain, tuned = faults("plain"), faults("tuned")
+    assert plain > 50 * 1024, plain
+    assert tuned < plain / 10, (tuned, plain)
