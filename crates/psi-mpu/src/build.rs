@@ -16,7 +16,7 @@ use rayon::prelude::*;
 
 use crate::cell_table::CellTable;
 use crate::coarse_index::CoarseIndex;
-use crate::data_footprint::{DataFootprint, PointFootprint};
+use crate::data_footprint::DataFootprint;
 use crate::eval_nodes::{NO_FIT, eval_nodes_into};
 use crate::fit_cell::{
     CellFit, FitInput, fit_cell, fit_octree_cell, refit_octree_cell, try_fit_octree_cell,
@@ -24,6 +24,7 @@ use crate::fit_cell::{
 use crate::fit_reach::reach_by_depth;
 use crate::fit_store::FitStoreBuilder;
 use crate::frame::check_input_size;
+use crate::point_footprint::PointFootprint;
 use crate::select_fit::LeafFit;
 use crate::{BuildReport, FitKind, Mpu, MpuBuffers, MpuError, MpuFrame, MpuParams};
 

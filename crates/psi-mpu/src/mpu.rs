@@ -7,9 +7,10 @@ use glam::DVec3;
 use psi_octree::{Aabb, Octree, OrientedPoint, PointIndex};
 
 use crate::coarse_index::CoarseIndex;
-use crate::data_footprint::{DataFootprint, FootprintTest, InputData, PointFootprint};
+use crate::data_footprint::{DataFootprint, FootprintTest, InputData};
 use crate::eval_nodes::{EvalNode, NO_FIT};
 use crate::fit_store::FitStore;
+use crate::point_footprint::PointFootprint;
 use crate::{BuildReport, DataAnchor, FitKind, LocalFunction, MpuFrame, MpuParams};
 
 /// A multi-level partition of unity implicit: f(x) = Σ w_i(x) Q_i(x) / Σ w_i(x) over the leaves

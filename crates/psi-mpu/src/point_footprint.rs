@@ -1,0 +1,123 @@
+//! What the whole input says about one of its points, carried with it into an MPU over a
+//! thinned subset of the input (`BuildOptions::whole_footprint`): its spacing, its neighbours'
+//! centroid and its hops from the data's edge.
+
+use glam::DVec3;
+
+/// What the whole input says about one of its points ([`crate::Mpu::point_footprints`]): carried
+/// with the point into an MPU over a thinned subset of the input, so that the subset's
+/// footprint test reads the whole input's spacing and edges ([`crate::BuildOptions`]'s
+/// `whole_footprint`). 24 bytes.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PointFootprint {
+    /// Centroid of the point's 8 nearest input points (itself included) minus the point, local
+    /// frame axes (world units, f32).
+    centroid_offset: [f32; 3],
+    /// The input spacing at the point, d₈·√(π/8) (world units, f32).
+    spacing: f32,
+    /// Whether the point lies well inside the data ([`crate::Mpu::input_is_interior`]).
+    interior: bool,
+    /// Its hops from the data's edge, at most [`DEEP`] ([`crate::Mpu::point_footprints`]).
+    hops: u8,
+    /// The fraction of the input's points around it that the subset holds (1 for the input
+    /// itself; [`PointFootprint::thinned_to`]).
+    rate: f32,
+    /// Points fewer hops than this from the data's edge take the whole test in a subset, the
+    /// others the lenient one ([`PointFootprint::thinned_to`]).
+    exact_hops: u8,
+}
+
+/// A point whose 8 nearest have their centroid farther than this fraction of a spacing from it
+/// (tangentially) counts as an edge point for the thinned test's band
+/// (`DataFootprint::near_edge`): an interior point of a jittered grid's is about 0.1 away, a
+/// straight border's 0.45, a half disc's 0.95.
+pub const BAND_EDGE_OFFSET: f64 = 0.4;
+
+/// [`PointFootprint::hops`] of a point three or more hops from the data's edge.
+pub const DEEP: u8 = 3;
+
+impl PointFootprint {
+    /// Whether the point lies well inside the data (its neighbours surround it).
+    pub fn interior(&self) -> bool {
+        self.interior
+    }
+
+    /// Its hops from the data's edge: 0 for a point at the edge (not interior, or its
+    /// neighbours' centroid [`BAND_EDGE_OFFSET`] of a spacing away), 1 for one of whose 8
+    /// nearest is, 2 for one with such a neighbour, else [`DEEP`].
+    pub fn hops(&self) -> u8 {
+        self.hops
+    }
+
+    /// This footprint in a subset that holds the fraction `rate` (in (0, 1]) of the input
+    /// points deeper in the data and every point fewer than `exact_hops + 1` hops from its edge
+    /// (or none, for `exact_hops` 0): the footprint test at a point fewer than `exact_hops`
+    /// hops from the edge is the whole test, at the others the lenient one (`thinned_test`).
+    /// The subset keeps one hop more than it tests exactly, so that a position beside the
+    /// band's inner side finds a lenient point nearer than the exact ones.
+    pub fn thinned_to(self, rate: f64, exact_hops: u8) -> PointFootprint {
+        PointFootprint {
+            rate: rate as f32,
+            exact_hops,
+            ..self
+        }
+    }
+
+    /// The footprint of a point not measured on the whole input: interior, deep, its spacing
+    /// unknown (0), so that the thinned test reads the subset's own spacing there.
+    pub fn unmeasured() -> PointFootprint {
+        PointFootprint {
+            centroid_offset: [0.0; 3],
+            spacing: 0.0,
+            interior: true,
+            hops: DEEP,
+            rate: 1.0,
+            exact_hops: 0,
+        }
+    }
+
+    /// The hops tested exactly ([`PointFootprint::thinned_to`]).
+    pub fn exact_hops(&self) -> u8 {
+        self.exact_hops
+    }
+
+    /// The input spacing at the point, world units.
+    pub fn spacing(&self) -> f64 {
+        f64::from(self.spacing)
+    }
+
+    /// The centroid of its 8 nearest input points minus the point, local frame, world units.
+    pub(crate) fn centroid_offset(&self) -> DVec3 {
+        vector_of(self.centroid_offset)
+    }
+
+    /// [`PointFootprint::thinned_to`]'s rate.
+    pub(crate) fn rate(&self) -> f64 {
+        f64::from(self.rate)
+    }
+
+    /// What the whole input measured at a point (`DataFootprint::point_footprints`): untested
+    /// in a subset yet (rate 1, `exact_hops` [`DEEP`] − 1).
+    pub(crate) fn measured(
+        centroid_offset: [f32; 3],
+        spacing: f32,
+        interior: bool,
+        hops: u8,
+    ) -> PointFootprint {
+        PointFootprint {
+            centroid_offset,
+            spacing,
+            interior,
+            hops,
+            rate: 1.0,
+            exact_hops: DEEP - 1,
+        }
+    }
+}
+
+/// A stored f32 vector as a `DVec3` (the same frame and units).
+#[inline]
+pub(crate) fn vector_of(v: [f32; 3]) -> DVec3 {
+    let [x, y, z] = v.map(f64::from);
+    DVec3::new(x, y, z)
+}
