@@ -25,7 +25,7 @@ use psi_tiles::{
 
 use crate::PsiError;
 use crate::files::{check_not_dir, extension_format, open_error, read_error};
-use crate::read_ahead::read_ahead;
+use crate::read_ahead::{AHEAD, read_ahead};
 
 /// Bytes a tile's build holds per point of the tile: its points with their halo in the MPU's
 /// arrays, kd-tree and footprint table, and the balls its far cells fetch (the peaks this is
@@ -41,6 +41,10 @@ const BYTES_PER_INPUT_POINT: u64 = 8;
 const BYTES_PER_RELAX_POINT: u64 = 400;
 /// Points streamed per chunk.
 const CHUNK: usize = 1 << 18;
+/// The least budget whose partition decodes the input ahead ([`read_ahead`]): 16 × the chunks
+/// held ahead (576 MiB), so that they stay a small share of it.
+const READ_AHEAD_BUDGET: u64 =
+    16 * (AHEAD as u64 + 1) * (CHUNK * std::mem::size_of::<OrientedPoint>()) as u64;
 
 /// How a run out of core may use the machine.
 #[derive(Clone, Debug)]
@@ -332,9 +336,10 @@ pub fn partition_files(
     let buffer = (options.max_memory / 4 / 56).max(1 << 16) as usize;
     let mut writer =
         TileWriter::create(&dir, frame, depth, buffer, &source).map_err(|e| fail(e.to_string()))?;
-    // Decoding the input (on a thread of its own when the pool has two) overlaps with
-    // writing the tiles.
+    // Decoding the input (on a thread of its own when the pool has two and the budget has
+    // room for the chunks ahead) overlaps with writing the tiles.
     let dropped = read_ahead(
+        options.max_memory >= READ_AHEAD_BUDGET,
         |visit| for_each_input(paths, format, visit),
         |chunk| {
             writer.push(chunk).map_err(|e| fail(e.to_string()))?;

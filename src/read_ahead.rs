@@ -3,14 +3,16 @@
 use std::sync::mpsc::sync_channel;
 
 /// Chunks a reading thread may decode ahead of their use.
-const AHEAD: usize = 2;
+pub(crate) const AHEAD: usize = 2;
 
 /// Calls `consume` with every chunk `produce` hands its callback, in order, and returns what
-/// `produce` returns. When the current rayon pool has two threads or more, `produce` runs on
-/// a thread of its own, at most [`AHEAD`] chunks ahead (each copied once), so that decoding
-/// overlaps with consuming; otherwise on this one. The first error wins: `consume`'s stops
-/// `produce` (its callback then returns `stopped()`, which is discarded).
+/// `produce` returns. When `allowed` and the current rayon pool has two threads or more,
+/// `produce` runs on a thread of its own, at most [`AHEAD`] chunks ahead (each copied once:
+/// up to `AHEAD` + 1 more chunks held), so that decoding overlaps with consuming; otherwise on
+/// this one. The first error wins: `consume`'s stops `produce` (its callback then returns
+/// `stopped()`, which is discarded).
 pub(crate) fn read_ahead<T, R, E>(
+    allowed: bool,
     produce: impl FnOnce(&mut dyn FnMut(&[T]) -> Result<(), E>) -> Result<R, E> + Send,
     mut consume: impl FnMut(&[T]) -> Result<(), E>,
     stopped: impl Fn() -> E + Send,
@@ -20,7 +22,7 @@ where
     R: Send,
     E: Send,
 {
-    if rayon::current_num_threads() < 2 {
+    if !allowed || rayon::current_num_threads() < 2 {
         return produce(&mut consume);
     }
     let (send, receive) = sync_channel::<Vec<T>>(AHEAD);
@@ -74,6 +76,7 @@ mod tests {
                 };
                 let mut seen = Vec::new();
                 let made = read_ahead(
+                    true,
                     produce(100, None),
                     |c: &[u32]| {
                         seen.extend_from_slice(c);
@@ -83,10 +86,12 @@ mod tests {
                 );
                 assert_eq!(made, Ok(100));
                 assert_eq!(seen, (0..200).collect::<Vec<u32>>());
-                let failed = read_ahead(produce(100, Some(7)), |_| Ok(()), || "stopped".into());
+                let failed =
+                    read_ahead(true, produce(100, Some(7)), |_| Ok(()), || "stopped".into());
                 assert_eq!(failed, Err("reader failed at 7".to_string()));
                 let mut calls = 0;
                 let stopped = read_ahead(
+                    true,
                     produce(1000, None),
                     |_| {
                         calls += 1;
