@@ -2,7 +2,8 @@
 
 ``psi.distributed.sample_files`` on one input with the same budget on ``LocalCluster``s of
 1, 2, ... worker processes of one thread each: the wall time of each, the speed-up over one
-worker, each task function's span and busy time (Dask's task stream), and whether the
+worker, each task function's span and busy time (Dask's task stream), each worker process's
+peak resident memory, and whether the
 particles written are bitwise the same (they must be: the tiling is a
 function of the input and the budget alone). Each run starts from an empty scratch directory.
 
@@ -42,6 +43,13 @@ def stages(task_stream):
     }
 
 
+def peak_rss():
+    """This process's peak resident memory, bytes (Linux reports KiB)."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+
 def run(input_path, workers, max_memory, work):
     from dask.distributed import Client, LocalCluster, get_task_stream
 
@@ -54,12 +62,15 @@ def run(input_path, workers, max_memory, work):
                 input_path, out, client, max_memory=max_memory, scratch=scratch
             )
             seconds = time.perf_counter() - t
+            peaks = sorted(client.run(peak_rss).values())
     digest = hashlib.sha256(out.read_bytes()).hexdigest()
     shutil.rmtree(scratch, ignore_errors=True)
     return {
         "workers": workers,
         "seconds": seconds,
+        "points": report["input"]["points"],
         "particles": report["particles"]["count"],
+        "worker_peak_bytes": peaks,
         "sha256": digest,
         "tasks": stages(stream.data),
     }

@@ -9,9 +9,13 @@
 //! time, peak memory, the tiles, whether the counts agree, and per level the spacing CV out of
 //! core over in core (issue 26: within 5 %) and the tiled surface distance; for the dragon,
 //! the tiled particles' checks of `reproduce-tables` against the mesh (distance, coverage at
-//! 1.5 mean spacings). Writes `target/xtask/scale/scale.md` and `scale.json`.
+//! 1.5 mean spacings). With `--cluster PYTHON` (an interpreter with psi and Dask installed),
+//! each input also runs on `LocalCluster`s of 1 and 2 worker processes of one thread
+//! (`python/bench/bench_cluster.py`): wall time, points per second, speed-up and parallel
+//! efficiency, each worker's peak memory, the relaxation's share, and whether the bytes are
+//! the command line's. Writes `target/xtask/scale/scale.md` and `scale.json`.
 //!
-//! `cargo xtask bench scale 1000000,3000000 1GiB dragon`
+//! `cargo xtask bench scale 1000000,3000000 1GiB dragon [--cluster .venv/bin/python]`
 
 use std::io::Write;
 use std::path::Path;
@@ -113,7 +117,86 @@ fn timed(psi: &Path, args: &[&str], report: &Path) -> Result<(Value, f64)> {
     Ok((j, t.elapsed().as_secs_f64()))
 }
 
+/// The cluster runs of `input` (1 and 2 workers) by `python`'s `bench_cluster.py`, written to
+/// `out`; its rows.
+fn cluster_runs(python: &str, input: &str, budget: &str, out: &Path) -> Result<Vec<Value>> {
+    let script = crate::project_root().join("python/bench/bench_cluster.py");
+    let status = Command::new(python)
+        .arg(&script)
+        .args([input, "--max-memory", budget, "--workers", "1,2", "--out"])
+        .arg(out)
+        .status()
+        .with_context(|| format!("running {python} {}", script.display()))?;
+    anyhow::ensure!(status.success(), "{} failed: {status}", script.display());
+    let text =
+        std::fs::read_to_string(out).with_context(|| format!("reading {}", out.display()))?;
+    let rows: Vec<Value> =
+        serde_json::from_str(&text).with_context(|| format!("parsing {}", out.display()))?;
+    Ok(rows)
+}
+
+/// The markdown rows of `cluster` (the runs of [`cluster_runs`]) for `n` points; `cli_sha` is
+/// the SHA-256 of the command line's particles out of core.
+fn cluster_rows(n: usize, cluster: &[Value], cli_sha: &str) -> String {
+    let seconds = |r: &Value| r["seconds"].as_f64().unwrap_or(f64::NAN);
+    let one = cluster.first().map_or(f64::NAN, seconds);
+    let mut md = String::new();
+    for r in cluster {
+        let (w, s) = (r["workers"].as_f64().unwrap_or(f64::NAN), seconds(r));
+        let peaks: Vec<String> = r["worker_peak_bytes"]
+            .as_array()
+            .map(|p| {
+                p.iter()
+                    .map(|b| format!("{:.0}", b.as_f64().unwrap_or(f64::NAN) / 1048576.0))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let relax = r["tasks"]["_ooc_sample"]["span"]
+            .as_f64()
+            .unwrap_or(f64::NAN);
+        md += &format!(
+            "| {n} | {w} | {s:.1} | {:.0} | {:.2}× | {:.0} % | {} | {:.1} % | {} |\n",
+            n as f64 / s,
+            one / s,
+            100.0 * one / s / w,
+            peaks.join(", "),
+            100.0 * relax / s,
+            if r["sha256"].as_str() == Some(cli_sha) {
+                "yes"
+            } else {
+                "NO"
+            },
+        );
+    }
+    md
+}
+
+/// The SHA-256 of the file at `path`, hex.
+fn sha256_hex(path: &Path) -> Result<String> {
+    use sha2::Digest;
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    Ok(sha2::Sha256::digest(&bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect())
+}
+
 pub(crate) fn run(args: &[String]) -> Result<()> {
+    // `--cluster PYTHON` anywhere; the rest positional.
+    let (mut positional, mut python) = (Vec::new(), None);
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        if a == "--cluster" {
+            python = Some(
+                it.next()
+                    .context("--cluster needs a Python interpreter")?
+                    .clone(),
+            );
+        } else {
+            positional.push(a.clone());
+        }
+    }
+    let args = &positional;
     let sizes: Vec<usize> = args
         .first()
         .map_or("1000000,3000000", String::as_str)
@@ -131,6 +214,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
     std::fs::create_dir_all(&dir)?;
     let mut rows = Vec::new();
     let mut md_checks = String::new();
+    let mut md_cluster = String::new();
     let mut md = format!(
         "# Scale: in core and out of core (`--max-memory {budget}`)\n\n\
          Model `{model}` sampled at N points (seed 1), binary PCD with normals; release build, \
@@ -230,6 +314,14 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             "in_core_after": core["particles"]["after"],
         }));
         println!("{n}: in core {core_s:.2} s, out of core {ooc_s:.2} s");
+        if let Some(python) = &python {
+            let out = dir.join(format!("cluster-{model}-{n}.json"));
+            let cluster = cluster_runs(python, i, &budget, &out)?;
+            md_cluster += &cluster_rows(n, &cluster, &sha256_hex(&ooc_out)?);
+            if let Some(row) = rows.last_mut() {
+                row["cluster"] = json!(cluster);
+            }
+        }
         if model == "dragon" {
             let checks = mesh_checks(&ooc_out, &ooc)?;
             md_checks += &format!(
@@ -253,6 +345,15 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             "\nOut of core against the dragon mesh (`reproduce-tables`' checks):\n\n\
              | N | distance mean / p99 / max (D) | within 2e-3 D | coverage (1.5 spacings) |\n\
              |---|---|---|---|\n{md_checks}"
+        );
+    }
+    if !md_cluster.is_empty() {
+        md += &format!(
+            "\nOn `LocalCluster`s of worker processes of one thread each (`psi.distributed`, \
+             `max_memory=\"{budget}\"`); efficiency: speed-up over workers; the relaxation's \
+             share: its task's span over the run:\n\n\
+             | N | workers | s | points/s | speed-up | efficiency | peak MiB per worker | relaxation share | the CLI's bytes |\n\
+             |---|---|---|---|---|---|---|---|---|\n{md_cluster}"
         );
     }
     std::fs::write(dir.join("scale.md"), &md)?;
