@@ -458,15 +458,9 @@ impl TileStore {
             let bytes = self.read_ranges(&path, entry, ranges.as_deref())?;
             decode_into(&bytes, keep, &mut found);
         }
-        // Each run of records is in input order: a stable sort of (index, place) pairs merges
-        // them, and moves 16 bytes a point instead of a whole record.
-        let mut order: Vec<(u64, u32)> = found
-            .iter()
-            .enumerate()
-            .map(|(k, (i, _))| (*i, k as u32))
-            .collect();
-        order.sort();
-        Ok(order.iter().map(|&(_, k)| found[k as usize].1).collect())
+        // (Each run of records is in input order: a stable sort merges them.)
+        found.sort_by_key(|(i, _)| *i);
+        Ok(found.into_iter().map(|(_, p)| p).collect())
     }
 
     /// The points within ∞-distance `halo` of the cube with local centre `center` and
