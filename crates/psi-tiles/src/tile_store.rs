@@ -526,7 +526,6 @@ fn decode_into(bytes: &[u8], keep: &dyn Fn(DVec3) -> bool, found: &mut Vec<(u64,
     let f = |r: &[u8], k: usize| {
         f64::from_le_bytes(r[8 + 8 * k..16 + 8 * k].try_into().expect("8 bytes"))
     };
-    found.reserve(bytes.len() / RECORD);
     for r in bytes.chunks_exact(RECORD) {
         let p = record_position(r);
         if keep(p) {

@@ -171,16 +171,6 @@ fn cluster_rows(n: usize, cluster: &[Value], cli_sha: &str) -> String {
     md
 }
 
-/// The SHA-256 of the file at `path`, hex.
-fn sha256_hex(path: &Path) -> Result<String> {
-    use sha2::Digest;
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    Ok(sha2::Sha256::digest(&bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect())
-}
-
 pub(crate) fn run(args: &[String]) -> Result<()> {
     // `--cluster PYTHON` anywhere; the rest positional.
     let (mut positional, mut python) = (Vec::new(), None);
@@ -317,7 +307,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         if let Some(python) = &python {
             let out = dir.join(format!("cluster-{model}-{n}.json"));
             let cluster = cluster_runs(python, i, &budget, &out)?;
-            md_cluster += &cluster_rows(n, &cluster, &sha256_hex(&ooc_out)?);
+            md_cluster += &cluster_rows(n, &cluster, &crate::host::sha256(&ooc_out)?);
             if let Some(row) = rows.last_mut() {
                 row["cluster"] = json!(cluster);
             }
