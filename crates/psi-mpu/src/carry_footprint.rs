@@ -3,10 +3,11 @@
 //!
 //! An entry is a function of the point's 9 nearest input points. A point q's entry can change
 //! only if a changed position x (a moved point's old or new one) lies within d₉(q), the distance
-//! to its 9th nearest point. And d₉(q) ≤ 2·R1 of q's leaf: the fit ball B(c, R1) holds at least
-//! min(N_min + 1, N) ≥ 9 points and |q − c| ≤ √3·half ≤ R ≤ R1 for α ≥ 0.5. So x lies within
-//! 3·R1 of the leaf's centre. The leaves within that reach are visited, and each filled entry
-//! of their points is emptied when a changed position lies within its own d₉.
+//! to its 9th nearest point. And d₉(q) ≤ R1 + |q − c| for q's leaf (centre c, fit radius R1):
+//! the fit ball B(c, R1) holds at least min(N_min + 1, N) ≥ 9 points, all within that distance
+//! of q. With |q − c| ≤ √3·half, x lies within R1 + 2√3·half of the leaf's centre (at most
+//! 3·R1 for α ≥ 0.5). The leaves within that reach are visited, and each filled entry of their
+//! points is emptied when a changed position lies within its own d₉.
 
 use glam::DVec3;
 use psi_octree::PointIndex;
@@ -14,6 +15,7 @@ use rayon::prelude::*;
 
 use crate::Mpu;
 use crate::data_footprint::{DataFootprint, InputLocalSlot};
+use crate::fit_reach::CellReach;
 
 impl Mpu {
     /// Moves `old`'s footprint table into this MPU, built after an edit that kept every point's
@@ -24,7 +26,7 @@ impl Mpu {
     /// this MPU keeps a fresh table. `old` is left with an empty one.
     pub fn carry_footprint(&mut self, old: &mut Mpu, changed: &[DVec3]) {
         let n = self.points.len();
-        let bound_holds = self.params.n_min + 1 >= 9 && n >= 9 && self.params.alpha >= 0.5;
+        let bound_holds = self.params.n_min + 1 >= 9 && n >= 9;
         let table = (bound_holds && old.points.len() == n)
             .then(|| old.footprint.take_table(n))
             .flatten();
@@ -51,9 +53,13 @@ fn stale_entries(old: &Mpu, table: &[InputLocalSlot], changed: &[DVec3]) -> Vec<
     }
     let index = PointIndex::new(&local);
     let tree = &old.octree;
-    // The leaves within 3·R1 of a changed position, with the distance from the centre to the
-    // nearest one (only the cells near the changed positions are visited).
-    let leaves = old.cells_reaching_local(&local, &index, 3.0, true);
+    // The leaves within R1 + 2√3·half of a changed position, with the distance from the centre
+    // to the nearest one (only the cells near the changed positions are visited).
+    let reach = CellReach {
+        factor: 1.0,
+        halves: 2.0 * 3f64.sqrt(),
+    };
+    let leaves = old.cells_reaching_local(&local, &index, reach, true);
     let stale_in = |(l, to_centre): (u32, f64)| {
         let c = tree.cell(l);
         let index = &index;

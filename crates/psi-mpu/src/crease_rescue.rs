@@ -24,8 +24,9 @@ pub(crate) struct CreaseRescue<'a> {
     pub(crate) eps0: f64,
     /// The cell's nominal support radius R, world units.
     pub(crate) radius: f64,
-    /// The cell's error measure.
-    pub(crate) error_of: &'a dyn Fn(&LocalFunction) -> f64,
+    /// The cell's error measure of a function, which may stop once it exceeds the second
+    /// argument (world units): it is then only known to exceed it.
+    pub(crate) error_of: &'a dyn Fn(&LocalFunction, f64) -> f64,
 }
 
 /// A smooth fit whose error is at most this fraction of the cell's radius R is near-exact: the
@@ -51,8 +52,11 @@ impl CreaseRescue<'_> {
             && error > NEAR_EXACT * self.radius
             && let Some(sharp) = sharp_candidate(ball, self.solve_unit, params)
         {
-            let sharp_error = (self.error_of)(&sharp.function);
-            let better = sharp_error < 0.5 * error.min(self.eps0);
+            // The sharp fit is kept only below this error, so its scan may stop above it (an
+            // error kept is then exact, and one that stopped is not kept, in any scan order).
+            let bar = 0.5 * error.min(self.eps0);
+            let sharp_error = (self.error_of)(&sharp.function, bar);
+            let better = sharp_error < bar;
             if better {
                 return ScoredFit {
                     fit: sharp,

@@ -343,7 +343,7 @@ pub(crate) fn try_fit_cell(
             // Without the kd-tree the error is unknown: give up before the rescue's work.
             return None;
         }
-        let error_at = |f: &LocalFunction| error_of(f, limit, first);
+        let error_at = |f: &LocalFunction, stop: f64| error_of(f, stop.min(limit), first);
         let rescue = CreaseRescue {
             solve_unit,
             params,

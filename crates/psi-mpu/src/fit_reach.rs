@@ -1,9 +1,10 @@
-//! The cells an edit reaches: those whose fit radius R1 (times a factor) holds a changed
-//! position, found by descending the octree from the root instead of testing every cell. A
-//! subtree is left when the changed positions' bounding box lies farther from its cube than
-//! the factor times the largest R1 at its depth or below (`Mpu::reach_by_depth`), which no
-//! cell inside can then reach; the cells left are tested against the nearest changed position
-//! in parallel. The cost follows the cells near the edit, not the model.
+//! The cells an edit reaches: those whose reach (a factor times the fit radius R1, plus a
+//! multiple of the half-edge) holds a changed position, found by descending the octree from
+//! the root instead of testing every cell. A subtree is left when the changed positions'
+//! bounding box lies farther from its cube than the largest reach at its depth or below (from
+//! `Mpu::reach_by_depth` and the depth's half-edge), which no cell inside can then reach; the
+//! cells left are tested against the nearest changed position in parallel. The cost follows
+//! the cells near the edit, not the model.
 
 use glam::DVec3;
 use psi_octree::{Aabb, PointIndex};
@@ -14,6 +15,14 @@ use crate::Mpu;
 /// The relative margin on every radius: a position on the sphere counts as inside whatever the
 /// rounding of the distance.
 const MARGIN: f64 = 1e-9;
+
+/// How far a cell reaches from its centre (world units): `factor`·R1 + `halves`·half-edge,
+/// both ≥ 0.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CellReach {
+    pub(crate) factor: f64,
+    pub(crate) halves: f64,
+}
 
 /// Squared distance between an axis-aligned box and a cube (centre `c`, half-edge `h`).
 fn box_cube_distance2(b: &Aabb, c: DVec3, h: f64) -> f64 {
@@ -36,29 +45,36 @@ impl Mpu {
     ) -> Vec<(u32, f64)> {
         let origin = self.frame.origin;
         let local: Vec<DVec3> = changed.iter().map(|p| *p - origin).collect();
-        self.cells_reaching_local(&local, &PointIndex::new(&local), factor, leaves_only)
+        let reach = CellReach {
+            factor,
+            halves: 0.0,
+        };
+        self.cells_reaching_local(&local, &PointIndex::new(&local), reach, leaves_only)
     }
 
     /// [`Mpu::cells_reaching`] of the changed positions `local` (shape: K, local frame),
-    /// `index` their kd-tree.
+    /// `index` their kd-tree, each cell's reach `reach`.
     pub(crate) fn cells_reaching_local(
         &self,
         local: &[DVec3],
         index: &PointIndex,
-        factor: f64,
+        reach: CellReach,
         leaves_only: bool,
     ) -> Vec<(u32, f64)> {
+        let CellReach { factor, halves } = reach;
         let Some(bounds) = Aabb::from_points(local.iter().copied()) else {
             return Vec::new();
         };
         let tree = &self.octree;
         let scale = factor * (1.0 + MARGIN);
-        // Cells that may reach: a depth-first descent that leaves the subtrees out of reach.
+        // Cells that may reach: a depth-first descent that leaves the subtrees out of reach
+        // (a cell's descendants are no larger than it).
         let mut near: Vec<u32> = Vec::new();
         let mut stack = vec![0u32];
         while let Some(c) = stack.pop() {
             let cell = tree.cell(c);
-            let reach = scale * self.reach_by_depth[usize::from(cell.depth)];
+            let reach = scale * self.reach_by_depth[usize::from(cell.depth)]
+                + (1.0 + MARGIN) * halves * cell.half;
             if box_cube_distance2(&bounds, cell.center, cell.half) > reach * reach {
                 continue;
             }
@@ -73,7 +89,7 @@ impl Mpu {
         near.par_iter()
             .filter_map(|&c| {
                 let cell = tree.cell(c);
-                let r = scale * self.fit_radius[c as usize];
+                let r = scale * self.fit_radius[c as usize] + (1.0 + MARGIN) * halves * cell.half;
                 let outside = (bounds.min - cell.center)
                     .max(cell.center - bounds.max)
                     .max(DVec3::ZERO);
@@ -101,10 +117,12 @@ mod tests {
     use glam::DVec3;
     use psi_shapes::AnalyticShape;
 
+    use super::CellReach;
     use crate::{Mpu, MpuParams};
 
     /// Brute force over every cell: the same cells and distances as the descent, for brushes
-    /// of several sizes and places, factors 1 and 3, all cells and leaves only.
+    /// of several sizes and places, factors 1 and 3 and the footprint carry's reach, all cells
+    /// and leaves only.
     #[test]
     fn the_descent_finds_the_cells_every_cell_tested_finds() {
         let points = AnalyticShape::Torus {
@@ -130,9 +148,16 @@ mod tests {
                 .filter(|p| (*p - centre).length() < radius)
                 .chain([centre + DVec3::new(0.0, 0.0, radius)])
                 .collect();
-            for factor in [1.0, 3.0] {
+            let local: Vec<DVec3> = changed.iter().map(|p| *p - origin).collect();
+            let index = psi_octree::PointIndex::new(&local);
+            for (factor, halves) in [(1.0, 0.0), (3.0, 0.0), (1.0, 2.0 * 3f64.sqrt())] {
                 for leaves_only in [false, true] {
-                    let got = mpu.cells_reaching(&changed, factor, leaves_only);
+                    let got = if halves == 0.0 {
+                        mpu.cells_reaching(&changed, factor, leaves_only)
+                    } else {
+                        let reach = CellReach { factor, halves };
+                        mpu.cells_reaching_local(&local, &index, reach, leaves_only)
+                    };
                     let want: Vec<(u32, f64)> = mpu
                         .octree()
                         .cells()
@@ -140,7 +165,8 @@ mod tests {
                         .enumerate()
                         .filter(|(_, c)| !leaves_only || c.is_leaf())
                         .filter_map(|(i, c)| {
-                            let r = factor * mpu.fit_radius(i as u32) * (1.0 + 1e-9);
+                            let r = (factor * mpu.fit_radius(i as u32) + halves * c.half)
+                                * (1.0 + 1e-9);
                             let d = changed
                                 .iter()
                                 .map(|p| (*p - origin - c.center).length_squared())

@@ -202,6 +202,18 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         100.0 * BUNNY_RADIUS,
         100.0 * DEPTH
     );
+    // Every model's input, kd-tree and brush radius first; then the drags seed by seed, each
+    // seed's on every model in turn, so that a change in the machine's speed during the run
+    // (a shared VM's varies by 10-25 %) touches every model alike and not their ratios.
+    struct Model {
+        name: String,
+        points: Vec<OrientedPoint>,
+        index: PointIndex,
+        radius: f64,
+        all: Vec<Stroke>,
+        firsts: Vec<f64>,
+    }
+    let mut runs = Vec::new();
     for name in &models {
         let points = if name == "bunny" {
             bunny.clone()
@@ -210,15 +222,33 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         };
         let index = PointIndex::new(&points.iter().map(|p| p.p).collect::<Vec<_>>());
         let radius = radius_for(&points, &index, target);
-        let d = diagonal(&points);
-        let mut all: Vec<Stroke> = Vec::new();
-        let mut firsts = Vec::new();
-        for seed in first_seed..first_seed + seeds {
-            let edits = drag(&points, &index, radius, seed, strokes);
-            let mut run = session(&points, &edits)?;
-            firsts.push(run[0].frame);
-            all.extend(run.drain(1..));
+        runs.push(Model {
+            name: name.clone(),
+            points,
+            index,
+            radius,
+            all: Vec::new(),
+            firsts: Vec::new(),
+        });
+    }
+    for seed in first_seed..first_seed + seeds {
+        for m in &mut runs {
+            let edits = drag(&m.points, &m.index, m.radius, seed, strokes);
+            let mut run = session(&m.points, &edits)?;
+            m.firsts.push(run[0].frame);
+            m.all.extend(run.drain(1..));
         }
+    }
+    for m in &runs {
+        let Model {
+            name,
+            points,
+            index,
+            radius,
+            all,
+            firsts,
+        } = m;
+        let (radius, d) = (*radius, diagonal(points));
         let pick = |f: &dyn Fn(&Stroke) -> f64| -> Vec<f64> { all.iter().map(f).collect() };
         let frames = pick(&|s| s.frame);
         let phase = |f: &dyn Fn(&RegenReport) -> f64| 1e3 * median(&pick(&|s| f(&s.report)));
@@ -257,7 +287,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             row["regenerated_median"].as_f64().unwrap_or(0.0),
             f["median_ms"].as_f64().unwrap_or(f64::NAN),
             f["worst_ms"].as_f64().unwrap_or(f64::NAN),
-            1e3 * median(&firsts),
+            1e3 * median(firsts),
             row["settle_median_ms"].as_f64().unwrap_or(f64::NAN),
             row["cpu_per_stroke_median_ms"].as_f64().unwrap_or(f64::NAN),
             ph["edit"].as_f64().unwrap_or(f64::NAN),
@@ -269,6 +299,17 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         ));
         println!("{name}: {row}");
         rows.push(row);
+    }
+    // Issue 29's ratios: the David stand-in's frame and CPU medians over the bunny's.
+    let row_of = |name: &str| rows.iter().find(|r| r["model"] == name);
+    if let (Some(b), Some(d)) = (row_of("bunny"), row_of("david_standin_stanford_dragon")) {
+        let ratio =
+            |f: &dyn Fn(&Value) -> Option<f64>| f(d).unwrap_or(f64::NAN) / f(b).unwrap_or(f64::NAN);
+        md.push_str(&format!(
+            "\nThe David stand-in over the bunny: frame median {:.2}×, CPU per stroke median {:.2}×.\n",
+            ratio(&|r| r["frame"]["median_ms"].as_f64()),
+            ratio(&|r| r["cpu_per_stroke_median_ms"].as_f64()),
+        ));
     }
     let big = big_brush(&bunny)?;
     let ms = |a: &str, b: &str| big[a][b].as_f64().unwrap_or(f64::NAN);
