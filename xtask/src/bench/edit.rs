@@ -259,7 +259,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             "points": points.len(),
             "radius": radius,
             "radius_of_diagonal": radius / d,
-            "brush_points": brush_population(&points, &index, radius),
+            "brush_points": brush_population(points, index, radius),
             "marked_cells_median": median(&pick(&|s| s.report.marked_cells as f64)),
             "regenerated_median": median(&pick(&|s| s.report.particles_regenerated as f64)),
             "frame": summary(&frames),
