@@ -9,8 +9,8 @@ use std::time::Instant;
 
 use glam::DVec3;
 use psi_octree::{
-    Aabb, Interrupted, KnownPartitions, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint,
-    PointIndex,
+    Aabb, BallAnswer, Interrupted, KnownPartitions, Monitor, Octree, OctreeBuild, OctreeParams,
+    OrientedPoint, PointIndex,
 };
 use rayon::prelude::*;
 
@@ -21,11 +21,13 @@ use crate::eval_nodes::{NO_FIT, eval_nodes_into};
 use crate::fit_cell::{
     CellFit, FitInput, fit_cell, fit_octree_cell, refit_octree_cell, try_fit_octree_cell,
 };
+use crate::fit_radius::Earlier;
 use crate::fit_reach::reach_by_depth;
 use crate::fit_store::FitStoreBuilder;
 use crate::frame::check_input_size;
 use crate::point_footprint::PointFootprint;
 use crate::select_fit::LeafFit;
+use crate::trial_balls::TrialBalls;
 use crate::{BuildReport, FitKind, Mpu, MpuBuffers, MpuError, MpuFrame, MpuParams};
 
 /// What a local rebuild may take from an earlier MPU: the records of its cells that no edit
@@ -189,6 +191,10 @@ struct Prefit {
     index: Arc<PointIndex>,
     coarse: Arc<CoarseIndex>,
     fits: Vec<CellFit>,
+    /// After a brush, the refits' ball answers (for the next brush).
+    balls: TrialBalls,
+    /// How many of them were read from the earlier answers.
+    from_earlier: usize,
 }
 
 /// Fits the marked cells of the earlier octree up front, in one parallel batch: a fit depends
@@ -215,6 +221,8 @@ fn prefit_marked(
             || Arc::new(r.old.coarse.with_moved(moved, positions)),
         ))
     });
+    // After a brush the refits read their cells' earlier ball answers and keep their own.
+    let keep_balls = derived.is_some();
     let (index, (coarse, early)) = match derived {
         Some((index, coarse)) => (index, (coarse, vec![None; marked.len()])),
         None => rayon::join(
@@ -253,22 +261,51 @@ fn prefit_marked(
     };
     monitor.check()?;
     // (A stop part-way leaves `None`s, and the whole is dropped.)
-    let fits: Option<Vec<CellFit>> = marked
+    let fits: Option<Vec<(CellFit, Option<BallAnswer>)>> = marked
         .par_iter()
         .zip(early)
         .map(|(&c, early)| {
             if monitor.stopped() {
                 return None;
             }
-            Some(early.unwrap_or_else(|| {
-                refit_octree_cell(&input, &old_cell(c), eps0, old().fit_radius[c as usize])
-            }))
+            Some(match early {
+                Some(fit) => (fit, None),
+                None => {
+                    let cell = old_cell(c);
+                    let earlier = Earlier {
+                        r1: Some(old().fit_radius[c as usize]),
+                        ball: keep_balls
+                            .then(|| old().trial_balls.get(cell.depth, cell.key))
+                            .flatten(),
+                        keep_ball: keep_balls,
+                    };
+                    refit_octree_cell(&input, &cell, eps0, earlier)
+                }
+            })
         })
         .collect();
+    let (fits, answers): (Vec<CellFit>, Vec<Option<BallAnswer>>) =
+        fits.ok_or(Interrupted)?.into_iter().unzip();
+    let from_earlier = answers
+        .iter()
+        .flatten()
+        .filter(|a| a.from_earlier())
+        .count();
+    let balls = if keep_balls {
+        let addresses = marked.iter().map(|&c| {
+            let cell = old_cell(c);
+            (cell.depth, cell.key)
+        });
+        TrialBalls::new(addresses, answers)
+    } else {
+        TrialBalls::default()
+    };
     Ok(Prefit {
         index,
         coarse,
-        fits: fits.ok_or(Interrupted)?,
+        fits,
+        balls,
+        from_earlier,
     })
 }
 
@@ -378,6 +415,8 @@ impl Mpu {
             index,
             coarse,
             fits: prefit,
+            balls,
+            from_earlier,
         } = prefit_marked(&data, params, eps0, reuse, &marked_old, &monitor)?;
         let t_fits = start.elapsed().as_secs_f64();
         let levels = u64::from(params.max_depth) + 1;
@@ -494,6 +533,7 @@ impl Mpu {
             cells: octree.cells().len(),
             eps0,
             bbox_diagonal: frame.diagonal,
+            balls_from_earlier: from_earlier,
             ..Default::default()
         };
         let depth_slots = usize::from(octree.max_depth_reached()) + 1;
@@ -589,6 +629,7 @@ impl Mpu {
             index,
             coarse,
             footprint,
+            trial_balls: Arc::new(balls),
         })
     }
 }

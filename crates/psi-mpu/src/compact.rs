@@ -28,6 +28,12 @@ impl Mpu {
                 || PointIndex::new(positions),
                 || CoarseIndex::new(positions),
             );
+            // The brush's ball answers were made at these positions: they serve the new
+            // index too (a copy shared with a clone is dropped instead).
+            match Arc::get_mut(&mut self.trial_balls) {
+                Some(balls) => balls.rebase(&index),
+                None => self.trial_balls = Arc::default(),
+            }
             self.index = Arc::new(index);
             self.coarse = Arc::new(coarse);
         }

@@ -5,12 +5,12 @@
 //! most splits at a fraction of the cost.
 
 use glam::DVec3;
-use psi_octree::PointIndex;
+use psi_octree::{BallAnswer, PointIndex};
 
 use crate::bspline_weight::bspline;
 use crate::coarse_index::{COARSE, CoarseIndex, SPARSE, is_coarse, position_hash};
 use crate::crease_rescue::{CreaseRescue, NEAR_EXACT, ScoredFit};
-use crate::fit_radius::settle_radius;
+use crate::fit_radius::{Earlier, settle_radius_from};
 use crate::ranked_error::ranked_error;
 use crate::select_fit::{LeafFit, Neighbourhood, select_and_fit};
 use crate::{FitKind, LocalFunction, MpuParams};
@@ -103,20 +103,22 @@ pub(crate) fn try_fit_octree_cell(
     try_fit_octree_cell_near(input, cell, eps0, None)
 }
 
-/// [`fit_octree_cell`] of a cell fitted before an edit with fit radius `earlier_r1` (world
-/// units): the same fit, its radius first sought near the earlier one.
+/// [`fit_octree_cell`] of a cell fitted before an edit, as `earlier` says of that fit: the
+/// same fit (its radius first sought near the earlier one, its ball read from the earlier
+/// ball's answer when that applies), and this fit's ball answer when `earlier.keep_ball`.
 pub(crate) fn refit_octree_cell(
     input: &FitInput<'_>,
     cell: &psi_octree::Cell,
     eps0: f64,
-    earlier_r1: f64,
-) -> CellFit {
-    try_fit_octree_cell_near(input, cell, eps0, Some(earlier_r1))
+    earlier: Earlier<'_>,
+) -> (CellFit, Option<BallAnswer>) {
+    let may_split = cell.depth < input.params.max_depth;
+    try_fit_cell_after(input, cell.center, cell.half, eps0, may_split, earlier)
         .expect("a fit with the full index always completes")
 }
 
 /// [`try_fit_cell`] of an octree cell, which splits when its error exceeds `eps0` unless it
-/// is at the maximum depth, `r1_hint` a likely R1.
+/// is at the maximum depth.
 fn try_fit_octree_cell_near(
     input: &FitInput<'_>,
     cell: &psi_octree::Cell,
@@ -164,7 +166,7 @@ impl Gathered {
 /// [`fit_cell`], or `None` when `input.index` is `None` and the fit needs it: only a large cell
 /// whose error exceeds ε0 among its coarse points completes without it (bitwise as with it).
 /// Local regeneration fits such cells while the kd-tree of all points is being built.
-/// `r1_hint`: a likely R1 (world units; see [`settle_radius`]), which changes no result.
+/// `r1_hint`: a likely R1 (world units; see [`settle_radius_from`]), which changes no result.
 pub(crate) fn try_fit_cell(
     input: &FitInput<'_>,
     center: DVec3,
@@ -173,7 +175,26 @@ pub(crate) fn try_fit_cell(
     may_split: bool,
     r1_hint: Option<f64>,
 ) -> Option<CellFit> {
+    let earlier = Earlier {
+        r1: r1_hint,
+        ..Earlier::default()
+    };
+    try_fit_cell_after(input, center, half, eps0, may_split, earlier).map(|(fit, _)| fit)
+}
+
+/// [`try_fit_cell`] as `earlier` says of the cell's earlier fit, with this fit's ball answer
+/// when `earlier.keep_ball` (and a ball was queried).
+fn try_fit_cell_after(
+    input: &FitInput<'_>,
+    center: DVec3,
+    half: f64,
+    eps0: f64,
+    may_split: bool,
+    earlier: Earlier<'_>,
+) -> Option<(CellFit, Option<BallAnswer>)> {
     let params = input.params;
+    // The answer of this fit's ball query, kept for the next refit.
+    let kept: std::cell::RefCell<Option<BallAnswer>> = std::cell::RefCell::new(None);
     let r = params.alpha * 2.0 * 3f64.sqrt() * half;
     // R1 = R when more than N_min points lie well within R — the sparse or the coarse points
     // suffice to tell (the margin keeps rounding at the sphere out of it); otherwise the
@@ -192,7 +213,10 @@ pub(crate) fn try_fit_cell(
     let full_ball: std::cell::OnceCell<Vec<u32>> = std::cell::OnceCell::new();
     // R1 from the kd-tree, with the ball of R1 when the query gave it.
     let settle = |index: &PointIndex, sparse: &mut Vec<u32>| {
-        let (r1, ball) = settle_radius(index, params, need, center, r, r1_hint);
+        let (r1, ball, answer) = settle_radius_from(index, params, need, center, r, earlier);
+        if answer.is_some() {
+            *kept.borrow_mut() = answer;
+        }
         if let Some(ball) = ball {
             let _ = full_ball.set(ball);
         }
@@ -256,8 +280,17 @@ pub(crate) fn try_fit_cell(
     let ball = || -> Option<&Vec<u32>> {
         let index = input.index?;
         Some(full_ball.get_or_init(|| {
-            let mut b = Vec::new();
-            index.within(center, r1, &mut b);
+            if !(earlier.keep_ball || earlier.ball.is_some()) {
+                let mut b = Vec::new();
+                index.within(center, r1, &mut b);
+                return b;
+            }
+            let mut answer = index.ball_answer(center, r1, earlier.ball, Vec::new());
+            answer.sort_by_id();
+            let b = answer.near().iter().map(|n| n.0).collect();
+            if earlier.keep_ball {
+                *kept.borrow_mut() = Some(answer);
+            }
             b
         }))
     };
@@ -383,7 +416,7 @@ pub(crate) fn try_fit_cell(
                 let first = fit_in(&points, solve_unit, limit, Some(set))
                     .expect("a first fit reads no kd-tree");
                 if first.error > limit {
-                    return Some(first);
+                    return Some((first, kept.take()));
                 }
             }
         }
@@ -426,10 +459,10 @@ pub(crate) fn try_fit_cell(
         let alt = fit_in(&points, r1, eps0, None)?;
         // The second solve runs the crease rescue too; a sharp result is not taken either.
         if smooth(alt.fit.kind) && alt.error < chosen.error {
-            return Some(alt);
+            return Some((alt, kept.take()));
         }
     }
-    Some(chosen)
+    Some((chosen, kept.take()))
 }
 
 /// The fit input of a whole build `mpu` (tests: a cell of it fitted again).

@@ -3,7 +3,7 @@
 //! from the kd-tree's k-nearest distance.
 
 use glam::DVec3;
-use psi_octree::PointIndex;
+use psi_octree::{BallAnswer, PointIndex};
 
 use crate::MpuParams;
 
@@ -39,47 +39,80 @@ fn fit_radius(index: &PointIndex, params: &MpuParams, need: usize, center: DVec3
     radius_reaching(d2.sqrt(), r, params.lambda)
 }
 
+/// What a refit after an edit knows of the cell's earlier fit; it changes no result, only
+/// the work.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Earlier<'a> {
+    /// The earlier R1 (world units).
+    pub(crate) r1: Option<f64>,
+    /// The answer of the earlier fit's ball query ([`psi_octree::PointIndex::ball_answer`]).
+    pub(crate) ball: Option<&'a BallAnswer>,
+    /// Whether to return this fit's ball answer (for the next refit).
+    pub(crate) keep_ball: bool,
+}
+
 /// R1 of the cell at `center` with nominal radius `r` (world units), and the indices of the
 /// points within R1 when one trial query found them. The trial ball has a radius R1 can take,
-/// R + m·λR: the smallest reaching `hint` (world units; a cell refitted after an edit passes
-/// its earlier R1, which most edits leave as it was), else m = ⌈[`TRIAL`]/λ⌉. It holds every
+/// R + m·λR: the smallest reaching `earlier.r1` (a cell refitted after an edit passes its
+/// earlier R1, which most edits leave as it was), else m = ⌈[`TRIAL`]/λ⌉. It holds every
 /// point within its radius with the kd-tree's own squared distances, the ones a k-nearest
 /// query computes; when it holds `need` points its `need`-th smallest distance is the
 /// `need`-th nearest distance, R1 is what [`fit_radius`] finds, and R1 is at most the trial
 /// radius, so the ball of R1 is the trial points with d² ≤ R1² (the test the kd-tree applies;
 /// in some order, which no decision reads). Otherwise R1 comes from a k-nearest query and the
 /// ball is `None`.
-pub(crate) fn settle_radius(
+///
+/// The trial ball is read from `earlier.ball` when that applies (an answer of an earlier
+/// version of `index` at this centre: [`PointIndex::ball_answer`]); with `earlier.keep_ball`,
+/// the trial ball's answer is returned too (sorted by id, so that the ball comes sorted, as a fit reads its
+/// points, and so does the next refit's answer read from it).
+pub(crate) fn settle_radius_from(
     index: &PointIndex,
     params: &MpuParams,
     need: usize,
     center: DVec3,
     r: f64,
-    hint: Option<f64>,
-) -> (f64, Option<Vec<u32>>) {
+    earlier: Earlier<'_>,
+) -> (f64, Option<Vec<u32>>, Option<BallAnswer>) {
+    let Earlier {
+        r1: hint,
+        ball: earlier,
+        keep_ball: keep,
+    } = earlier;
     let trial = match hint {
         Some(h) if h.is_finite() => radius_reaching(h, r, params.lambda),
         _ => r + (TRIAL / params.lambda).ceil().max(1.0) * (params.lambda * r),
     };
-    let mut near = Vec::with_capacity(8 * need);
-    index.within_distances(center, trial, &mut near);
+    let memory = Vec::with_capacity(8 * need);
+    let (queried, answer) = if keep || earlier.is_some() {
+        let mut answer = index.ball_answer(center, trial, earlier, memory);
+        if keep {
+            answer.sort_by_id();
+        }
+        (None, Some(answer))
+    } else {
+        let mut near = memory;
+        index.within_distances(center, trial, &mut near);
+        (Some(near), None)
+    };
+    let near: &[(u32, f64)] = match (&queried, &answer) {
+        (Some(q), _) => q,
+        (None, Some(a)) => a.near(),
+        (None, None) => &[],
+    };
     if need == 0 || near.len() < need {
-        return (fit_radius(index, params, need, center, r), None);
+        return (fit_radius(index, params, need, center, r), None, answer);
     }
-    // (Reorders the trial's points: no decision reads their order.)
-    let (_, kth, _) = near.select_nth_unstable_by(need - 1, |a, b| a.1.total_cmp(&b.1));
-    let r1 = radius_reaching(kth.1.sqrt(), r, params.lambda);
+    let mut d2: Vec<f64> = near.iter().map(|n| n.1).collect();
+    let (_, kth, _) = d2.select_nth_unstable_by(need - 1, f64::total_cmp);
+    let r1 = radius_reaching(kth.sqrt(), r, params.lambda);
     if r1 > trial {
         // (Rounding at the trial sphere: the k-nearest query decides.)
-        return (fit_radius(index, params, need, center, r), None);
+        return (fit_radius(index, params, need, center, r), None, answer);
     }
     let r1_2 = r1 * r1;
-    let ball = near
-        .into_iter()
-        .filter(|n| n.1 <= r1_2)
-        .map(|n| n.0)
-        .collect();
-    (r1, Some(ball))
+    let ball = near.iter().filter(|n| n.1 <= r1_2).map(|n| n.0).collect();
+    (r1, Some(ball), answer)
 }
 
 #[cfg(test)]
@@ -141,7 +174,34 @@ mod tests {
                 3 => Some(r.max(want_r1 - 2.0 * params.lambda * r)),
                 _ => Some(want_r1 + 3.0 * params.lambda * r),
             };
-            let (r1, ball) = settle_radius(&index, &params, need, center, r, hint);
+            let earlier = |ball, keep_ball| Earlier {
+                r1: hint,
+                ball,
+                keep_ball,
+            };
+            let (r1, ball, answer) =
+                settle_radius_from(&index, &params, need, center, r, earlier(None, k % 2 == 0));
+            let (plain_r1, plain_ball, _) =
+                settle_radius_from(&index, &params, need, center, r, earlier(None, false));
+            assert_eq!(r1.to_bits(), plain_r1.to_bits());
+            // Read again from its own answer: the same radius and ball.
+            let (again_r1, again_ball, _) = settle_radius_from(
+                &index,
+                &params,
+                need,
+                center,
+                r,
+                earlier(answer.as_ref(), true),
+            );
+            assert_eq!(r1.to_bits(), again_r1.to_bits());
+            let sorted = |b: Option<Vec<u32>>| {
+                b.map(|mut b| {
+                    b.sort_unstable();
+                    b
+                })
+            };
+            assert_eq!(sorted(ball.clone()), sorted(again_ball));
+            assert_eq!(sorted(ball.clone()), sorted(plain_ball));
             psi_shapes::assert_near!(r1, want_r1, 1e-12);
             assert_eq!(
                 r1.to_bits(),

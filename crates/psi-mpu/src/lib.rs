@@ -61,6 +61,7 @@ mod ranked_error;
 mod region_points;
 mod report;
 mod select_fit;
+mod trial_balls;
 
 pub use buffers::MpuBuffers;
 pub use build::{BuildOptions, Reuse};

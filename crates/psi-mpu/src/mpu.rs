@@ -11,6 +11,7 @@ use crate::data_footprint::{DataFootprint, FootprintTest, InputData};
 use crate::eval_nodes::{EvalNode, NO_FIT};
 use crate::fit_store::FitStore;
 use crate::point_footprint::PointFootprint;
+use crate::trial_balls::TrialBalls;
 use crate::{BuildReport, DataAnchor, FitKind, LocalFunction, MpuFrame, MpuParams};
 
 /// A multi-level partition of unity implicit: f(x) = Σ w_i(x) Q_i(x) / Σ w_i(x) over the leaves
@@ -44,6 +45,8 @@ pub struct Mpu {
     /// The coarse points' kd-tree (kept for the next local rebuild to derive its own).
     pub(crate) coarse: Arc<CoarseIndex>,
     pub(crate) footprint: DataFootprint,
+    /// After a brush, its refits' ball answers, which the next brush's refits read.
+    pub(crate) trial_balls: Arc<TrialBalls>,
 }
 
 impl Mpu {

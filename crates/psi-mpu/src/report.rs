@@ -49,6 +49,10 @@ pub struct BuildReport {
     /// Where they went (a timing, as every key ending in `seconds`).
     #[serde(default)]
     pub phase_seconds: BuildPhases,
+    /// Refits after a brush whose ball was read from the cell's earlier answer instead of the
+    /// kd-tree (the same points: it changes no fit).
+    #[serde(default)]
+    pub balls_from_earlier: usize,
 }
 
 /// Wall-clock seconds of a build's phases.

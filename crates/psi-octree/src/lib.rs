@@ -9,7 +9,8 @@
 //! * Every input point lies in exactly one leaf ([`Octree::leaf_of_point`]).
 //! * Queries: [`Octree::leaf_containing`], [`Octree::for_each_support_cell`] (cells whose support
 //!   ball, radius α × cell diagonal, contains x), [`Octree::points_within`], and a kiddo kd-tree
-//!   twin [`PointIndex`].
+//!   twin [`PointIndex`] (updated after points move, and answering a ball query again from an
+//!   earlier version's answer: [`BallAnswer`]).
 //! * Exact k nearest neighbours of any point, or of every point in one sweep: [`MortonIndex`].
 //!
 //! ```
@@ -33,6 +34,7 @@
 //! ```
 
 mod all_nearest;
+mod ball_answer;
 mod cell;
 mod cell_at;
 mod error;
@@ -49,6 +51,7 @@ mod points_within;
 mod support_cells;
 
 pub use all_nearest::all_k_nearest;
+pub use ball_answer::BallAnswer;
 pub use cell::{Cell, NO_CELL};
 pub use error::OctreeError;
 pub use geometry::{Aabb, OrientedPoint};

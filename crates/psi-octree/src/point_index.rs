@@ -6,10 +6,13 @@
 //! All kiddo calls of the workspace live in this file, so a change of kiddo's API touches only it.
 
 use std::num::NonZeroUsize;
-use std::sync::Arc;
+use std::sync::{Arc, Weak};
 
 use glam::DVec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
+
+/// The kd-tree type of every index.
+pub(crate) type Tree = ImmutableKdTree<f64, 3>;
 
 /// Point counts from which the tree is built in parallel (kiddo's default is 262 144). The
 /// resulting tree does not depend on the thread count (checked bitwise on 70k- and 480k-point
@@ -193,7 +196,7 @@ impl PointIndex {
 
     /// Whether id `id`'s base entry is stale.
     #[inline]
-    fn is_stale(&self, id: u32) -> bool {
+    pub(crate) fn is_stale(&self, id: u32) -> bool {
         self.stale
             .get((id / 64) as usize)
             .is_some_and(|w| w & (1 << (id % 64)) != 0)
@@ -211,8 +214,28 @@ impl PointIndex {
         self.each_within(x, radius * radius, |id, d2| out.push((id, d2)));
     }
 
+    /// The base tree, weakly (a token of the base for [`crate::BallAnswer`]).
+    pub(crate) fn base_weak(&self) -> Option<Weak<ImmutableKdTree<f64, 3>>> {
+        self.tree.as_ref().map(Arc::downgrade)
+    }
+
+    /// Whether `base` is this index's base tree.
+    pub(crate) fn has_base(&self, base: &Weak<ImmutableKdTree<f64, 3>>) -> bool {
+        self.tree
+            .as_ref()
+            .is_some_and(|t| std::ptr::eq(Arc::as_ptr(t), base.as_ptr()))
+    }
+
+    /// Calls `f(id, squared distance)` for the moved entries (their current positions) with
+    /// squared distance ≤ `r2`.
+    pub(crate) fn each_within_overlay(&self, x: DVec3, r2: f64, f: impl FnMut(u32, f64)) {
+        if let Some(o) = &self.overlay {
+            ball_of(o, x, r2, f);
+        }
+    }
+
     /// Calls `f(id, squared distance)` for every live entry with squared distance ≤ `r2`.
-    fn each_within(&self, x: DVec3, r2: f64, mut f: impl FnMut(u32, f64)) {
+    pub(crate) fn each_within(&self, x: DVec3, r2: f64, mut f: impl FnMut(u32, f64)) {
         self.each_within_base(x, r2, &mut f);
         if let Some(o) = &self.overlay {
             ball_of(o, x, r2, &mut f);

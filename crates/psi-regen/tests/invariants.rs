@@ -587,8 +587,17 @@ fn local_rebuilds_are_bitwise_a_build_from_scratch() {
             displacement: -0.02 * points[2000].n,
         },
     ];
+    // The same brush forth and back: its refits read the cells' earlier ball answers.
+    let forth = |sign: f64| Edit::Brush {
+        center: points[2000].p,
+        radius: 0.25,
+        displacement: 0.02 * sign * points[2000].n,
+    };
+    let edits: Vec<Edit> = edits.into_iter().chain([forth(1.0), forth(-1.0)]).collect();
+    let mut from_earlier = 0;
     for edit in &edits {
         scene.apply(edit).unwrap();
+        from_earlier += scene.mpu().report().balls_from_earlier;
         let scratch = scene.rebuild_from_scratch().unwrap();
         for p in scene.points().iter().step_by(37) {
             let x = p.p + 0.02 * p.n;
@@ -597,7 +606,12 @@ fn local_rebuilds_are_bitwise_a_build_from_scratch() {
                 scratch.value_and_gradient(x)
             );
         }
+        assert_same_mpu(scene.mpu(), &scratch);
     }
+    assert!(
+        from_earlier > 20,
+        "{from_earlier} refits read earlier balls"
+    );
 }
 
 /// The footprint table a brush carries to the next MPU answers as a fresh table does: with
