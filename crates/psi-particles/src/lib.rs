@@ -27,6 +27,7 @@
 //! ```
 
 mod cover_data;
+mod dart_grid;
 mod density;
 mod neighbours;
 mod octree_buckets;

@@ -3,8 +3,6 @@
 //! scale c found by bisection so that at least the requested count is accepted, then the most
 //! crowded extras removed. Radii r are the target σ̂ of the point's leaf (or one constant).
 
-use std::collections::HashMap;
-
 use glam::DVec3;
 use psi_mpu::Mpu;
 use psi_octree::{Monitor, PointIndex};
@@ -12,10 +10,12 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_pcg::Pcg64Mcg;
 
+use crate::dart_grid::DartGrid;
 use crate::seed::Seed;
 
-/// Accepted input-point indices for scale `c` (radius of point i: c·radius[i]).
-/// Stops early (a partial list) once `monitor`'s flag is set.
+/// Accepted input-point indices for scale `c` (radius of point i: c·radius[i]; `cell` ≥ every
+/// c·(r_p + r_q)/2, the grid's cube edge). Stops early (a partial list) once `monitor`'s flag is
+/// set.
 fn throw(
     positions: &[DVec3],
     radius: &[f64],
@@ -23,39 +23,19 @@ fn throw(
     (c, cell): (f64, f64),
     monitor: &Monitor<'_>,
 ) -> Vec<u32> {
-    let mut grid: HashMap<(i64, i64, i64), Vec<u32>> = HashMap::new();
+    let mut grid = DartGrid::new(cell, order.len() / 4);
     let mut accepted = Vec::new();
-    let key = |p: DVec3| {
-        (
-            (p.x / cell).floor() as i64,
-            (p.y / cell).floor() as i64,
-            (p.z / cell).floor() as i64,
-        )
-    };
     for (k, &i) in order.iter().enumerate() {
         if k % 65_536 == 0 && monitor.stopped() {
             break;
         }
         let p = positions[i as usize];
-        let (kx, ky, kz) = key(p);
-        let mut free = true;
-        'search: for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    if let Some(list) = grid.get(&(kx + dx, ky + dy, kz + dz)) {
-                        for &j in list {
-                            let r = 0.5 * c * (radius[i as usize] + radius[j as usize]);
-                            if (positions[j as usize] - p).length_squared() < r * r {
-                                free = false;
-                                break 'search;
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        if free {
-            grid.entry((kx, ky, kz)).or_default().push(i);
+        let taken = grid.any_around(p, |j, q| {
+            let r = 0.5 * c * (radius[i as usize] + radius[j as usize]);
+            (q - p).length_squared() < r * r
+        });
+        if !taken {
+            grid.insert(i, p);
             accepted.push(i);
         }
     }
@@ -152,4 +132,51 @@ pub(crate) fn poisson_seeds(
             })
             .collect(),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+    use psi_octree::Monitor;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    use super::throw;
+
+    /// Brute-force twin: every point tested against every accepted one, for random points and
+    /// radii at several scales.
+    #[test]
+    fn a_throw_accepts_what_testing_every_pair_accepts() {
+        let mut rng = Pcg64Mcg::seed_from_u64(8);
+        let positions: Vec<DVec3> = (0..3000)
+            .map(|_| DVec3::new(rng.random(), rng.random(), 0.2 * rng.random::<f64>()))
+            .collect();
+        let radius: Vec<f64> = (0..3000)
+            .map(|_| 0.01 + 0.03 * rng.random::<f64>())
+            .collect();
+        let order: Vec<u32> = (0..3000).rev().collect();
+        let r_max = radius.iter().copied().fold(0.0, f64::max);
+        for c in [0.3, 1.0, 2.5] {
+            let got = throw(
+                &positions,
+                &radius,
+                &order,
+                (c, c * r_max),
+                &Monitor::silent(),
+            );
+            let mut want: Vec<u32> = Vec::new();
+            for &i in &order {
+                let p = positions[i as usize];
+                let free = want.iter().all(|&j| {
+                    let r = 0.5 * c * (radius[i as usize] + radius[j as usize]);
+                    (positions[j as usize] - p).length_squared() >= r * r
+                });
+                if free {
+                    want.push(i);
+                }
+            }
+            assert_eq!(got, want, "c = {c}");
+            assert!(want.len() > 20 && want.len() < 3000, "{}", want.len());
+        }
+    }
 }
