@@ -9,25 +9,19 @@ use std::time::Instant;
 
 use glam::DVec3;
 use psi_octree::{
-    Aabb, BallAnswer, Interrupted, KnownPartitions, Monitor, Octree, OctreeBuild, OctreeParams,
-    OrientedPoint, PointIndex,
+    Aabb, KnownPartitions, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint,
 };
-use rayon::prelude::*;
 
 use crate::cell_table::CellTable;
-use crate::coarse_index::CoarseIndex;
 use crate::data_footprint::DataFootprint;
 use crate::eval_nodes::{NO_FIT, eval_nodes_into};
-use crate::fit_cell::{
-    CellFit, FitInput, fit_cell, fit_octree_cell, refit_octree_cell, try_fit_octree_cell,
-};
-use crate::fit_radius::Earlier;
+use crate::fit_cell::{CellFit, FitInput, fit_cell, fit_octree_cell};
 use crate::fit_reach::reach_by_depth;
 use crate::fit_store::FitStoreBuilder;
 use crate::frame::check_input_size;
 use crate::point_footprint::PointFootprint;
+use crate::prefit_marked::{Prefit, prefit_marked};
 use crate::select_fit::LeafFit;
-use crate::trial_balls::TrialBalls;
 use crate::{BuildReport, FitKind, Mpu, MpuBuffers, MpuError, MpuFrame, MpuParams};
 
 /// What a local rebuild may take from an earlier MPU: the records of its cells that no edit
@@ -185,130 +179,6 @@ fn prepare(
     Ok(Prepared { positions, points })
 }
 
-/// The kd-trees of a build and the fits of the earlier MPU's marked cells (empty without
-/// reuse), in the order of `marked`.
-struct Prefit {
-    index: Arc<PointIndex>,
-    coarse: Arc<CoarseIndex>,
-    fits: Vec<CellFit>,
-    /// After a brush, the refits' ball answers (for the next brush).
-    balls: TrialBalls,
-    /// How many of them were read from the earlier answers.
-    from_earlier: usize,
-}
-
-/// Fits the marked cells of the earlier octree up front, in one parallel batch: a fit depends
-/// only on its cell and the points, and level by level the coarse levels hold a few expensive
-/// fits that keep threads idle. (A marked cell whose parent no longer splits is fitted for
-/// nothing; cells new to the octree are fitted as met.) The large cells among them that split
-/// are fitted from the coarse points alone while the kd-tree of all points is being built.
-fn prefit_marked(
-    data: &Prepared,
-    params: &MpuParams,
-    eps0: f64,
-    reuse: Option<Reuse<'_>>,
-    marked: &[u32],
-    monitor: &Monitor<'_>,
-) -> Result<Prefit, Interrupted> {
-    let old = || reuse.expect("marked cells come with reuse").old;
-    let old_cell = |c: u32| *old().octree.cell(c);
-    let positions = &data.positions;
-    // After a brush the earlier MPU's kd-trees are brought up to date (no early fits needed).
-    let derived = reuse.and_then(|r| {
-        let moved = r.moved_of(positions.len())?;
-        Some(rayon::join(
-            || Arc::new(r.old.index.with_moved(moved, positions, |_| true)),
-            || Arc::new(r.old.coarse.with_moved(moved, positions)),
-        ))
-    });
-    // After a brush the refits read their cells' earlier ball answers and keep their own.
-    let keep_balls = derived.is_some();
-    let (index, (coarse, early)) = match derived {
-        Some((index, coarse)) => (index, (coarse, vec![None; marked.len()])),
-        None => rayon::join(
-            || Arc::new(PointIndex::new(positions)),
-            || {
-                let coarse = Arc::new(CoarseIndex::new(positions));
-                let input = FitInput {
-                    coarse: &coarse,
-                    positions,
-                    points: &data.points,
-                    index: None,
-                    params,
-                    population: positions.len(),
-                };
-                let early: Vec<Option<CellFit>> = marked
-                    .par_iter()
-                    .map(|&c| {
-                        if monitor.stopped() {
-                            return None;
-                        }
-                        let cell = old_cell(c);
-                        try_fit_octree_cell(&input, &cell, eps0)
-                    })
-                    .collect();
-                (coarse, early)
-            },
-        ),
-    };
-    let input = FitInput {
-        coarse: &coarse,
-        positions,
-        points: &data.points,
-        index: Some(&index),
-        params,
-        population: positions.len(),
-    };
-    monitor.check()?;
-    // (A stop part-way leaves `None`s, and the whole is dropped.)
-    let fits: Option<Vec<(CellFit, Option<BallAnswer>)>> = marked
-        .par_iter()
-        .zip(early)
-        .map(|(&c, early)| {
-            if monitor.stopped() {
-                return None;
-            }
-            Some(match early {
-                Some(fit) => (fit, None),
-                None => {
-                    let cell = old_cell(c);
-                    let earlier = Earlier {
-                        r1: Some(old().fit_radius[c as usize]),
-                        ball: keep_balls
-                            .then(|| old().trial_balls.get(cell.depth, cell.key))
-                            .flatten(),
-                        keep_ball: keep_balls,
-                    };
-                    refit_octree_cell(&input, &cell, eps0, earlier)
-                }
-            })
-        })
-        .collect();
-    let (fits, answers): (Vec<CellFit>, Vec<Option<BallAnswer>>) =
-        fits.ok_or(Interrupted)?.into_iter().unzip();
-    let from_earlier = answers
-        .iter()
-        .flatten()
-        .filter(|a| a.from_earlier())
-        .count();
-    let balls = if keep_balls {
-        let addresses = marked.iter().map(|&c| {
-            let cell = old_cell(c);
-            (cell.depth, cell.key)
-        });
-        TrialBalls::new(addresses, answers)
-    } else {
-        TrialBalls::default()
-    };
-    Ok(Prefit {
-        index,
-        coarse,
-        fits,
-        balls,
-        from_earlier,
-    })
-}
-
 /// The bounding box of `points` (world units) from `old`'s, the points `moved` having moved:
 /// grown by their new positions, or `None` when one of them left a face of the old box (then
 /// the box may shrink and is measured again).
@@ -417,7 +287,14 @@ impl Mpu {
             fits: prefit,
             balls,
             from_earlier,
-        } = prefit_marked(&data, params, eps0, reuse, &marked_old, &monitor)?;
+        } = prefit_marked(
+            (&data.positions, &data.points),
+            params,
+            eps0,
+            reuse.map(|r| (r.old, r.moved_of(n))),
+            &marked_old,
+            &monitor,
+        )?;
         let t_fits = start.elapsed().as_secs_f64();
         let levels = u64::from(params.max_depth) + 1;
         monitor.report("mpu", 0, levels);

@@ -56,6 +56,7 @@ mod mpu;
 mod params;
 mod point_footprint;
 mod polygonize;
+mod prefit_marked;
 mod quadric;
 mod ranked_error;
 mod region_points;
