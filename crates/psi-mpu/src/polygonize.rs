@@ -4,6 +4,7 @@
 //! spacings from the data dropped, so no sheets appear away from the data.
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -93,43 +94,29 @@ pub fn polygonize_with(
     let spacing = median_spacing(local);
     let band = ((1.5 * spacing / h).ceil() as i64 + 1).clamp(1, 6);
 
+    // The band: the points' cells grown by `band` cells along each axis in turn (a cube
+    // neighbourhood is the product of three intervals), clipped to the grid.
     let mut cells: Vec<u64> = local
         .par_iter()
-        .flat_map_iter(|p| {
-            if monitor.stopped() {
-                return Vec::new();
-            }
+        .map(|p| {
             let c = ((*p - min) / h).floor();
-            let (ci, cj, ck) = (c.x as i64, c.y as i64, c.z as i64);
-            let mut out = Vec::new();
-            for di in -band..=band {
-                for dj in -band..=band {
-                    for dk in -band..=band {
-                        let (i, j, k) = (ci + di, cj + dj, ck + dk);
-                        if (0..res).contains(&i) && (0..res).contains(&j) && (0..res).contains(&k) {
-                            out.push(key(i, j, k));
-                        }
-                    }
-                }
-            }
-            out
+            key(c.x as i64, c.y as i64, c.z as i64)
         })
         .collect();
-    monitor.check()?;
     cells.par_sort_unstable();
     cells.dedup();
+    for axis in 0..3 {
+        monitor.check()?;
+        cells = grown(&cells, axis, -band..=band, res);
+    }
     monitor.check()?;
     monitor.report("mesh", 1, STEPS);
 
-    let mut corners: Vec<u64> = cells
-        .iter()
-        .flat_map(|&c| {
-            let [i, j, k] = unkey(c);
-            (0..8).map(move |o| key(i + (o & 1), j + ((o >> 1) & 1), k + ((o >> 2) & 1)))
-        })
-        .collect();
-    corners.par_sort_unstable();
-    corners.dedup();
+    // Every cell's eight corners: the cells grown by one along each axis upwards.
+    let mut corners = cells.clone();
+    for axis in 0..3 {
+        corners = grown(&corners, axis, 0..=1, res + 1);
+    }
     let origin = mpu.frame_origin();
     let corner_pos = |c: u64| {
         let [i, j, k] = unkey(c);
@@ -145,7 +132,7 @@ pub fn polygonize_with(
         })
         .collect();
     monitor.check()?;
-    let value_of: HashMap<u64, f64> = corners
+    let value_of: KeyMap<f64> = corners
         .iter()
         .copied()
         .zip(values.iter().copied())
@@ -216,7 +203,8 @@ pub fn polygonize_with(
     monitor.check()?;
     monitor.report("mesh", 3, STEPS);
     let mut soup = TriangleSoup::default();
-    let mut vertex_of: HashMap<u64, u32> = HashMap::with_capacity(cells.len());
+    let mut vertex_of: KeyMap<u32> =
+        KeyMap::with_capacity_and_hasher(cells.len(), Default::default());
     for (c, v) in cells.iter().zip(&verts) {
         if let Some(x) = v {
             vertex_of.insert(*c, soup.vertices.len() as u32);
@@ -272,6 +260,57 @@ pub fn polygonize_with(
     Ok(soup)
 }
 
+/// The keys `cells` (ascending) with each one's coordinate `axis` moved by every offset in
+/// `offsets`, those within `0..limit` kept: ascending, without repeats.
+fn grown(
+    cells: &[u64],
+    axis: usize,
+    offsets: std::ops::RangeInclusive<i64>,
+    limit: i64,
+) -> Vec<u64> {
+    let mut out: Vec<u64> = cells
+        .par_iter()
+        .flat_map_iter(|&c| {
+            let at = unkey(c);
+            offsets.clone().filter_map(move |d| {
+                let mut moved = at;
+                moved[axis] += d;
+                (0..limit)
+                    .contains(&moved[axis])
+                    .then(|| key(moved[0], moved[1], moved[2]))
+            })
+        })
+        .collect();
+    out.par_sort_unstable();
+    out.dedup();
+    out
+}
+
+/// A hasher of grid keys (Knuth's multiplicative hashing, TAOCP vol. 3 §6.4, folded so that the
+/// table's low and high bits both see every key bit): the keys are our own, not adversarial.
+#[derive(Default)]
+struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        let h = self.0.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        h ^ (h >> 32)
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = self.0.rotate_left(8) ^ u64::from(b);
+        }
+    }
+
+    fn write_u64(&mut self, i: u64) {
+        self.0 = i;
+    }
+}
+
+/// A map from grid keys.
+type KeyMap<V> = HashMap<u64, V, BuildHasherDefault<KeyHasher>>;
+
 /// Removes the vertices no face uses (those of quads dropped far from the data) and renumbers
 /// the faces, keeping the vertices' order.
 fn drop_unreferenced_vertices(soup: &mut TriangleSoup) {
@@ -310,4 +349,40 @@ fn median_spacing(points: &[DVec3]) -> f64 {
     }
     let mid = d.len() / 2;
     *d.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{grown, key};
+
+    /// Brute-force twin of the band: growing the cells along each axis in turn gives every
+    /// cell of the cube neighbourhoods within the grid, near its faces too.
+    #[test]
+    fn growing_axis_by_axis_gives_the_cube_neighbourhoods() {
+        let res = 12i64;
+        let seeds = [[0, 0, 0], [5, 5, 5], [11, 3, 12], [7, 11, 0], [6, 5, 5]];
+        for band in 1..=3i64 {
+            let mut cells: Vec<u64> = seeds.iter().map(|c| key(c[0], c[1], c[2])).collect();
+            cells.sort_unstable();
+            for axis in 0..3 {
+                cells = grown(&cells, axis, -band..=band, res);
+            }
+            let mut want = Vec::new();
+            for c in seeds {
+                for di in -band..=band {
+                    for dj in -band..=band {
+                        for dk in -band..=band {
+                            let (i, j, k) = (c[0] + di, c[1] + dj, c[2] + dk);
+                            if [i, j, k].iter().all(|x| (0..res).contains(x)) {
+                                want.push(key(i, j, k));
+                            }
+                        }
+                    }
+                }
+            }
+            want.sort_unstable();
+            want.dedup();
+            assert_eq!(cells, want, "band {band}");
+        }
+    }
 }
