@@ -197,7 +197,10 @@ pub fn polygonize_with(
                 }
                 x -= step;
             }
-            (mpu.distance_in_spacings(x) <= params.max_data_distance).then_some(x)
+            // (A finite vertex is within an infinite distance: not measured then.)
+            let kept = (params.max_data_distance == f64::INFINITY && x.is_finite())
+                || mpu.distance_in_spacings(x) <= params.max_data_distance;
+            kept.then_some(x)
         })
         .collect();
     monitor.check()?;
