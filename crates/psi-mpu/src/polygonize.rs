@@ -4,13 +4,13 @@
 //! spacings from the data dropped, so no sheets appear away from the data.
 
 use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
+use std::hash::BuildHasherDefault;
 
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use psi_octree::{Interrupted, Monitor};
+use psi_octree::{IdHasher, Interrupted, Monitor};
 
 use crate::Mpu;
 
@@ -289,30 +289,8 @@ fn grown(
     out
 }
 
-/// A hasher of grid keys (Knuth's multiplicative hashing, TAOCP vol. 3 §6.4, folded so that the
-/// table's low and high bits both see every key bit): the keys are our own, not adversarial.
-#[derive(Default)]
-struct KeyHasher(u64);
-
-impl Hasher for KeyHasher {
-    fn finish(&self) -> u64 {
-        let h = self.0.wrapping_mul(0x9e37_79b9_7f4a_7c15);
-        h ^ (h >> 32)
-    }
-
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = self.0.rotate_left(8) ^ u64::from(b);
-        }
-    }
-
-    fn write_u64(&mut self, i: u64) {
-        self.0 = i;
-    }
-}
-
-/// A map from grid keys.
-type KeyMap<V> = HashMap<u64, V, BuildHasherDefault<KeyHasher>>;
+/// A map from grid keys (hashed multiplicatively: the keys are our own, not adversarial).
+type KeyMap<V> = HashMap<u64, V, BuildHasherDefault<IdHasher>>;
 
 /// Removes the vertices no face uses (those of quads dropped far from the data) and renumbers
 /// the faces, keeping the vertices' order.

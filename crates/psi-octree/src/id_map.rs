@@ -1,4 +1,4 @@
-//! Hash maps keyed by cell or point indices, with a multiplicative hash (Knuth's Fibonacci
+//! Hash maps keyed by cell or point indices (or other keys of our own), with a multiplicative hash (Knuth's Fibonacci
 //! hashing, TAOCP vol. 3 §6.4) instead of the standard library's SipHash: the keys are our own
 //! indices, not adversarial input, and a rebuild after an edit looks one up for every cell it
 //! copies.
@@ -6,9 +6,10 @@
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
-/// A hasher of one `u32` (other writes are folded in byte by byte).
+/// A hasher of one `u32` or `u64` key of our own (other writes are folded in byte by byte):
+/// for `HashMap`s keyed by indices or packed grid coordinates (`BuildHasherDefault<IdHasher>`).
 #[derive(Default)]
-pub(crate) struct IdHasher(u64);
+pub struct IdHasher(u64);
 
 impl Hasher for IdHasher {
     fn finish(&self) -> u64 {
@@ -26,6 +27,10 @@ impl Hasher for IdHasher {
 
     fn write_u32(&mut self, i: u32) {
         self.0 = self.0.rotate_left(32) ^ u64::from(i);
+    }
+
+    fn write_u64(&mut self, i: u64) {
+        self.0 = self.0.rotate_left(32) ^ i;
     }
 }
 

@@ -55,6 +55,7 @@ pub use ball_answer::BallAnswer;
 pub use cell::{Cell, NO_CELL};
 pub use error::OctreeError;
 pub use geometry::{Aabb, OrientedPoint};
+pub use id_map::IdHasher;
 pub use monitor::{Interrupted, Monitor, Observer, StopFlag};
 pub use morton_index::{MortonIndex, morton_code};
 pub use octree::{
