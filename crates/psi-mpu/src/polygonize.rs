@@ -105,18 +105,12 @@ pub fn polygonize_with(
         .collect();
     cells.par_sort_unstable();
     cells.dedup();
-    for axis in 0..3 {
-        monitor.check()?;
-        cells = grown(&cells, axis, -band..=band, res);
-    }
     monitor.check()?;
+    let cells = grown_cubes(&cells, -band..=band, res, monitor)?;
     monitor.report("mesh", 1, STEPS);
 
     // Every cell's eight corners: the cells grown by one along each axis upwards.
-    let mut corners = cells.clone();
-    for axis in 0..3 {
-        corners = grown(&corners, axis, 0..=1, res + 1);
-    }
+    let corners = grown_cubes(&cells, 0..=1, res + 1, monitor)?;
     let origin = mpu.frame_origin();
     let corner_pos = |c: u64| {
         let [i, j, k] = unkey(c);
@@ -263,6 +257,49 @@ pub fn polygonize_with(
     Ok(soup)
 }
 
+/// The keys `cells` (ascending, distinct) moved by every offset in `offsets` along all three
+/// axes (a cube of offsets), those within `0..limit` on each axis kept: ascending, without
+/// repeats. Worked out in slabs of [`SLAB`] planes of the third coordinate, each from the
+/// cells whose cubes reach it, so that a stop request is seen between slabs.
+fn grown_cubes(
+    cells: &[u64],
+    offsets: std::ops::RangeInclusive<i64>,
+    limit: i64,
+    monitor: &Monitor<'_>,
+) -> Result<Vec<u64>, Interrupted> {
+    let plane = |c: u64| unkey(c)[2];
+    let (lo, hi) = (*offsets.start(), *offsets.end());
+    let (Some(&first), Some(&last)) = (cells.first(), cells.last()) else {
+        return Ok(Vec::new());
+    };
+    let from = (plane(first) + lo).max(0);
+    let to = (plane(last) + hi).min(limit - 1);
+    let starts: Vec<i64> = (from..=to).step_by(SLAB as usize).collect();
+    let slabs: Vec<Vec<u64>> = starts
+        .par_iter()
+        .map(|&k0| {
+            if monitor.stopped() {
+                return Vec::new();
+            }
+            let k1 = k0 + SLAB;
+            // The cells whose planes reach [k0, k1): k + d in it for an offset d.
+            let a = cells.partition_point(|&c| plane(c) < k0 - hi);
+            let b = cells.partition_point(|&c| plane(c) < k1 - lo);
+            let mut out = cells[a..b].to_vec();
+            for axis in 0..3 {
+                out = grown(&out, axis, offsets.clone(), limit);
+            }
+            out.retain(|&c| (k0..k1).contains(&plane(c)));
+            out
+        })
+        .collect();
+    monitor.check()?;
+    Ok(slabs.concat())
+}
+
+/// Planes of the third coordinate per slab of [`grown_cubes`].
+const SLAB: i64 = 16;
+
 /// The keys `cells` (ascending) with each one's coordinate `axis` moved by every offset in
 /// `offsets`, those within `0..limit` kept: ascending, without repeats.
 fn grown(
@@ -334,14 +371,26 @@ fn median_spacing(points: &[DVec3]) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::{grown, key};
+    use psi_octree::Monitor;
+
+    use super::{grown, grown_cubes, key};
 
     /// Brute-force twin of the band: growing the cells along each axis in turn gives every
     /// cell of the cube neighbourhoods within the grid, near its faces too.
     #[test]
     fn growing_axis_by_axis_gives_the_cube_neighbourhoods() {
-        let res = 12i64;
-        let seeds = [[0, 0, 0], [5, 5, 5], [11, 3, 12], [7, 11, 0], [6, 5, 5]];
+        // Planes across several slabs of `grown_cubes`, and seeds on and past the grid's faces.
+        let res = 40i64;
+        let seeds = [
+            [0, 0, 0],
+            [5, 5, 5],
+            [11, 3, 40],
+            [7, 11, 0],
+            [6, 5, 15],
+            [6, 5, 16],
+            [39, 20, 31],
+            [2, 2, 33],
+        ];
         for band in 1..=3i64 {
             let mut cells: Vec<u64> = seeds.iter().map(|c| key(c[0], c[1], c[2])).collect();
             cells.sort_unstable();
@@ -364,6 +413,10 @@ mod tests {
             want.sort_unstable();
             want.dedup();
             assert_eq!(cells, want, "band {band}");
+            let mut seeds: Vec<u64> = seeds.iter().map(|c| key(c[0], c[1], c[2])).collect();
+            seeds.sort_unstable();
+            let by_slabs = grown_cubes(&seeds, -band..=band, res, &Monitor::silent()).unwrap();
+            assert_eq!(by_slabs, want, "band {band}, by slabs");
         }
     }
 }
