@@ -3,6 +3,8 @@
 //! scale c found by bisection so that at least the requested count is accepted, then the most
 //! crowded extras removed. Radii r are the target σ̂ of the point's leaf (or one constant).
 
+use std::collections::HashSet;
+
 use glam::DVec3;
 use psi_mpu::Mpu;
 use psi_octree::{Monitor, PointIndex};
@@ -42,6 +44,26 @@ fn throw(
     accepted
 }
 
+/// Whether a throw whose darts lie at least `spacing` apart (world units; c·r_min) may accept
+/// `count` of `positions`: false when fewer half-open cubes of edge spacing/√3 hold points
+/// (two darts in one cube would be closer than `spacing`; the edge is shrunk by 1e-9 against
+/// rounding). True whenever that bound cannot be read (no spacing, or cubes too small for
+/// exact integer keys).
+fn may_accept(positions: &[DVec3], spacing: f64, count: usize) -> bool {
+    let edge = spacing / 3f64.sqrt() * (1.0 - 1e-9);
+    let reach = positions
+        .iter()
+        .fold(0.0f64, |m, p| m.max(p.abs().max_element()));
+    if !(edge > 0.0 && reach / edge < 1e15) {
+        return true;
+    }
+    let mut cubes = HashSet::new();
+    positions.iter().any(|p| {
+        cubes.insert((*p / edge).floor().to_array().map(|x| x as i64));
+        cubes.len() >= count
+    })
+}
+
 /// Exactly `count` seeds from `mpu`'s input points with spacing proportional to
 /// `radius_of(depth)`; `None` when the input has fewer usable points than `count`.
 pub(crate) fn poisson_seeds(
@@ -64,6 +86,7 @@ pub(crate) fn poisson_seeds(
     let mut order: Vec<u32> = (0..input.len() as u32).collect();
     order.shuffle(&mut Pcg64Mcg::seed_from_u64(seed));
     let r_max = radius.iter().copied().fold(0.0, f64::max);
+    let r_min = radius.iter().copied().fold(f64::INFINITY, f64::min);
     // Bisection on c: the accepted count decreases as c grows.
     let (mut lo, mut hi) = (0.0f64, 8.0f64);
     let mut best: Option<Vec<u32>> = None;
@@ -74,6 +97,11 @@ pub(crate) fn poisson_seeds(
             return Some(Vec::new());
         }
         let c = 0.5 * (lo + hi);
+        if !may_accept(&positions, c * r_min, count) {
+            // Fewer than `count` would be accepted: what the throw would conclude.
+            hi = c;
+            continue;
+        }
         let acc = throw(
             &positions,
             &radius,
@@ -141,7 +169,7 @@ mod tests {
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg64Mcg;
 
-    use super::throw;
+    use super::{may_accept, throw};
 
     /// Brute-force twin: every point tested against every accepted one, for random points and
     /// radii at several scales.
@@ -178,5 +206,40 @@ mod tests {
             assert_eq!(got, want, "c = {c}");
             assert!(want.len() > 20 && want.len() < 3000, "{}", want.len());
         }
+    }
+
+    /// The cube bound never rules out a count a throw reaches, and does rule out some.
+    #[test]
+    fn the_cube_bound_never_rules_out_a_reachable_count() {
+        let mut rng = Pcg64Mcg::seed_from_u64(9);
+        let positions: Vec<DVec3> = (0..4000)
+            .map(|_| DVec3::new(rng.random(), rng.random(), 0.1 * rng.random::<f64>()))
+            .collect();
+        let radius: Vec<f64> = (0..4000).map(|_| 0.5 + rng.random::<f64>()).collect();
+        let r_min = radius.iter().copied().fold(f64::INFINITY, f64::min);
+        let r_max = radius.iter().copied().fold(0.0, f64::max);
+        let order: Vec<u32> = (0..4000).collect();
+        let mut ruled_out = 0;
+        for k in 0..40 {
+            let c = 0.002 * 1.2f64.powi(k);
+            let accepted = throw(
+                &positions,
+                &radius,
+                &order,
+                (c, c * r_max),
+                &Monitor::silent(),
+            );
+            for count in [
+                accepted.len() / 2 + 1,
+                accepted.len(),
+                accepted.len() + 1,
+                2 * accepted.len(),
+            ] {
+                let may = may_accept(&positions, c * r_min, count);
+                assert!(may || count > accepted.len(), "c = {c}, count {count}");
+                ruled_out += usize::from(!may);
+            }
+        }
+        assert!(ruled_out > 10, "{ruled_out}");
     }
 }
