@@ -4,6 +4,7 @@
 //! its own for the next brush (`trial_balls.rs`).
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use glam::DVec3;
 use psi_octree::{BallAnswer, Interrupted, Monitor, OrientedPoint, PointIndex};
@@ -15,6 +16,11 @@ use crate::fit_radius::Earlier;
 use crate::trial_balls::TrialBalls;
 use crate::{Mpu, MpuParams};
 
+/// A brush keeps at most this many ball-answer pairs a point for the next (16 bytes each; the
+/// MPU itself takes about 250 bytes a point): a brush over most of a model keeps some answers,
+/// not a copy of every refitted cell's ball.
+const KEPT_PAIRS_PER_POINT: usize = 8;
+
 /// The kd-trees of a build and the fits of the earlier MPU's marked cells (empty without
 /// reuse), in the order of `marked`.
 pub(crate) struct Prefit {
@@ -23,7 +29,7 @@ pub(crate) struct Prefit {
     pub(crate) fits: Vec<CellFit>,
     /// After a brush, the refits' ball answers (for the next brush).
     pub(crate) balls: TrialBalls,
-    /// How many of them were read from the earlier answers.
+    /// How many refits read their balls from the earlier answers.
     pub(crate) from_earlier: usize,
 }
 
@@ -93,8 +99,12 @@ pub(crate) fn prefit_marked(
         population: positions.len(),
     };
     monitor.check()?;
+    // The answers kept stop at a budget of pairs (which cells keep theirs may vary with the
+    // threads' timing; the fits never do).
+    let budget = KEPT_PAIRS_PER_POINT * positions.len();
+    let kept_pairs = AtomicUsize::new(0);
     // (A stop part-way leaves `None`s, and the whole is dropped.)
-    let fits: Option<Vec<(CellFit, Option<BallAnswer>)>> = marked
+    let fits: Option<Vec<(CellFit, Option<BallAnswer>, bool)>> = marked
         .par_iter()
         .zip(early)
         .map(|(&c, early)| {
@@ -102,7 +112,7 @@ pub(crate) fn prefit_marked(
                 return None;
             }
             Some(match early {
-                Some(fit) => (fit, None),
+                Some(fit) => (fit, None, false),
                 None => {
                     let cell = old_cell(c);
                     let earlier = Earlier {
@@ -112,18 +122,21 @@ pub(crate) fn prefit_marked(
                             .flatten(),
                         keep_ball: keep_balls,
                     };
-                    refit_octree_cell(&input, &cell, eps0, earlier)
+                    let (fit, answer) = refit_octree_cell(&input, &cell, eps0, earlier);
+                    let read = answer.as_ref().is_some_and(BallAnswer::from_earlier);
+                    let answer = answer.filter(|a| {
+                        let n = a.near().len();
+                        kept_pairs.fetch_add(n, Ordering::Relaxed) + n <= budget
+                    });
+                    (fit, answer, read)
                 }
             })
         })
         .collect();
+    let fits = fits.ok_or(Interrupted)?;
+    let from_earlier = fits.iter().filter(|f| f.2).count();
     let (fits, answers): (Vec<CellFit>, Vec<Option<BallAnswer>>) =
-        fits.ok_or(Interrupted)?.into_iter().unzip();
-    let from_earlier = answers
-        .iter()
-        .flatten()
-        .filter(|a| a.from_earlier())
-        .count();
+        fits.into_iter().map(|(f, a, _)| (f, a)).unzip();
     let balls = if keep_balls {
         let addresses = marked.iter().map(|&c| {
             let cell = old_cell(c);
@@ -140,4 +153,65 @@ pub(crate) fn prefit_marked(
         balls,
         from_earlier,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+
+    use crate::{BuildOptions, Mpu, MpuParams, Reuse};
+
+    /// A brush over the whole model (every cell marked) keeps ball answers within the budget,
+    /// and the next such brush reads some of them and builds what a build from scratch
+    /// builds.
+    #[test]
+    fn a_whole_model_brush_keeps_answers_within_the_budget() {
+        let params = MpuParams::paper();
+        let mut points = psi_shapes::sample_builtin(20_000, 5);
+        let mut old = Mpu::build(&points, &params).unwrap();
+        let frame = *old.frame();
+        // Every cell marked; 3 000 points moved (few enough that the kd-tree is derived, not
+        // built again, so that the second brush can read the first one's answers).
+        let moved: Vec<u32> = (0..3000).map(|k| k * 6).collect();
+        for round in 0..2 {
+            for &i in &moved {
+                let dz = 1e-3 * if round == 0 { 1.0 } else { -1.0 };
+                points[i as usize].p += DVec3::new(0.0, 0.0, dz);
+            }
+            let marked = vec![true; old.octree().cells().len()];
+            let options = BuildOptions {
+                frame: Some(frame),
+                reuse: Some(Reuse {
+                    old: &old,
+                    marked: &marked,
+                    indices_kept: true,
+                    moved: Some(&moved),
+                }),
+                ..Default::default()
+            };
+            let new = Mpu::build_with(&points[..], &params, options).unwrap();
+            let kept = new.trial_balls.pairs();
+            assert!(
+                kept > 0 && kept <= super::KEPT_PAIRS_PER_POINT * points.len(),
+                "{kept}"
+            );
+            if round == 1 {
+                assert!(new.report().balls_from_earlier > 0);
+            }
+            let scratch = Mpu::build_with(
+                &points[..],
+                &params,
+                BuildOptions {
+                    frame: Some(frame),
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            for p in points.iter().step_by(97) {
+                let x = p.p + 0.01 * p.n;
+                assert_eq!(new.value_and_gradient(x), scratch.value_and_gradient(x));
+            }
+            old = new;
+        }
+    }
 }

@@ -34,6 +34,12 @@ impl TrialBalls {
         }
     }
 
+    /// Pairs held in all answers (tests: the budget).
+    #[cfg(test)]
+    pub(crate) fn pairs(&self) -> usize {
+        self.0.values().map(|a| a.near().len()).sum()
+    }
+
     /// The answer of the cell at depth `depth` and key `key`, if one was kept.
     pub(crate) fn get(&self, depth: u8, key: [u32; 3]) -> Option<&BallAnswer> {
         self.0.get(&(depth, key))
