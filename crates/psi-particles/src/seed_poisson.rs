@@ -171,27 +171,39 @@ mod tests {
 
     use super::{may_accept, throw};
 
+    /// `n` seeded points in a slab of thickness `thick` over the unit square, with radii
+    /// uniform in `radii`, and the smallest and largest radius.
+    fn cloud(
+        n: usize,
+        seed: u64,
+        thick: f64,
+        radii: (f64, f64),
+    ) -> (Vec<DVec3>, Vec<f64>, f64, f64) {
+        let mut rng = Pcg64Mcg::seed_from_u64(seed);
+        let positions = (0..n)
+            .map(|_| DVec3::new(rng.random(), rng.random(), thick * rng.random::<f64>()))
+            .collect();
+        let radius: Vec<f64> = (0..n)
+            .map(|_| radii.0 + (radii.1 - radii.0) * rng.random::<f64>())
+            .collect();
+        let r_min = radius.iter().copied().fold(f64::INFINITY, f64::min);
+        let r_max = radius.iter().copied().fold(0.0, f64::max);
+        (positions, radius, r_min, r_max)
+    }
+
+    /// Accepted darts of scale `c` over `order` (a throw).
+    fn darts(positions: &[DVec3], radius: &[f64], order: &[u32], c: f64, r_max: f64) -> Vec<u32> {
+        throw(positions, radius, order, (c, c * r_max), &Monitor::silent())
+    }
+
     /// Brute-force twin: every point tested against every accepted one, for random points and
     /// radii at several scales.
     #[test]
     fn a_throw_accepts_what_testing_every_pair_accepts() {
-        let mut rng = Pcg64Mcg::seed_from_u64(8);
-        let positions: Vec<DVec3> = (0..3000)
-            .map(|_| DVec3::new(rng.random(), rng.random(), 0.2 * rng.random::<f64>()))
-            .collect();
-        let radius: Vec<f64> = (0..3000)
-            .map(|_| 0.01 + 0.03 * rng.random::<f64>())
-            .collect();
+        let (positions, radius, _, r_max) = cloud(3000, 8, 0.2, (0.01, 0.04));
         let order: Vec<u32> = (0..3000).rev().collect();
-        let r_max = radius.iter().copied().fold(0.0, f64::max);
         for c in [0.3, 1.0, 2.5] {
-            let got = throw(
-                &positions,
-                &radius,
-                &order,
-                (c, c * r_max),
-                &Monitor::silent(),
-            );
+            let got = darts(&positions, &radius, &order, c, r_max);
             let mut want: Vec<u32> = Vec::new();
             for &i in &order {
                 let p = positions[i as usize];
@@ -211,24 +223,12 @@ mod tests {
     /// The cube bound never rules out a count a throw reaches, and does rule out some.
     #[test]
     fn the_cube_bound_never_rules_out_a_reachable_count() {
-        let mut rng = Pcg64Mcg::seed_from_u64(9);
-        let positions: Vec<DVec3> = (0..4000)
-            .map(|_| DVec3::new(rng.random(), rng.random(), 0.1 * rng.random::<f64>()))
-            .collect();
-        let radius: Vec<f64> = (0..4000).map(|_| 0.5 + rng.random::<f64>()).collect();
-        let r_min = radius.iter().copied().fold(f64::INFINITY, f64::min);
-        let r_max = radius.iter().copied().fold(0.0, f64::max);
+        let (positions, radius, r_min, r_max) = cloud(4000, 9, 0.1, (0.5, 1.5));
         let order: Vec<u32> = (0..4000).collect();
         let mut ruled_out = 0;
         for k in 0..40 {
             let c = 0.002 * 1.2f64.powi(k);
-            let accepted = throw(
-                &positions,
-                &radius,
-                &order,
-                (c, c * r_max),
-                &Monitor::silent(),
-            );
+            let accepted = darts(&positions, &radius, &order, c, r_max);
             for count in [
                 accepted.len() / 2 + 1,
                 accepted.len(),
