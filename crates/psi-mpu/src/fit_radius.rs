@@ -64,8 +64,8 @@ pub(crate) struct Earlier<'a> {
 ///
 /// The trial ball is read from `earlier.ball` when that applies (an answer of an earlier
 /// version of `index` at this centre: [`PointIndex::ball_answer`]); with `earlier.keep_ball`,
-/// the trial ball's answer is returned too (sorted by id, so that the ball comes sorted, as a fit reads its
-/// points, and so does the next refit's answer read from it).
+/// the trial ball's answer is returned too (sorted by id, so that the ball comes sorted, as a
+/// fit reads its points, and so does the next refit's answer read from it).
 pub(crate) fn settle_radius_from(
     index: &PointIndex,
     params: &MpuParams,
@@ -83,29 +83,36 @@ pub(crate) fn settle_radius_from(
         Some(h) if h.is_finite() => radius_reaching(h, r, params.lambda),
         _ => r + (TRIAL / params.lambda).ceil().max(1.0) * (params.lambda * r),
     };
-    let memory = Vec::with_capacity(8 * need);
-    let (queried, answer) = if keep || earlier.is_some() {
-        let mut answer = index.ball_answer(center, trial, earlier, memory);
+    let mut near = Vec::with_capacity(8 * need);
+    let answer = if keep || earlier.is_some() {
+        let mut answer = index.ball_answer(center, trial, earlier, std::mem::take(&mut near));
         if keep {
             answer.sort_by_id();
         }
-        (None, Some(answer))
+        Some(answer)
     } else {
-        let mut near = memory;
         index.within_distances(center, trial, &mut near);
-        (Some(near), None)
+        None
     };
-    let near: &[(u32, f64)] = match (&queried, &answer) {
-        (Some(q), _) => q,
-        (None, Some(a)) => a.near(),
-        (None, None) => &[],
-    };
-    if need == 0 || near.len() < need {
+    let count = answer.as_ref().map_or(near.len(), |a| a.near().len());
+    if need == 0 || count < need {
         return (fit_radius(index, params, need, center, r), None, answer);
     }
-    let mut d2: Vec<f64> = near.iter().map(|n| n.1).collect();
-    let (_, kth, _) = d2.select_nth_unstable_by(need - 1, f64::total_cmp);
+    // The need-th smallest squared distance: in place when the pairs are this fit's alone (a
+    // reorder no decision reads), from a copy when they are the answer kept.
+    let kth = match &answer {
+        Some(a) => {
+            let mut d2: Vec<f64> = a.near().iter().map(|n| n.1).collect();
+            *d2.select_nth_unstable_by(need - 1, f64::total_cmp).1
+        }
+        None => {
+            near.select_nth_unstable_by(need - 1, |a, b| a.1.total_cmp(&b.1))
+                .1
+                .1
+        }
+    };
     let r1 = radius_reaching(kth.sqrt(), r, params.lambda);
+    let near = answer.as_ref().map_or(&near[..], |a| a.near());
     if r1 > trial {
         // (Rounding at the trial sphere: the k-nearest query decides.)
         return (fit_radius(index, params, need, center, r), None, answer);

@@ -16,9 +16,9 @@ use crate::fit_radius::Earlier;
 use crate::trial_balls::TrialBalls;
 use crate::{Mpu, MpuParams};
 
-/// A brush keeps at most this many ball-answer pairs a point for the next (16 bytes each; the
-/// MPU itself takes about 250 bytes a point): a brush over most of a model keeps some answers,
-/// not a copy of every refitted cell's ball.
+/// A brush keeps at most this many ball-answer pairs (16 bytes each) a point for the next: a
+/// brush over most of a model keeps some answers, not a copy of every refitted cell's ball
+/// (docs/notes/2026-11-27-edit-balls.md).
 const KEPT_PAIRS_PER_POINT: usize = 8;
 
 /// The kd-trees of a build and the fits of the earlier MPU's marked cells (empty without

@@ -208,7 +208,8 @@ mod tests {
                 }
             }
             if round % 4 == 1 {
-                // Built again afresh over the positions the answers were made at: the answers are rebased.
+                // Built again afresh over the positions the answers were made at: they are
+                // rebased.
                 index = PointIndex::new(&positions);
                 for e in &mut earlier {
                     e.rebase(&index);

@@ -1,7 +1,7 @@
-//! Hash maps keyed by cell or point indices (or other keys of our own), with a multiplicative hash (Knuth's Fibonacci
-//! hashing, TAOCP vol. 3 §6.4) instead of the standard library's SipHash: the keys are our own
-//! indices, not adversarial input, and a rebuild after an edit looks one up for every cell it
-//! copies.
+//! Hash maps keyed by cell or point indices (or other keys of our own), with a multiplicative
+//! hash (Knuth's Fibonacci hashing, TAOCP vol. 3 §6.4) instead of the standard library's
+//! SipHash: the keys are not adversarial input, and a rebuild after an edit looks one up for
+//! every cell it copies.
 
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};

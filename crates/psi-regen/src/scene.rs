@@ -347,9 +347,8 @@ impl Scene {
 
         // Carrying the footprint table checks the entries near the changed positions, a fresh
         // one writes 64 bytes a point in order: carry below 1 changed position in 16 points
-        // (the break-even lies between 1 in 20 and 1 in 8 since the carry's reach was
-        // tightened; notes: 2026-11-25-edit-index, 2026-11-27-edit-balls; both give the same
-        // answers).
+        // (near the measured break-even: notes 2026-11-25-edit-index, 2026-11-27-edit-balls;
+        // both give the same answers).
         let carry = synced.is_some() && 16 * changed.len() < points.len();
         let options = BuildOptions {
             frame: Some(*self.mpu.frame()),

@@ -38,9 +38,8 @@ def _tune_allocator() -> None:
     """Once per worker process: undo a side effect of Dask's worker environment. The nanny
     starts every worker with ``MALLOC_TRIM_THRESHOLD_=65536``, and with any such threshold set
     glibc keeps its mmap threshold at 128 KiB instead of raising it as large blocks are freed:
-    every larger buffer is then mapped, faulted in page by page and unmapped again. Measured on
-    400 tile tasks: 27 % slower, system time doubled (docs/notes/2026-11-27-dask-allocator.md).
-    This sets the thresholds glibc's own dynamic rule reaches (mmap 32 MiB, trim twice that);
+    every larger buffer is then mapped, faulted in page by page and unmapped again (measured in
+    docs/notes/2026-11-27-dask-allocator.md). This sets the thresholds glibc's own dynamic rule reaches (mmap 32 MiB, trim twice that);
     only on glibc, and only when the mmap threshold was not chosen explicitly."""
     global _allocator_tuned
     if _allocator_tuned:
