@@ -89,8 +89,9 @@ pub struct Relaxation {
     active: Vec<u32>,
     scale: SigmaScale,
     adapt: bool,
-    /// Per particle: f and ∇f at its position (moving ones only), the leaf it is in (a guess
-    /// for the next lookup), its last displacement (momentum) and an input point near it.
+    /// Per moving particle (in `active` order, so that a local relaxation keeps nothing per
+    /// fixed particle): f and ∇f at its position, the leaf it is in (a guess for the next
+    /// lookup), its last displacement (momentum) and an input point near it.
     fg: Vec<(f64, DVec3)>,
     leaf: Vec<Option<u32>>,
     velocity: Vec<DVec3>,
@@ -151,16 +152,12 @@ impl Relaxation {
         }
         // f and ∇f of the moving particles (the fixed ones are never updated), and the leaf each
         // is in, a guess for the next lookup (most moves stay in the leaf).
-        let mut fg: Vec<(f64, DVec3)> = vec![(0.0, DVec3::ZERO); n];
-        let mut leaf: Vec<Option<u32>> = vec![None; n];
         let initial: Vec<LeafEvaluation> = active
             .par_iter()
             .map(|&i| mpu.value_and_gradient_from(particles.positions[i as usize], None))
             .collect();
-        for (&i, e) in active.iter().zip(initial) {
-            fg[i as usize] = (e.f, e.gradient);
-            leaf[i as usize] = e.leaf;
-        }
+        let fg: Vec<(f64, DVec3)> = initial.iter().map(|e| (e.f, e.gradient)).collect();
+        let leaf: Vec<Option<u32>> = initial.iter().map(|e| e.leaf).collect();
         // The farthest any particle looks: 3σ, σ at most its clamp above the largest σ̂.
         let reach = params.neighbour_radius
             * (scale.scale().max(params.sigma_clamp.1) * field.max_target_sigma());
@@ -193,14 +190,15 @@ impl Relaxation {
                 .collect(),
             None => Vec::new(),
         };
+        let moving = active.len();
         Relaxation {
             active,
             scale,
             adapt,
             fg,
             leaf,
-            velocity: vec![DVec3::ZERO; n],
-            anchor: vec![None; n],
+            velocity: vec![DVec3::ZERO; moving],
+            anchor: vec![None; moving],
             grid_edge,
             fixed,
             fixed_coarse,
@@ -287,13 +285,14 @@ impl Relaxation {
             let leaves = &*leaf;
             active
                 .par_iter()
-                .map(|&i| {
+                .enumerate()
+                .map(|(k, &i)| {
                     let i = i as usize;
                     let x = state.positions[i];
                     let ni = state.normals[i];
                     let si = state.sigma[i];
                     let d = forces_ref.push[i];
-                    let (f, g) = fg_ref[i];
+                    let (f, g) = fg_ref[k];
                     let g2 = g.length_squared();
                     let v = if g2 > 1e-24 {
                         d - ((g.dot(d) + params.phi * f) / g2) * g
@@ -306,7 +305,7 @@ impl Relaxation {
                     let dt_i = params.dt / (forces_ref.energy[i] + 1e-3 * params.energy_alpha);
                     // Heavy-ball momentum: the previous displacement, projected onto the tangent
                     // plane.
-                    let prev = vel[i] - ni * vel[i].dot(ni);
+                    let prev = vel[k] - ni * vel[k].dot(ni);
                     let mut step = dt_i * v + params.momentum * prev;
                     let len = step.length();
                     let cap = params.max_move * si;
@@ -314,9 +313,9 @@ impl Relaxation {
                         step *= cap / len;
                     }
                     let moved =
-                        newton_project(mpu, x + step, tol, params.newton_steps, si, leaves[i]);
+                        newton_project(mpu, x + step, tol, params.newton_steps, si, leaves[k]);
                     let x1 = moved.position;
-                    let test = mpu.near_data_from(x1, params.data_reach, anchors[i]);
+                    let test = mpu.near_data_from(x1, params.data_reach, anchors[k]);
                     let (on_data, new_anchor) = (test.inside, test.anchor);
                     let ok = moved.gradient.length_squared() > 0.0
                         && on_data
@@ -329,7 +328,7 @@ impl Relaxation {
                             position: x,
                             f,
                             gradient: g,
-                            leaf: leaves[i],
+                            leaf: leaves[k],
                         }
                     };
                     let depth = at
@@ -338,7 +337,7 @@ impl Relaxation {
                     Update {
                         at,
                         depth,
-                        anchor: if ok { new_anchor } else { anchors[i] },
+                        anchor: if ok { new_anchor } else { anchors[k] },
                     }
                 })
                 .collect_into_vec(&mut updates);
@@ -353,7 +352,7 @@ impl Relaxation {
                 }
                 scale.adapt(&sums, field, params);
             }
-            for (&i, u) in active.iter().zip(&updates) {
+            for (k, (&i, u)) in active.iter().zip(&updates).enumerate() {
                 let i = i as usize;
                 let Evaluated {
                     position: x,
@@ -362,15 +361,15 @@ impl Relaxation {
                     leaf: l,
                 } = u.at;
                 let depth = u.depth;
-                anchor[i] = u.anchor;
-                leaf[i] = l;
-                velocity[i] = x - particles.positions[i];
+                anchor[k] = u.anchor;
+                leaf[k] = l;
+                velocity[k] = x - particles.positions[i];
                 particles.positions[i] = x;
                 particles.normals[i] = g.normalize_or(particles.normals[i]);
                 particles.depth[i] = depth;
                 particles.sigma[i] = scale.sigma(field, depth);
                 particles.target[i] = field.target_sigma(depth);
-                fg[i] = (f, g);
+                fg[k] = (f, g);
             }
             *done = iteration + 1;
         }
@@ -394,9 +393,9 @@ impl Relaxation {
         } = self;
         let polished: Vec<Option<(DVec3, DVec3)>> = active
             .par_iter()
-            .map(|&i| {
+            .zip(&fg)
+            .map(|(&i, &(f, g))| {
                 let i = i as usize;
-                let (f, g) = fg[i];
                 if f.abs() <= tol * g.length() {
                     return None;
                 }
