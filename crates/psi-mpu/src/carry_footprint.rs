@@ -17,6 +17,16 @@ use crate::Mpu;
 use crate::data_footprint::{DataFootprint, InputLocalSlot};
 use crate::fit_reach::CellReach;
 
+/// The entries of an MPU's footprint table that an edit may have changed
+/// ([`Mpu::stale_footprint`]): what [`Mpu::carry_stale_footprint`] empties.
+#[derive(Clone, Debug, Default)]
+pub struct StaleFootprint {
+    /// Input point indices whose filled entry a changed position lies within d₉ of.
+    entries: Vec<u32>,
+    /// The table's length when they were found.
+    len: usize,
+}
+
 impl Mpu {
     /// Moves `old`'s footprint table into this MPU, built after an edit that kept every point's
     /// index and the count, `changed` holding every position the edit changed (old and new,
@@ -25,9 +35,32 @@ impl Mpu {
     /// another length, or the bound above does not hold (N_min + 1 < 9, fewer than 9 points),
     /// this MPU keeps a fresh table. `old` is left with an empty one.
     pub fn carry_footprint(&mut self, old: &mut Mpu, changed: &[DVec3]) {
+        let stale = old.stale_footprint(changed);
+        self.carry_stale_footprint(old, stale);
+    }
+
+    /// The entries of this MPU's footprint table that the positions `changed` (world units; an
+    /// edit's old and new ones) may have changed: the first half of
+    /// [`Mpu::carry_footprint`], which reads this MPU only, so that it can run while the next
+    /// MPU is built. No entry may be filled between this call and
+    /// [`Mpu::carry_stale_footprint`] (query neither MPU in between).
+    pub fn stale_footprint(&self, changed: &[DVec3]) -> StaleFootprint {
+        let n = self.points.len();
+        if !(self.params.n_min + 1 >= 9 && n >= 9 && self.footprint.len() == n) {
+            return StaleFootprint::default();
+        }
+        StaleFootprint {
+            entries: stale_entries(self, self.footprint.table(), changed),
+            len: n,
+        }
+    }
+
+    /// The second half of [`Mpu::carry_footprint`]: moves `old`'s table into this MPU with the
+    /// entries `stale` (from `old.stale_footprint(changed)`) emptied.
+    pub fn carry_stale_footprint(&mut self, old: &mut Mpu, stale: StaleFootprint) {
         let n = self.points.len();
         let bound_holds = self.params.n_min + 1 >= 9 && n >= 9;
-        let table = (bound_holds && old.points.len() == n)
+        let table = (bound_holds && old.points.len() == n && stale.len == n)
             .then(|| old.footprint.take_table(n))
             .flatten();
         let Some(mut table) = table else {
@@ -36,7 +69,7 @@ impl Mpu {
             }
             return;
         };
-        for q in stale_entries(old, &table, changed) {
+        for q in stale.entries {
             table[q as usize].clear();
         }
         self.footprint = DataFootprint::from_table(table);

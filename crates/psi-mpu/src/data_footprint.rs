@@ -258,6 +258,11 @@ impl DataFootprint {
         (table.len() == n).then(|| std::mem::take(table))
     }
 
+    /// The table's entries (shape: one per input point).
+    pub(crate) fn table(&self) -> &[InputLocalSlot] {
+        &self.table
+    }
+
     /// A footprint over a carried table.
     pub(crate) fn from_table(table: Vec<InputLocalSlot>) -> Self {
         Self {

@@ -66,6 +66,7 @@ mod trial_balls;
 
 pub use buffers::MpuBuffers;
 pub use build::{BuildOptions, Reuse};
+pub use carry_footprint::StaleFootprint;
 pub use cell_table::{CellAddress, CellDecision, CellTable};
 pub use data_coverage::data_coverage;
 pub use data_footprint::{DataAnchor, FootprintTest};

@@ -274,22 +274,42 @@ impl Octree {
             let decisions: Vec<(bool, T)> = {
                 let t = &tree;
                 let old_of = &old_of;
-                (level.start..level.end)
-                    .into_par_iter()
-                    // (Most cells of a rebuild after an edit take their earlier decision at
-                    // once: smaller pieces would cost more to hand out than to decide.)
-                    .with_min_len(128)
-                    .map(|i| {
-                        let cell = &t.cells[i];
-                        decide(CellView {
-                            index: i as u32,
-                            cell,
-                            points: t.points_in(i as u32),
-                            positions: &t.positions,
-                            old: Some(old_of[i]).filter(|&o| o != NO_CELL),
-                        })
+                let view = |i: usize| {
+                    decide(CellView {
+                        index: i as u32,
+                        cell: &t.cells[i],
+                        points: t.points_in(i as u32),
+                        positions: &t.positions,
+                        old: Some(old_of[i]).filter(|&o| o != NO_CELL),
                     })
-                    .collect()
+                };
+                match known {
+                    // A rebuild after an edit: the cells new or changed since the earlier
+                    // octree are decided in parallel one by one (each may be a fit), and the
+                    // unchanged ones, which take their earlier decision at once, in order on
+                    // this thread (handing them out would cost more than deciding them).
+                    Some(k) => {
+                        let unchanged =
+                            |i: usize| old_of[i] != NO_CELL && !k.changed[old_of[i] as usize];
+                        let fresh: Vec<usize> = level.clone().filter(|&i| !unchanged(i)).collect();
+                        let mut fresh = fresh
+                            .par_iter()
+                            .map(|&i| view(i))
+                            .collect::<Vec<_>>()
+                            .into_iter();
+                        level
+                            .clone()
+                            .map(|i| {
+                                if unchanged(i) {
+                                    view(i)
+                                } else {
+                                    fresh.next().expect("one decision per fresh cell")
+                                }
+                            })
+                            .collect()
+                    }
+                    None => (level.start..level.end).into_par_iter().map(view).collect(),
+                }
             };
             let next_start = tree.cells.len();
             let mut to_split = Vec::new();

@@ -369,9 +369,15 @@ impl Scene {
             whole_footprint: None,
             monitor: *monitor,
         };
-        let mut mpu = Mpu::build_with(points, &self.mpu_params, options)?;
-        if carry {
-            mpu.carry_footprint(&mut self.mpu, &changed);
+        // The entries of the footprint table the brush may have changed are found while the
+        // MPU is built (they read only the earlier MPU, which nothing queries meanwhile).
+        let (built, stale) = rayon::join(
+            || Mpu::build_with(points, &self.mpu_params, options),
+            || carry.then(|| self.mpu.stale_footprint(&changed)),
+        );
+        let mut mpu = built?;
+        if let Some(stale) = stale {
+            mpu.carry_stale_footprint(&mut self.mpu, stale);
         }
         // New cells that were fitted again: not present before, or marked; and the leaves
         // among them and among the marked cells (lists, so that the passes below follow the
