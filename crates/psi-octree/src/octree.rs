@@ -251,6 +251,12 @@ impl Octree {
                 Default::default()
             }
         };
+        // The earlier cells with a count to correct, one bit each (most have none, and a bit
+        // costs less to read than the map).
+        let mut gainers = vec![0u64; patch.map_or(0, |(k, _)| k.old.cells.len().div_ceil(64))];
+        for &c in gained.keys() {
+            gainers[c as usize / 64] |= 1 << (c % 64);
+        }
         let mut tree = Octree {
             cells,
             order,
@@ -284,26 +290,26 @@ impl Octree {
                     })
                 };
                 match known {
-                    // A rebuild after an edit: the cells new or changed since the earlier
-                    // octree are decided in parallel one by one (each may be a fit), and the
-                    // unchanged ones, which take their earlier decision at once, in order on
+                    // A rebuild after an edit: the cells new to this octree are decided in
+                    // parallel (each is a fit), and the earlier octree's, whose decisions the
+                    // caller has at hand (taken over, or fitted before the build), in order on
                     // this thread (handing them out would cost more than deciding them).
-                    Some(k) => {
-                        let unchanged =
-                            |i: usize| old_of[i] != NO_CELL && !k.changed[old_of[i] as usize];
-                        let fresh: Vec<usize> = level.clone().filter(|&i| !unchanged(i)).collect();
-                        let mut fresh = fresh
-                            .par_iter()
-                            .map(|&i| view(i))
-                            .collect::<Vec<_>>()
-                            .into_iter();
+                    Some(_) => {
+                        let new: Vec<usize> =
+                            level.clone().filter(|&i| old_of[i] == NO_CELL).collect();
+                        let mut new = if new.len() > 1 {
+                            new.par_iter().map(|&i| view(i)).collect::<Vec<_>>()
+                        } else {
+                            new.iter().map(|&i| view(i)).collect()
+                        }
+                        .into_iter();
                         level
                             .clone()
                             .map(|i| {
-                                if unchanged(i) {
-                                    view(i)
+                                if old_of[i] == NO_CELL {
+                                    new.next().expect("one decision per new cell")
                                 } else {
-                                    fresh.next().expect("one decision per fresh cell")
+                                    view(i)
                                 }
                             })
                             .collect()
@@ -337,36 +343,59 @@ impl Octree {
             // The cells' point ranges are disjoint: partition them in parallel, then append the
             // children in cell order (the arena stays level by level, whatever the threads).
             // A partition known and already in place costs nothing; known, it is copied once
-            // for its whole subtree.
+            // for its whole subtree. (Only the cells partitioned afresh are handed out: the
+            // others cost less than the handing.)
             let parts: Vec<Partition<'_>> = {
                 let t = &tree;
-                let (old_of, in_place, gained) = (&old_of, &in_place, &gained);
-                to_split
-                    .par_iter()
-                    .map(|&i| {
-                        let c = &t.cells[i];
-                        let k = known.as_ref();
-                        if let (Some(k), Some(_), true) = (k, patch, in_place[i])
-                            && let Some(children) = k.old.children(old_of[i])
-                        {
-                            let mut counts = [0u32; 8];
-                            for (slot, ch) in counts.iter_mut().zip(children) {
-                                let was = k.old.cell(ch);
-                                let plus = gained.get(&ch).copied().unwrap_or(0);
-                                *slot = (i64::from(was.end - was.start) + plus) as u32;
-                            }
-                            return (counts, None);
+                let (old_of, in_place, gained, gainers) = (&old_of, &in_place, &gained, &gainers);
+                let known_part = |i: usize| -> Option<Partition<'_>> {
+                    let c = &t.cells[i];
+                    let k = known.as_ref()?;
+                    if let (Some(_), true) = (patch, in_place[i])
+                        && let Some(children) = k.old.children(old_of[i])
+                    {
+                        let mut counts = [0u32; 8];
+                        for (slot, ch) in counts.iter_mut().zip(children) {
+                            let was = k.old.cell(ch);
+                            let plus = if gainers[ch as usize / 64] >> (ch % 64) & 1 == 1 {
+                                gained[&ch]
+                            } else {
+                                0
+                            };
+                            *slot = (i64::from(was.end - was.start) + plus) as u32;
                         }
-                        match k.and_then(|k| k.partition_at(old_of[i], c.end - c.start)) {
-                            Some((counts, _)) if in_place[i] => (counts, None),
-                            Some((counts, order)) => (counts, Some(Cow::Borrowed(order))),
-                            None => {
-                                let (counts, order) = t.partition(i);
-                                (counts, Some(Cow::Owned(order)))
-                            }
-                        }
-                    })
-                    .collect()
+                        return Some((counts, None));
+                    }
+                    match k.partition_at(old_of[i], c.end - c.start)? {
+                        (counts, _) if in_place[i] => Some((counts, None)),
+                        (counts, order) => Some((counts, Some(Cow::Borrowed(order)))),
+                    }
+                };
+                let afresh = |i: usize| -> Partition<'_> {
+                    let (counts, order) = t.partition(i);
+                    (counts, Some(Cow::Owned(order)))
+                };
+                if known.is_some() {
+                    let known_parts: Vec<Option<Partition<'_>>> =
+                        to_split.iter().map(|&i| known_part(i)).collect();
+                    let unknown: Vec<usize> = to_split
+                        .iter()
+                        .zip(&known_parts)
+                        .filter(|(_, p)| p.is_none())
+                        .map(|(&i, _)| i)
+                        .collect();
+                    let mut unknown = unknown
+                        .par_iter()
+                        .map(|&i| afresh(i))
+                        .collect::<Vec<_>>()
+                        .into_iter();
+                    known_parts
+                        .into_iter()
+                        .map(|p| p.unwrap_or_else(|| unknown.next().expect("one per cell")))
+                        .collect()
+                } else {
+                    to_split.par_iter().map(|&i| afresh(i)).collect()
+                }
             };
             for (&i, (counts, order)) in to_split.iter().zip(parts) {
                 let c = tree.cells[i];
