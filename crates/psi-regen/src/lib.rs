@@ -32,11 +32,13 @@ mod cover_leaves;
 mod edit;
 mod error;
 mod mark_cells;
+mod regen_report;
 mod scene;
 mod settle;
 
 pub use edit::Edit;
 pub use error::RegenError;
 pub use mark_cells::{mark_cells, mark_cells_brute_force};
-pub use scene::{RegenReport, Scene};
+pub use regen_report::RegenReport;
+pub use scene::Scene;
 pub use settle::{FRAME_ITERATIONS, SettleReport};
