@@ -150,7 +150,9 @@ pub struct OctreeBuild<'a> {
     /// build's); default [`root_cube`] of the points' bounding box.
     pub root: Option<RootCube>,
     /// Partitions an earlier octree computed: a splitting cell that the earlier octree also
-    /// split, over the same points, takes that partition instead of computing it.
+    /// split, over the same points, takes that partition instead of computing it. With them,
+    /// the decisions of cells the earlier octree had are taken in order on the calling thread
+    /// (the caller has them at hand), and only the new cells' are made in parallel.
     pub known: Option<KnownPartitions<'a>>,
     /// Memory for the arrays (an earlier octree's, [`Octree::into_buffers`]: memory already in
     /// use needs no new pages).
