@@ -313,14 +313,25 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
     }
     let big = big_brush(&bunny)?;
     let ms = |a: &str, b: &str| big[a][b].as_f64().unwrap_or(f64::NAN);
+    let ph = |p: &str| {
+        big["frame"]["phases_median_ms"][p]
+            .as_f64()
+            .unwrap_or(f64::NAN)
+    };
     md.push_str(&format!(
         "\nThe bunny's 5 % brush (`reproduce-tables`' second brush) applied forth and back, \
          warm strokes: frame median {:.1} ms, worst {:.1} ms; eager (full relaxation) median \
-         {:.1} ms, worst {:.1} ms.\n",
+         {:.1} ms, worst {:.1} ms. The frame's median phases: mark {:.1}, index and marked \
+         fits {:.1}, octree {:.1}, assemble {:.1}, particles {:.1} ms.\n",
         ms("frame", "median_ms"),
         ms("frame", "worst_ms"),
         ms("eager", "median_ms"),
         ms("eager", "worst_ms"),
+        ph("mark"),
+        ph("mpu_index_and_marked_fits"),
+        ph("mpu_octree"),
+        ph("mpu_assemble"),
+        ph("particles"),
     ));
     let out = crate::project_root().join("target/xtask/edit");
     std::fs::create_dir_all(&out)?;
@@ -342,7 +353,8 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
 }
 
 /// The bunny's 5 % brush forth and back, 21 strokes, each a frame then settled: the warm
-/// strokes' frame median and worst (ms), and the eager stroke's (frame and full relaxation).
+/// strokes' frame median and worst (ms), and the eager stroke's (frame and full relaxation);
+/// with the frames' median time by phase.
 fn big_brush(bunny: &[OrientedPoint]) -> Result<Value> {
     let b = crate::edits::BRUSHES[1].1;
     let brush = |k: usize| Edit::Brush {
@@ -358,14 +370,32 @@ fn big_brush(bunny: &[OrientedPoint]) -> Result<Value> {
             &ParticleParams::paper(),
         )?;
         let (none, silent) = (PointAttributes::default(), Monitor::silent());
-        let mut times = Vec::new();
+        let (mut times, mut phases) = (Vec::new(), Vec::new());
         for k in 0..21 {
             let t = Instant::now();
-            scene.apply_deferred(&brush(k), &none, frame, &silent)?;
+            let r = scene.apply_deferred(&brush(k), &none, frame, &silent)?;
             times.push(t.elapsed().as_secs_f64());
+            let b = &scene.mpu().report().phase_seconds;
+            phases.push([
+                r.mark_seconds,
+                b.index_and_marked_fits,
+                b.octree,
+                b.assemble,
+                r.particle_seconds,
+            ]);
             scene.settle(usize::MAX);
         }
-        out.insert(name.to_owned(), summary(&times));
+        let mut row = summary(&times);
+        // The warm strokes' median time by phase.
+        let phase = |k: usize| 1e3 * median(&phases[1..].iter().map(|p| p[k]).collect::<Vec<_>>());
+        row["phases_median_ms"] = json!({
+            "mark": phase(0),
+            "mpu_index_and_marked_fits": phase(1),
+            "mpu_octree": phase(2),
+            "mpu_assemble": phase(3),
+            "particles": phase(4),
+        });
+        out.insert(name.to_owned(), row);
     }
     Ok(Value::Object(out))
 }
