@@ -124,8 +124,13 @@ struct Stroke {
     build: psi::mpu::BuildPhases,
 }
 
-/// Runs `edits` on a fresh scene of `points`, each as a frame and then settled.
-fn session(points: &[OrientedPoint], edits: &[Edit]) -> Result<Vec<Stroke>> {
+/// Runs `edits` on a fresh scene of `points`, each as a frame of `frame_iterations` and then
+/// settled.
+fn session(
+    points: &[OrientedPoint],
+    edits: &[Edit],
+    frame_iterations: usize,
+) -> Result<Vec<Stroke>> {
     let (mut scene, _) = Scene::new(
         points.to_vec(),
         &MpuParams::paper(),
@@ -135,7 +140,7 @@ fn session(points: &[OrientedPoint], edits: &[Edit]) -> Result<Vec<Stroke>> {
     let mut out = Vec::with_capacity(edits.len());
     for e in edits {
         let t = Instant::now();
-        let report = scene.apply_deferred(e, &none, FRAME_ITERATIONS, &silent)?;
+        let report = scene.apply_deferred(e, &none, frame_iterations, &silent)?;
         let frame = t.elapsed().as_secs_f64();
         let settled = scene.settle(usize::MAX);
         out.push(Stroke {
@@ -147,6 +152,23 @@ fn session(points: &[OrientedPoint], edits: &[Edit]) -> Result<Vec<Stroke>> {
         });
     }
     Ok(out)
+}
+
+/// The median time by phase of `strokes` (ms).
+fn phases_median(strokes: &[Stroke]) -> Value {
+    let pick = |f: &dyn Fn(&Stroke) -> f64| -> Vec<f64> { strokes.iter().map(f).collect() };
+    let phase = |f: &dyn Fn(&RegenReport) -> f64| 1e3 * median(&pick(&|s| f(&s.report)));
+    let build = |f: &dyn Fn(&psi::mpu::BuildPhases) -> f64| 1e3 * median(&pick(&|s| f(&s.build)));
+    json!({
+        "edit": phase(&|r| r.edit_seconds),
+        "mark": phase(&|r| r.mark_seconds),
+        "mpu_rest": phase(&|r| r.mpu_seconds - r.edit_seconds - r.mark_seconds),
+        "mpu_prepare": build(&|b| b.prepare),
+        "mpu_index_and_marked_fits": build(&|b| b.index_and_marked_fits),
+        "mpu_octree": build(&|b| b.octree),
+        "mpu_assemble": build(&|b| b.assemble),
+        "particles": phase(&|r| r.particle_seconds),
+    })
 }
 
 /// Median, worst and first of a series (ms).
@@ -234,7 +256,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
     for seed in first_seed..first_seed + seeds {
         for m in &mut runs {
             let edits = drag(&m.points, &m.index, m.radius, seed, strokes);
-            let mut run = session(&m.points, &edits)?;
+            let mut run = session(&m.points, &edits, FRAME_ITERATIONS)?;
             m.firsts.push(run[0].frame);
             m.all.extend(run.drain(1..));
         }
@@ -251,9 +273,6 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         let (radius, d) = (*radius, diagonal(points));
         let pick = |f: &dyn Fn(&Stroke) -> f64| -> Vec<f64> { all.iter().map(f).collect() };
         let frames = pick(&|s| s.frame);
-        let phase = |f: &dyn Fn(&RegenReport) -> f64| 1e3 * median(&pick(&|s| f(&s.report)));
-        let build =
-            |f: &dyn Fn(&psi::mpu::BuildPhases) -> f64| 1e3 * median(&pick(&|s| f(&s.build)));
         let row = json!({
             "model": name,
             "points": points.len(),
@@ -266,16 +285,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             "first_strokes_ms": firsts.iter().map(|f| 1e3 * f).collect::<Vec<_>>(),
             "settle_median_ms": 1e3 * median(&pick(&|s| s.settle)),
             "cpu_per_stroke_median_ms": 1e3 * median(&pick(&|s| s.cpu)),
-            "phases_median_ms": {
-                "edit": phase(&|r| r.edit_seconds),
-                "mark": phase(&|r| r.mark_seconds),
-                "mpu_rest": phase(&|r| r.mpu_seconds - r.edit_seconds - r.mark_seconds),
-                "mpu_prepare": build(&|b| b.prepare),
-                "mpu_index_and_marked_fits": build(&|b| b.index_and_marked_fits),
-                "mpu_octree": build(&|b| b.octree),
-                "mpu_assemble": build(&|b| b.assemble),
-                "particles": phase(&|r| r.particle_seconds),
-            },
+            "phases_median_ms": phases_median(all),
         });
         let f = &row["frame"];
         let ph = &row["phases_median_ms"];
@@ -362,39 +372,14 @@ fn big_brush(bunny: &[OrientedPoint]) -> Result<Value> {
         radius: b[3],
         displacement: DVec3::new(b[4], b[5], b[6]) * if k.is_multiple_of(2) { 1.0 } else { -1.0 },
     };
+    let edits: Vec<Edit> = (0..21).map(brush).collect();
     let mut out = serde_json::Map::new();
     for (name, frame) in [("frame", FRAME_ITERATIONS), ("eager", usize::MAX)] {
-        let (mut scene, _) = Scene::new(
-            bunny.to_vec(),
-            &MpuParams::paper(),
-            &ParticleParams::paper(),
-        )?;
-        let (none, silent) = (PointAttributes::default(), Monitor::silent());
-        let (mut times, mut phases) = (Vec::new(), Vec::new());
-        for k in 0..21 {
-            let t = Instant::now();
-            let r = scene.apply_deferred(&brush(k), &none, frame, &silent)?;
-            times.push(t.elapsed().as_secs_f64());
-            let b = &scene.mpu().report().phase_seconds;
-            phases.push([
-                r.mark_seconds,
-                b.index_and_marked_fits,
-                b.octree,
-                b.assemble,
-                r.particle_seconds,
-            ]);
-            scene.settle(usize::MAX);
-        }
+        let strokes = session(bunny, &edits, frame)?;
+        let times: Vec<f64> = strokes.iter().map(|s| s.frame).collect();
         let mut row = summary(&times);
         // The warm strokes' median time by phase.
-        let phase = |k: usize| 1e3 * median(&phases[1..].iter().map(|p| p[k]).collect::<Vec<_>>());
-        row["phases_median_ms"] = json!({
-            "mark": phase(0),
-            "mpu_index_and_marked_fits": phase(1),
-            "mpu_octree": phase(2),
-            "mpu_assemble": phase(3),
-            "particles": phase(4),
-        });
+        row["phases_median_ms"] = phases_median(&strokes[1..]);
         out.insert(name.to_owned(), row);
     }
     Ok(Value::Object(out))
