@@ -59,8 +59,8 @@ impl Mpu {
     /// entries `stale` (from `old.stale_footprint(changed)`) emptied.
     pub fn carry_stale_footprint(&mut self, old: &mut Mpu, stale: StaleFootprint) {
         let n = self.points.len();
-        let bound_holds = self.params.n_min + 1 >= 9 && n >= 9;
-        let table = (bound_holds && old.points.len() == n && stale.len == n)
+        // (`stale` has the length only where `old.stale_footprint` found the bound to hold.)
+        let table = (old.points.len() == n && stale.len == n)
             .then(|| old.footprint.take_table(n))
             .flatten();
         let Some(mut table) = table else {
@@ -77,7 +77,8 @@ impl Mpu {
 }
 
 /// The points of `old` whose filled entry in `table` a position of `changed` (world units)
-/// lies within d₉ of (with a margin for rounding): the points of the leaves within 3·R1 of one.
+/// lies within d₉ of (with a margin for rounding): the points of the leaves within
+/// R1 + 2√3·half of one.
 fn stale_entries(old: &Mpu, table: &[InputLocalSlot], changed: &[DVec3]) -> Vec<u32> {
     let origin = old.frame.origin;
     let local: Vec<DVec3> = changed.iter().map(|p| *p - origin).collect();

@@ -253,12 +253,6 @@ impl Octree {
                 Default::default()
             }
         };
-        // The earlier cells with a count to correct, one bit each (most have none, and a bit
-        // costs less to read than the map).
-        let mut gainers = vec![0u64; patch.map_or(0, |(k, _)| k.old.cells.len().div_ceil(64))];
-        for &c in gained.keys() {
-            gainers[c as usize / 64] |= 1 << (c % 64);
-        }
         let mut tree = Octree {
             cells,
             order,
@@ -299,12 +293,8 @@ impl Octree {
                     Some(_) => {
                         let new: Vec<usize> =
                             level.clone().filter(|&i| old_of[i] == NO_CELL).collect();
-                        let mut new = if new.len() > 1 {
-                            new.par_iter().map(|&i| view(i)).collect::<Vec<_>>()
-                        } else {
-                            new.iter().map(|&i| view(i)).collect()
-                        }
-                        .into_iter();
+                        let new: Vec<(bool, T)> = new.par_iter().map(|&i| view(i)).collect();
+                        let mut new = new.into_iter();
                         level
                             .clone()
                             .map(|i| {
@@ -349,7 +339,7 @@ impl Octree {
             // others cost less than the handing.)
             let parts: Vec<Partition<'_>> = {
                 let t = &tree;
-                let (old_of, in_place, gained, gainers) = (&old_of, &in_place, &gained, &gainers);
+                let (old_of, in_place, gained) = (&old_of, &in_place, &gained);
                 let known_part = |i: usize| -> Option<Partition<'_>> {
                     let c = &t.cells[i];
                     let k = known.as_ref()?;
@@ -359,11 +349,7 @@ impl Octree {
                         let mut counts = [0u32; 8];
                         for (slot, ch) in counts.iter_mut().zip(children) {
                             let was = k.old.cell(ch);
-                            let plus = if gainers[ch as usize / 64] >> (ch % 64) & 1 == 1 {
-                                gained[&ch]
-                            } else {
-                                0
-                            };
+                            let plus = gained.get(&ch).copied().unwrap_or(0);
                             *slot = (i64::from(was.end - was.start) + plus) as u32;
                         }
                         return Some((counts, None));
