@@ -444,7 +444,8 @@ fn try_fit_cell_after(
     // scale-invariant solve and keeps it when its exact error is smaller. The split decision is
     // unchanged either way: both errors are ≤ ε0. Sharp fits are kept as chosen: a lower error
     // at the points can come with a worse extrapolation along the feature (the thin slab of
-    // tests/analytic.rs; docs/notes/2026-11-24-mpu-fits.md).
+    // tests/analytic.rs; docs/notes/2026-11-24-mpu-fits.md). A chosen error of zero (no point
+    // within the nominal radius) cannot be bettered, so such a leaf skips the second solve.
     let smooth = |kind: FitKind| {
         matches!(
             kind,
@@ -455,6 +456,7 @@ fn try_fit_cell_after(
         && params.fit_unit.is_some()
         && smooth(chosen.fit.kind)
         && chosen.error <= eps0
+        && chosen.error > 0.0
     {
         let alt = fit_in(&points, r1, eps0, None)?;
         // The second solve runs the crease rescue too; a sharp result is not taken either.

@@ -54,7 +54,8 @@ pub(crate) struct Earlier<'a> {
 /// R1 of the cell at `center` with nominal radius `r` (world units), and the indices of the
 /// points within R1 when one trial query found them. The trial ball has a radius R1 can take,
 /// R + m·λR: the smallest reaching `earlier.r1` (a cell refitted after an edit passes its
-/// earlier R1, which most edits leave as it was), else m = ⌈[`TRIAL`]/λ⌉. It holds every
+/// earlier R1, which most edits leave as it was; or `earlier.ball`'s own radius when that is
+/// at most two steps wider), else m = ⌈[`TRIAL`]/λ⌉. It holds every
 /// point within its radius with the kd-tree's own squared distances, the ones a k-nearest
 /// query computes; when it holds `need` points its `need`-th smallest distance is the
 /// `need`-th nearest distance, R1 is what [`fit_radius`] finds, and R1 is at most the trial
@@ -79,10 +80,20 @@ pub(crate) fn settle_radius_from(
         ball: earlier,
         keep_ball: keep,
     } = earlier;
-    let trial = match hint {
+    let mut trial = match hint {
         Some(h) if h.is_finite() => radius_reaching(h, r, params.lambda),
         _ => r + (TRIAL / params.lambda).ceil().max(1.0) * (params.lambda * r),
     };
+    // An earlier answer up to two steps wider is read at its own radius: the pairs beyond the
+    // trial cost little more (they are all visited), and where R1 went back and forth it
+    // settles R1 without a k-nearest query. (Bounded, so that kept answers do not widen
+    // stroke after stroke; a trial R1 could not take is caught below.)
+    if let Some(e) = earlier
+        && e.radius() > trial
+        && e.radius() <= trial + 2.0 * params.lambda * r
+    {
+        trial = e.radius();
+    }
     let mut near = Vec::with_capacity(8 * need);
     let answer = if keep || earlier.is_some() {
         let mut answer = index.ball_answer(center, trial, earlier, std::mem::take(&mut near));
@@ -169,7 +180,7 @@ mod tests {
         let index = PointIndex::new(&points);
         let params = MpuParams::paper();
         let need = params.n_min + 1;
-        let (mut settled, mut fell_back) = (0, 0);
+        let (mut settled, mut fell_back, mut settled_wider) = (0, 0, 0);
         for k in 0..600 {
             let center = DVec3::new(rnd(), rnd(), rnd());
             let r = 0.005 * (1.0 + (k % 30) as f64);
@@ -209,6 +220,30 @@ mod tests {
             };
             assert_eq!(sorted(ball.clone()), sorted(again_ball));
             assert_eq!(sorted(ball.clone()), sorted(plain_ball));
+            // An answer kept at a trial up to two steps wider than this one (as when R1 went
+            // back and forth between strokes) is read at its own radius: the same R1, and the
+            // ball where it settles it.
+            let step = params.lambda * r;
+            let trial = hint.map_or(r + 4.0 * step, |h| radius_reaching(h, r, params.lambda));
+            let wider = Earlier {
+                r1: Some(trial + step * (1 + k % 2) as f64),
+                ball: None,
+                keep_ball: true,
+            };
+            let (_, _, wide_answer) = settle_radius_from(&index, &params, need, center, r, wider);
+            let (wide_r1, wide_ball, _) = settle_radius_from(
+                &index,
+                &params,
+                need,
+                center,
+                r,
+                earlier(wide_answer.as_ref(), true),
+            );
+            assert_eq!(wide_r1.to_bits(), r1.to_bits());
+            if let Some(b) = sorted(wide_ball) {
+                assert_eq!(b, sorted(Some(want_ball.clone())).unwrap());
+                settled_wider += usize::from(ball.is_none());
+            }
             psi_shapes::assert_near!(r1, want_r1, 1e-12);
             assert_eq!(
                 r1.to_bits(),
@@ -228,8 +263,8 @@ mod tests {
             }
         }
         assert!(
-            settled > 100 && fell_back > 20,
-            "{settled} settled, {fell_back} fell back"
+            settled > 100 && fell_back > 20 && settled_wider > 10,
+            "{settled} settled, {fell_back} fell back, {settled_wider} settled by a wider answer"
         );
     }
 }
