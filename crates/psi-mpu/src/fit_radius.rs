@@ -197,20 +197,12 @@ mod tests {
                 ball,
                 keep_ball,
             };
-            let (r1, ball, answer) =
-                settle_radius_from(&index, &params, need, center, r, earlier(None, k % 2 == 0));
-            let (plain_r1, plain_ball, _) =
-                settle_radius_from(&index, &params, need, center, r, earlier(None, false));
+            let settle = |e: Earlier<'_>| settle_radius_from(&index, &params, need, center, r, e);
+            let (r1, ball, answer) = settle(earlier(None, k % 2 == 0));
+            let (plain_r1, plain_ball, _) = settle(earlier(None, false));
             assert_eq!(r1.to_bits(), plain_r1.to_bits());
             // Read again from its own answer: the same radius and ball.
-            let (again_r1, again_ball, _) = settle_radius_from(
-                &index,
-                &params,
-                need,
-                center,
-                r,
-                earlier(answer.as_ref(), true),
-            );
+            let (again_r1, again_ball, _) = settle(earlier(answer.as_ref(), true));
             assert_eq!(r1.to_bits(), again_r1.to_bits());
             let sorted = |b: Option<Vec<u32>>| {
                 b.map(|mut b| {
@@ -230,15 +222,8 @@ mod tests {
                 ball: None,
                 keep_ball: true,
             };
-            let (_, _, wide_answer) = settle_radius_from(&index, &params, need, center, r, wider);
-            let (wide_r1, wide_ball, _) = settle_radius_from(
-                &index,
-                &params,
-                need,
-                center,
-                r,
-                earlier(wide_answer.as_ref(), true),
-            );
+            let (_, _, wide_answer) = settle(wider);
+            let (wide_r1, wide_ball, _) = settle(earlier(wide_answer.as_ref(), true));
             assert_eq!(wide_r1.to_bits(), r1.to_bits());
             if let Some(b) = sorted(wide_ball) {
                 assert_eq!(b, sorted(Some(want_ball.clone())).unwrap());
