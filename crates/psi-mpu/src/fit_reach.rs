@@ -49,7 +49,15 @@ impl Mpu {
             factor,
             halves: 0.0,
         };
-        self.cells_reaching_local(&local, &PointIndex::new(&local), reach, leaves_only)
+        let Some(bounds) = Aabb::from_points(local.iter().copied()) else {
+            return Vec::new();
+        };
+        // (The changed positions' kd-tree is built while the octree is descended.)
+        let (near, index) = rayon::join(
+            || self.cells_near(&bounds, reach, leaves_only),
+            || PointIndex::new(&local),
+        );
+        self.cells_within_reach(near, &bounds, &index, reach)
     }
 
     /// [`Mpu::cells_reaching`] of the changed positions `local` (shape: K, local frame),
@@ -61,21 +69,27 @@ impl Mpu {
         reach: CellReach,
         leaves_only: bool,
     ) -> Vec<(u32, f64)> {
-        let CellReach { factor, halves } = reach;
         let Some(bounds) = Aabb::from_points(local.iter().copied()) else {
             return Vec::new();
         };
+        let near = self.cells_near(&bounds, reach, leaves_only);
+        self.cells_within_reach(near, &bounds, index, reach)
+    }
+
+    /// The cells (only leaves when `leaves_only`) that may reach a position in `bounds` (local
+    /// frame), in increasing order: a depth-first descent that leaves the subtrees out of
+    /// reach (a cell's descendants are no larger than it).
+    fn cells_near(&self, bounds: &Aabb, reach: CellReach, leaves_only: bool) -> Vec<u32> {
+        let CellReach { factor, halves } = reach;
         let tree = &self.octree;
         let scale = factor * (1.0 + MARGIN);
-        // Cells that may reach: a depth-first descent that leaves the subtrees out of reach
-        // (a cell's descendants are no larger than it).
         let mut near: Vec<u32> = Vec::new();
         let mut stack = vec![0u32];
         while let Some(c) = stack.pop() {
             let cell = tree.cell(c);
             let reach = scale * self.reach_by_depth[usize::from(cell.depth)]
                 + (1.0 + MARGIN) * halves * cell.half;
-            if box_cube_distance2(&bounds, cell.center, cell.half) > reach * reach {
+            if box_cube_distance2(bounds, cell.center, cell.half) > reach * reach {
                 continue;
             }
             if !leaves_only || cell.is_leaf() {
@@ -86,6 +100,22 @@ impl Mpu {
             }
         }
         near.sort_unstable();
+        near
+    }
+
+    /// The cells of `near` whose reach holds a position of `index` (the changed positions,
+    /// local frame, within `bounds`), with the distance from the centre to the nearest one, in
+    /// the order of `near`.
+    fn cells_within_reach(
+        &self,
+        near: Vec<u32>,
+        bounds: &Aabb,
+        index: &PointIndex,
+        reach: CellReach,
+    ) -> Vec<(u32, f64)> {
+        let CellReach { factor, halves } = reach;
+        let tree = &self.octree;
+        let scale = factor * (1.0 + MARGIN);
         near.par_iter()
             .filter_map(|&c| {
                 let cell = tree.cell(c);
