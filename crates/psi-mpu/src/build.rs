@@ -287,6 +287,7 @@ impl Mpu {
             fits: prefit,
             balls,
             from_earlier,
+            skipped,
         } = prefit_marked(
             (&data.positions, &data.points),
             params,
@@ -367,8 +368,13 @@ impl Mpu {
                 fit,
                 error,
                 fit_radius,
-            } = match old.and_then(|o| marked_old.binary_search(&o).ok()) {
-                Some(k) => prefit[k].clone(),
+            } = match old
+                .and_then(|o| marked_old.binary_search(&o).ok())
+                .and_then(|k| prefit[k].as_ref())
+            {
+                Some(fit) => fit.clone(),
+                // (New to the octree; or, never in fact, a marked cell skipped because a marked
+                // ancestor keeps its function: fitted here, to the same result.)
                 None => fit_octree_cell(&input.over(v.positions), v.cell, eps0),
             };
             let split = error > eps0 && v.cell.depth < params.max_depth;
@@ -411,6 +417,7 @@ impl Mpu {
             eps0,
             bbox_diagonal: frame.diagonal,
             balls_from_earlier: from_earlier,
+            refits_skipped: skipped,
             ..Default::default()
         };
         let depth_slots = usize::from(octree.max_depth_reached()) + 1;

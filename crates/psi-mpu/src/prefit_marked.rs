@@ -4,10 +4,10 @@
 //! its own for the next brush (`trial_balls.rs`).
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU8, AtomicUsize, Ordering};
 
 use glam::DVec3;
-use psi_octree::{BallAnswer, Interrupted, Monitor, OrientedPoint, PointIndex};
+use psi_octree::{BallAnswer, Interrupted, Monitor, NO_CELL, OrientedPoint, PointIndex};
 use rayon::prelude::*;
 
 use crate::coarse_index::CoarseIndex;
@@ -15,6 +15,15 @@ use crate::fit_cell::{CellFit, FitInput, refit_octree_cell, try_fit_octree_cell}
 use crate::fit_radius::Earlier;
 use crate::trial_balls::TrialBalls;
 use crate::{Mpu, MpuParams};
+
+/// A marked cell's fit (`None`: skipped), its ball answer to keep, and whether it read its
+/// ball from the earlier answer.
+type Refit = (Option<CellFit>, Option<BallAnswer>, bool);
+
+/// A marked cell's fit: not yet known, splits, keeps its function (a leaf).
+const PENDING: u8 = 0;
+const SPLITS: u8 = 1;
+const KEEPS: u8 = 2;
 
 /// A brush keeps at most this many ball-answer pairs (16 bytes each) a point for the next: a
 /// brush over most of a model keeps some answers, not a copy of every refitted cell's ball
@@ -26,17 +35,22 @@ const KEPT_PAIRS_PER_POINT: usize = 8;
 pub(crate) struct Prefit {
     pub(crate) index: Arc<PointIndex>,
     pub(crate) coarse: Arc<CoarseIndex>,
-    pub(crate) fits: Vec<CellFit>,
+    /// `None` for a cell skipped because a marked ancestor no longer splits (it is not in the
+    /// new octree).
+    pub(crate) fits: Vec<Option<CellFit>>,
     /// After a brush, the refits' ball answers (for the next brush).
     pub(crate) balls: TrialBalls,
     /// How many refits read their balls from the earlier answers.
     pub(crate) from_earlier: usize,
+    /// How many marked cells were skipped.
+    pub(crate) skipped: usize,
 }
 
 /// Fits the marked cells of the earlier octree up front, in one parallel batch: a fit depends
 /// only on its cell and the points, and level by level the coarse levels hold a few expensive
-/// fits that keep threads idle. (A marked cell whose parent no longer splits is fitted for
-/// nothing; cells new to the octree are fitted as met.) The large cells among them that split
+/// fits that keep threads idle. (A marked cell below one that no longer splits is not in the
+/// new octree: skipped when that is known before its fit starts, else fitted for nothing.
+/// Cells new to the octree are fitted as met.) The large cells among them that split
 /// are fitted from the coarse points alone while the kd-tree of all points is being built.
 ///
 /// `positions` (local frame) and `points` (shape: N each): the build's input; `earlier`: the
@@ -103,16 +117,35 @@ pub(crate) fn prefit_marked(
     // threads' timing; the fits never do).
     let budget = KEPT_PAIRS_PER_POINT * positions.len();
     let kept_pairs = AtomicUsize::new(0);
+    // Whether each marked cell splits, once fitted: a marked cell below one that no longer
+    // splits is not in the new octree, and is skipped when that fit is known before its own
+    // starts (which cells are skipped depends on the threads' timing; the octree never reads
+    // their fits).
+    let splits: Vec<AtomicU8> = marked.iter().map(|_| AtomicU8::new(PENDING)).collect();
+    let gone = |c: u32| {
+        let mut a = old_cell(c).parent;
+        while a != NO_CELL {
+            if let Ok(k) = marked.binary_search(&a)
+                && splits[k].load(Ordering::Relaxed) == KEEPS
+            {
+                return true;
+            }
+            a = old_cell(a).parent;
+        }
+        false
+    };
     // (A stop part-way leaves `None`s, and the whole is dropped.)
-    let fits: Option<Vec<(CellFit, Option<BallAnswer>, bool)>> = marked
+    let fits: Option<Vec<Refit>> = marked
         .par_iter()
         .zip(early)
-        .map(|(&c, early)| {
+        .zip(&splits)
+        .map(|((&c, early), split)| {
             if monitor.stopped() {
                 return None;
             }
-            Some(match early {
+            let (fit, answer, read) = match early {
                 Some(fit) => (fit, None, false),
+                None if gone(c) => return Some((None, None, false)),
                 None => {
                     let cell = old_cell(c);
                     let earlier = Earlier {
@@ -130,12 +163,17 @@ pub(crate) fn prefit_marked(
                     });
                     (fit, answer, read)
                 }
-            })
+            };
+            let cell = old_cell(c);
+            let splits = fit.error > eps0 && cell.depth < params.max_depth;
+            split.store(if splits { SPLITS } else { KEEPS }, Ordering::Relaxed);
+            Some((Some(fit), answer, read))
         })
         .collect();
     let fits = fits.ok_or(Interrupted)?;
     let from_earlier = fits.iter().filter(|f| f.2).count();
-    let (fits, answers): (Vec<CellFit>, Vec<Option<BallAnswer>>) =
+    let skipped = fits.iter().filter(|f| f.0.is_none()).count();
+    let (fits, answers): (Vec<Option<CellFit>>, Vec<Option<BallAnswer>>) =
         fits.into_iter().map(|(f, a, _)| (f, a)).unzip();
     let balls = if keep_balls {
         let addresses = marked.iter().map(|&c| {
@@ -152,6 +190,7 @@ pub(crate) fn prefit_marked(
         fits,
         balls,
         from_earlier,
+        skipped,
     })
 }
 
@@ -160,6 +199,67 @@ mod tests {
     use glam::DVec3;
 
     use crate::{BuildOptions, Mpu, MpuParams, Reuse};
+
+    /// A brush that flattens a bump, every cell marked: the cells over the bump stop splitting,
+    /// and on one thread (the batch then runs in cell order, ancestors first) their marked
+    /// descendants are skipped; the build is a build from scratch's.
+    #[test]
+    fn cells_below_one_that_stops_splitting_are_skipped() {
+        let params = MpuParams::paper();
+        let bump = |x: f64, y: f64| 0.3 * (-(x * x + y * y) / 0.05).exp();
+        let mut points = Vec::new();
+        for i in 0..150 {
+            for j in 0..150 {
+                let (x, y) = (i as f64 / 74.5 - 1.0, j as f64 / 74.5 - 1.0);
+                let z = bump(x, y);
+                let (dx, dy) = (-2.0 * x / 0.05 * z, -2.0 * y / 0.05 * z);
+                points.push(psi_octree::OrientedPoint {
+                    p: DVec3::new(x, y, z),
+                    n: DVec3::new(-dx, -dy, 1.0).normalize(),
+                });
+            }
+        }
+        let old = Mpu::build(&points, &params).unwrap();
+        let frame = *old.frame();
+        let moved: Vec<u32> = (0..points.len() as u32)
+            .filter(|&i| points[i as usize].p.z > 1e-6)
+            .collect();
+        for &i in &moved {
+            let p = &mut points[i as usize];
+            (p.p.z, p.n) = (0.0, DVec3::Z);
+        }
+        let marked = vec![true; old.octree().cells().len()];
+        let options = BuildOptions {
+            frame: Some(frame),
+            reuse: Some(Reuse {
+                old: &old,
+                marked: &marked,
+                indices_kept: true,
+                moved: Some(&moved),
+            }),
+            ..Default::default()
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let new = pool.install(|| Mpu::build_with(&points[..], &params, options).unwrap());
+        assert!(new.report().refits_skipped > 0);
+        let scratch = Mpu::build_with(
+            &points[..],
+            &params,
+            BuildOptions {
+                frame: Some(frame),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(new.octree().cells().len(), scratch.octree().cells().len());
+        for p in points.iter().step_by(37) {
+            let x = p.p + 0.01 * p.n;
+            assert_eq!(new.value_and_gradient(x), scratch.value_and_gradient(x));
+        }
+    }
 
     /// A brush over the whole model (every cell marked) keeps ball answers within the budget,
     /// and the next such brush reads some of them and builds what a build from scratch

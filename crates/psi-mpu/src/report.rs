@@ -53,6 +53,10 @@ pub struct BuildReport {
     /// kd-tree (the same points: it changes no fit).
     #[serde(default)]
     pub balls_from_earlier: usize,
+    /// Marked cells not refitted because a marked ancestor no longer splits (they are not in
+    /// the new octree; which of them are caught varies with the threads' timing).
+    #[serde(default)]
+    pub refits_skipped: usize,
 }
 
 /// Wall-clock seconds of a build's phases.
