@@ -198,7 +198,39 @@ pub(crate) fn prefit_marked(
 mod tests {
     use glam::DVec3;
 
+    use psi_octree::OrientedPoint;
+
     use crate::{BuildOptions, Mpu, MpuParams, Reuse};
+
+    /// The local rebuild of `old` after `moved` points of `points` moved, every cell marked.
+    fn rebuild_all_marked(old: &Mpu, points: &[OrientedPoint], moved: &[u32]) -> Mpu {
+        let marked = vec![true; old.octree().cells().len()];
+        let options = BuildOptions {
+            frame: Some(*old.frame()),
+            reuse: Some(Reuse {
+                old,
+                marked: &marked,
+                indices_kept: true,
+                moved: Some(moved),
+            }),
+            ..Default::default()
+        };
+        Mpu::build_with(points, &MpuParams::paper(), options).unwrap()
+    }
+
+    /// Asserts that `new` answers as a build of `points` from scratch in the same frame.
+    fn assert_as_from_scratch(new: &Mpu, points: &[OrientedPoint], step: usize) {
+        let options = BuildOptions {
+            frame: Some(*new.frame()),
+            ..Default::default()
+        };
+        let scratch = Mpu::build_with(points, &MpuParams::paper(), options).unwrap();
+        assert_eq!(new.octree().cells().len(), scratch.octree().cells().len());
+        for p in points.iter().step_by(step) {
+            let x = p.p + 0.01 * p.n;
+            assert_eq!(new.value_and_gradient(x), scratch.value_and_gradient(x));
+        }
+    }
 
     /// A brush that flattens a bump, every cell marked: the cells over the bump stop splitting,
     /// and on one thread (the batch then runs in cell order, ancestors first) their marked
@@ -220,7 +252,6 @@ mod tests {
             }
         }
         let old = Mpu::build(&points, &params).unwrap();
-        let frame = *old.frame();
         let moved: Vec<u32> = (0..points.len() as u32)
             .filter(|&i| points[i as usize].p.z > 1e-6)
             .collect();
@@ -228,37 +259,13 @@ mod tests {
             let p = &mut points[i as usize];
             (p.p.z, p.n) = (0.0, DVec3::Z);
         }
-        let marked = vec![true; old.octree().cells().len()];
-        let options = BuildOptions {
-            frame: Some(frame),
-            reuse: Some(Reuse {
-                old: &old,
-                marked: &marked,
-                indices_kept: true,
-                moved: Some(&moved),
-            }),
-            ..Default::default()
-        };
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
             .build()
             .unwrap();
-        let new = pool.install(|| Mpu::build_with(&points[..], &params, options).unwrap());
+        let new = pool.install(|| rebuild_all_marked(&old, &points, &moved));
         assert!(new.report().refits_skipped > 0);
-        let scratch = Mpu::build_with(
-            &points[..],
-            &params,
-            BuildOptions {
-                frame: Some(frame),
-                ..Default::default()
-            },
-        )
-        .unwrap();
-        assert_eq!(new.octree().cells().len(), scratch.octree().cells().len());
-        for p in points.iter().step_by(37) {
-            let x = p.p + 0.01 * p.n;
-            assert_eq!(new.value_and_gradient(x), scratch.value_and_gradient(x));
-        }
+        assert_as_from_scratch(&new, &points, 37);
     }
 
     /// A brush over the whole model (every cell marked) keeps ball answers within the budget,
@@ -269,7 +276,6 @@ mod tests {
         let params = MpuParams::paper();
         let mut points = psi_shapes::sample_builtin(20_000, 5);
         let mut old = Mpu::build(&points, &params).unwrap();
-        let frame = *old.frame();
         // Every cell marked; 3 000 points moved (few enough that the kd-tree is derived, not
         // built again, so that the second brush can read the first one's answers).
         let moved: Vec<u32> = (0..3000).map(|k| k * 6).collect();
@@ -278,18 +284,7 @@ mod tests {
                 let dz = 1e-3 * if round == 0 { 1.0 } else { -1.0 };
                 points[i as usize].p += DVec3::new(0.0, 0.0, dz);
             }
-            let marked = vec![true; old.octree().cells().len()];
-            let options = BuildOptions {
-                frame: Some(frame),
-                reuse: Some(Reuse {
-                    old: &old,
-                    marked: &marked,
-                    indices_kept: true,
-                    moved: Some(&moved),
-                }),
-                ..Default::default()
-            };
-            let new = Mpu::build_with(&points[..], &params, options).unwrap();
+            let new = rebuild_all_marked(&old, &points, &moved);
             let kept = new.trial_balls.pairs();
             assert!(
                 kept > 0 && kept <= super::KEPT_PAIRS_PER_POINT * points.len(),
@@ -298,19 +293,7 @@ mod tests {
             if round == 1 {
                 assert!(new.report().balls_from_earlier > 0);
             }
-            let scratch = Mpu::build_with(
-                &points[..],
-                &params,
-                BuildOptions {
-                    frame: Some(frame),
-                    ..Default::default()
-                },
-            )
-            .unwrap();
-            for p in points.iter().step_by(97) {
-                let x = p.p + 0.01 * p.n;
-                assert_eq!(new.value_and_gradient(x), scratch.value_and_gradient(x));
-            }
+            assert_as_from_scratch(&new, &points, 97);
             old = new;
         }
     }
