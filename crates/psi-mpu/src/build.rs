@@ -364,11 +364,7 @@ impl Mpu {
                 let split = r.old.cell_fit[old as usize] == NO_FIT;
                 return (split, CellRecord::Reused(old));
             }
-            let CellFit {
-                fit,
-                error,
-                fit_radius,
-            } = match old
+            let cell_fit = match old
                 .and_then(|o| marked_old.binary_search(&o).ok())
                 .and_then(|k| prefit[k].as_ref())
             {
@@ -377,7 +373,10 @@ impl Mpu {
                 // ancestor keeps its function: fitted here, to the same result.)
                 None => fit_octree_cell(&input.over(v.positions), v.cell, eps0),
             };
-            let split = error > eps0 && v.cell.depth < params.max_depth;
+            let split = cell_fit.splits(v.cell, eps0, params.max_depth);
+            let CellFit {
+                fit, fit_radius, ..
+            } = cell_fit;
             (
                 split,
                 CellRecord::Fitted(Box::new(FittedCell {

@@ -54,6 +54,14 @@ pub(crate) struct CellFit {
     pub(crate) fit_radius: f64,
 }
 
+impl CellFit {
+    /// Whether `cell`, so fitted, splits: its error exceeds `eps0` (world units) and it lies
+    /// above `max_depth`.
+    pub(crate) fn splits(&self, cell: &psi_octree::Cell, eps0: f64, max_depth: u8) -> bool {
+        self.error > eps0 && cell.depth < max_depth
+    }
+}
+
 /// A fit uses at most about this many points: larger neighbourhoods (coarse cells, whose fits
 /// are almost always discarded by the split) are thinned by a hash of each point's coordinates,
 /// so the choice depends on the point set only — a rebuild after an edit thins an unchanged

@@ -245,8 +245,8 @@ pub(crate) fn decide_cells(
                 return (false, None);
             }
         };
-        // The same decision as the whole build's (crate::build).
-        let split = f.error > eps0 && cell.depth < params.max_depth;
+        // The same decision as the whole build's (`CellFit::splits`).
+        let split = f.splits(cell, eps0, params.max_depth);
         let decision = CellDecision {
             split,
             fit_radius: f.fit_radius,

@@ -4,7 +4,7 @@
 //! its own for the next brush (`trial_balls.rs`).
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU8, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use glam::DVec3;
 use psi_octree::{BallAnswer, Interrupted, Monitor, NO_CELL, OrientedPoint, PointIndex};
@@ -19,11 +19,6 @@ use crate::{Mpu, MpuParams};
 /// A marked cell's fit (`None`: skipped), its ball answer to keep, and whether it read its
 /// ball from the earlier answer.
 type Refit = (Option<CellFit>, Option<BallAnswer>, bool);
-
-/// A marked cell's fit: not yet known, splits, keeps its function (a leaf).
-const PENDING: u8 = 0;
-const SPLITS: u8 = 1;
-const KEEPS: u8 = 2;
 
 /// A brush keeps at most this many ball-answer pairs (16 bytes each) a point for the next: a
 /// brush over most of a model keeps some answers, not a copy of every refitted cell's ball
@@ -117,16 +112,16 @@ pub(crate) fn prefit_marked(
     // threads' timing; the fits never do).
     let budget = KEPT_PAIRS_PER_POINT * positions.len();
     let kept_pairs = AtomicUsize::new(0);
-    // Whether each marked cell splits, once fitted: a marked cell below one that no longer
-    // splits is not in the new octree, and is skipped when that fit is known before its own
-    // starts (which cells are skipped depends on the threads' timing; the octree never reads
-    // their fits).
-    let splits: Vec<AtomicU8> = marked.iter().map(|_| AtomicU8::new(PENDING)).collect();
+    // Whether each marked cell is known to keep its function (fitted, and not splitting): a
+    // marked cell below one that does is not in the new octree, and is skipped when that fit
+    // is known before its own starts (which cells are skipped depends on the threads' timing;
+    // the octree never reads their fits).
+    let keeps: Vec<AtomicBool> = marked.iter().map(|_| AtomicBool::new(false)).collect();
     let gone = |c: u32| {
         let mut a = old_cell(c).parent;
         while a != NO_CELL {
             if let Ok(k) = marked.binary_search(&a)
-                && splits[k].load(Ordering::Relaxed) == KEEPS
+                && keeps[k].load(Ordering::Relaxed)
             {
                 return true;
             }
@@ -138,8 +133,8 @@ pub(crate) fn prefit_marked(
     let fits: Option<Vec<Refit>> = marked
         .par_iter()
         .zip(early)
-        .zip(&splits)
-        .map(|((&c, early), split)| {
+        .zip(&keeps)
+        .map(|((&c, early), keeps)| {
             if monitor.stopped() {
                 return None;
             }
@@ -164,9 +159,10 @@ pub(crate) fn prefit_marked(
                     (fit, answer, read)
                 }
             };
-            let cell = old_cell(c);
-            let splits = fit.error > eps0 && cell.depth < params.max_depth;
-            split.store(if splits { SPLITS } else { KEEPS }, Ordering::Relaxed);
+            keeps.store(
+                !fit.splits(&old_cell(c), eps0, params.max_depth),
+                Ordering::Relaxed,
+            );
             Some((Some(fit), answer, read))
         })
         .collect();
@@ -245,7 +241,7 @@ mod tests {
                 let (x, y) = (i as f64 / 74.5 - 1.0, j as f64 / 74.5 - 1.0);
                 let z = bump(x, y);
                 let (dx, dy) = (-2.0 * x / 0.05 * z, -2.0 * y / 0.05 * z);
-                points.push(psi_octree::OrientedPoint {
+                points.push(OrientedPoint {
                     p: DVec3::new(x, y, z),
                     n: DVec3::new(-dx, -dy, 1.0).normalize(),
                 });
