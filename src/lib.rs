@@ -23,10 +23,12 @@
 //! assert_eq!(run.particles.len(), run.report.count);
 //! ```
 
+mod budget;
 mod error;
 mod files;
 mod memory_estimate;
 mod out_of_core;
+mod partition;
 mod prepare;
 mod read_ahead;
 pub mod render;
@@ -41,6 +43,7 @@ pub use psi_regen as regen;
 pub use psi_shapes as shapes;
 pub use psi_tiles as tiles;
 
+pub use budget::OutOfCore;
 pub use error::PsiError;
 pub use files::{
     ParticleColumns, load_mesh, load_particles, load_points, load_points_as, same_file, save_json,
@@ -51,8 +54,11 @@ pub use memory_estimate::{
     available_memory_bytes, check_fits_in_memory, estimate_in_core_bytes, estimate_points,
 };
 pub use out_of_core::{
-    OutOfCore, OutOfCoreRun, Partition, out_of_core_json, out_of_core_tiles, parse_memory_size,
-    partition_files, sample_file_out_of_core, sample_files_out_of_core,
+    OutOfCoreRun, out_of_core_json, out_of_core_tiles, parse_memory_size, sample_file_out_of_core,
+    sample_files_out_of_core,
+};
+pub use partition::{
+    Partition, PartitionStart, partition_assemble, partition_files, partition_part, partition_start,
 };
 pub use prepare::{
     ERROR_RANK_POINTS, PreparedInput, RANKED_NOISE, builtin_file, builtin_file_with, prepare_input,

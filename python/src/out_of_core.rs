@@ -263,39 +263,103 @@ fn store_task<T: Send>(
     .map_err(|e| value_error(e.to_string()))
 }
 
-/// Task of `psi.distributed.sample_files` (not API): the inputs streamed into the tile files
-/// in `scratch` (or the store of an earlier run found there); returns the point count.
+/// The options of a partition task: the budget and the scratch directory.
+fn partition_options(max_memory: &Bound<'_, PyAny>, scratch: PathBuf) -> PyResult<psi::OutOfCore> {
+    Ok(psi::OutOfCore {
+        max_memory: memory_arg(max_memory)?,
+        scratch,
+        tile_depth: None,
+    })
+}
+
+/// Runs a partition task: `work` on a pool of `threads` with the interpreter released; its
+/// error as psi's Python exception.
+fn partition_task<T: Send>(
+    py: Python<'_>,
+    threads: Option<i128>,
+    work: impl FnOnce() -> Result<T, psi::PsiError> + Send,
+) -> PyResult<T> {
+    let threads = threads_arg(threads)?;
+    crate::errors::detached(py, move || on_threads(threads, work))?
+        .map_err(value_error)?
+        .map_err(|e| psi_error(py, e, Some("sampling out of core")))
+}
+
+/// Task of `psi.distributed.sample_files` (not API): the first pass over the inputs, the
+/// store's plan written in `scratch`; returns the point count, or `None` when the store of an
+/// earlier run on the same inputs was found there (nothing to write).
 #[pyfunction]
 #[pyo3(signature = (inputs, max_memory, scratch, mpu_error=None, threads=None))]
-pub(crate) fn _ooc_partition(
+pub(crate) fn _ooc_partition_start(
     py: Python<'_>,
     inputs: &Bound<'_, PyAny>,
     max_memory: &Bound<'_, PyAny>,
     scratch: PathBuf,
     mpu_error: Option<f64>,
     threads: Option<i128>,
-) -> PyResult<u64> {
-    let threads = threads_arg(threads)?;
+) -> PyResult<Option<u64>> {
     let inputs = inputs_arg(inputs)?;
-    let options = psi::OutOfCore {
-        max_memory: memory_arg(max_memory)?,
-        scratch,
-        tile_depth: None,
-    };
+    let options = partition_options(max_memory, scratch)?;
     let params = mpu_params(mpu_error)?;
-    let part = crate::errors::detached(py, move || {
-        on_threads(threads, || {
-            psi::partition_files(
-                &inputs,
-                None,
-                &params,
-                &options,
-                &psi::octree::Monitor::silent(),
-            )
-        })
-    })?
-    .map_err(value_error)?
-    .map_err(|e| psi_error(py, e, Some("sampling out of core")))?;
+    let start = partition_task(py, threads, move || {
+        psi::partition_start(
+            &inputs,
+            None,
+            &params,
+            &options,
+            &psi::octree::Monitor::silent(),
+        )
+    })?;
+    Ok(match start {
+        psi::PartitionStart::Found(_) => None,
+        psi::PartitionStart::Planned { points, .. } => Some(points),
+    })
+}
+
+/// Task of `psi.distributed.sample_files` (not API): part `index` of `count` of the tile files
+/// written (the whole input streamed, this part's tiles kept); returns the points dropped.
+#[pyfunction]
+#[pyo3(signature = (inputs, max_memory, scratch, index, count, threads=None))]
+pub(crate) fn _ooc_partition_part(
+    py: Python<'_>,
+    inputs: &Bound<'_, PyAny>,
+    max_memory: &Bound<'_, PyAny>,
+    scratch: PathBuf,
+    index: u32,
+    count: u32,
+    threads: Option<i128>,
+) -> PyResult<u64> {
+    let inputs = inputs_arg(inputs)?;
+    let options = partition_options(max_memory, scratch)?;
+    let part = psi::tiles::StorePart::new(index, count).map_err(|e| value_error(e.to_string()))?;
+    partition_task(py, threads, move || {
+        psi::partition_part(
+            &inputs,
+            None,
+            part,
+            &options,
+            &psi::octree::Monitor::silent(),
+        )
+    })
+}
+
+/// Task of `psi.distributed.sample_files` (not API): the store's manifest from its `count`
+/// parts; `points` (the first pass's count) must be what they counted. Returns the count.
+#[pyfunction]
+#[pyo3(signature = (inputs, max_memory, scratch, count, points))]
+pub(crate) fn _ooc_partition_assemble(
+    py: Python<'_>,
+    inputs: &Bound<'_, PyAny>,
+    max_memory: &Bound<'_, PyAny>,
+    scratch: PathBuf,
+    count: u32,
+    points: u64,
+) -> PyResult<u64> {
+    let inputs = inputs_arg(inputs)?;
+    let options = partition_options(max_memory, scratch)?;
+    let part = partition_task(py, None, move || {
+        psi::partition_assemble(&inputs, count, Some(points), &options)
+    })?;
     Ok(part.points)
 }
 

@@ -7,7 +7,8 @@
 //! in increasing index order, plus the frame, ε0 and the point count, so each tile's decisions
 //! are bitwise those of the build over all points, and the MPU assembled from them
 //! ([`psi_mpu::BuildOptions::known_cells`]) equals it. In memory: [`decide_tiled`],
-//! [`build_tiled`]; on disk: [`TileWriter`] and [`TileStore`] (checksummed tile files),
+//! [`build_tiled`]; on disk: [`TileWriter`] and [`TileStore`] (checksummed tile files, written
+//! whole or in parts side by side: [`StorePlan`], [`StorePart`]),
 //! [`decide_store`] (one decisions file per tile, so a run resumes; its tasks for a cluster
 //! [`decide_store_top_upper`], [`decide_store_top_group`], [`decide_store_top_keys`] and
 //! [`decide_store_tile`]); particles:
@@ -36,6 +37,7 @@ mod record_file;
 mod run_digests;
 mod sample_tiles;
 mod seed_store;
+mod store_plan;
 mod sub_cells;
 mod thinned_data;
 mod tile_buckets;
@@ -43,6 +45,7 @@ mod tile_params;
 mod tile_records;
 mod tile_report;
 mod tile_store;
+mod tile_writer;
 mod write_atomically;
 
 pub use decide_store::{
@@ -57,8 +60,10 @@ pub use sample_tiles::{
     seed_octant, seed_octants,
 };
 pub use seed_store::seed_store_octant;
+pub use store_plan::{StorePart, StorePlan, WrittenPart};
 pub use thinned_data::ThinnedData;
 pub use tile_params::TileParams;
 pub use tile_report::TileReport;
-pub use tile_store::{StoreManifest, StoredTile, TileStore, TileWriter};
+pub use tile_store::{StoreManifest, StoredTile, TileStore};
+pub use tile_writer::TileWriter;
 use write_atomically::write_atomically;

@@ -6,32 +6,28 @@
 //! checks what it reads and no more. A manifest with the frame, the counts, the sub-cell runs
 //! and every file's checksum is written last (temporary file, then rename), so a store without
 //! a manifest is unfinished and one whose file fails its checksum is refused by name. Records:
-//! `tile_records.rs`.
+//! `tile_records.rs`; writing: `tile_writer.rs`, whole or in parts (`store_plan.rs`).
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::{self, File};
-use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
+use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 use glam::DVec3;
-use psi_mpu::{MpuFrame, is_coarse_point};
+use psi_mpu::MpuFrame;
 use psi_octree::OrientedPoint;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 
 use crate::TileError;
-use crate::run_digests::{check_runs, run_digests, trailer_len, trailer_sum};
-use crate::sub_cells::{
-    SUB, SUB_LEVELS, box_distance, order_by_sub_cell, sub_cell_box, sub_cell_ranges,
-};
+use crate::run_digests::{check_runs, trailer_len, trailer_sum};
+use crate::sub_cells::{SUB, SUB_LEVELS, box_distance, sub_cell_box, sub_cell_ranges};
 use crate::tile_records::{RECORD, record_position, tile_key};
 
 /// The manifest format this code writes and reads.
-const VERSION: u32 = 3;
+pub(crate) const VERSION: u32 = 3;
 /// The manifest's file name in a store directory.
-const MANIFEST: &str = "manifest.json";
+pub(crate) const MANIFEST: &str = "manifest.json";
 
 /// One tile file of a store.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -85,193 +81,15 @@ pub struct TileStore {
     checked: Arc<Mutex<HashMap<PathBuf, Vec<bool>>>>,
 }
 
-/// Writes points into a store, buffering at most about `buffer_points` of them in memory.
-pub struct TileWriter {
-    dir: PathBuf,
-    source: String,
-    frame: MpuFrame,
-    depth: u8,
-    buffer_points: usize,
-    buffered: usize,
-    next_index: u64,
-    pending: BTreeMap<[u32; 3], Vec<u8>>,
-    counts: BTreeMap<[u32; 3], u64>,
-    coarse: BufWriter<File>,
-    coarse_count: u64,
-}
-
-fn io_error(path: &Path, e: impl std::fmt::Display) -> TileError {
+pub(crate) fn io_error(path: &Path, e: impl std::fmt::Display) -> TileError {
     TileError::Store(format!("{}: {e}", path.display()))
-}
-
-/// Whether `name` is one of the files a store writes: `tile-X-Y-Z.pts`, `coarse.pts`,
-/// `cells-top.bin`, `cells-X-Y-Z.bin`.
-fn is_store_file(name: &str) -> bool {
-    let keyed = |prefix: &str, ext: &str| {
-        name.strip_prefix(prefix)
-            .and_then(|r| r.strip_suffix(ext))
-            .is_some_and(|k| {
-                let parts: Vec<&str> = k.split('-').collect();
-                parts.len() == 3
-                    && parts
-                        .iter()
-                        .all(|p| !p.is_empty() && p.bytes().all(|b| b.is_ascii_digit()))
-            })
-    };
-    name == "coarse.pts"
-        || name == "cells-top.bin"
-        || name == "cells-upper.bin"
-        || keyed("tile-", ".pts")
-        || keyed("cells-group-", ".bin")
-        || keyed("seeds-", ".bin")
-        || keyed("cells-", ".bin")
 }
 
 pub(crate) fn tile_path(dir: &Path, key: [u32; 3]) -> PathBuf {
     dir.join(format!("tile-{}-{}-{}.pts", key[0], key[1], key[2]))
 }
 
-fn push_record(out: &mut Vec<u8>, index: u64, p: &OrientedPoint) {
-    out.extend_from_slice(&index.to_le_bytes());
-    for v in [p.p.x, p.p.y, p.p.z, p.n.x, p.n.y, p.n.z] {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
-}
-
-impl TileWriter {
-    /// Starts a store in `dir` (created; an earlier store there is replaced when this one
-    /// finishes) for an input whose frame is `frame`, tiles at `depth`, described by `source`
-    /// ([`StoreManifest::source`]).
-    pub fn create(
-        dir: &Path,
-        frame: MpuFrame,
-        depth: u8,
-        buffer_points: usize,
-        source: &str,
-    ) -> Result<TileWriter, TileError> {
-        fs::create_dir_all(dir).map_err(|e| io_error(dir, e))?;
-        // An unfinished store has no manifest: remove the old one first.
-        let manifest = dir.join(MANIFEST);
-        if manifest.exists() {
-            fs::remove_file(&manifest).map_err(|e| io_error(&manifest, e))?;
-        }
-        for entry in fs::read_dir(dir).map_err(|e| io_error(dir, e))? {
-            let path = entry.map_err(|e| io_error(dir, e))?.path();
-            // Only the files a store writes (its point files and the decisions made from them):
-            // whatever else the directory holds is the user's.
-            if path
-                .file_name()
-                .is_some_and(|n| is_store_file(&n.to_string_lossy()))
-            {
-                fs::remove_file(&path).map_err(|e| io_error(&path, e))?;
-            }
-        }
-        let coarse_path = dir.join("coarse.pts");
-        let coarse = File::create(&coarse_path).map_err(|e| io_error(&coarse_path, e))?;
-        Ok(TileWriter {
-            dir: dir.to_path_buf(),
-            source: source.to_owned(),
-            frame,
-            depth,
-            buffer_points: buffer_points.max(1),
-            buffered: 0,
-            next_index: 0,
-            pending: BTreeMap::new(),
-            counts: BTreeMap::new(),
-            coarse: BufWriter::new(coarse),
-            coarse_count: 0,
-        })
-    }
-
-    /// Adds the next `points` of the input (their indices follow the points added before).
-    pub fn push(&mut self, points: &[OrientedPoint]) -> Result<(), TileError> {
-        let mut record = Vec::with_capacity(RECORD);
-        for p in points {
-            let index = self.next_index;
-            self.next_index += 1;
-            let key = tile_key(&self.frame, self.depth, p.p);
-            push_record(self.pending.entry(key).or_default(), index, p);
-            *self.counts.entry(key).or_default() += 1;
-            if is_coarse_point(&self.frame, p.p) {
-                record.clear();
-                push_record(&mut record, index, p);
-                let path = self.dir.join("coarse.pts");
-                self.coarse
-                    .write_all(&record)
-                    .map_err(|e| io_error(&path, e))?;
-                self.coarse_count += 1;
-            }
-            self.buffered += 1;
-            if self.buffered >= self.buffer_points {
-                self.flush()?;
-            }
-        }
-        Ok(())
-    }
-
-    /// Appends the buffered records to their tile files.
-    fn flush(&mut self) -> Result<(), TileError> {
-        for (key, bytes) in std::mem::take(&mut self.pending) {
-            let path = tile_path(&self.dir, key);
-            let mut f = fs::OpenOptions::new()
-                .create(true)
-                .append(true)
-                .open(&path)
-                .map_err(|e| io_error(&path, e))?;
-            f.write_all(&bytes).map_err(|e| io_error(&path, e))?;
-        }
-        self.buffered = 0;
-        Ok(())
-    }
-
-    /// Writes what is buffered, checksums every file and writes the manifest (last).
-    pub fn finish(mut self) -> Result<TileStore, TileError> {
-        self.flush()?;
-        let coarse_path = self.dir.join("coarse.pts");
-        self.coarse.flush().map_err(|e| io_error(&coarse_path, e))?;
-        // Each file grouped by sub-cell, one tile at a time per thread (a tile fits in
-        // memory); the tiles in key order whatever the threads.
-        let (frame, depth, dir) = (self.frame, self.depth, &self.dir);
-        let counts: Vec<([u32; 3], u64)> = self.counts.iter().map(|(&k, &n)| (k, n)).collect();
-        let tiles = counts
-            .into_par_iter()
-            .map(|(key, points)| {
-                let path = tile_path(dir, key);
-                let bytes = fs::read(&path).map_err(|e| io_error(&path, e))?;
-                let (bytes, runs) = order_by_sub_cell(&frame, depth, key, &bytes);
-                let trailer = run_digests(&bytes, &runs);
-                crate::write_atomically::write_parts_atomically(&path, &[&bytes, &trailer])?;
-                Ok(StoredTile {
-                    key,
-                    points,
-                    sha256: trailer_sum(&trailer),
-                    runs,
-                })
-            })
-            .collect::<Result<Vec<StoredTile>, TileError>>()?;
-        let manifest = StoreManifest {
-            version: VERSION,
-            source: self.source.clone(),
-            frame: self.frame,
-            frame_bits: frame_bits(&self.frame),
-            population: self.next_index,
-            depth: self.depth,
-            tiles,
-            coarse: StoredTile {
-                key: [0; 3],
-                points: self.coarse_count,
-                sha256: append_digest(&coarse_path)?,
-                runs: vec![0, self.coarse_count],
-            },
-        };
-        let text = serde_json::to_string_pretty(&manifest).expect("serialisable");
-        let path = self.dir.join(MANIFEST);
-        crate::write_atomically(&path, text.as_bytes())?;
-        TileStore::open(&self.dir)
-    }
-}
-
-fn frame_bits(f: &MpuFrame) -> [u64; 8] {
+pub(crate) fn frame_bits(f: &MpuFrame) -> [u64; 8] {
     let v = [
         f.origin.x,
         f.origin.y,
@@ -285,7 +103,7 @@ fn frame_bits(f: &MpuFrame) -> [u64; 8] {
     v.map(f64::to_bits)
 }
 
-fn frame_from_bits(b: [u64; 8]) -> MpuFrame {
+pub(crate) fn frame_from_bits(b: [u64; 8]) -> MpuFrame {
     let v = b.map(f64::from_bits);
     MpuFrame {
         origin: DVec3::new(v[0], v[1], v[2]),
@@ -293,29 +111,6 @@ fn frame_from_bits(b: [u64; 8]) -> MpuFrame {
         root_half: v[6],
         diagonal: v[7],
     }
-}
-
-/// Appends to the file at `path` (whole records, one run) its SHA-256, as its trailer
-/// (`run_digests.rs`); returns the manifest's checksum of it.
-fn append_digest(path: &Path) -> Result<String, TileError> {
-    let mut f = fs::OpenOptions::new()
-        .read(true)
-        .append(true)
-        .open(path)
-        .map_err(|e| io_error(path, e))?;
-    let mut h = Sha256::new();
-    let mut buf = vec![0u8; 1 << 20];
-    loop {
-        let n = f.read(&mut buf).map_err(|e| io_error(path, e))?;
-        if n == 0 {
-            break;
-        }
-        h.update(&buf[..n]);
-    }
-    let trailer = h.finalize();
-    f.write_all(&trailer).map_err(|e| io_error(path, e))?;
-    f.sync_all().map_err(|e| io_error(path, e))?;
-    Ok(trailer_sum(&trailer))
 }
 
 impl TileStore {
@@ -413,7 +208,7 @@ impl TileStore {
         Ok(out)
     }
 
-    /// The coarse points ([`is_coarse_point`]), in increasing input index order.
+    /// The coarse points ([`psi_mpu::is_coarse_point`]), in increasing input index order.
     pub fn coarse_points(&self) -> Result<Vec<OrientedPoint>, TileError> {
         let path = self.dir.join("coarse.pts");
         let bytes = self.read_ranges(&path, &self.manifest.coarse, None)?;

@@ -1,8 +1,9 @@
 """The same tiles on a Dask cluster: ``sample_files`` runs a run out of core (``psi sample
 --max-memory``) as Dask tasks on a ``dask.distributed.Client`` — the partition of the inputs
-into tile files, the cells above the tiles (one task per octant of the root), one task per
-tile, the seeds (one task per octant), then the relaxation and the writing — and writes bitwise
-the particles the command line writes.
+into tile files (a first pass, then the files in parts, a task per worker thread), the cells
+above the tiles (one task per octant of the root), one task per tile, the seeds (one task per
+octant), then the relaxation and the writing — and writes bitwise the particles the command
+line writes.
 
 Needs ``dask[distributed]`` (``pip install "./python[dask]"``). Every task reads and writes the
 scratch directory, so on a real cluster it must be on a file system every worker sees. The
@@ -27,6 +28,10 @@ _Path = Union[str, "PathLike[str]"]
 
 #: How often Dask retries a task whose worker died.
 RETRIES = 3
+
+#: The most parts the tile files are written in (one task each, each reading the whole input:
+#: beyond a few, reading again costs more than the writing it shares out).
+MAX_PARTS = 8
 
 
 #: glibc's ``mallopt`` parameters (``malloc.h``).
@@ -102,7 +107,24 @@ def sample_files(
             key = f"{f.__name__}-{uuid.uuid4().hex}"
             return client.submit(_task, f, *a, key=key, retries=RETRIES, **kw)
 
-        submit(_psi._ooc_partition, paths, max_memory, scratch_dir, mpu_error, threads).result()
+        # The partition: a first pass (the frame and the count), then the tile files written
+        # in parts side by side, each streaming the whole input and keeping its own tiles (the
+        # files' bytes do not depend on the number of parts), then the manifest.
+        points = submit(
+            _psi._ooc_partition_start, paths, max_memory, scratch_dir, mpu_error, threads
+        ).result()
+        if points is not None:
+            parts = min(MAX_PARTS, max(1, sum(client.nthreads().values())))
+            client.gather(
+                [
+                    submit(_psi._ooc_partition_part, paths, max_memory, scratch_dir, i, parts,
+                           threads)
+                    for i in range(parts)
+                ]
+            )
+            submit(
+                _psi._ooc_partition_assemble, paths, max_memory, scratch_dir, parts, points
+            ).result()
         groups = submit(_psi._ooc_top_upper, scratch_dir, mpu_error, threads).result()
         client.gather(
             [submit(_psi._ooc_top_group, scratch_dir, g, mpu_error, threads) for g in groups]
