@@ -8,7 +8,7 @@ use std::sync::{Arc, OnceLock};
 use glam::DVec3;
 use psi_octree::{OrientedPoint, PointIndex, all_k_nearest};
 
-use crate::point_footprint::{BAND_EDGE_OFFSET, DEEP, PointFootprint, vector_of};
+use crate::point_footprint::{BAND_EDGE_OFFSET, DEEP, PointFootprint, SUBSET_D8_SLACK, vector_of};
 
 /// The input as the footprint reads it.
 #[derive(Clone, Copy)]
@@ -413,8 +413,9 @@ impl DataFootprint {
 ///   within half a spacing of an interior q, or the centroid of its 8 nearest within a spacing
 ///   of y in q's tangent plane);
 /// - q farther inside: y is inside when it lies within `reach` × the distance at which a
-///   point of the subset has its 8th nearest: the larger of q's own (`subset_d8`) and the
-///   one its rate implies, d₈ = spacing/√(rate·π/8). The edge test on the subset's own
+///   point of the subset has its 8th nearest: the larger of q's own (`subset_d8`, at most
+///   [`SUBSET_D8_SLACK`] × the next, when the spacing is known) and the one its rate
+///   implies, d₈ = spacing/√(rate·π/8). The edge test on the subset's own
 ///   neighbours would reject where the subset is irregular (a hashed subset of a regular
 ///   input most of all), which made the thinned relaxation's spacing less even
 ///   (docs/notes/2026-11-27-carried-footprint.md).
@@ -441,7 +442,12 @@ fn thinned_test(
     let d = q.d2.sqrt();
     let inside = if whole.hops() >= whole.exact_hops() {
         let rate_d8 = spacing / (whole.rate() * std::f64::consts::PI / 8.0).sqrt();
-        d <= reach * rate_d8.max(subset_d8)
+        let own_d8 = if spacing > 0.0 {
+            subset_d8.min(SUBSET_D8_SLACK * rate_d8)
+        } else {
+            subset_d8
+        };
+        d <= reach * rate_d8.max(own_d8)
     } else {
         let offset = q.position + whole.centroid_offset() - y;
         d <= reach * spacing

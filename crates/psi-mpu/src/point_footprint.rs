@@ -33,6 +33,13 @@ pub struct PointFootprint {
 /// straight border's 0.45, a half disc's 0.95.
 pub const BAND_EDGE_OFFSET: f64 = 0.4;
 
+/// In the thinned test's lenient part, the subset's own d₈ at a point counts up to this many
+/// times the d₈ its rate implies (an irregular subset's slack). Beyond it the point stands
+/// nearly alone in the subset, as along a thin feature whose nearest points lie far along it;
+/// reading its own d₈ there let particles cross the gaps beside such features, up to 8e-3 D
+/// from the data (docs/notes/2026-11-27-thin-features.md).
+pub(crate) const SUBSET_D8_SLACK: f64 = 2.0;
+
 /// [`PointFootprint::hops`] of a point three or more hops from the data's edge.
 pub const DEEP: u8 = 3;
 
@@ -63,12 +70,13 @@ impl PointFootprint {
         }
     }
 
-    /// The footprint of a point not measured on the whole input: interior, deep, its spacing
-    /// unknown (0), so that the thinned test reads the subset's own spacing there.
-    pub fn unmeasured() -> PointFootprint {
+    /// The footprint of a point not measured on the whole input: interior, deep, with
+    /// `spacing` (world units) the input spacing around it as its region estimates it, or 0
+    /// when unknown (the thinned test then reads the subset's own spacing alone).
+    pub fn unmeasured(spacing: f64) -> PointFootprint {
         PointFootprint {
             centroid_offset: [0.0; 3],
-            spacing: 0.0,
+            spacing: spacing as f32,
             interior: true,
             hops: DEEP,
             rate: 1.0,

@@ -6,7 +6,7 @@
 //! between. The subset's own test, without the carried footprint, is checked to fail that.
 
 use glam::DVec3;
-use psi_mpu::{BuildOptions, DEEP, Mpu, MpuParams};
+use psi_mpu::{BuildOptions, DEEP, Mpu, MpuParams, PointFootprint};
 use psi_octree::OrientedPoint;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -97,4 +97,72 @@ fn a_thinned_subset_with_the_whole_footprint_tests_as_the_whole_input() {
         (own_agree as f64) < 0.98 * all_tests as f64,
         "{own_agree} of {all_tests}: the subset's own test agrees as well"
     );
+}
+
+/// A subset whose points were not measured (an irregular sampling's regions carry only their
+/// spacing, `PointFootprint::unmeasured`), beside a thin feature: two jittered squares joined
+/// by a bridge one point wide. A subset point on the bridge has its 9th nearest far along it,
+/// so its own d₈ alone would let positions in the gaps beside the bridge pass, several
+/// spacings off the data; with the region's spacing known, the test holds out those beyond
+/// twice the d₈ the rate implies (`SUBSET_D8_SLACK`), as the whole input's test does, and still
+/// accepts inside the squares.
+#[test]
+fn a_thin_feature_does_not_open_its_gaps_to_the_lenient_test() {
+    let h = 0.0125;
+    let mut rng = Pcg64Mcg::seed_from_u64(9);
+    let points: Vec<OrientedPoint> = jittered_patch(81, h, &mut rng)
+        .into_iter()
+        .filter(|p| p.p.x < 0.3 || p.p.x > 0.7 || (p.p.y - 0.5).abs() < 0.6 * h)
+        .collect();
+    let params = MpuParams::paper();
+    let whole = Mpu::build(&points, &params).unwrap();
+    let kept: Vec<usize> = (0..points.len()).filter(|i| i % 4 == 0).collect();
+    let rate = 0.25;
+    let subset: Vec<OrientedPoint> = kept.iter().map(|&i| whole.points()[i]).collect();
+    let thinned_with = |spacing: f64| {
+        let carried = vec![PointFootprint::unmeasured(spacing).thinned_to(rate, 0); kept.len()];
+        Mpu::build_with(
+            &subset[..],
+            &params,
+            BuildOptions {
+                frame: Some(*whole.frame()),
+                whole_footprint: Some(&carried),
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    };
+    let (known, unknown) = (thinned_with(h), thinned_with(0.0));
+    let (mut gaps, mut opened) = (0, 0);
+    for _ in 0..4_000 {
+        let x = DVec3::new(
+            0.42 + 0.16 * rng.random::<f64>(),
+            0.5 + (0.09 + 0.06 * rng.random::<f64>())
+                * if rng.random::<bool>() { 1.0 } else { -1.0 },
+            0.0,
+        );
+        assert!(
+            !whole.near_data_from(x, 1.0, None).inside,
+            "the oracle at {x:?}"
+        );
+        assert!(
+            !known.near_data_from(x, 1.0, None).inside,
+            "{x:?} in a gap passed"
+        );
+        gaps += 1;
+        opened += usize::from(unknown.near_data_from(x, 1.0, None).inside);
+    }
+    // Without the spacing, the bridge's points open the gaps: the case this guards.
+    assert!(opened > gaps / 10, "{opened} of {gaps}");
+    for _ in 0..4_000 {
+        let x = DVec3::new(
+            0.05 + 0.2 * rng.random::<f64>(),
+            0.05 + 0.9 * rng.random::<f64>(),
+            0.0,
+        );
+        assert!(
+            known.near_data_from(x, 1.0, None).inside,
+            "{x:?} inside a square"
+        );
+    }
 }

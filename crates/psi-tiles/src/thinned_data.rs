@@ -45,7 +45,8 @@ impl ThinnedData {
     /// on `mpu`'s points. The band is the points within two hops of the edge, or one, the
     /// widest that fits the region's share of the budget (`rate` × its points), else none
     /// (an irregular sampling whose every tenth point looks like an edge point, or a tiny
-    /// share): a bound on what the seeding carries. Each footprint records the hops tested
+    /// share: its points carry the median spacing of a sample of them): a bound on what the
+    /// seeding carries. Each footprint records the hops tested
     /// exactly ([`PointFootprint::thinned_to`]); the relaxation narrows the bands alike
     /// everywhere ([`ThinnedData::at_most`]).
     /// `complete` as [`Mpu::point_footprints`]'.
@@ -76,11 +77,15 @@ impl ThinnedData {
             .count();
         let edge_share = seeming_edges as f64 / sample.len().max(1) as f64;
         if edge_share * ONE_HOP_PER_EDGE_POINT * qs.len() as f64 > share {
+            // The region's input spacing: the median over the sample (measured already).
+            let mut spacings: Vec<f64> = sample.iter().map(|&q| mpu.input_spacing(q)).collect();
+            spacings.sort_by(f64::total_cmp);
+            let spacing = spacings.get(spacings.len() / 2).copied().unwrap_or(0.0);
             for &q in &qs {
                 let p = input[q as usize];
                 if position_hash(p.p) < rate {
                     self.points.push(p);
-                    self.footprints.push(PointFootprint::unmeasured());
+                    self.footprints.push(PointFootprint::unmeasured(spacing));
                 }
             }
             return;
