@@ -124,6 +124,16 @@ pub enum PartitionStart {
     },
 }
 
+/// The error of a partition of `paths`, named after the first file; an error when there is
+/// none.
+fn failure_of(paths: &[PathBuf]) -> Result<impl Fn(String) -> PsiError + '_, PsiError> {
+    let first = paths.first().ok_or_else(|| PsiError::OutOfCore {
+        path: PathBuf::new(),
+        reason: "no input files given".into(),
+    })?;
+    Ok(failure(first))
+}
+
 /// The store directory of `options`.
 fn store_dir(options: &OutOfCore) -> PathBuf {
     options.scratch.join("tiles")
@@ -154,11 +164,7 @@ pub fn partition_start(
     options: &OutOfCore,
     monitor: &Monitor<'_>,
 ) -> Result<PartitionStart, PsiError> {
-    let first = paths.first().ok_or_else(|| PsiError::OutOfCore {
-        path: PathBuf::new(),
-        reason: "no input files given".into(),
-    })?;
-    let fail = failure(first);
+    let fail = failure_of(paths)?;
     let source = sources_of(paths)?;
     let dir = store_dir(options);
     // An earlier run's store is used when it holds the same files, tiled as this budget
@@ -219,11 +225,7 @@ pub fn partition_part(
     options: &OutOfCore,
     monitor: &Monitor<'_>,
 ) -> Result<u64, PsiError> {
-    let first = paths.first().ok_or_else(|| PsiError::OutOfCore {
-        path: PathBuf::new(),
-        reason: "no input files given".into(),
-    })?;
-    let fail = failure(first);
+    let fail = failure_of(paths)?;
     let dir = store_dir(options);
     let plan = StorePlan::read(&dir).map_err(|e| fail(e.to_string()))?;
     let changed = || fail("the input changed while it was being read; run again".into());
@@ -266,8 +268,7 @@ pub fn partition_assemble(
     points: Option<u64>,
     options: &OutOfCore,
 ) -> Result<Partition, PsiError> {
-    let first = paths.first().map_or_else(PathBuf::new, Clone::clone);
-    let fail = failure(&first);
+    let fail = failure_of(paths)?;
     let store = TileStore::assemble(&store_dir(options), parts).map_err(|e| fail(e.to_string()))?;
     let population = store.manifest().population;
     if points.is_some_and(|n| n != population) {
