@@ -236,7 +236,7 @@ impl DataFootprint {
                 } else {
                     DEEP
                 };
-                PointFootprint::measured(
+                PointFootprint::from_measure(
                     local.centroid_offset,
                     local.spacing() as f32,
                     local.interior,
@@ -413,9 +413,10 @@ impl DataFootprint {
 ///   within half a spacing of an interior q, or the centroid of its 8 nearest within a spacing
 ///   of y in q's tangent plane);
 /// - q farther inside: y is inside when it lies within `reach` × the distance at which a
-///   point of the subset has its 8th nearest: the larger of q's own (`subset_d8`, at most
-///   [`SUBSET_D8_SLACK`] × the next, when the spacing is known) and the one its rate
-///   implies, d₈ = spacing/√(rate·π/8). The edge test on the subset's own
+///   point of the subset has its 8th nearest: the larger of q's own (`subset_d8`) and the
+///   one its rate implies, d₈ = spacing/√(rate·π/8); at a point of an unmeasured region, q's
+///   own, at most [`SUBSET_D8_SLACK`] × the one its region's spacing implies (when known).
+///   The edge test on the subset's own
 ///   neighbours would reject where the subset is irregular (a hashed subset of a regular
 ///   input most of all), which made the thinned relaxation's spacing less even
 ///   (docs/notes/2026-11-27-carried-footprint.md).
@@ -442,12 +443,14 @@ fn thinned_test(
     let d = q.d2.sqrt();
     let inside = if whole.hops() >= whole.exact_hops() {
         let rate_d8 = spacing / (whole.rate() * std::f64::consts::PI / 8.0).sqrt();
-        let own_d8 = if spacing > 0.0 {
+        let d8 = if whole.measured() {
+            rate_d8.max(subset_d8)
+        } else if spacing > 0.0 {
             subset_d8.min(SUBSET_D8_SLACK * rate_d8)
         } else {
             subset_d8
         };
-        d <= reach * rate_d8.max(own_d8)
+        d <= reach * d8
     } else {
         let offset = q.position + whole.centroid_offset() - y;
         d <= reach * spacing

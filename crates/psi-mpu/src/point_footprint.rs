@@ -25,6 +25,8 @@ pub struct PointFootprint {
     /// Points fewer hops than this from the data's edge take the whole test in a subset, the
     /// others the lenient one ([`PointFootprint::thinned_to`]).
     exact_hops: u8,
+    /// Whether `spacing` was measured at the point (else it is its region's estimate, or 0).
+    measured: bool,
 }
 
 /// A point whose 8 nearest have their centroid farther than this fraction of a spacing from it
@@ -33,11 +35,12 @@ pub struct PointFootprint {
 /// straight border's 0.45, a half disc's 0.95.
 pub const BAND_EDGE_OFFSET: f64 = 0.4;
 
-/// In the thinned test's lenient part, the subset's own d₈ at a point counts up to this many
-/// times the d₈ its rate implies (an irregular subset's slack). Beyond it the point stands
-/// nearly alone in the subset, as along a thin feature whose nearest points lie far along it;
-/// reading its own d₈ there let particles cross the gaps beside such features, up to 8e-3 D
-/// from the data (docs/notes/2026-11-27-thin-features.md).
+/// In the thinned test's lenient part at a point of an unmeasured region, the subset's own d₈
+/// at the point counts up to this many times the d₈ the rate implies from the region's
+/// spacing (an irregular subset's slack, and the region's spread of spacings). Beyond it the
+/// point stands nearly alone in the subset, as along a thin feature whose nearest points lie
+/// far along it; reading its own d₈ there let particles cross the gaps beside such features,
+/// up to 8e-3 D from the data (docs/notes/2026-11-27-thin-features.md).
 pub(crate) const SUBSET_D8_SLACK: f64 = 2.0;
 
 /// [`PointFootprint::hops`] of a point three or more hops from the data's edge.
@@ -81,6 +84,7 @@ impl PointFootprint {
             hops: DEEP,
             rate: 1.0,
             exact_hops: 0,
+            measured: false,
         }
     }
 
@@ -99,6 +103,11 @@ impl PointFootprint {
         vector_of(self.centroid_offset)
     }
 
+    /// Whether the spacing was measured at the point ([`PointFootprint::unmeasured`]: not).
+    pub(crate) fn measured(&self) -> bool {
+        self.measured
+    }
+
     /// [`PointFootprint::thinned_to`]'s rate.
     pub(crate) fn rate(&self) -> f64 {
         f64::from(self.rate)
@@ -106,7 +115,7 @@ impl PointFootprint {
 
     /// What the whole input measured at a point (`DataFootprint::point_footprints`): untested
     /// in a subset yet (rate 1, `exact_hops` [`DEEP`] − 1).
-    pub(crate) fn measured(
+    pub(crate) fn from_measure(
         centroid_offset: [f32; 3],
         spacing: f32,
         interior: bool,
@@ -119,6 +128,7 @@ impl PointFootprint {
             hops,
             rate: 1.0,
             exact_hops: DEEP - 1,
+            measured: true,
         }
     }
 }
