@@ -109,16 +109,18 @@ pub struct Partition {
     pub resumed: bool,
 }
 
+/// Why a partition stops when the files change between its passes.
+const CHANGED: &str = "the input changed while it was being read; run again";
+
 /// What the first pass of a partition found.
 #[derive(Clone, Debug)]
 pub enum PartitionStart {
     /// The finished store of an earlier run on the same files, tiled as this budget tiles
     /// them: nothing to write.
     Found(Box<Partition>),
-    /// A new store was started (its plan written in `<scratch>/tiles`) for `points` points.
+    /// A new store was started (its plan written in `<scratch>/tiles`, which the parts
+    /// read) for `points` points.
     Planned {
-        /// The store's plan.
-        plan: StorePlan,
         /// Points in the input (zero normals dropped).
         points: u64,
     },
@@ -202,10 +204,7 @@ pub fn partition_start(
     let depth = options.tile_depth_for(count).map_err(&fail)?;
     let plan = StorePlan::new(&source, &frame, depth);
     plan.start(&dir).map_err(|e| fail(e.to_string()))?;
-    Ok(PartitionStart::Planned {
-        plan,
-        points: count,
-    })
+    Ok(PartitionStart::Planned { points: count })
 }
 
 /// The second pass over the files at `paths` for `part` of the store [`partition_start`]
@@ -228,7 +227,7 @@ pub fn partition_part(
     let fail = failure_of(paths)?;
     let dir = store_dir(options);
     let plan = StorePlan::read(&dir).map_err(|e| fail(e.to_string()))?;
-    let changed = || fail("the input changed while it was being read; run again".into());
+    let changed = || fail(CHANGED.into());
     if sources_of(paths)? != plan.source {
         return Err(changed());
     }
@@ -272,9 +271,7 @@ pub fn partition_assemble(
     let store = TileStore::assemble(&store_dir(options), parts).map_err(|e| fail(e.to_string()))?;
     let population = store.manifest().population;
     if points.is_some_and(|n| n != population) {
-        return Err(fail(
-            "the input changed while it was being read; run again".into(),
-        ));
+        return Err(fail(CHANGED.into()));
     }
     Ok(Partition {
         store,
@@ -300,7 +297,7 @@ pub fn partition_files(
 ) -> Result<Partition, PsiError> {
     let points = match partition_start(paths, format, mpu_params, options, monitor)? {
         PartitionStart::Found(found) => return Ok(*found),
-        PartitionStart::Planned { points, .. } => points,
+        PartitionStart::Planned { points } => points,
     };
     let dropped = partition_part(paths, format, StorePart::WHOLE, options, monitor)?;
     let partition = partition_assemble(paths, 1, Some(points), options)?;

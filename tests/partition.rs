@@ -32,7 +32,7 @@ fn a_partition_in_parts_is_the_partition_written_whole() {
     assert!(found.store.manifest().tiles.len() >= 16);
 
     let parted = options(dir.join("parted"));
-    let PartitionStart::Planned { points, .. } =
+    let PartitionStart::Planned { points } =
         psi::partition_start(&inputs, None, &params, &parted, &silent).unwrap()
     else {
         panic!("a new scratch directory holds no store");

@@ -312,7 +312,7 @@ pub(crate) fn _ooc_partition_start(
     })?;
     Ok(match start {
         psi::PartitionStart::Found(_) => None,
-        psi::PartitionStart::Planned { points, .. } => Some(points),
+        psi::PartitionStart::Planned { points } => Some(points),
     })
 }
 

@@ -416,10 +416,9 @@ impl DataFootprint {
 ///   point of the subset has its 8th nearest: the larger of q's own (`subset_d8`) and the
 ///   one its rate implies, d₈ = spacing/√(rate·π/8); at a point of an unmeasured region, q's
 ///   own, at most [`SUBSET_D8_SLACK`] × the one its region's spacing implies (when known).
-///   The edge test on the subset's own
-///   neighbours would reject where the subset is irregular (a hashed subset of a regular
-///   input most of all), which made the thinned relaxation's spacing less even
-///   (docs/notes/2026-11-27-carried-footprint.md).
+///   The edge test on the subset's own neighbours would reject where the subset is
+///   irregular (a hashed subset of a regular input most of all), which made the thinned
+///   relaxation's spacing less even (docs/notes/2026-11-27-carried-footprint.md).
 ///
 /// The anchor's fast radius is half the whole spacing at an interior point, as in the whole
 /// test.

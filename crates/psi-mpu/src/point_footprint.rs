@@ -39,8 +39,8 @@ pub const BAND_EDGE_OFFSET: f64 = 0.4;
 /// at the point counts up to this many times the d₈ the rate implies from the region's
 /// spacing (an irregular subset's slack, and the region's spread of spacings). Beyond it the
 /// point stands nearly alone in the subset, as along a thin feature whose nearest points lie
-/// far along it; reading its own d₈ there let particles cross the gaps beside such features,
-/// up to 8e-3 D from the data (docs/notes/2026-11-27-thin-features.md).
+/// far along it; reading its own d₈ there let particles cross the gaps beside such features
+/// (docs/notes/2026-11-27-thin-features.md).
 pub(crate) const SUBSET_D8_SLACK: f64 = 2.0;
 
 /// [`PointFootprint::hops`] of a point three or more hops from the data's edge.

@@ -81,7 +81,7 @@ impl StorePlan {
         if manifest.exists() {
             fs::remove_file(&manifest).map_err(|e| io_error(&manifest, e))?;
         }
-        remove_store_files(dir, &|name| is_store_file(name))?;
+        remove_store_files(dir, &is_store_file)?;
         let text = serde_json::to_string_pretty(self).expect("serialisable");
         crate::write_atomically(&dir.join(PLAN), text.as_bytes())
     }

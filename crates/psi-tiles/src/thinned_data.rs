@@ -46,9 +46,9 @@ impl ThinnedData {
     /// widest that fits the region's share of the budget (`rate` × its points), else none
     /// (an irregular sampling whose every tenth point looks like an edge point, or a tiny
     /// share: its points carry the median spacing of a sample of them): a bound on what the
-    /// seeding carries. Each footprint records the hops tested
-    /// exactly ([`PointFootprint::thinned_to`]); the relaxation narrows the bands alike
-    /// everywhere ([`ThinnedData::at_most`]).
+    /// seeding carries. Each footprint records the hops tested exactly
+    /// ([`PointFootprint::thinned_to`]); the relaxation narrows the bands alike everywhere
+    /// ([`ThinnedData::at_most`]).
     /// `complete` as [`Mpu::point_footprints`]'.
     pub(crate) fn keep_from_region(
         &mut self,
@@ -77,7 +77,8 @@ impl ThinnedData {
             .count();
         let edge_share = seeming_edges as f64 / sample.len().max(1) as f64;
         if edge_share * ONE_HOP_PER_EDGE_POINT * qs.len() as f64 > share {
-            // The region's input spacing: the median over the sample (measured already).
+            // The region's input spacing: the median over the sample (its 9 nearest were read for
+            // the edge test above).
             let mut spacings: Vec<f64> = sample.iter().map(|&q| mpu.input_spacing(q)).collect();
             spacings.sort_by(f64::total_cmp);
             let spacing = spacings.get(spacings.len() / 2).copied().unwrap_or(0.0);
