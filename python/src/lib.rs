@@ -43,7 +43,7 @@ fn psi_python(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_top_upper, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_top_group, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_top, m)?)?;
-    m.add_function(wrap_pyfunction!(out_of_core::_ooc_tile, m)?)?;
+    m.add_function(wrap_pyfunction!(out_of_core::_ooc_tiles, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_seed, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_sample, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;

@@ -418,19 +418,19 @@ pub(crate) fn _ooc_top(
     Ok(keys.into_iter().map(|k| (k[0], k[1], k[2])).collect())
 }
 
-/// Task of `psi.distributed.sample_files` (not API): one tile decided and its decisions file
-/// written (or found intact).
+/// Task of `psi.distributed.sample_files` (not API): a batch of tiles decided, in order,
+/// each with its decisions file written (or found intact).
 #[pyfunction]
-#[pyo3(signature = (scratch, key, mpu_error=None, threads=None))]
-pub(crate) fn _ooc_tile(
+#[pyo3(signature = (scratch, keys, mpu_error=None, threads=None))]
+pub(crate) fn _ooc_tiles(
     py: Python<'_>,
     scratch: PathBuf,
-    key: (u32, u32, u32),
+    keys: Vec<(u32, u32, u32)>,
     mpu_error: Option<f64>,
     threads: Option<i128>,
 ) -> PyResult<()> {
+    let keys: Vec<[u32; 3]> = keys.into_iter().map(|k| [k.0, k.1, k.2]).collect();
     store_task(py, &scratch, mpu_error, threads, |store, params, tiles| {
-        let key = [key.0, key.1, key.2];
-        psi::tiles::decide_store_tile(store, params, tiles, key, &psi::octree::Monitor::silent())
+        psi::tiles::decide_store_tiles(store, params, tiles, &keys, &psi::octree::Monitor::silent())
     })
 }

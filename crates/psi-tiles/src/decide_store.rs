@@ -93,7 +93,7 @@ pub fn decide_store_top_group(
 
 /// The task after the groups of [`decide_store`] (a cluster runs it alone): the cells above
 /// the tiles, merged from the groups' files (any missing is decided here). Returns the tiles'
-/// keys, in order, for [`decide_store_tile`].
+/// keys, in order, for [`decide_store_tiles`].
 ///
 /// Errors as [`decide_store`].
 pub fn decide_store_top_keys(
@@ -108,21 +108,28 @@ pub fn decide_store_top_keys(
     Ok(crate::decide_tile::tile_keys(&top.cells, tiles.depth))
 }
 
-/// One tile of [`decide_store`] (a cluster's task): decided and its decisions file written,
-/// unless an intact one is there. Needs the file of [`decide_store_top_keys`].
+/// A batch of tiles of [`decide_store`] (a cluster's task): each tile of `keys` decided, in
+/// order, and its decisions file written, unless an intact one is there. The store and the
+/// cells above the tiles are read once for the batch: per tile they would cost more than a
+/// small tile's own work (docs/notes/2026-11-27-tile-batches.md). Needs the file of
+/// [`decide_store_top_keys`].
 ///
 /// Errors as [`decide_store`].
-pub fn decide_store_tile(
+pub fn decide_store_tiles(
     store: &TileStore,
     params: &MpuParams,
     tiles: &TileParams,
-    key: [u32; 3],
+    keys: &[[u32; 3]],
     monitor: &Monitor<'_>,
 ) -> Result<(), TileError> {
     check_tiles(store, tiles)?;
     let print = fingerprint(store, params, tiles);
     let top = decide_store_top(store, params, tiles, &print, monitor)?;
-    decide_store_tile_with(store, params, tiles, &top, key, &print, monitor).map(|_| ())
+    for &key in keys {
+        monitor.check()?;
+        decide_store_tile_with(store, params, tiles, &top, key, &print, monitor)?;
+    }
+    Ok(())
 }
 
 /// Checks that `tiles` suit `store`.

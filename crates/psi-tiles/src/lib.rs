@@ -11,7 +11,7 @@
 //! whole or in parts side by side: [`StorePlan`], [`StorePart`]),
 //! [`decide_store`] (one decisions file per tile, so a run resumes; its tasks for a cluster
 //! [`decide_store_top_upper`], [`decide_store_top_group`], [`decide_store_top_keys`] and
-//! [`decide_store_tile`]); particles:
+//! [`decide_store_tiles`]); particles:
 //! [`sample_tiled`] (seeds exactly the whole sampling's, region by region; one relaxation of
 //! them all, on the decisions and the points the memory allows).
 //!
@@ -49,7 +49,7 @@ mod tile_writer;
 mod write_atomically;
 
 pub use decide_store::{
-    TOP_GROUP_DEPTH, decide_store, decide_store_tile, decide_store_top_group,
+    TOP_GROUP_DEPTH, decide_store, decide_store_tiles, decide_store_top_group,
     decide_store_top_keys, decide_store_top_upper,
 };
 pub use decide_tiles::{TiledDecisions, build_tiled, decide_tiled};

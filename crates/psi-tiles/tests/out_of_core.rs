@@ -16,8 +16,8 @@ use psi_particles::ParticleParams;
 use psi_shapes::{AnalyticShape, gaussian_vector};
 use psi_tiles::{
     PointSource, PointsInMemory, TileParams, TileStore, TileWriter, decide_store,
-    decide_store_top_group, decide_store_top_upper, decide_tiled, sample_tiled, sample_tiled_from,
-    seed_octants, seed_store_octant,
+    decide_store_tiles, decide_store_top_group, decide_store_top_keys, decide_store_top_upper,
+    decide_tiled, sample_tiled, sample_tiled_from, seed_octants, seed_store_octant,
 };
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
@@ -256,7 +256,19 @@ fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
     for key in decide_store_top_upper(&store, &params, &t, &Monitor::silent()).unwrap() {
         decide_store_top_group(&store, &params, &t, key, &Monitor::silent()).unwrap();
     }
+    // The tiles in batches of three, the last batch first: a decisions file for every tile.
+    let keys = decide_store_top_keys(&store, &params, &t, &Monitor::silent()).unwrap();
+    for batch in keys.chunks(3).rev() {
+        decide_store_tiles(&store, &params, &t, batch, &Monitor::silent()).unwrap();
+    }
+    for k in &keys {
+        assert!(
+            dir.join(format!("cells-{}-{}-{}.bin", k[0], k[1], k[2]))
+                .exists()
+        );
+    }
     let first = decide_store(&store, &params, &t, &Monitor::silent()).unwrap();
+    assert_eq!(first.report.count, keys.len());
     // The same as the command line's one pass above the tiles, bit for bit.
     let one_dir = scratch("resume-one-pass");
     let one_pass = decide_store(

@@ -1,9 +1,9 @@
 """The same tiles on a Dask cluster: ``sample_files`` runs a run out of core (``psi sample
 --max-memory``) as Dask tasks on a ``dask.distributed.Client`` — the partition of the inputs
 into tile files (a first pass, then the files in parts, a task per worker thread), the cells
-above the tiles (one task per octant of the root), one task per tile, the seeds (one task per
-octant), then the relaxation and the writing — and writes bitwise the particles the command
-line writes.
+above the tiles (one task per octant of the root), the tiles (a task per batch of neighbours),
+the seeds (one task per octant), then the relaxation and the writing — and writes bitwise the
+particles the command line writes.
 
 Needs ``dask[distributed]`` (``pip install "./python[dask]"``). Every task reads and writes the
 scratch directory, so on a real cluster it must be on a file system every worker sees. The
@@ -32,6 +32,12 @@ RETRIES = 3
 #: The most parts the tile files are written in (one task each, each reading the whole input:
 #: beyond a few, reading again costs more than the writing it shares out).
 MAX_PARTS = 8
+
+
+#: Tiles decided by one task, neighbours in the tiles' order. A task opens the store and reads
+#: the cells above the tiles, about 7 ms, more than a small tile's own work; Dask adds its
+#: own cost per task, on the scheduler and on the worker (docs/notes/2026-11-27-tile-batches.md).
+TILES_PER_TASK = 8
 
 
 #: glibc's ``mallopt`` parameters (``malloc.h``).
@@ -130,8 +136,9 @@ def sample_files(
             [submit(_psi._ooc_top_group, scratch_dir, g, mpu_error, threads) for g in groups]
         )
         keys = submit(_psi._ooc_top, scratch_dir, mpu_error, threads).result()
+        batches = [keys[i : i + TILES_PER_TASK] for i in range(0, len(keys), TILES_PER_TASK)]
         client.gather(
-            [submit(_psi._ooc_tile, scratch_dir, key, mpu_error, threads) for key in keys]
+            [submit(_psi._ooc_tiles, scratch_dir, b, mpu_error, threads) for b in batches]
         )
         # The seeds by octant of the root (a task for an octant without regions does nothing).
         octants = [(x, y, z) for z in (0, 1) for y in (0, 1) for x in (0, 1)]
