@@ -55,7 +55,10 @@ pub const TOP_GROUP_DEPTH: u8 = 1;
 
 /// The first task of [`decide_store`] (a cluster runs it alone): the levels above
 /// [`TOP_GROUP_DEPTH`], decided from the coarse points (or taken from an intact decisions
-/// file). Returns the keys of the groups below, in order, for [`decide_store_top_group`].
+/// file). Returns the keys of the groups below for [`decide_store_top_group`], the group
+/// holding the most input points first (ties in key order): a cluster that starts the
+/// largest tasks first ends them closer together. The groups are the octants of the root,
+/// so the order suits the seeds' tasks ([`crate::seed_octant`]) too.
 ///
 /// Errors as [`decide_store`].
 pub fn decide_store_top_upper(
@@ -69,7 +72,23 @@ pub fn decide_store_top_upper(
     let coarse = CoarseOnce::default();
     let part = TopPart::Upper;
     let upper = decide_top_part(store, params, tiles, &print, part, &coarse, monitor)?;
-    Ok(group_keys(&upper, tiles))
+    Ok(largest_first(store, group_keys(&upper, tiles)))
+}
+
+/// `octants` (keys at depth 1) ordered by the input points of the store's tiles in each, the
+/// most first, ties in key order.
+fn largest_first(store: &TileStore, mut octants: Vec<[u32; 3]>) -> Vec<[u32; 3]> {
+    let m = store.manifest();
+    let shift = m.depth.saturating_sub(1);
+    let points_in = |o: &[u32; 3]| -> u64 {
+        m.tiles
+            .iter()
+            .filter(|t| t.key.map(|k| k >> shift) == *o)
+            .map(|t| t.points)
+            .sum()
+    };
+    octants.sort_by_cached_key(|o| (std::cmp::Reverse(points_in(o)), *o));
+    octants
 }
 
 /// One group of the pass above the tiles (a cluster's task): the cells at and below the

@@ -253,7 +253,27 @@ fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
     let store = store_of(&points, 2, &dir);
     // As a cluster runs it: the upper levels, each octant of the root, then the rest.
     let t = tiles(2, 0.1);
-    for key in decide_store_top_upper(&store, &params, &t, &Monitor::silent()).unwrap() {
+    let groups = decide_store_top_upper(&store, &params, &t, &Monitor::silent()).unwrap();
+    // The groups come largest first (a cluster starts the longest tasks first).
+    let m = store.manifest();
+    let points_in = |o: &[u32; 3]| -> u64 {
+        let tiles = m
+            .tiles
+            .iter()
+            .filter(|x| x.key.map(|k| k >> (m.depth - 1)) == *o);
+        tiles.map(|x| x.points).sum()
+    };
+    assert!(groups.len() > 1);
+    assert!(
+        groups
+            .windows(2)
+            .all(|w| points_in(&w[0]) >= points_in(&w[1]))
+    );
+    assert_eq!(
+        groups.iter().map(points_in).sum::<u64>(),
+        points.len() as u64
+    );
+    for key in groups {
         decide_store_top_group(&store, &params, &t, key, &Monitor::silent()).unwrap();
     }
     // The tiles in batches of three, the last batch first: a decisions file for every tile.

@@ -140,8 +140,15 @@ def sample_files(
         client.gather(
             [submit(_psi._ooc_tiles, scratch_dir, b, mpu_error, threads) for b in batches]
         )
-        # The seeds by octant of the root (a task for an octant without regions does nothing).
-        octants = [(x, y, z) for z in (0, 1) for y in (0, 1) for x in (0, 1)]
+        # The seeds by octant of the root, the largest first as the groups came (a task for an
+        # octant without regions does nothing).
+        octants = list(groups) + [
+            (x, y, z)
+            for z in (0, 1)
+            for y in (0, 1)
+            for x in (0, 1)
+            if (x, y, z) not in groups
+        ]
         client.gather(
             [
                 submit(_psi._ooc_seed, scratch_dir, o, max_memory=max_memory, k=k,
