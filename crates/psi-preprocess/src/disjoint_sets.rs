@@ -20,6 +20,14 @@ impl Sets {
         i
     }
 
+    /// The root of `i`'s set without shortening the path, for readers in parallel.
+    pub(crate) fn root_of(&self, mut i: u32) -> u32 {
+        while self.0[i as usize] != i {
+            i = self.0[i as usize];
+        }
+        i
+    }
+
     /// Joins the sets of `a` and `b`; whether they were apart.
     pub(crate) fn join(&mut self, a: u32, b: u32) -> bool {
         let (a, b) = (self.root(a), self.root(b));
@@ -39,6 +47,10 @@ mod tests {
         assert!(s.join(3, 4));
         assert!(!s.join(4, 5));
         assert!(s.join(1, 0));
+        assert_eq!(
+            (0..6).map(|i| s.root_of(i)).collect::<Vec<_>>(),
+            [0, 0, 2, 3, 3, 3]
+        );
         assert_eq!(
             (0..6).map(|i| s.root(i)).collect::<Vec<_>>(),
             [0, 0, 2, 3, 3, 3]

@@ -243,7 +243,7 @@ pub fn orient_normals_with(points: &mut [OrientedPoint], monitor: &Monitor<'_>) 
         done[seed as usize] = true;
         stack.push(seed);
         while let Some(from) = stack.pop() {
-            for &to in &forest[from as usize] {
+            for &to in forest.row(from as usize) {
                 if !done[to as usize] {
                     done[to as usize] = true;
                     if sorted[to as usize].n.dot(sorted[from as usize].n) < 0.0 {
