@@ -42,8 +42,7 @@ impl Graph {
 
     /// The undirected graph over `n` points with `edges` (each listed once, ends below `n`):
     /// an edge (a, b) puts b in row a and a in row b, each row in the edges' order. Flat
-    /// arrays, where a vector per point cost a serial allocation each (10 M of them at 10 M
-    /// points).
+    /// arrays, where a vector per point cost a serial allocation each.
     pub(crate) fn from_edges(n: usize, edges: &[(u32, u32)]) -> Self {
         let mut offsets = vec![0usize; n + 1];
         for &(a, b) in edges {

@@ -59,7 +59,7 @@ pub(crate) fn maximum_spanning_forest(
 /// Kruskal's loop over `keyed` (sorted, heaviest first) in chunks of `chunk` edges: in each,
 /// the edges whose ends are already one tree are dropped in parallel (trees only grow, so the
 /// serial loop would drop them too), then the rest are joined in order. The edges kept, as
-/// the plain loop keeps them (on the 10 M-point dragon it drops three edges in four).
+/// the plain loop keeps them (docs/results/2026-11-27-orientation-forest/).
 fn kruskal(n: usize, keyed: &[Keyed], chunk: usize) -> Vec<(u32, u32)> {
     let mut sets = Sets::new(n);
     let mut kept = Vec::with_capacity(n);

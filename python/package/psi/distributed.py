@@ -35,8 +35,8 @@ MAX_PARTS = 8
 
 
 #: Tiles decided by one task, neighbours in the tiles' order. A task opens the store and reads
-#: the cells above the tiles, about 7 ms, more than a small tile's own work; Dask adds its
-#: own cost per task, on the scheduler and on the worker (docs/notes/2026-11-27-tile-batches.md).
+#: the cells above the tiles, which costs more than a small tile's own work, and Dask adds its
+#: own cost per task on the scheduler and the worker (docs/notes/2026-11-27-tile-batches.md).
 TILES_PER_TASK = 8
 
 
