@@ -56,9 +56,10 @@ pub const TOP_GROUP_DEPTH: u8 = 1;
 /// The first task of [`decide_store`] (a cluster runs it alone): the levels above
 /// [`TOP_GROUP_DEPTH`], decided from the coarse points (or taken from an intact decisions
 /// file). Returns the keys of the groups below for [`decide_store_top_group`], the group
-/// holding the most input points first (ties in key order): a cluster that starts the
-/// largest tasks first ends them closer together. The groups are the octants of the root,
-/// so the order suits the seeds' tasks ([`crate::seed_octant`]) too.
+/// holding the most input points first (ties in key order): the largest-first rule, which
+/// bounds how late a cluster ends the last of them (not always the best order for a few
+/// tasks of similar sizes). The groups are the octants of the root, so the order suits the
+/// seeds' tasks ([`crate::seed_octant`]) too.
 ///
 /// Errors as [`decide_store`].
 pub fn decide_store_top_upper(
