@@ -23,9 +23,9 @@ pub fn paper_weight(t: f64) -> f64 {
 /// Maps an octree depth to the target radius σ̂ (world units).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DensityField {
-    /// Shallowest depth of the surface leaves' range at seeding ([`crate::depth_range`]).
+    /// Shallowest depth holding particles at seeding.
     pub d_min: u8,
-    /// Deepest depth of that range.
+    /// Deepest depth holding particles at seeding.
     pub d_max: u8,
     /// Root cube edge, world units (s(d) = root_edge / 2^d).
     pub root_edge: f64,
