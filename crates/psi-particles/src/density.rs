@@ -23,9 +23,9 @@ pub fn paper_weight(t: f64) -> f64 {
 /// Maps an octree depth to the target radius σ̂ (world units).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DensityField {
-    /// Shallowest depth holding particles at seeding.
+    /// Shallowest depth of the surface leaves' range at seeding ([`crate::depth_range`]).
     pub d_min: u8,
-    /// Deepest depth holding particles at seeding.
+    /// Deepest depth of that range.
     pub d_max: u8,
     /// Root cube edge, world units (s(d) = root_edge / 2^d).
     pub root_edge: f64,

@@ -29,6 +29,7 @@
 mod cover_data;
 mod dart_grid;
 mod density;
+mod depth_range;
 mod neighbours;
 mod octree_buckets;
 mod params;
@@ -47,6 +48,7 @@ mod transfer_attributes;
 
 pub use cover_data::{COVER_RADIUS, MAX_SPACING, cover_data, spacing_ceiling};
 pub use density::{DensityField, paper_weight};
+pub use depth_range::depth_range;
 pub use octree_buckets::OctreeBuckets;
 pub use params::{DensityMode, NeighbourSearch, ParticleParams};
 pub use particle_grid::{GRID_EDGE_FACTOR, ParticleGrid};

@@ -98,9 +98,7 @@ pub fn initialize(mpu: &Mpu, params: &ParticleParams) -> Seeding {
 /// `monitor`'s flag is set (the caller checks and discards the seeds).
 fn initialize_with(mpu: &Mpu, params: &ParticleParams, monitor: &Monitor<'_>) -> Seeding {
     let leaves: Vec<u32> = mpu.surface_leaves().collect();
-    let depths = leaves.iter().map(|&l| mpu.octree().cell(l).depth);
-    let d_min = depths.clone().min().unwrap_or(0);
-    let d_max = depths.max().unwrap_or(0);
+    let (d_min, d_max) = crate::depth_range(leaves.iter().map(|&l| mpu.octree().cell(l).depth));
     let mut field = DensityField {
         d_min,
         d_max,

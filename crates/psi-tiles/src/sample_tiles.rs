@@ -132,12 +132,13 @@ pub fn seed_octants(decisions: &TiledDecisions) -> Vec<[u32; 3]> {
     octants
 }
 
-/// The density field of the seeds: the depth range of the surface leaves, σ not yet scaled.
+/// The density field of the seeds: the depth range of the surface leaves
+/// ([`psi_particles::depth_range`], as in core), σ not yet scaled.
 fn base_field(decisions: &TiledDecisions) -> DensityField {
-    let depths = decisions.surface.iter().map(|a| a.0);
+    let (d_min, d_max) = psi_particles::depth_range(decisions.surface.iter().map(|a| a.0));
     DensityField {
-        d_min: depths.clone().min().unwrap_or(0),
-        d_max: depths.max().unwrap_or(0),
+        d_min,
+        d_max,
         root_edge: 2.0 * decisions.frame.root_half,
         scale: 1.0,
         uniform: None,
