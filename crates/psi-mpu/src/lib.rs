@@ -62,6 +62,7 @@ mod ranked_error;
 mod region_points;
 mod report;
 mod select_fit;
+mod surrounded;
 mod trial_balls;
 
 pub use buffers::MpuBuffers;

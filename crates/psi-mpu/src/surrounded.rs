@@ -1,0 +1,158 @@
+//! Whether input points surround a position on the surface: the edge rule of the data's
+//! footprint test (`data_footprint.rs`). A position beyond the data's edge (a hole, a scan's
+//! border) sees every nearby input point on one side; a position inside sees them all around.
+//! Measured on the position's own nearest points, so that the rule does not depend on how the
+//! data is sampled: range-scan rows (a point's nearest neighbours all on its own row) and
+//! seams between views of different density made the earlier rule, on the centroid of the
+//! nearest input point's 8 neighbours, take the data's inside for an edge
+//! (docs/notes/2026-11-27-multiview-level-cv.md).
+
+use glam::DVec3;
+
+/// How many of the position's nearest input points the rule reads.
+pub(crate) const SURROUND_POINTS: usize = 24;
+
+/// Of those, only the ones within this many local input spacings of the position count, so
+/// that the rim of a small hole does not wrap around a position inside it.
+pub(crate) const SURROUND_REACH: f64 = 2.0;
+
+/// Whether the points `near` (world units, any frame shared with `y`) surround `y` in the plane
+/// normal to unit `n`: projected into it, the directions from `y` to them leave no gap of half
+/// a turn or more between consecutive ones. Points within 1e-12 of `y` in the plane have no
+/// direction and are skipped; fewer than 3 directions never surround.
+///
+/// ```text
+/// y inside:  ·  ·  ·        y past an edge:  ·  ·  ·
+///            ·  y  ·                         ·  ·  ·
+///            ·  ·  ·                               y
+/// ```
+pub(crate) fn surrounded(y: DVec3, n: DVec3, near: impl IntoIterator<Item = DVec3>) -> bool {
+    let u = n.any_orthonormal_vector();
+    let w = n.cross(u);
+    let mut angles: Vec<f64> = near
+        .into_iter()
+        .filter_map(|p| {
+            let v = p - y;
+            let (a, b) = (v.dot(u), v.dot(w));
+            (a * a + b * b > 1e-24).then(|| b.atan2(a))
+        })
+        .collect();
+    if angles.len() < 3 {
+        return false;
+    }
+    angles.sort_by(f64::total_cmp);
+    let wrap = angles[0] + std::f64::consts::TAU - angles[angles.len() - 1];
+    let gap = angles.windows(2).map(|w| w[1] - w[0]).fold(wrap, f64::max);
+    gap < std::f64::consts::PI
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    /// The brute-force twin: `y` is surrounded when no line through it in the plane has every
+    /// point strictly on one side or on it, tried over many directions (a gap of half a turn
+    /// or more is a direction with every point on one closed side).
+    fn surrounded_by_halfplanes(y: DVec3, n: DVec3, near: &[DVec3]) -> bool {
+        let u = n.any_orthonormal_vector();
+        let w = n.cross(u);
+        let dirs: Vec<(f64, f64)> = near
+            .iter()
+            .map(|p| ((*p - y).dot(u), (*p - y).dot(w)))
+            .filter(|(a, b)| a * a + b * b > 1e-24)
+            .collect();
+        if dirs.len() < 3 {
+            return false;
+        }
+        // Every point on one closed side of the line with normal m: a gap ≥ π. Candidate
+        // normals: perpendicular to each point's direction (the extreme ones), both signs.
+        for &(a, b) in &dirs {
+            for m in [(-b, a), (b, -a)] {
+                if dirs
+                    .iter()
+                    .all(|&(c, d)| m.0 * c + m.1 * d >= -1e-12 * (c.hypot(d)))
+                {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    #[test]
+    fn a_grid_surrounds_its_inside_and_not_its_outside() {
+        let n = DVec3::Z;
+        let grid: Vec<DVec3> = (0..25)
+            .map(|i| DVec3::new((i % 5) as f64, (i / 5) as f64, 0.1 * (i % 3) as f64))
+            .collect();
+        assert!(surrounded(
+            DVec3::new(2.3, 1.6, 0.0),
+            n,
+            grid.iter().copied()
+        ));
+        // On a grid point: the point itself has no direction, the others surround it.
+        assert!(surrounded(
+            DVec3::new(2.0, 2.0, 0.0),
+            n,
+            grid.iter().copied()
+        ));
+        // Beyond an edge, and beyond a corner.
+        assert!(!surrounded(
+            DVec3::new(4.3, 2.0, 0.0),
+            n,
+            grid.iter().copied()
+        ));
+        assert!(!surrounded(
+            DVec3::new(-0.2, -0.2, 0.0),
+            n,
+            grid.iter().copied()
+        ));
+        // Exactly on the straight border: the two border neighbours are half a turn apart.
+        assert!(!surrounded(
+            DVec3::new(4.0, 2.5, 0.0),
+            n,
+            grid.iter().copied()
+        ));
+        // Too few points.
+        assert!(!surrounded(DVec3::ZERO, n, [DVec3::X, DVec3::Y]));
+    }
+
+    #[test]
+    fn agrees_with_the_half_plane_test_on_random_sets() {
+        let mut rng = Pcg64Mcg::seed_from_u64(7);
+        let mut both = [0usize; 2];
+        for _ in 0..2000 {
+            let n = DVec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            )
+            .normalize_or(DVec3::Z);
+            let y = DVec3::new(rng.random_range(-1.0..1.0), 0.0, 0.0);
+            let count = rng.random_range(0..12);
+            // Points in a random half-disc or the whole disc around the origin.
+            let half = rng.random_bool(0.5);
+            let u = n.any_orthonormal_vector();
+            let w = n.cross(u);
+            let near: Vec<DVec3> = (0..count)
+                .map(|_| {
+                    let t = rng.random_range(0.0..std::f64::consts::TAU);
+                    let t = if half { t / 2.0 } else { t };
+                    let r = rng.random_range(0.1..2.0);
+                    r * (t.cos() * u + t.sin() * w) + rng.random_range(-0.2..0.2) * n
+                })
+                .collect();
+            let fast = surrounded(y, n, near.iter().copied());
+            assert_eq!(
+                fast,
+                surrounded_by_halfplanes(y, n, &near),
+                "{y} {n} {near:?}"
+            );
+            both[usize::from(fast)] += 1;
+        }
+        // Both answers occur.
+        assert!(both[0] > 100 && both[1] > 100, "{both:?}");
+    }
+}
