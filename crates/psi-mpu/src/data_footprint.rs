@@ -9,7 +9,7 @@ use glam::DVec3;
 use psi_octree::{OrientedPoint, PointIndex, all_k_nearest};
 
 use crate::point_footprint::{BAND_EDGE_OFFSET, DEEP, PointFootprint, SUBSET_D8_SLACK, vector_of};
-use crate::surrounded::{SURROUND_POINTS, SURROUND_REACH, surrounded};
+use crate::surrounded::{SURROUND_REACH, surrounded};
 
 /// The input as the footprint reads it.
 #[derive(Clone, Copy)]
@@ -373,16 +373,12 @@ impl DataFootprint {
         if d <= 0.5 * spacing && local.interior {
             return answer(true, new_anchor);
         }
-        // The edge rule: y's own nearest input points within a couple of spacings surround it
-        // in q's tangent plane.
+        // The edge rule: the input points within a couple of spacings of y surround it in q's
+        // tangent plane.
         let n = data.points[q as usize].n;
-        let reach2 = (SURROUND_REACH * spacing).powi(2);
-        let near = data
-            .index
-            .nearest(y, SURROUND_POINTS)
-            .into_iter()
-            .filter(|&(_, d2)| d2 <= reach2)
-            .map(|(j, _)| data.positions[j as usize]);
+        let mut near = Vec::with_capacity(32);
+        data.index.within(y, SURROUND_REACH * spacing, &mut near);
+        let near = near.iter().map(|&j| data.positions[j as usize]);
         answer(surrounded(y, n, near), new_anchor)
     }
 

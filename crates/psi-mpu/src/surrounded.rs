@@ -9,11 +9,9 @@
 
 use glam::DVec3;
 
-/// How many of the position's nearest input points the rule reads.
-pub(crate) const SURROUND_POINTS: usize = 24;
-
-/// Of those, only the ones within this many local input spacings of the position count, so
-/// that the rim of a small hole does not wrap around a position inside it.
+/// The rule reads the input points within this many local input spacings of the position
+/// (about 12 on an even sampling): enough to surround a position between two range-scan rows,
+/// few enough that the rim of a small hole does not wrap around a position inside it.
 pub(crate) const SURROUND_REACH: f64 = 2.0;
 
 /// Whether the points `near` (world units, any frame shared with `y`) surround `y` in the plane
