@@ -374,10 +374,21 @@ impl DataFootprint {
             return answer(true, new_anchor);
         }
         // The edge rule: the input points within a couple of spacings of y surround it in q's
-        // tangent plane.
+        // tangent plane. Points that surround y surround it with more points added, so q and
+        // its cached 8 nearest, where they lie within that reach (a hair inside it, so that they
+        // are among the query's), decide most positions without the kd-tree query.
         let n = data.points[q as usize].n;
+        let reach = SURROUND_REACH * spacing;
+        let inner2 = (reach * reach) * (1.0 - 1e-9);
+        let cached = std::iter::once(q)
+            .chain(local.near[..usize::from(local.near_len)].iter().copied())
+            .map(|j| data.positions[j as usize])
+            .filter(|p| (*p - y).length_squared() <= inner2);
+        if surrounded(y, n, cached) {
+            return answer(true, new_anchor);
+        }
         let mut near = Vec::with_capacity(32);
-        data.index.within(y, SURROUND_REACH * spacing, &mut near);
+        data.index.within(y, reach, &mut near);
         let near = near.iter().map(|&j| data.positions[j as usize]);
         answer(surrounded(y, n, near), new_anchor)
     }
