@@ -378,8 +378,8 @@ impl DataFootprint {
         // its cached 8 nearest, where they lie within that reach (a hair inside it, so that they
         // are among the query's), decide most positions without the kd-tree query.
         let n = data.points[q as usize].n;
-        let reach = SURROUND_REACH * spacing;
-        let inner2 = (reach * reach) * (1.0 - 1e-9);
+        let around = SURROUND_REACH * spacing;
+        let inner2 = (around * around) * (1.0 - 1e-9);
         let cached = std::iter::once(q)
             .chain(local.near[..usize::from(local.near_len)].iter().copied())
             .map(|j| data.positions[j as usize])
@@ -388,7 +388,7 @@ impl DataFootprint {
             return answer(true, new_anchor);
         }
         let mut near = Vec::with_capacity(32);
-        data.index.within(y, reach, &mut near);
+        data.index.within(y, around, &mut near);
         let near = near.iter().map(|&j| data.positions[j as usize]);
         answer(surrounded(y, n, near), new_anchor)
     }
@@ -425,9 +425,10 @@ impl DataFootprint {
 /// The subset holds every point within a band along the data's edge (`psi_tiles`' thinned
 /// data: two hops wide, or less for a small input with long edges), so near an edge the subset
 /// point nearest y is the input's nearest:
-/// - q in the band but its innermost hop ([`PointFootprint::thinned_to`]): the whole test at q (within `reach` × its spacing; then
+/// - q in the band but its innermost hop ([`PointFootprint::thinned_to`]): the whole test at q
+///   as it was before the surround rule, on what q carries (within `reach` × its spacing; then
 ///   within half a spacing of an interior q, or the centroid of its 8 nearest within a spacing
-///   of y in q's tangent plane);
+///   of y in q's tangent plane; docs/notes/2026-11-27-multiview-level-cv.md);
 /// - q farther inside: y is inside when it lies within `reach` × the distance at which a
 ///   point of the subset has its 8th nearest: the larger of q's own (`subset_d8`) and the
 ///   one its rate implies, d₈ = spacing/√(rate·π/8); at a point of an unmeasured region, q's

@@ -168,15 +168,14 @@ impl Mpu {
 
     /// Whether world position `x` lies inside the data's footprint: within `reach` local input
     /// spacings of the nearest input point q, and not beyond the edge of the data (a hole or a
-    /// scan's border). The spacing at q is [`Mpu::input_spacing`]. x is inside when q is
-    /// interior and x lies within a spacing of the centroid of q's 8 nearest input points (in
-    /// q's tangent plane; cached per point). Otherwise x is past an edge when its own 24
-    /// nearest input points, those within 2 spacings of it, do not surround it in the tangent
-    /// plane of q: their directions from x leave a gap of half a turn or more. On a
-    /// straight edge that holds x on the edge line or beyond it; a hole's rim, read within 2
-    /// spacings, does not wrap around a position inside the hole. Range-scan rows and seams
-    /// between denser and sparser views, where q's 8 nearest lie to one side of it, do not
-    /// read as edges (docs/notes/2026-11-27-multiview-level-cv.md).
+    /// scan's border). The spacing at q is [`Mpu::input_spacing`]; x is past an edge when the
+    /// input points within 2 spacings of it do not surround it in the tangent plane of q: their
+    /// directions from x leave a gap of half a turn or more. On a straight edge that holds x on
+    /// the edge line or beyond it; a hole's rim, read within 2 spacings, does not wrap around a
+    /// position inside the hole. Range-scan rows and seams between denser and sparser views,
+    /// where q's 8 nearest lie to one side of it, do not read as edges
+    /// (docs/notes/2026-11-27-multiview-level-cv.md). When q and its cached 8 nearest already
+    /// surround x, no kd-tree query is made (the same answer: more points cannot open a gap).
     ///
     /// Within half a spacing of an interior input point (its own neighbours surround it,
     /// [`Mpu::input_is_interior`]) x is inside without the edge test (an interior point can lie
