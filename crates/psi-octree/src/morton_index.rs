@@ -13,7 +13,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::Aabb;
+use crate::{Aabb, Interrupted, Monitor};
 
 /// Bits of the quantised coordinates per axis (the finest level).
 const BITS: u32 = 21;
@@ -416,6 +416,33 @@ impl MortonIndex {
         k: usize,
         f: impl Fn(usize, &[(u32, f64)]) -> T + Sync,
     ) -> Vec<T> {
+        self.map_nearest_until(k, &|| false, f)
+    }
+
+    /// [`map_nearest`](Self::map_nearest), stopping once `monitor`'s flag is set (checked per
+    /// cell of a few dozen points, before their searches): `Err(Interrupted)` then, the same
+    /// result otherwise.
+    pub fn map_nearest_with<T: Send>(
+        &self,
+        k: usize,
+        monitor: &Monitor<'_>,
+        f: impl Fn(usize, &[(u32, f64)]) -> T + Sync,
+    ) -> Result<Vec<T>, Interrupted> {
+        let mapped = self.map_nearest_until(k, &|| monitor.stopped(), f);
+        monitor.check()?;
+        // (A stop seen by a cell is seen by the check above: the flag is never cleared.)
+        debug_assert_eq!(mapped.len(), self.len());
+        Ok(mapped)
+    }
+
+    /// [`map_nearest`](Self::map_nearest) leaving out the cells that start once `stop()` holds
+    /// (the result is then shorter than the index).
+    fn map_nearest_until<T: Send>(
+        &self,
+        k: usize,
+        stop: &(dyn Fn() -> bool + Sync),
+        f: impl Fn(usize, &[(u32, f64)]) -> T + Sync,
+    ) -> Vec<T> {
         let k = k.min(self.len().saturating_sub(1));
         if k == 0 {
             return (0..self.len()).map(|s| f(s, &[])).collect();
@@ -495,6 +522,9 @@ impl MortonIndex {
             .into_par_iter()
             .with_min_len(16)
             .flat_map_iter(|cell| {
+                if stop() {
+                    return Vec::new();
+                }
                 let (a, b) = (starts[cell], starts[cell + 1]);
                 let c = self.cell_of(self.points[a], level);
                 let near_cells = cells_at(c, cell, &offsets[..inner]);

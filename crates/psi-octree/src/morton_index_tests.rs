@@ -3,6 +3,8 @@
 use super::*;
 use proptest::prelude::*;
 
+use crate::StopFlag;
+
 /// The k nearest of `x` among `points` other than index `skip`, by brute force, as
 /// (original index, squared distance) in (distance, index) order.
 fn brute(points: &[DVec3], x: DVec3, k: usize, skip: Option<usize>) -> Vec<(u32, f64)> {
@@ -133,4 +135,31 @@ fn a_subset_answers_for_its_points_alone() {
             .collect();
         assert_eq!(got, brute(&kept, q, 10, None));
     }
+}
+
+#[test]
+fn the_monitored_sweep_equals_the_plain_one_and_stops_between_cells() {
+    let points = cloud(7, 20_000);
+    let index = MortonIndex::new(&points);
+    let plain = index.map_nearest(8, |_, near| near.to_vec());
+    let flag = StopFlag::new();
+    let monitor = Monitor::new(None, Some(&flag));
+    assert_eq!(
+        index.map_nearest_with(8, &monitor, |_, near| near.to_vec()),
+        Ok(plain)
+    );
+    // Stopped after the 100th point: the cells that start later search nothing.
+    let calls = std::sync::atomic::AtomicUsize::new(0);
+    let stopped = index.map_nearest_with(8, &monitor, |_, _| {
+        if calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed) == 100 {
+            flag.stop();
+        }
+    });
+    assert_eq!(stopped, Err(Interrupted));
+    let calls = calls.into_inner();
+    assert!(
+        calls < 5_000,
+        "{calls} of {} points searched after the stop",
+        index.len()
+    );
 }

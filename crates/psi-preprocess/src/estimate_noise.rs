@@ -101,7 +101,19 @@ fn median_residual(
     samples: &[usize],
     k: usize,
 ) -> Option<(f64, f64)> {
-    let found: Vec<(f64, f64)> = samples
+    // Queried in Morton order, where neighbouring queries share cache (the medians do not
+    // depend on the order; a non-finite sample has no neighbours, so no fit, either way).
+    let mut chosen = vec![false; positions.len()];
+    for &i in samples {
+        chosen[i] = true;
+    }
+    let in_order: Vec<usize> = index
+        .ids()
+        .iter()
+        .map(|&i| i as usize)
+        .filter(|&i| chosen[i])
+        .collect();
+    let found: Vec<(f64, f64)> = in_order
         .par_iter()
         .filter_map(|&i| {
             let near = index.nearest(positions[i], k);

@@ -35,17 +35,14 @@ pub fn estimate_normals(positions: &[DVec3]) -> Vec<DVec3> {
     estimate_normals_with(positions, &Monitor::silent())
 }
 
-/// [`estimate_normals`], stopping early once `monitor`'s flag is set (checked per point; the
-/// caller then discards the result).
+/// [`estimate_normals`], stopping early once `monitor`'s flag is set (checked per cell of a
+/// few dozen points, before their searches; the caller then discards the result).
 pub fn estimate_normals_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<DVec3> {
     // The points in Morton order (slots), each with its nearest others in one sweep.
     let index = MortonIndex::new(positions);
     let by_slot = index.points();
     let largest = SIZES[SIZES.len() - 1];
-    let normals = index.map_nearest(largest - 1, |s, near| {
-        if monitor.stopped() {
-            return DVec3::ZERO;
-        }
+    let Ok(normals) = index.map_nearest_with(largest - 1, monitor, |s, near| {
         let p = by_slot[s];
         let mut moments = Moments::around(p);
         // The neighbourhoods by variation (eigenvalues only), then the plane of the least
@@ -76,7 +73,9 @@ pub fn estimate_normals_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<
             .find_map(|(_, m)| m.plane())
             .or_else(|| moments.plane())
             .map_or(DVec3::ZERO, |fit| fit.normal)
-    });
+    }) else {
+        return vec![DVec3::ZERO; positions.len()];
+    };
     // Back to the caller's order (a point with a non-finite coordinate has no normal).
     let mut out = vec![DVec3::ZERO; positions.len()];
     for (&i, n) in index.ids().iter().zip(normals) {

@@ -173,8 +173,9 @@ pub fn find_outliers(positions: &[DVec3], normals: Option<&[DVec3]>) -> Outliers
     find_outliers_with(positions, normals, &Monitor::silent())
 }
 
-/// [`find_outliers`], stopping early once `monitor`'s flag is set (checked per point; the
-/// result is then meaningless and the caller discards it).
+/// [`find_outliers`], stopping early once `monitor`'s flag is set (checked per cell of a few
+/// dozen points in the neighbour search, then per point; the result is then meaningless and
+/// the caller discards it).
 pub fn find_outliers_with(
     positions: &[DVec3],
     normals: Option<&[DVec3]>,
@@ -229,19 +230,19 @@ fn outliers_in_order(
     }
     // Each point's neighbours, itself excluded (a coincident twin counts as a neighbour), and
     // its 16th-neighbour distance.
-    let (neighbours, reach): (Vec<[u32; NEIGHBOURS]>, Vec<f64>) = index
-        .map_nearest(NEIGHBOURS, |_, near| {
-            let mut slots = [0u32; NEIGHBOURS];
-            if monitor.stopped() {
-                return (slots, 0.0);
-            }
-            for (slot, &(j, _)) in slots.iter_mut().zip(near) {
-                *slot = j;
-            }
-            (slots, near.last().map_or(0.0, |l| l.1.sqrt()))
-        })
-        .into_par_iter()
-        .unzip();
+    let Ok(nearest) = index.map_nearest_with(NEIGHBOURS, monitor, |_, near| {
+        let mut slots = [0u32; NEIGHBOURS];
+        for (slot, &(j, _)) in slots.iter_mut().zip(near) {
+            *slot = j;
+        }
+        (slots, near.last().map_or(0.0, |l| l.1.sqrt()))
+    }) else {
+        return Outliers {
+            mask: vec![false; n],
+            ..Outliers::default()
+        };
+    };
+    let (neighbours, reach): (Vec<[u32; NEIGHBOURS]>, Vec<f64>) = nearest.into_par_iter().unzip();
     let typical = median(&mut reach.clone());
     let status: Vec<Status> = (0..n)
         .into_par_iter()

@@ -8,7 +8,7 @@
 //! the sample spacing tilts the offsets, a dense scan's same-sheet graph falls apart into
 //! islands; notes: 2026-11-25-density-invariance).
 
-use psi_octree::{MortonIndex, OrientedPoint};
+use psi_octree::{Monitor, MortonIndex, OrientedPoint};
 use rayon::prelude::*;
 
 /// Neighbours per point.
@@ -139,15 +139,16 @@ impl SlotGraphs {
     }
 }
 
-/// The neighbour graphs of `points` (shape: N, unit normals of either sign).
-pub(crate) fn slot_graphs(points: &[OrientedPoint]) -> SlotGraphs {
+/// The neighbour graphs of `points` (shape: N, unit normals of either sign); None once
+/// `monitor`'s flag is set (checked during the neighbour search).
+pub(crate) fn slot_graphs(points: &[OrientedPoint], monitor: &Monitor<'_>) -> Option<SlotGraphs> {
     let positions: Vec<_> = points.iter().map(|p| p.p).collect();
     let index = MortonIndex::new(&positions);
     drop(positions);
     let ids = index.ids().to_vec();
     let sorted: Vec<OrientedPoint> = ids.par_iter().map(|&i| points[i as usize]).collect();
     // Per slot: up to K neighbours (u32::MAX past the last) and which are on the same sheet.
-    let pairs: Vec<([u32; K], u8)> = index.map_nearest(K, |s, near| {
+    let pairs = index.map_nearest_with(K, monitor, |s, near| {
         let (mut to, mut same) = ([u32::MAX; K], 0u8);
         let p = &sorted[s];
         for (k, &(t, d2)) in near.iter().filter(|n| n.1 > 0.0).enumerate() {
@@ -159,6 +160,7 @@ pub(crate) fn slot_graphs(points: &[OrientedPoint]) -> SlotGraphs {
         }
         (to, same)
     });
+    let pairs: Vec<([u32; K], u8)> = pairs.ok()?;
     drop(index);
     let n = sorted.len();
     let edges = |on_sheet: bool| {
@@ -193,12 +195,12 @@ pub(crate) fn slot_graphs(points: &[OrientedPoint]) -> SlotGraphs {
                 .filter(|j| on_sheet.binary_search(j).is_err()),
         );
     });
-    SlotGraphs {
+    Some(SlotGraphs {
         ids,
         sorted,
         same,
         other,
-    }
+    })
 }
 
 #[cfg(test)]
@@ -213,7 +215,7 @@ mod tests {
             half: glam::DVec3::new(0.5, 0.4, 0.05),
         }
         .sample(1500, 3);
-        let g = slot_graphs(&points);
+        let g = slot_graphs(&points, &Monitor::silent()).unwrap();
         assert_eq!((g.same.len(), g.other.len()), (1500, 1500));
         let n = points.len();
         let mut same = vec![std::collections::BTreeSet::new(); n];

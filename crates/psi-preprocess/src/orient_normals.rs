@@ -34,11 +34,12 @@ impl NormalConsistency {
     }
 }
 
-/// Per point of every `stride`-th: its K nearest other points j (not coincident), with n_i·n_j
-/// and whether the pair is on the same sheet: the offset between the points is mostly
-/// tangential (|n_i·(p_j − p_i)| ≤ ½|p_j − p_i|), so the two faces of a thin part do not pair
-/// as long as they are farther apart than the sample spacing (closer sheets are locally
-/// indistinguishable from flipped normals).
+/// For every `stride`-th point (points 0, stride, 2·stride, … with finite coordinates, in
+/// Morton order: neighbouring queries share cache): its K nearest other points j (not
+/// coincident), with n_i·n_j and whether the pair is on the same sheet: the offset between the
+/// points is mostly tangential (|n_i·(p_j − p_i)| ≤ ½|p_j − p_i|), so the two faces of a thin
+/// part do not pair as long as they are farther apart than the sample spacing (closer sheets
+/// are locally indistinguishable from flipped normals).
 fn neighbour_pairs(points: &[OrientedPoint], stride: usize) -> Vec<Vec<(u32, f64, bool)>> {
     let positions: Vec<_> = points.iter().map(|p| p.p).collect();
     let index = MortonIndex::new(&positions);
@@ -49,15 +50,16 @@ fn neighbour_pairs(points: &[OrientedPoint], stride: usize) -> Vec<Vec<(u32, f64
         let same = p.n.dot(q.p - p.p).abs() <= 0.5 * d2.sqrt();
         (j, p.n.dot(q.n), same)
     };
-    points
+    let queried: Vec<usize> = ids
+        .iter()
+        .map(|&i| i as usize)
+        .filter(|i| i % stride == 0)
+        .collect();
+    queried
         .par_iter()
-        .enumerate()
-        .map(|(i, p)| {
-            if i % stride != 0 {
-                return Vec::new();
-            }
+        .map(|&i| {
             index
-                .nearest(p.p, K + 1)
+                .nearest(points[i].p, K + 1)
                 .into_iter()
                 .map(|(s, d2)| (ids[s as usize], d2))
                 .filter(|&(j, d2)| j as usize != i && d2 > 0.0)
@@ -183,10 +185,9 @@ pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
 /// steps: the neighbour graphs, the spanning forest; the caller then discards the points).
 pub fn orient_normals_with(points: &mut [OrientedPoint], monitor: &Monitor<'_>) -> usize {
     // In Morton order (slots), where the propagation's next points lie in cache.
-    let mut graphs = slot_graphs(points);
-    if monitor.stopped() {
+    let Some(mut graphs) = slot_graphs(points, monitor) else {
         return 0;
-    }
+    };
     let SlotGraphs {
         ids,
         sorted,
@@ -313,9 +314,11 @@ pub fn orient_toward(points: &mut [OrientedPoint], viewpoint: glam::DVec3) -> us
             flips += 1;
         }
     }
-    if done.iter().any(|d| !d) {
+    let silent = Monitor::silent();
+    if done.iter().any(|d| !d)
+        && let Some(mut graphs) = slot_graphs(points, &silent)
+    {
         // By slot (Morton order), then back.
-        let mut graphs = slot_graphs(points);
         let mut slot_done: Vec<bool> = graphs.ids.iter().map(|&i| done[i as usize]).collect();
         let seeds: Vec<u32> = (0..slot_done.len() as u32)
             .filter(|&s| slot_done[s as usize])
@@ -324,7 +327,6 @@ pub fn orient_toward(points: &mut [OrientedPoint], viewpoint: glam::DVec3) -> us
             ids, sorted, same, ..
         } = &mut graphs;
         let none = Graph::empty();
-        let silent = Monitor::silent();
         flips += propagate(sorted, (same, &none), ids, &mut slot_done, &seeds, &silent);
         for (&i, d) in graphs.ids.iter().zip(&slot_done) {
             done[i as usize] = *d;
@@ -398,7 +400,7 @@ mod tests {
             .zip(normals)
             .map(|(&p, n)| OrientedPoint { p, n })
             .collect();
-        let label = islands(&slot_graphs(&pts).same);
+        let label = islands(&slot_graphs(&pts, &Monitor::silent()).unwrap().same);
         let mut sizes = std::collections::BTreeMap::new();
         for l in &label {
             *sizes.entry(*l).or_insert(0usize) += 1;

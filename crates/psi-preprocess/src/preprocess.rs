@@ -479,6 +479,7 @@ pub fn preprocess_with(
     let normals = if normals_given {
         let check = check_normal_consistency(&points, 20_000);
         consistency = Some(check);
+        monitor.check()?;
         if params.orient_given_normals {
             normals_flipped = orient_normals_with(&mut points, monitor);
             monitor.check()?;
