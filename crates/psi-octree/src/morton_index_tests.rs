@@ -3,7 +3,7 @@
 use super::*;
 use proptest::prelude::*;
 
-use crate::StopFlag;
+use crate::{Interrupted, Monitor, StopFlag};
 
 /// The k nearest of `x` among `points` other than index `skip`, by brute force, as
 /// (original index, squared distance) in (distance, index) order.
