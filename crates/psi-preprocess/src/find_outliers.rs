@@ -83,6 +83,14 @@ impl Outliers {
     pub fn count(&self) -> usize {
         self.far + self.off_surface
     }
+
+    /// None among `n` points.
+    fn none(n: usize) -> Self {
+        Outliers {
+            mask: vec![false; n],
+            ..Outliers::default()
+        }
+    }
 }
 
 /// A point's standing after the first stage.
@@ -223,10 +231,7 @@ fn outliers_in_order(
         4 * agree >= count
     };
     if n <= NEIGHBOURS {
-        return Outliers {
-            mask: vec![false; n],
-            ..Outliers::default()
-        };
+        return Outliers::none(n);
     }
     // Each point's neighbours, itself excluded (a coincident twin counts as a neighbour), and
     // its 16th-neighbour distance.
@@ -237,10 +242,7 @@ fn outliers_in_order(
         }
         (slots, near.last().map_or(0.0, |l| l.1.sqrt()))
     }) else {
-        return Outliers {
-            mask: vec![false; n],
-            ..Outliers::default()
-        };
+        return Outliers::none(n);
     };
     let (neighbours, reach): (Vec<[u32; NEIGHBOURS]>, Vec<f64>) = nearest.into_par_iter().unzip();
     let typical = median(&mut reach.clone());
@@ -292,10 +294,7 @@ fn outliers_in_order(
         .collect();
     drop(neighbours);
     if monitor.stopped() || !status.contains(&Status::Unsure) {
-        return Outliers {
-            mask: vec![false; n],
-            ..Outliers::default()
-        };
+        return Outliers::none(n);
     }
     // The other points, judged against the core points near them.
     let core_ids: Vec<u32> = (0..n as u32)
