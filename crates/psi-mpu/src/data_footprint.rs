@@ -8,7 +8,7 @@ use std::sync::{Arc, OnceLock};
 use glam::DVec3;
 use psi_octree::{OrientedPoint, PointIndex, all_k_nearest};
 
-use crate::point_footprint::{BAND_EDGE_OFFSET, DEEP, PointFootprint, SUBSET_D8_SLACK, vector_of};
+use crate::point_footprint::{BAND_EDGE_OFFSET, DEEP, PointFootprint, SUBSET_SLACK, vector_of};
 use crate::surrounded::{SURROUND_REACH, surrounded};
 
 /// The input as the footprint reads it.
@@ -346,26 +346,51 @@ impl DataFootprint {
         };
         let local = self.local(data, q);
         let q_position = data.positions[q as usize];
+        // A point of a thinned subset carries the whole input's footprint when its region's was
+        // measured; in a region it was not (a random sampling's, whose seeming edges are too
+        // many for a band) and a subset dense enough (`PointFootprint::with_own_test`), the
+        // whole test on the subset's own points, its spacing capped where a point stands nearly
+        // alone in the subset (`SUBSET_SLACK`).
+        let mut spacing = local.spacing();
         if let Some(whole) = &self.whole {
+            let at = whole[q as usize];
+            if at.own_test() {
+                if at.spacing() > 0.0 {
+                    spacing = spacing.min(SUBSET_SLACK * at.spacing() / at.rate().sqrt());
+                }
+                return self.whole_test(data, q, y, d2, spacing, reach);
+            }
             let at_q = Nearest {
                 q,
                 position: q_position,
                 normal: data.points[q as usize].n,
                 d2,
             };
-            return thinned_test(whole[q as usize], local.last, at_q, y, reach);
+            return thinned_test(at, local.last, at_q, y, reach);
         }
+        self.whole_test(data, q, y, d2, spacing, reach)
+    }
+
+    /// The whole test of local position `y` at its nearest input point `q` (squared distance
+    /// `d2`), for input spacing `spacing` at q (world units; see `Mpu::near_data_from`).
+    fn whole_test(
+        &self,
+        data: InputData<'_>,
+        q: u32,
+        y: DVec3,
+        d2: f64,
+        spacing: f64,
+        reach: f64,
+    ) -> FootprintTest {
+        let answer = |inside, anchor| FootprintTest { inside, anchor };
+        let local = self.local(data, q);
+        let q_position = data.positions[q as usize];
         let new_anchor = Some(DataAnchor {
             point: q,
             position: q_position,
-            fast_radius: if local.interior {
-                0.5 * local.spacing()
-            } else {
-                -1.0
-            },
+            fast_radius: if local.interior { 0.5 * spacing } else { -1.0 },
         });
         let d = d2.sqrt();
-        let spacing = local.spacing();
         if d > reach * spacing {
             return answer(false, new_anchor);
         }
@@ -421,7 +446,8 @@ impl DataFootprint {
 }
 
 /// The footprint test of local position `y` on a thinned subset of the input whose points
-/// carry the whole input's footprint (`whole`, of q, the subset point nearest y; world units).
+/// carry the whole input's footprint (`whole`, of q, the subset point nearest y, unless it
+/// takes the subset's own test; world units).
 /// The subset holds every point within a band along the data's edge (`psi_tiles`' thinned
 /// data: two hops wide, or less for a small input with long edges), so near an edge the subset
 /// point nearest y is the input's nearest:
@@ -432,7 +458,7 @@ impl DataFootprint {
 /// - q farther inside: y is inside when it lies within `reach` × the distance at which a
 ///   point of the subset has its 8th nearest: the larger of q's own (`subset_d8`) and the
 ///   one its rate implies, d₈ = spacing/√(rate·π/8); at a point of an unmeasured region, q's
-///   own, at most [`SUBSET_D8_SLACK`] × the one its region's spacing implies (when known).
+///   own, at most [`SUBSET_SLACK`] × the one its region's spacing implies (when known).
 ///   The edge test on the subset's own neighbours would reject where the subset is
 ///   irregular (a hashed subset of a regular input most of all), which made the thinned
 ///   relaxation's spacing less even (docs/notes/2026-11-27-carried-footprint.md).
@@ -462,7 +488,7 @@ fn thinned_test(
         let d8 = if whole.measured() {
             rate_d8.max(subset_d8)
         } else if spacing > 0.0 {
-            subset_d8.min(SUBSET_D8_SLACK * rate_d8)
+            subset_d8.min(SUBSET_SLACK * rate_d8)
         } else {
             subset_d8
         };

@@ -25,8 +25,21 @@ pub struct PointFootprint {
     /// Points fewer hops than this from the data's edge take the whole test in a subset, the
     /// others the lenient one ([`PointFootprint::thinned_to`]).
     exact_hops: u8,
-    /// Whether `spacing` was measured at the point (else it is its region's estimate, or 0).
-    measured: bool,
+    /// Whether it was measured at the point, and if not, which test a subset point takes.
+    origin: Origin,
+}
+
+/// How a [`PointFootprint`] was obtained, and for an unmeasured one the test its subset point
+/// takes (`DataFootprint::near_data_from`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+enum Origin {
+    /// Measured on the whole input.
+    Measured,
+    /// Not measured (its region's spacing estimate, or 0): the lenient test.
+    Unmeasured,
+    /// Not measured, in a subset dense enough for its own test
+    /// ([`PointFootprint::with_own_test`]): the whole test on the subset's own points.
+    UnmeasuredOwnTest,
 }
 
 /// A point whose 8 nearest have their centroid farther than this fraction of a spacing from it
@@ -35,13 +48,13 @@ pub struct PointFootprint {
 /// straight border's 0.45, a half disc's 0.95.
 pub const BAND_EDGE_OFFSET: f64 = 0.4;
 
-/// In the thinned test's lenient part at a point of an unmeasured region, the subset's own d₈
-/// at the point counts up to this many times the d₈ the rate implies from the region's
-/// spacing (an irregular subset's slack, and the region's spread of spacings). Beyond it the
-/// point stands nearly alone in the subset, as along a thin feature whose nearest points lie
-/// far along it; reading its own d₈ there let particles cross the gaps beside such features
-/// (docs/notes/2026-11-27-thin-features.md).
-pub(crate) const SUBSET_D8_SLACK: f64 = 2.0;
+/// At a point of an unmeasured region, the subset's own d₈ (the lenient test) or its own
+/// spacing (the whole test on the subset, [`PointFootprint::with_own_test`]) counts up to this
+/// many times the one the rate implies from the region's spacing (an irregular subset's slack,
+/// and the region's spread of spacings). Beyond it the point stands nearly alone in the
+/// subset, as along a thin feature whose nearest points lie far along it; reading its own there
+/// let particles cross the gaps beside such features (docs/notes/2026-11-27-thin-features.md).
+pub(crate) const SUBSET_SLACK: f64 = 2.0;
 
 /// [`PointFootprint::hops`] of a point three or more hops from the data's edge.
 pub const DEEP: u8 = 3;
@@ -73,9 +86,10 @@ impl PointFootprint {
         }
     }
 
-    /// The footprint of a point not measured on the whole input: interior, deep, with
-    /// `spacing` (world units) the input spacing around it as its region estimates it, or 0
-    /// when unknown (the thinned test then reads the subset's own spacing alone).
+    /// The footprint of a point not measured on the whole input (a region of a random
+    /// sampling): interior, deep, with `spacing` (world units) the input spacing around it as
+    /// its region estimates it, or 0 when unknown (the thinned test then reads the subset's own
+    /// spacing alone). It takes the lenient test unless [`PointFootprint::with_own_test`].
     pub fn unmeasured(spacing: f64) -> PointFootprint {
         PointFootprint {
             centroid_offset: [0.0; 3],
@@ -84,7 +98,7 @@ impl PointFootprint {
             hops: DEEP,
             rate: 1.0,
             exact_hops: 0,
-            measured: false,
+            origin: Origin::Unmeasured,
         }
     }
 
@@ -103,9 +117,29 @@ impl PointFootprint {
         vector_of(self.centroid_offset)
     }
 
-    /// Whether the spacing was measured at the point ([`PointFootprint::unmeasured`]: not).
+    /// Whether the footprint was measured at the point ([`PointFootprint::unmeasured`]: not).
     pub(crate) fn measured(&self) -> bool {
-        self.measured
+        self.origin == Origin::Measured
+    }
+
+    /// Whether the point, unmeasured, takes the whole test on the subset's own points.
+    pub(crate) fn own_test(&self) -> bool {
+        self.origin == Origin::UnmeasuredOwnTest
+    }
+
+    /// This footprint, when unmeasured, with the whole test on the subset's own points instead
+    /// of the lenient one (a measured footprint is returned as it is). For a subset dense
+    /// enough that its own gaps lie far below the particles' spacing: a hashed subset of a
+    /// random sampling is as random as the input, so its own test rejects there as the whole
+    /// test does on the input, and at holes, where the lenient test accepts nearly everything
+    /// (docs/notes/2026-11-28-unmeasured-own-test.md). On a subset of a few points a particle
+    /// its gaps are the particles' own size, and the relaxation's spacing gets less even.
+    pub fn with_own_test(self) -> PointFootprint {
+        let origin = match self.origin {
+            Origin::Unmeasured => Origin::UnmeasuredOwnTest,
+            o => o,
+        };
+        PointFootprint { origin, ..self }
     }
 
     /// [`PointFootprint::thinned_to`]'s rate.
@@ -128,7 +162,7 @@ impl PointFootprint {
             hops,
             rate: 1.0,
             exact_hops: DEEP - 1,
-            measured: true,
+            origin: Origin::Measured,
         }
     }
 }

@@ -106,12 +106,13 @@ fn a_thinned_subset_with_the_whole_footprint_tests_as_the_whole_input() {
 /// A subset whose points were not measured (an irregular sampling's regions carry only their
 /// spacing, `PointFootprint::unmeasured`), beside a thin feature: two jittered squares joined
 /// by a bridge one point wide. A subset point on the bridge has its 9th nearest far along it,
-/// so its own d₈ alone would let positions in the gaps beside the bridge pass, several
-/// spacings off the data; with the region's spacing known, the test holds out those beyond
-/// twice the d₈ the rate implies (`SUBSET_D8_SLACK`), as the whole input's test does, and still
-/// accepts inside the squares.
+/// so its own spacing or d₈ would let positions in the gaps beside the bridge pass, several
+/// spacings off the data. With the region's spacing known, both the lenient test and the whole
+/// test on the subset's own points (`PointFootprint::with_own_test`) cap it (`SUBSET_SLACK`)
+/// and hold those out, as the whole input's test does; inside the squares both accept, and the
+/// own test answers as an MPU over the subset alone does (its oracle).
 #[test]
-fn a_thin_feature_does_not_open_its_gaps_to_the_lenient_test() {
+fn a_thin_feature_does_not_open_its_gaps_to_an_unmeasured_subset() {
     let h = 0.0125;
     let mut rng = Pcg64Mcg::seed_from_u64(9);
     let points: Vec<OrientedPoint> = jittered_patch(81, h, &mut rng)
@@ -121,23 +122,30 @@ fn a_thin_feature_does_not_open_its_gaps_to_the_lenient_test() {
     let params = MpuParams::paper();
     let whole = Mpu::build(&points, &params).unwrap();
     let kept: Vec<usize> = (0..points.len()).filter(|i| i % 4 == 0).collect();
-    let rate = 0.25;
     let subset: Vec<OrientedPoint> = kept.iter().map(|&i| whole.points()[i]).collect();
-    let thinned_with = |spacing: f64| {
-        let carried = vec![PointFootprint::unmeasured(spacing).thinned_to(rate, 0); kept.len()];
-        Mpu::build_with(
-            &subset[..],
-            &params,
-            BuildOptions {
-                frame: Some(*whole.frame()),
-                whole_footprint: Some(&carried),
-                ..Default::default()
-            },
-        )
-        .unwrap()
+    let frame = Some(*whole.frame());
+    let lenient = vec![PointFootprint::unmeasured(h).thinned_to(0.25, 0); kept.len()];
+    let own_test: Vec<_> = lenient.iter().map(|f| f.with_own_test()).collect();
+    let thinned_with = |carried: &[PointFootprint]| {
+        let options = BuildOptions {
+            frame,
+            whole_footprint: Some(carried),
+            ..Default::default()
+        };
+        Mpu::build_with(&subset[..], &params, options).unwrap()
     };
-    let (known, unknown) = (thinned_with(h), thinned_with(0.0));
-    let (mut gaps, mut opened) = (0, 0);
+    let both = [thinned_with(&lenient), thinned_with(&own_test)];
+    let own = Mpu::build_with(
+        &subset[..],
+        &params,
+        BuildOptions {
+            frame,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    // Beside the bridge, where its nearest subset points are the bridge's.
+    let mut near_bridge = 0;
     for _ in 0..4_000 {
         let x = DVec3::new(
             0.42 + 0.16 * rng.random::<f64>(),
@@ -149,24 +157,90 @@ fn a_thin_feature_does_not_open_its_gaps_to_the_lenient_test() {
             !whole.near_data_from(x, 1.0, None).inside,
             "the oracle at {x:?}"
         );
-        assert!(
-            !known.near_data_from(x, 1.0, None).inside,
-            "{x:?} in a gap passed"
-        );
-        gaps += 1;
-        opened += usize::from(unknown.near_data_from(x, 1.0, None).inside);
+        for thinned in &both {
+            assert!(
+                !thinned.near_data_from(x, 1.0, None).inside,
+                "{x:?} in a gap passed"
+            );
+        }
+        // The subset's own spacing on the bridge reaches the gaps (the case this guards).
+        let dist = |j: usize| (own.points()[j].p - x).length();
+        let q = (0..subset.len())
+            .min_by(|&a, &b| dist(a).total_cmp(&dist(b)))
+            .unwrap();
+        near_bridge += usize::from(dist(q) <= own.input_spacing(q as u32));
     }
-    // Without the spacing, the bridge's points open the gaps: the case this guards.
-    assert!(opened > gaps / 10, "{opened} of {gaps}");
+    assert!(near_bridge > 400, "{near_bridge}: the case this guards");
     for _ in 0..4_000 {
         let x = DVec3::new(
-            0.05 + 0.2 * rng.random::<f64>(),
+            0.05 + 0.9 * rng.random::<f64>(),
             0.05 + 0.9 * rng.random::<f64>(),
             0.0,
         );
-        assert!(
-            known.near_data_from(x, 1.0, None).inside,
-            "{x:?} inside a square"
-        );
+        // Inside the squares, away from the bridge (whose points' spacing is capped).
+        if x.x < 0.25 || x.x > 0.75 {
+            let got = both[1].near_data_from(x, 1.0, None).inside;
+            assert_eq!(got, own.near_data_from(x, 1.0, None).inside, "{x:?}");
+            assert!(got, "{x:?} inside a square");
+            assert!(both[0].near_data_from(x, 1.0, None).inside, "{x:?}");
+        }
     }
+}
+
+/// On a random sampling (uniform points on a square: the unmeasured case, whose seeming edges
+/// are too many for a band), a hashed subset is as random as the input, and its unmeasured
+/// points answer as an MPU over the subset alone does (the oracle): the distance part rejects
+/// positions in the subset's own gaps, a few in a hundred, as the whole test does on the whole
+/// input, where the lenient test on distances alone accepts nearly all of them.
+#[test]
+fn an_unmeasured_subset_of_a_random_sampling_tests_as_the_subset_alone() {
+    let mut rng = Pcg64Mcg::seed_from_u64(13);
+    let points: Vec<OrientedPoint> = (0..40_000)
+        .map(|_| OrientedPoint {
+            p: DVec3::new(rng.random::<f64>(), rng.random::<f64>(), 0.0),
+            n: DVec3::Z,
+        })
+        .collect();
+    let params = MpuParams::paper();
+    let whole = Mpu::build(&points, &params).unwrap();
+    let kept: Vec<usize> = (0..points.len()).filter(|i| i % 4 == 0).collect();
+    let subset: Vec<OrientedPoint> = kept.iter().map(|&i| whole.points()[i]).collect();
+    let frame = Some(*whole.frame());
+    let mut spacings: Vec<f64> = (0..2_000u32).map(|q| whole.input_spacing(q * 7)).collect();
+    spacings.sort_by(f64::total_cmp);
+    let lenient = PointFootprint::unmeasured(spacings[1_000]).thinned_to(0.25, 0);
+    let carried = vec![lenient.with_own_test(); kept.len()];
+    let build = |whole_footprint| {
+        let options = BuildOptions {
+            frame,
+            whole_footprint,
+            ..Default::default()
+        };
+        Mpu::build_with(&subset[..], &params, options).unwrap()
+    };
+    let (thinned, own) = (build(Some(&carried)), build(None));
+    let lenient_carried = vec![lenient; kept.len()];
+    let lenient = build(Some(&lenient_carried));
+    let (mut agree, mut rejected, mut lenient_rejected, tests) = (0, 0, 0, 20_000);
+    for _ in 0..tests {
+        let x = DVec3::new(
+            0.1 + 0.8 * rng.random::<f64>(),
+            0.1 + 0.8 * rng.random::<f64>(),
+            0.0,
+        );
+        let expected = own.near_data_from(x, 1.0, None).inside;
+        agree += usize::from(thinned.near_data_from(x, 1.0, None).inside == expected);
+        rejected += usize::from(!expected);
+        lenient_rejected += usize::from(!lenient.near_data_from(x, 1.0, None).inside);
+    }
+    // The cap on a point's spacing (twice the rate's) only binds where the subset is sparsest.
+    assert!(agree as f64 >= 0.995 * tests as f64, "{agree} of {tests}");
+    assert!(
+        rejected > tests / 100 && rejected < tests / 10,
+        "{rejected} of {tests} rejected"
+    );
+    assert!(
+        lenient_rejected < rejected / 4,
+        "lenient {lenient_rejected}"
+    );
 }

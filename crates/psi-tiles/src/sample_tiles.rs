@@ -319,7 +319,7 @@ pub fn sample_tiled_from(
     let (points, footprints) = match thinning_rate(source.population(), relax_points) {
         None => (source.relaxation_points(relax_points)?, None),
         Some(rate) => {
-            let data = thinned.at_most(relax_points, rate);
+            let data = thinned.at_most(relax_points, rate, seeds.len());
             (data.points, Some(data.footprints))
         }
     };

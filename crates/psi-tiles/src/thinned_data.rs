@@ -7,8 +7,11 @@
 //! Each region of the seeding holds the points of its leaves with a margin, so it measures the
 //! footprint of its own points on the whole input there. It keeps every point within two hops
 //! of the data's edge (where the test reads the input at its own resolution) and the others
-//! whose position hash lies below the rate. The relaxation takes the regions' points in the
-//! seeding's order and thins them to its budget.
+//! whose position hash lies below the rate. A region of a random sampling, whose seeming edge
+//! points are too many for a band, is not measured: its kept points take the whole test on the
+//! subset's own points when the subset holds [`OWN_TEST_POINTS_PER_PARTICLE`] points a particle
+//! or more, else the lenient test (docs/notes/2026-11-28-unmeasured-own-test.md). The
+//! relaxation takes the regions' points in the seeding's order and thins them to its budget.
 
 use glam::DVec3;
 use psi_mpu::{DEEP, Mpu, PointFootprint};
@@ -66,7 +69,8 @@ impl ThinnedData {
         let share = rate * qs.len() as f64;
         // Measuring every point costs a 9-nearest query each; where the sample says that even
         // the one-hop band would not fit (an irregular sampling's many seeming edge points),
-        // nothing is measured and every kept point takes the lenient test.
+        // nothing is measured and every kept point takes the lenient test, or the whole test
+        // on the kept points when they are many a particle (`ThinnedData::at_most`).
         let sample: Vec<u32> = qs.iter().copied().step_by(SAMPLE_STRIDE).collect();
         let seeming_edges = sample
             .iter()
@@ -121,7 +125,10 @@ impl ThinnedData {
     /// a small share of its points, a small scan's or an irregular sampling's may not be.
     /// Each footprint records the rate of the points outside the bands and the hops tested
     /// exactly ([`PointFootprint::thinned_to`]).
-    pub(crate) fn at_most(self, at_most: usize, rate: f64) -> ThinnedData {
+    /// Unmeasured points take the whole test on the subset's own points when the subset holds
+    /// at least [`OWN_TEST_POINTS_PER_PARTICLE`] points for each of the `particles`
+    /// ([`PointFootprint::with_own_test`]).
+    pub(crate) fn at_most(self, at_most: usize, rate: f64, particles: usize) -> ThinnedData {
         let widest = [DEEP - 1, 1, 0];
         // A footprint with its band narrowed to at most `cap` hops tested exactly.
         let narrowed = |f: &PointFootprint, cap: u8| f.thinned_to(1.0, f.exact_hops().min(cap));
@@ -155,18 +162,26 @@ impl ThinnedData {
             .collect();
         // A rate of 0 (no deep point kept) would make the lenient test's reach infinite.
         let deep_rate = deep_rate.clamp(1e-6, 1.0);
+        let own_test = order.len() >= OWN_TEST_POINTS_PER_PARTICLE * particles;
         ThinnedData {
             points: order.iter().map(|&i| self.points[i]).collect(),
             footprints: order
                 .iter()
                 .map(|&i| {
-                    let f = footprints[i];
-                    f.thinned_to(deep_rate, f.exact_hops())
+                    let f = footprints[i].thinned_to(deep_rate, footprints[i].exact_hops());
+                    if own_test { f.with_own_test() } else { f }
                 })
                 .collect(),
         }
     }
 }
+
+/// A thinned subset with at least this many points a particle is dense enough for the whole
+/// test on its own points at its unmeasured points: its gaps, about the particles' spacing over
+/// √64, lie far below the particles' (at 10–30 M points and 1 GiB the relaxation holds 70–340
+/// a particle, and the per-level spacing CV is within 5 % of in core's; with 1 to 8 a
+/// particle, the own test made it up to 20 % less even; docs/notes/2026-11-28-unmeasured-own-test.md).
+pub(crate) const OWN_TEST_POINTS_PER_PARTICLE: usize = 64;
 
 /// One point in this many of a region is asked whether it is interior, to estimate its share
 /// of edge points before measuring them all.
@@ -179,4 +194,39 @@ const ONE_HOP_PER_EDGE_POINT: f64 = 5.0;
 /// Whether a point is in its region's band along the data's edge (kept whatever its hash).
 fn in_band(f: &PointFootprint) -> bool {
     f.exact_hops() > 0 && f.hops() <= f.exact_hops()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Unmeasured points take the subset's own test exactly when the kept points are at least
+    /// `OWN_TEST_POINTS_PER_PARTICLE` a particle, else the lenient one.
+    #[test]
+    fn unmeasured_points_take_the_own_test_when_the_subset_is_dense_enough() {
+        let n = 6_400;
+        let data = ThinnedData {
+            points: (0..n)
+                .map(|i| OrientedPoint {
+                    p: DVec3::new((i % 80) as f64 * 1e-3, (i / 80) as f64 * 1e-3, 0.0),
+                    n: DVec3::Z,
+                })
+                .collect(),
+            footprints: vec![PointFootprint::unmeasured(1e-3).thinned_to(1.0, 0); n],
+        };
+        // Every point fits (rate 1): all kept, whatever the particles.
+        let own_tests = |particles: usize| {
+            let thinned = data.clone().at_most(n, 1.0, particles);
+            assert_eq!(thinned.len(), n);
+            thinned
+                .footprints
+                .iter()
+                .filter(|f| **f == f.with_own_test())
+                .count()
+        };
+        let most = n / OWN_TEST_POINTS_PER_PARTICLE;
+        assert_eq!(own_tests(1), n);
+        assert_eq!(own_tests(most), n);
+        assert_eq!(own_tests(most + 1), 0);
+    }
 }
