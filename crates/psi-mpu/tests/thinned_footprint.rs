@@ -7,13 +7,35 @@
 //! (the edge rule reads the position's own nearest points, `surrounded.rs`).
 
 use glam::DVec3;
-use psi_mpu::{BuildOptions, DEEP, Mpu, MpuParams, PointFootprint};
+use psi_mpu::{BuildOptions, DEEP, Mpu, MpuFrame, MpuParams, PointFootprint};
 use psi_octree::OrientedPoint;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
 mod common;
 use common::jittered_patch;
+
+/// The MPU over `points` (the paper's parameters) and every fourth of its points.
+fn whole_and_every_fourth(points: &[OrientedPoint]) -> (Mpu, Vec<OrientedPoint>) {
+    let whole = Mpu::build(points, &MpuParams::paper()).unwrap();
+    let subset = whole.points().iter().copied().step_by(4).collect();
+    (whole, subset)
+}
+
+/// An MPU over `subset` (the paper's parameters) in the whole input's `frame`, its points
+/// carrying `carried` (what the whole input says of each) or, with `None`, taken as the input.
+fn subset_mpu(
+    subset: &[OrientedPoint],
+    frame: MpuFrame,
+    carried: Option<&[PointFootprint]>,
+) -> Mpu {
+    let options = BuildOptions {
+        frame: Some(frame),
+        whole_footprint: carried,
+        ..Default::default()
+    };
+    Mpu::build_with(subset, &MpuParams::paper(), options).unwrap()
+}
 
 #[test]
 fn a_thinned_subset_with_the_whole_footprint_tests_as_the_whole_input() {
@@ -44,26 +66,9 @@ fn a_thinned_subset_with_the_whole_footprint_tests_as_the_whole_input() {
         .iter()
         .map(|&i| footprints[i].thinned_to(rate, DEEP - 1))
         .collect();
-    let frame = Some(*whole.frame());
-    let thinned = Mpu::build_with(
-        &subset[..],
-        &params,
-        BuildOptions {
-            frame,
-            whole_footprint: Some(&carried),
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let own = Mpu::build_with(
-        &subset[..],
-        &params,
-        BuildOptions {
-            frame,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let frame = *whole.frame();
+    let thinned = subset_mpu(&subset, frame, Some(&carried));
+    let own = subset_mpu(&subset, frame, None);
     // Positions on the plane over and around the patch; "clear" ones lie more than two steps
     // inside the data or beyond its edge (the outer square's or the hole's).
     let (mut clear, mut agree, mut all_tests, mut own_agree) = (0, 0, 0, 0);
@@ -119,31 +124,15 @@ fn a_thin_feature_does_not_open_its_gaps_to_an_unmeasured_subset() {
         .into_iter()
         .filter(|p| p.p.x < 0.3 || p.p.x > 0.7 || (p.p.y - 0.5).abs() < 0.6 * h)
         .collect();
-    let params = MpuParams::paper();
-    let whole = Mpu::build(&points, &params).unwrap();
-    let kept: Vec<usize> = (0..points.len()).filter(|i| i % 4 == 0).collect();
-    let subset: Vec<OrientedPoint> = kept.iter().map(|&i| whole.points()[i]).collect();
-    let frame = Some(*whole.frame());
-    let lenient = vec![PointFootprint::unmeasured(h).thinned_to(0.25, 0); kept.len()];
+    let (whole, subset) = whole_and_every_fourth(&points);
+    let frame = *whole.frame();
+    let lenient = vec![PointFootprint::unmeasured(h).thinned_to(0.25, 0); subset.len()];
     let own_test: Vec<_> = lenient.iter().map(|f| f.with_own_test()).collect();
-    let thinned_with = |carried: &[PointFootprint]| {
-        let options = BuildOptions {
-            frame,
-            whole_footprint: Some(carried),
-            ..Default::default()
-        };
-        Mpu::build_with(&subset[..], &params, options).unwrap()
-    };
-    let both = [thinned_with(&lenient), thinned_with(&own_test)];
-    let own = Mpu::build_with(
-        &subset[..],
-        &params,
-        BuildOptions {
-            frame,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let both = [
+        subset_mpu(&subset, frame, Some(&lenient)),
+        subset_mpu(&subset, frame, Some(&own_test)),
+    ];
+    let own = subset_mpu(&subset, frame, None);
     // Beside the bridge, where its nearest subset points are the bridge's.
     let mut near_bridge = 0;
     for _ in 0..4_000 {
@@ -201,26 +190,15 @@ fn an_unmeasured_subset_of_a_random_sampling_tests_as_the_subset_alone() {
             n: DVec3::Z,
         })
         .collect();
-    let params = MpuParams::paper();
-    let whole = Mpu::build(&points, &params).unwrap();
-    let kept: Vec<usize> = (0..points.len()).filter(|i| i % 4 == 0).collect();
-    let subset: Vec<OrientedPoint> = kept.iter().map(|&i| whole.points()[i]).collect();
-    let frame = Some(*whole.frame());
+    let (whole, subset) = whole_and_every_fourth(&points);
+    let frame = *whole.frame();
     let mut spacings: Vec<f64> = (0..2_000u32).map(|q| whole.input_spacing(q * 7)).collect();
     spacings.sort_by(f64::total_cmp);
     let lenient = PointFootprint::unmeasured(spacings[1_000]).thinned_to(0.25, 0);
-    let carried = vec![lenient.with_own_test(); kept.len()];
-    let build = |whole_footprint| {
-        let options = BuildOptions {
-            frame,
-            whole_footprint,
-            ..Default::default()
-        };
-        Mpu::build_with(&subset[..], &params, options).unwrap()
-    };
-    let (thinned, own) = (build(Some(&carried)), build(None));
-    let lenient_carried = vec![lenient; kept.len()];
-    let lenient = build(Some(&lenient_carried));
+    let carried = vec![lenient.with_own_test(); subset.len()];
+    let thinned = subset_mpu(&subset, frame, Some(&carried));
+    let own = subset_mpu(&subset, frame, None);
+    let lenient = subset_mpu(&subset, frame, Some(&vec![lenient; subset.len()]));
     let (mut agree, mut rejected, mut lenient_rejected, tests) = (0, 0, 0, 20_000);
     for _ in 0..tests {
         let x = DVec3::new(
