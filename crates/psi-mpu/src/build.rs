@@ -89,9 +89,10 @@ pub struct BuildOptions<'a> {
     /// are what the whole input says of each ([`Mpu::point_footprints`] on an MPU over the
     /// whole input, or over the points around, then [`PointFootprint::thinned_to`]): the
     /// footprint test ([`Mpu::near_data_from`]) reads the whole input's spacing and edges from
-    /// them instead of the subset's. The subset must hold every input point fewer than
-    /// `exact_hops` + 1 hops from the data's edge, for those take the whole test. `None`: the
-    /// points are the input.
+    /// them instead of the subset's, except at unmeasured points marked
+    /// [`PointFootprint::with_own_test`], which take the whole test on the subset's own points.
+    /// The subset must hold every input point fewer than `exact_hops` + 1 hops from the data's
+    /// edge, for those take the whole test. `None`: the points are the input.
     pub whole_footprint: Option<&'a [PointFootprint]>,
     /// Progress (stage `"mpu"`: octree levels decided of `max_depth + 1`) and interruption:
     /// once its stop flag is set, no cell splits any more and the build returns
