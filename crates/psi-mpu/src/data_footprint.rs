@@ -345,46 +345,53 @@ impl DataFootprint {
             return answer(false, None);
         };
         let local = self.local(data, q);
-        let q_position = data.positions[q as usize];
+        let at_q = Nearest {
+            q,
+            position: data.positions[q as usize],
+            normal: data.points[q as usize].n,
+            d2,
+        };
         // A point of a thinned subset carries the whole input's footprint when its region's was
         // measured; in a region it was not (a random sampling's, whose seeming edges are too
         // many for a band) and a subset dense enough (`PointFootprint::with_own_test`), the
         // whole test on the subset's own points, its spacing capped where a point stands nearly
         // alone in the subset (`SUBSET_SLACK`).
-        let mut spacing = local.spacing();
-        if let Some(whole) = &self.whole {
-            let at = whole[q as usize];
-            if at.own_test() {
-                if at.spacing() > 0.0 {
-                    spacing = spacing.min(SUBSET_SLACK * at.spacing() / at.rate().sqrt());
-                }
-                return self.whole_test(data, q, y, d2, spacing, reach);
-            }
-            let at_q = Nearest {
-                q,
-                position: q_position,
-                normal: data.points[q as usize].n,
-                d2,
-            };
+        let Some(whole) = &self.whole else {
+            return self.whole_test(data, local, at_q, y, local.spacing(), reach);
+        };
+        let at = whole[q as usize];
+        if !at.own_test() {
             return thinned_test(at, local.last, at_q, y, reach);
         }
-        self.whole_test(data, q, y, d2, spacing, reach)
+        let spacing = if at.spacing() > 0.0 {
+            local
+                .spacing()
+                .min(SUBSET_SLACK * at.spacing() / at.rate().sqrt())
+        } else {
+            local.spacing()
+        };
+        self.whole_test(data, local, at_q, y, spacing, reach)
     }
 
-    /// The whole test of local position `y` at its nearest input point `q` (squared distance
-    /// `d2`), for input spacing `spacing` at q (world units; see `Mpu::near_data_from`).
+    /// The whole test of local position `y` at its nearest input point (`at_q`, whose cached
+    /// entry is `local`), for input spacing `spacing` there (world units; see
+    /// `Mpu::near_data_from`).
     fn whole_test(
         &self,
         data: InputData<'_>,
-        q: u32,
+        local: &InputLocal,
+        at_q: Nearest,
         y: DVec3,
-        d2: f64,
         spacing: f64,
         reach: f64,
     ) -> FootprintTest {
         let answer = |inside, anchor| FootprintTest { inside, anchor };
-        let local = self.local(data, q);
-        let q_position = data.positions[q as usize];
+        let Nearest {
+            q,
+            position: q_position,
+            normal: n,
+            d2,
+        } = at_q;
         let new_anchor = Some(DataAnchor {
             point: q,
             position: q_position,
@@ -402,7 +409,6 @@ impl DataFootprint {
         // tangent plane. Points that surround y surround it with more points added, so q and
         // its cached 8 nearest, where they lie within that reach (a hair inside it, so that they
         // are among the query's), decide most positions without the kd-tree query.
-        let n = data.points[q as usize].n;
         let around = SURROUND_REACH * spacing;
         let inner2 = (around * around) * (1.0 - 1e-9);
         let cached = std::iter::once(q)

@@ -178,9 +178,8 @@ impl ThinnedData {
 
 /// A thinned subset with at least this many points a particle is dense enough for the whole
 /// test on its own points at its unmeasured points: its gaps, about the particles' spacing over
-/// √64, lie far below the particles' (at 10–30 M points and 1 GiB the relaxation holds 70–340
-/// a particle, and the per-level spacing CV is within 5 % of in core's; with 1 to 8 a
-/// particle, the own test made it up to 20 % less even; docs/notes/2026-11-28-unmeasured-own-test.md).
+/// √64, lie far below the particles'. On subsets of a few points a particle the own test made
+/// the spacing less even than the lenient one (measured: docs/notes/2026-11-28-unmeasured-own-test.md).
 pub(crate) const OWN_TEST_POINTS_PER_PARTICLE: usize = 64;
 
 /// One point in this many of a region is asked whether it is interior, to estimate its share
