@@ -20,7 +20,7 @@ use crate::fit_reach::reach_by_depth;
 use crate::fit_store::FitStoreBuilder;
 use crate::frame::check_input_size;
 use crate::point_footprint::PointFootprint;
-use crate::prefit_marked::{Prefit, prefit_marked};
+use crate::prefit_marked::{MarkedFits, Prefit, marked_indexes};
 use crate::select_fit::LeafFit;
 use crate::{BuildReport, FitKind, Mpu, MpuBuffers, MpuError, MpuFrame, MpuParams};
 
@@ -282,14 +282,7 @@ impl Mpu {
                 .filter(|&c| r.marked[c as usize])
                 .collect()
         });
-        let Prefit {
-            index,
-            coarse,
-            fits: prefit,
-            balls,
-            from_earlier,
-            skipped,
-        } = prefit_marked(
+        let indexes = marked_indexes(
             (&data.positions, &data.points),
             params,
             eps0,
@@ -297,20 +290,19 @@ impl Mpu {
             &marked_old,
             &monitor,
         )?;
-        let t_fits = start.elapsed().as_secs_f64();
+        let (index, coarse) = (indexes.index.clone(), indexes.coarse.clone());
+        let t_indexes = start.elapsed().as_secs_f64();
         let levels = u64::from(params.max_depth) + 1;
         monitor.report("mpu", 0, levels);
-        monitor.check()?;
-        let Prepared { positions, points } = data;
-        // The positions move into the octree, which hands them back to each decision.
         let input = FitInput {
             coarse: &coarse,
-            positions: &[],
-            points: &points,
+            positions: &data.positions,
+            points: &data.points,
             index: Some(&index),
             params,
             population: n,
         };
+        let marked_fits = MarkedFits::new(input, eps0, reuse.map(|r| r.old), &marked_old, indexes);
         let oparams = OctreeParams {
             box_scale: params.box_scale,
             alpha: params.alpha,
@@ -332,9 +324,11 @@ impl Mpu {
             known,
             buffers: octree_buffers,
             on_level: Some(&on_level),
+            // (Beside the marked fits: a parallel step would wait for all of them.)
+            serial: !marked_old.is_empty(),
         };
         let missing = std::sync::Mutex::new(None);
-        let (octree, records) = Octree::build_with(positions, &oparams, octree_options, |v| {
+        let decide = |v: psi_octree::CellView<'_>| {
             if let Some(table) = known_cells {
                 let Some(d) = table.get(v.cell.depth, v.cell.key) else {
                     missing
@@ -365,11 +359,8 @@ impl Mpu {
                 let split = r.old.cell_fit[old as usize] == NO_FIT;
                 return (split, CellRecord::Reused(old));
             }
-            let cell_fit = match old
-                .and_then(|o| marked_old.binary_search(&o).ok())
-                .and_then(|k| prefit[k].as_ref())
-            {
-                Some(fit) => fit.clone(),
+            let cell_fit = match old.and_then(|o| marked_fits.get(o)) {
+                Some(fit) => fit,
                 // (New to the octree; or, never in fact, a marked cell skipped because a marked
                 // ancestor keeps its function: fitted here, to the same result.)
                 None => fit_octree_cell(&input.over(v.positions), v.cell, eps0),
@@ -385,7 +376,24 @@ impl Mpu {
                     fit_radius,
                 })),
             )
-        })?;
+        };
+        // The octree is rebuilt while the marked cells are fitted; it waits only for a fit it
+        // needs that another thread is making.
+        let (built, fitted) = rayon::join(
+            || Octree::build_over(&data.positions, &oparams, octree_options, decide),
+            || marked_fits.run(&monitor),
+        );
+        let (unplaced, records) = built?;
+        fitted?;
+        monitor.check()?;
+        let Prefit {
+            fits: prefit,
+            balls,
+            from_earlier,
+            skipped,
+        } = marked_fits.finish();
+        let Prepared { positions, points } = data;
+        let octree = unplaced.with_positions(positions);
         let t_octree = start.elapsed().as_secs_f64();
         monitor.check()?;
         if let Some((depth, key)) = missing.into_inner().expect("not poisoned") {
@@ -423,7 +431,14 @@ impl Mpu {
         let depth_slots = usize::from(octree.max_depth_reached()) + 1;
         report.leaves_per_depth = vec![0; depth_slots];
         report.surface_leaves_per_depth = vec![0; depth_slots];
-        let input = input.over(octree.positions());
+        let input = FitInput {
+            coarse: &coarse,
+            positions: octree.positions(),
+            points: &points,
+            index: Some(&index),
+            params,
+            population: n,
+        };
         let mut reach = vec![0.0f64; depth_slots];
         for (i, rec) in records.into_iter().enumerate() {
             let cell = octree.cell(i as u32);
@@ -492,8 +507,8 @@ impl Mpu {
         report.seconds = start.elapsed().as_secs_f64();
         report.phase_seconds = crate::BuildPhases {
             prepare: t_prepare,
-            index_and_marked_fits: t_fits - t_prepare,
-            octree: t_octree - t_fits,
+            indexes: t_indexes - t_prepare,
+            fits_and_octree: t_octree - t_indexes,
             assemble: report.seconds - t_octree,
         };
         Ok(Mpu {

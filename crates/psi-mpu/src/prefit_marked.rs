@@ -1,10 +1,11 @@
-//! The first step of a local rebuild after an edit: the kd-trees (derived from the earlier
-//! MPU's after a brush, else built) and the fits of the earlier octree's marked cells, all in
-//! one parallel batch. After a brush each refit reads its cell's earlier ball answer and keeps
-//! its own for the next brush (`trial_balls.rs`).
+//! The first steps of a local rebuild after an edit: the kd-trees (derived from the earlier
+//! MPU's after a brush, else built), then the fits of the earlier octree's marked cells in one
+//! parallel batch beside the octree's rebuild, which takes each as it meets the cell. After a
+//! brush each refit reads its cell's earlier ball answer and keeps its own for the next brush
+//! (`trial_balls.rs`).
 
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, OnceLock};
 
 use glam::DVec3;
 use psi_octree::{BallAnswer, Interrupted, Monitor, NO_CELL, OrientedPoint, PointIndex};
@@ -25,43 +26,30 @@ type Refit = (Option<CellFit>, Option<BallAnswer>, bool);
 /// (docs/notes/2026-11-27-edit-balls.md).
 const KEPT_PAIRS_PER_POINT: usize = 8;
 
-/// The kd-trees of a build and the fits of the earlier MPU's marked cells (empty without
-/// reuse), in the order of `marked`.
-pub(crate) struct Prefit {
+/// The kd-trees of a local rebuild, and the fits of the large marked cells that were made
+/// while they were built (shape: one per marked cell; `None` for the others).
+pub(crate) struct MarkedIndexes {
     pub(crate) index: Arc<PointIndex>,
     pub(crate) coarse: Arc<CoarseIndex>,
-    /// `None` for a cell skipped because a marked ancestor no longer splits (it is not in the
-    /// new octree).
-    pub(crate) fits: Vec<Option<CellFit>>,
-    /// After a brush, the refits' ball answers (for the next brush).
-    pub(crate) balls: TrialBalls,
-    /// How many refits read their balls from the earlier answers.
-    pub(crate) from_earlier: usize,
-    /// How many marked cells were skipped.
-    pub(crate) skipped: usize,
+    early: Vec<Option<CellFit>>,
+    /// Whether the refits read and keep ball answers (after a brush).
+    keep_balls: bool,
 }
 
-/// Fits the marked cells of the earlier octree up front, in one parallel batch: a fit depends
-/// only on its cell and the points, and level by level the coarse levels hold a few expensive
-/// fits that keep threads idle. (A marked cell below one that no longer splits is not in the
-/// new octree: skipped when that is known before its fit starts, else fitted for nothing.
-/// Cells new to the octree are fitted as met.) The large cells among them that split
-/// are fitted from the coarse points alone while the kd-tree of all points is being built.
+/// The kd-trees of a build: after a brush, the earlier MPU's brought up to date; else built
+/// afresh, while the large marked cells that split are fitted from the coarse points alone.
 ///
 /// `positions` (local frame) and `points` (shape: N each): the build's input; `earlier`: the
 /// earlier MPU, with the points a brush moved (`None` for other edits); `marked`: its marked
 /// cells.
-pub(crate) fn prefit_marked(
+pub(crate) fn marked_indexes(
     (positions, points): (&[DVec3], &[OrientedPoint]),
     params: &MpuParams,
     eps0: f64,
     earlier: Option<(&Mpu, Option<&[u32]>)>,
     marked: &[u32],
     monitor: &Monitor<'_>,
-) -> Result<Prefit, Interrupted> {
-    let old = || earlier.expect("marked cells come with reuse").0;
-    let old_cell = |c: u32| *old().octree.cell(c);
-    // After a brush the earlier MPU's kd-trees are brought up to date (no early fits needed).
+) -> Result<MarkedIndexes, Interrupted> {
     let derived = earlier.and_then(|(old, moved)| {
         let moved = moved?;
         Some(rayon::join(
@@ -69,7 +57,6 @@ pub(crate) fn prefit_marked(
             || Arc::new(old.coarse.with_moved(moved, positions)),
         ))
     });
-    // After a brush the refits read their cells' earlier ball answers and keep their own.
     let keep_balls = derived.is_some();
     let (index, (coarse, early)) = match derived {
         Some((index, coarse)) => (index, (coarse, vec![None; marked.len()])),
@@ -85,109 +72,228 @@ pub(crate) fn prefit_marked(
                     params,
                     population: positions.len(),
                 };
+                let old = earlier.map(|e| e.0);
                 let early: Vec<Option<CellFit>> = marked
                     .par_iter()
                     .map(|&c| {
                         if monitor.stopped() {
                             return None;
                         }
-                        let cell = old_cell(c);
-                        try_fit_octree_cell(&input, &cell, eps0)
+                        let cell = old.expect("marked cells come with reuse").octree.cell(c);
+                        try_fit_octree_cell(&input, cell, eps0)
                     })
                     .collect();
                 (coarse, early)
             },
         ),
     };
-    let input = FitInput {
-        coarse: &coarse,
-        positions,
-        points,
-        index: Some(&index),
-        params,
-        population: positions.len(),
-    };
     monitor.check()?;
-    // The answers kept stop at a budget of pairs (which cells keep theirs may vary with the
-    // threads' timing; the fits never do).
-    let budget = KEPT_PAIRS_PER_POINT * positions.len();
-    let kept_pairs = AtomicUsize::new(0);
-    // Whether each marked cell is known to keep its function (fitted, and not splitting): a
-    // marked cell below one that does is not in the new octree, and is skipped when that fit
-    // is known before its own starts (which cells are skipped depends on the threads' timing;
-    // the octree never reads their fits).
-    let keeps: Vec<AtomicBool> = marked.iter().map(|_| AtomicBool::new(false)).collect();
-    let gone = |c: u32| {
-        let mut a = old_cell(c).parent;
+    Ok(MarkedIndexes {
+        index,
+        coarse,
+        early,
+        keep_balls,
+    })
+}
+
+/// The fits of the earlier octree's marked cells, made up front in one parallel batch
+/// ([`MarkedFits::run`]) while the octree is rebuilt beside it: a fit depends only on its cell
+/// and the points, the coarse levels hold a few expensive fits that would keep threads idle
+/// level by level, and the octree's serial passes run meanwhile. The octree takes each fit as
+/// it meets the cell ([`MarkedFits::get`]): made already, or being made (it waits), or made
+/// then and there. (A marked cell below one that no longer splits is not in the new octree:
+/// skipped when that is known before its fit starts, else fitted for nothing. Cells new to the
+/// octree are fitted by the octree.)
+pub(crate) struct MarkedFits<'a> {
+    input: FitInput<'a>,
+    eps0: f64,
+    old: Option<&'a Mpu>,
+    marked: &'a [u32],
+    early: Vec<Option<CellFit>>,
+    keep_balls: bool,
+    /// The answers kept stop at a budget of pairs (which cells keep theirs may vary with the
+    /// threads' timing; the fits never do).
+    budget: usize,
+    kept_pairs: AtomicUsize,
+    /// Whether each marked cell is known to keep its function (fitted, and not splitting): a
+    /// marked cell below one that does is not in the new octree, and is skipped when that fit
+    /// is known before its own starts (which cells are skipped depends on the threads' timing;
+    /// the octree never reads their fits).
+    keeps: Vec<AtomicBool>,
+    /// Whether a thread took each cell's fit on.
+    claimed: Vec<AtomicBool>,
+    slots: Vec<OnceLock<Refit>>,
+}
+
+/// Sets a claimed cell's slot to "no fit" if its fit unwinds, so that no thread waits for it
+/// (the octree then fits the cell itself).
+struct Claim<'s>(&'s OnceLock<Refit>);
+
+impl Drop for Claim<'_> {
+    fn drop(&mut self) {
+        let _ = self.0.set((None, None, false));
+    }
+}
+
+impl<'a> MarkedFits<'a> {
+    /// The marked cells `marked` of `old` (none without reuse), to be fitted over `input`
+    /// (whose kd-trees are `indexes`').
+    pub(crate) fn new(
+        input: FitInput<'a>,
+        eps0: f64,
+        old: Option<&'a Mpu>,
+        marked: &'a [u32],
+        indexes: MarkedIndexes,
+    ) -> Self {
+        let each = |_| Default::default();
+        Self {
+            input,
+            eps0,
+            old,
+            marked,
+            early: indexes.early,
+            keep_balls: indexes.keep_balls,
+            budget: KEPT_PAIRS_PER_POINT * input.positions.len(),
+            kept_pairs: AtomicUsize::new(0),
+            keeps: marked.iter().map(each).collect(),
+            claimed: marked.iter().map(each).collect(),
+            slots: marked.iter().map(|_| OnceLock::new()).collect(),
+        }
+    }
+
+    fn old_cell(&self, c: u32) -> psi_octree::Cell {
+        *self
+            .old
+            .expect("marked cells come with reuse")
+            .octree
+            .cell(c)
+    }
+
+    /// Whether the `k`-th marked cell lies below a marked one known to keep its function.
+    fn gone(&self, k: usize) -> bool {
+        let mut a = self.old_cell(self.marked[k]).parent;
         while a != NO_CELL {
-            if let Ok(k) = marked.binary_search(&a)
-                && keeps[k].load(Ordering::Relaxed)
+            if let Ok(j) = self.marked.binary_search(&a)
+                && self.keeps[j].load(Ordering::Relaxed)
             {
                 return true;
             }
-            a = old_cell(a).parent;
+            a = self.old_cell(a).parent;
         }
         false
-    };
-    // (A stop part-way leaves `None`s, and the whole is dropped.)
-    let fits: Option<Vec<Refit>> = marked
-        .par_iter()
-        .zip(early)
-        .zip(&keeps)
-        .map(|((&c, early), keeps)| {
-            if monitor.stopped() {
-                return None;
+    }
+
+    /// Takes the `k`-th marked cell's fit on unless a thread has (then `false`), and makes it;
+    /// with `skip_gone`, a cell found gone is left unfitted.
+    fn make(&self, k: usize, skip_gone: bool) -> bool {
+        if self.claimed[k].swap(true, Ordering::AcqRel) {
+            return false;
+        }
+        let claim = Claim(&self.slots[k]);
+        let c = self.marked[k];
+        let cell = self.old_cell(c);
+        let (fit, answer, read) = match &self.early[k] {
+            Some(fit) => (fit.clone(), None, false),
+            None if skip_gone && self.gone(k) => {
+                drop(claim);
+                return true;
             }
-            let (fit, answer, read) = match early {
-                Some(fit) => (fit, None, false),
-                None if gone(c) => return Some((None, None, false)),
-                None => {
-                    let cell = old_cell(c);
-                    let earlier = Earlier {
-                        r1: Some(old().fit_radius[c as usize]),
-                        ball: keep_balls
-                            .then(|| old().trial_balls.get(cell.depth, cell.key))
-                            .flatten(),
-                        keep_ball: keep_balls,
-                    };
-                    let (fit, answer) = refit_octree_cell(&input, &cell, eps0, earlier);
-                    let read = answer.as_ref().is_some_and(BallAnswer::from_earlier);
-                    let answer = answer.filter(|a| {
-                        let n = a.near().len();
-                        kept_pairs.fetch_add(n, Ordering::Relaxed) + n <= budget
-                    });
-                    (fit, answer, read)
+            None => {
+                let old = self.old.expect("marked cells come with reuse");
+                let earlier = Earlier {
+                    r1: Some(old.fit_radius[c as usize]),
+                    ball: self
+                        .keep_balls
+                        .then(|| old.trial_balls.get(cell.depth, cell.key))
+                        .flatten(),
+                    keep_ball: self.keep_balls,
+                };
+                let (fit, answer) = refit_octree_cell(&self.input, &cell, self.eps0, earlier);
+                let read = answer.as_ref().is_some_and(BallAnswer::from_earlier);
+                let answer = answer.filter(|a| {
+                    let n = a.near().len();
+                    self.kept_pairs.fetch_add(n, Ordering::Relaxed) + n <= self.budget
+                });
+                (fit, answer, read)
+            }
+        };
+        let max_depth = self.input.params.max_depth;
+        self.keeps[k].store(!fit.splits(&cell, self.eps0, max_depth), Ordering::Relaxed);
+        let _ = self.slots[k].set((Some(fit), answer, read));
+        // (The claim's slot is set: dropping it changes nothing.)
+        drop(claim);
+        true
+    }
+
+    /// Fits every marked cell no thread has taken on, in parallel; stops early (`Err`) once
+    /// `monitor` is stopped.
+    pub(crate) fn run(&self, monitor: &Monitor<'_>) -> Result<(), Interrupted> {
+        // From the last cell back: the octree takes the cells from the first on, so the two
+        // meet instead of one waiting behind the other.
+        (0..self.marked.len())
+            .into_par_iter()
+            .rev()
+            .try_for_each(|k| {
+                if monitor.stopped() {
+                    return Err(Interrupted);
                 }
-            };
-            keeps.store(
-                !fit.splits(&old_cell(c), eps0, params.max_depth),
-                Ordering::Relaxed,
-            );
-            Some((Some(fit), answer, read))
-        })
-        .collect();
-    let fits = fits.ok_or(Interrupted)?;
-    let from_earlier = fits.iter().filter(|f| f.2).count();
-    let skipped = fits.iter().filter(|f| f.0.is_none()).count();
-    let (fits, answers): (Vec<Option<CellFit>>, Vec<Option<BallAnswer>>) =
-        fits.into_iter().map(|(f, a, _)| (f, a)).unzip();
-    let balls = if keep_balls {
-        let addresses = marked.iter().map(|&c| {
-            let cell = old_cell(c);
-            (cell.depth, cell.key)
-        });
-        TrialBalls::new(addresses, answers)
-    } else {
-        TrialBalls::default()
-    };
-    Ok(Prefit {
-        index,
-        coarse,
-        fits,
-        balls,
-        from_earlier,
-        skipped,
-    })
+                self.make(k, true);
+                Ok(())
+            })
+    }
+
+    /// The fit of the earlier octree's marked cell `c` (which is in the new octree): made
+    /// already, or waited for, or made now. `None` when `c` is not marked, or when its fit
+    /// failed on another thread.
+    pub(crate) fn get(&self, c: u32) -> Option<CellFit> {
+        let k = self.marked.binary_search(&c).ok()?;
+        if self.slots[k].get().is_none() {
+            self.make(k, false);
+        }
+        self.slots[k].wait().0.clone()
+    }
+
+    /// The fits, in the order of the marked cells (`None`: skipped), with the ball answers kept.
+    pub(crate) fn finish(self) -> Prefit {
+        let refits: Vec<Refit> = self
+            .slots
+            .into_iter()
+            .map(|s| s.into_inner().unwrap_or((None, None, false)))
+            .collect();
+        let from_earlier = refits.iter().filter(|f| f.2).count();
+        let skipped = refits.iter().filter(|f| f.0.is_none()).count();
+        let (fits, answers): (Vec<Option<CellFit>>, Vec<Option<BallAnswer>>) =
+            refits.into_iter().map(|(f, a, _)| (f, a)).unzip();
+        let balls = if self.keep_balls {
+            let old = self.old.expect("marked cells come with reuse");
+            let addresses = self.marked.iter().map(|&c| {
+                let cell = old.octree.cell(c);
+                (cell.depth, cell.key)
+            });
+            TrialBalls::new(addresses, answers)
+        } else {
+            TrialBalls::default()
+        };
+        Prefit {
+            fits,
+            balls,
+            from_earlier,
+            skipped,
+        }
+    }
+}
+
+/// What the marked fits leave the build, in the order of the marked cells.
+pub(crate) struct Prefit {
+    /// `None` for a cell skipped because a marked ancestor no longer splits (it is not in the
+    /// new octree).
+    pub(crate) fits: Vec<Option<CellFit>>,
+    /// After a brush, the refits' ball answers (for the next brush).
+    pub(crate) balls: TrialBalls,
+    /// How many refits read their balls from the earlier answers.
+    pub(crate) from_earlier: usize,
+    /// How many marked cells were skipped.
+    pub(crate) skipped: usize,
 }
 
 #[cfg(test)]

@@ -64,11 +64,12 @@ pub struct BuildReport {
 pub struct BuildPhases {
     /// Checking the points and moving them to the local frame.
     pub prepare: f64,
-    /// The kd-trees (built, or derived after a brush) and, in a local rebuild, the fits of
-    /// the marked cells.
-    pub index_and_marked_fits: f64,
-    /// The octree level by level with the other cells' decisions.
-    pub octree: f64,
+    /// The kd-trees (built, or derived after a brush; after other edits, with the large
+    /// marked cells fitted while they are built).
+    pub indexes: f64,
+    /// The octree level by level with every cell's decision, and beside it, in a local
+    /// rebuild, the fits of the marked cells.
+    pub fits_and_octree: f64,
     /// The leaves' functions, the report and the evaluation nodes.
     pub assemble: f64,
 }

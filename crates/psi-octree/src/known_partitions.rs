@@ -131,7 +131,8 @@ mod tests {
 
     /// A rebuild after some points moved, from the earlier arrangement patched, equals a build
     /// from scratch (the brute-force twin): the same cells and the same points in every cell,
-    /// in the same order, over rounds of moves that cross cell faces and empty some leaves.
+    /// in the same order, over rounds of moves that cross cell faces and empty some leaves;
+    /// built in parallel or serially over borrowed points alike.
     #[test]
     fn a_patched_rebuild_equals_a_build_from_scratch() {
         let mut rng = Pcg64Mcg::seed_from_u64(5);
@@ -182,9 +183,18 @@ mod tests {
                     changed: &changed,
                     moved: Some(&moved),
                 }),
+                // Every other round on the calling thread alone, over borrowed points.
+                serial: round % 2 == 1,
                 ..Default::default()
             };
-            let (patched, _) = Octree::build_with(points.clone(), &params, options, split).unwrap();
+            let patched = if round % 2 == 1 {
+                let (unplaced, _) = Octree::build_over(&points, &params, options, split).unwrap();
+                unplaced.with_positions(points.clone())
+            } else {
+                Octree::build_with(points.clone(), &params, options, split)
+                    .unwrap()
+                    .0
+            };
             let scratch = fresh(&points);
             assert_eq!(
                 patched.cells().len(),

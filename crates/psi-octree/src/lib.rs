@@ -45,9 +45,11 @@ mod leaf_containing;
 mod monitor;
 mod morton_index;
 mod octree;
+mod octree_buffers;
 mod point_attributes;
 mod point_index;
 mod points_within;
+mod root_cube;
 mod support_cells;
 
 pub use all_nearest::all_k_nearest;
@@ -59,8 +61,9 @@ pub use id_map::IdHasher;
 pub use monitor::{Interrupted, Monitor, Observer, StopFlag};
 pub use morton_index::{MortonIndex, morton_code};
 pub use octree::{
-    CellView, DEPTH_LIMIT, KnownPartitions, Octree, OctreeBuffers, OctreeBuild, OctreeParams,
-    RootCube, root_cube,
+    CellView, DEPTH_LIMIT, KnownPartitions, Octree, OctreeBuild, OctreeParams, Unplaced,
 };
+pub use octree_buffers::OctreeBuffers;
 pub use point_attributes::PointAttributes;
 pub use point_index::PointIndex;
+pub use root_cube::{RootCube, root_cube};

@@ -6,6 +6,8 @@ use std::borrow::Cow;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::octree_buffers::OctreeBuffers;
+use crate::root_cube::{RootCube, root_cube};
 use crate::{Aabb, Cell, NO_CELL, OctreeError};
 
 /// The deepest level a cell may have (integer keys stay exact up to 2^21 per axis).
@@ -70,42 +72,6 @@ pub struct KnownPartitions<'a> {
     pub moved: Option<&'a [u32]>,
 }
 
-/// The arrays of an octree, for a later build to fill instead of allocating its own
-/// ([`Octree::into_buffers`], [`OctreeBuffers::with_capacity`]).
-#[derive(Clone, Debug, Default)]
-pub struct OctreeBuffers {
-    cells: Vec<Cell>,
-    order: Vec<u32>,
-}
-
-impl OctreeBuffers {
-    /// Buffers for an octree of about `cells` cells over `points` points, their memory touched
-    /// once (so that the build that fills them finds it mapped).
-    pub fn with_capacity(cells: usize, points: usize) -> Self {
-        let blank = Cell {
-            center: DVec3::ZERO,
-            half: 0.0,
-            depth: 0,
-            key: [0; 3],
-            parent: NO_CELL,
-            first_child: NO_CELL,
-            start: 0,
-            end: 0,
-        };
-        let touched = |v: &mut Vec<u32>| {
-            v.resize(points, 0);
-            v.clear();
-        };
-        let mut b = Self {
-            cells: vec![blank; cells],
-            order: Vec::new(),
-        };
-        b.cells.clear();
-        touched(&mut b.order);
-        b
-    }
-}
-
 /// An adaptive octree over a point set, with each input point bucketed in exactly one leaf.
 #[derive(Clone, Debug)]
 pub struct Octree {
@@ -116,29 +82,24 @@ pub struct Octree {
     pub(crate) root_edge: f64,
 }
 
-/// The root cube of an octree, in the frame of its points.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RootCube {
-    /// Centre.
-    pub center: DVec3,
-    /// Half of the edge (plain length, same units as the points).
-    pub half: f64,
-}
+/// An octree built over borrowed points ([`Octree::build_over`]), waiting for them.
+#[derive(Debug)]
+pub struct Unplaced(Octree);
 
-/// The root cube for a bounding box: centred on the box, edge `box_scale` × the largest extent.
-/// Errors when the box is empty, flat to a point or not finite.
-pub fn root_cube(bounds: &Aabb, box_scale: f64) -> Result<RootCube, OctreeError> {
-    let largest = bounds.extent().max_element();
-    if !largest.is_finite() || !bounds.center().is_finite() {
-        return Err(OctreeError::NonFinite);
+impl Unplaced {
+    /// The octree, given the points it was built over (shape: N, the same values).
+    ///
+    /// Panics when `positions` has another length than the points the tree was built over.
+    pub fn with_positions(self, positions: Vec<DVec3>) -> Octree {
+        let mut tree = self.0;
+        assert_eq!(
+            positions.len(),
+            tree.cells[0].end as usize,
+            "the build's points"
+        );
+        tree.positions = positions;
+        tree
     }
-    if largest <= 0.0 {
-        return Err(OctreeError::DegenerateBounds);
-    }
-    Ok(RootCube {
-        center: bounds.center(),
-        half: 0.5 * box_scale * largest,
-    })
 }
 
 /// How [`Octree::build_with`] runs beyond its parameters. `OctreeBuild::default()` is a plain
@@ -159,6 +120,9 @@ pub struct OctreeBuild<'a> {
     pub buffers: OctreeBuffers,
     /// Called after each level is decided with the level's depth and the cells so far.
     pub on_level: Option<&'a (dyn Fn(u8, usize) + Sync)>,
+    /// Everything on the calling thread: for a build that runs beside other parallel work,
+    /// which a parallel step's wait would join until that work is done.
+    pub serial: bool,
 }
 
 impl Octree {
@@ -185,11 +149,29 @@ impl Octree {
         T: Send,
         F: Fn(CellView<'_>) -> (bool, T) + Sync,
     {
+        let (tree, payloads) = Self::build_over(&points, params, options, decide)?;
+        Ok((tree.with_positions(points), payloads))
+    }
+
+    /// [`Octree::build_with`] over borrowed `points` (shape: N), which others may read while
+    /// the build runs: the tree comes without them, and [`Unplaced::with_positions`] gives it
+    /// the same points.
+    pub fn build_over<T, F>(
+        points: &[DVec3],
+        params: &OctreeParams,
+        options: OctreeBuild<'_>,
+        decide: F,
+    ) -> Result<(Unplaced, Vec<T>), OctreeError>
+    where
+        T: Send,
+        F: Fn(CellView<'_>) -> (bool, T) + Sync,
+    {
         let OctreeBuild {
             root,
             known,
             buffers,
             on_level,
+            serial,
         } = options;
         let RootCube { center, half } = match root {
             Some(r) => r,
@@ -246,7 +228,7 @@ impl Octree {
         // arrangement with the moved points moved between leaves, every earlier cell's
         // segment then in place with its count corrected by `gained`.
         let gained = match patch {
-            Some((k, moved)) => k.patch_order(moved, &points, &mut order),
+            Some((k, moved)) => k.patch_order(moved, points, &mut order),
             None => {
                 order.clear();
                 order.extend(0..end);
@@ -256,7 +238,7 @@ impl Octree {
         let mut tree = Octree {
             cells,
             order,
-            positions: points,
+            positions: Vec::new(),
             params: *params,
             root_edge: 2.0 * half,
         };
@@ -281,7 +263,7 @@ impl Octree {
                         index: i as u32,
                         cell: &t.cells[i],
                         points: t.points_in(i as u32),
-                        positions: &t.positions,
+                        positions: points,
                         old: Some(old_of[i]).filter(|&o| o != NO_CELL),
                     })
                 };
@@ -293,7 +275,10 @@ impl Octree {
                     Some(_) => {
                         let new: Vec<usize> =
                             level.clone().filter(|&i| old_of[i] == NO_CELL).collect();
-                        let new: Vec<(bool, T)> = new.par_iter().map(|&i| view(i)).collect();
+                        let new: Vec<(bool, T)> = match serial {
+                            true => new.iter().map(|&i| view(i)).collect(),
+                            false => new.par_iter().map(|&i| view(i)).collect(),
+                        };
                         let mut new = new.into_iter();
                         level
                             .clone()
@@ -306,6 +291,7 @@ impl Octree {
                             })
                             .collect()
                     }
+                    None if serial => (level.start..level.end).map(view).collect(),
                     None => (level.start..level.end).into_par_iter().map(view).collect(),
                 }
             };
@@ -360,7 +346,7 @@ impl Octree {
                     }
                 };
                 let afresh = |i: usize| -> Partition<'_> {
-                    let (counts, order) = t.partition(i);
+                    let (counts, order) = t.partition(i, points);
                     (counts, Some(Cow::Owned(order)))
                 };
                 if known.is_some() {
@@ -372,15 +358,17 @@ impl Octree {
                         .filter(|(_, p)| p.is_none())
                         .map(|(&i, _)| i)
                         .collect();
-                    let mut unknown = unknown
-                        .par_iter()
-                        .map(|&i| afresh(i))
-                        .collect::<Vec<_>>()
-                        .into_iter();
+                    let mut unknown = match serial {
+                        true => unknown.iter().map(|&i| afresh(i)).collect::<Vec<_>>(),
+                        false => unknown.par_iter().map(|&i| afresh(i)).collect(),
+                    }
+                    .into_iter();
                     known_parts
                         .into_iter()
                         .map(|p| p.unwrap_or_else(|| unknown.next().expect("one per cell")))
                         .collect()
+                } else if serial {
+                    to_split.iter().map(|&i| afresh(i)).collect()
                 } else {
                     to_split.par_iter().map(|&i| afresh(i)).collect()
                 }
@@ -413,7 +401,7 @@ impl Octree {
             }
             level = next_start..tree.cells.len();
         }
-        Ok((tree, payloads))
+        Ok((Unplaced(tree), payloads))
     }
 
     /// [`Octree::build_with`] with a plain split predicate (no payload) and default options,
@@ -436,7 +424,7 @@ impl Octree {
     /// deterministic): the count per octant and the reordered point indices. The cell's points
     /// are taken in increasing index order (a range copied from an earlier octree may hold them
     /// otherwise), so each child's segment is increasing too.
-    fn partition(&self, i: usize) -> ([u32; 8], Vec<u32>) {
+    fn partition(&self, i: usize, positions: &[DVec3]) -> ([u32; 8], Vec<u32>) {
         let parent = self.cells[i];
         let range = &self.order[parent.start as usize..parent.end as usize];
         let sorted;
@@ -450,7 +438,7 @@ impl Octree {
         };
         let octants: Vec<u8> = points
             .iter()
-            .map(|&p| parent.octant(self.positions[p as usize]) as u8)
+            .map(|&p| parent.octant(positions[p as usize]) as u8)
             .collect();
         let mut counts = [0u32; 8];
         for &o in &octants {

@@ -164,8 +164,8 @@ fn phases_median(strokes: &[Stroke]) -> Value {
         "mark": phase(&|r| r.mark_seconds),
         "mpu_rest": phase(&|r| r.mpu_seconds - r.edit_seconds - r.mark_seconds),
         "mpu_prepare": build(&|b| b.prepare),
-        "mpu_index_and_marked_fits": build(&|b| b.index_and_marked_fits),
-        "mpu_octree": build(&|b| b.octree),
+        "mpu_indexes": build(&|b| b.indexes),
+        "mpu_fits_and_octree": build(&|b| b.fits_and_octree),
         "mpu_assemble": build(&|b| b.assemble),
         "particles": phase(&|r| r.particle_seconds),
     })
@@ -217,7 +217,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
          each stroke pushing out by {:.2} % D; frames run {FRAME_ITERATIONS} relaxation \
          iterations, the rest settles after. Times in ms over the warm strokes (all but each \
          drag's first); CPU: the process's, frame and settle, per stroke.\n\n\
-         | model | points | radius (% D) | marked cells | regenerated | frame median | frame worst | first stroke | settle median | CPU per stroke median | edit | mark | MPU: index and marked fits | octree | assemble | particles |\n\
+         | model | points | radius (% D) | marked cells | regenerated | frame median | frame worst | first stroke | settle median | CPU per stroke median | edit | mark | MPU: kd-trees | marked fits and octree | assemble | particles |\n\
          |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         seeds,
         first_seed + seeds,
@@ -302,8 +302,8 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             row["cpu_per_stroke_median_ms"].as_f64().unwrap_or(f64::NAN),
             ph["edit"].as_f64().unwrap_or(f64::NAN),
             ph["mark"].as_f64().unwrap_or(f64::NAN),
-            ph["mpu_index_and_marked_fits"].as_f64().unwrap_or(f64::NAN),
-            ph["mpu_octree"].as_f64().unwrap_or(f64::NAN),
+            ph["mpu_indexes"].as_f64().unwrap_or(f64::NAN),
+            ph["mpu_fits_and_octree"].as_f64().unwrap_or(f64::NAN),
             ph["mpu_assemble"].as_f64().unwrap_or(f64::NAN),
             ph["particles"].as_f64().unwrap_or(f64::NAN),
         ));
@@ -331,15 +331,15 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
     md.push_str(&format!(
         "\nThe bunny's 5 % brush (`reproduce-tables`' second brush) applied forth and back, \
          warm strokes: frame median {:.1} ms, worst {:.1} ms; eager (full relaxation) median \
-         {:.1} ms, worst {:.1} ms. The frame's median phases: mark {:.1}, index and marked \
-         fits {:.1}, octree {:.1}, assemble {:.1}, particles {:.1} ms.\n",
+         {:.1} ms, worst {:.1} ms. The frame's median phases: mark {:.1}, kd-trees {:.1}, \
+         marked fits and octree {:.1}, assemble {:.1}, particles {:.1} ms.\n",
         ms("frame", "median_ms"),
         ms("frame", "worst_ms"),
         ms("eager", "median_ms"),
         ms("eager", "worst_ms"),
         ph("mark"),
-        ph("mpu_index_and_marked_fits"),
-        ph("mpu_octree"),
+        ph("mpu_indexes"),
+        ph("mpu_fits_and_octree"),
         ph("mpu_assemble"),
         ph("particles"),
     ));
