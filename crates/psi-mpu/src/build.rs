@@ -325,7 +325,7 @@ impl Mpu {
             buffers: octree_buffers,
             on_level: Some(&on_level),
             // (Beside the marked fits: a parallel step would wait for all of them.)
-            serial: !marked_old.is_empty(),
+            beside: Some(marked_fits.running()),
         };
         let missing = std::sync::Mutex::new(None);
         let decide = |v: psi_octree::CellView<'_>| {

@@ -122,6 +122,8 @@ pub(crate) struct MarkedFits<'a> {
     keeps: Vec<AtomicBool>,
     /// Whether a thread took each cell's fit on.
     claimed: Vec<AtomicBool>,
+    /// Set until [`MarkedFits::run`] is done (when there are marked cells).
+    running: AtomicBool,
     slots: Vec<OnceLock<Refit>>,
 }
 
@@ -157,6 +159,7 @@ impl<'a> MarkedFits<'a> {
             kept_pairs: AtomicUsize::new(0),
             keeps: marked.iter().map(each).collect(),
             claimed: marked.iter().map(each).collect(),
+            running: AtomicBool::new(!marked.is_empty()),
             slots: marked.iter().map(|_| OnceLock::new()).collect(),
         }
     }
@@ -230,7 +233,7 @@ impl<'a> MarkedFits<'a> {
     pub(crate) fn run(&self, monitor: &Monitor<'_>) -> Result<(), Interrupted> {
         // From the last cell back: the octree takes the cells from the first on, so the two
         // meet instead of one waiting behind the other.
-        (0..self.marked.len())
+        let done = (0..self.marked.len())
             .into_par_iter()
             .rev()
             .try_for_each(|k| {
@@ -239,7 +242,14 @@ impl<'a> MarkedFits<'a> {
                 }
                 self.make(k, true);
                 Ok(())
-            })
+            });
+        self.running.store(false, Ordering::Release);
+        done
+    }
+
+    /// Set while [`MarkedFits::run`] runs.
+    pub(crate) fn running(&self) -> &AtomicBool {
+        &self.running
     }
 
     /// The fit of the earlier octree's marked cell `c` (which is in the new octree): made

@@ -153,6 +153,7 @@ mod tests {
                 .0
         };
         let mut tree = fresh(&points);
+        let beside = std::sync::atomic::AtomicBool::new(true);
         for round in 0..12 {
             let c = DVec3::new(rng.random(), rng.random(), rng.random());
             let r = 0.05 + 0.1 * rng.random::<f64>();
@@ -184,7 +185,7 @@ mod tests {
                     moved: Some(&moved),
                 }),
                 // Every other round on the calling thread alone, over borrowed points.
-                serial: round % 2 == 1,
+                beside: (round % 2 == 1).then_some(&beside),
                 ..Default::default()
             };
             let patched = if round % 2 == 1 {

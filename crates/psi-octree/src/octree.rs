@@ -2,6 +2,7 @@
 //! bucketed per cell, and the level-by-level adaptive build driven by a caller's decision.
 
 use std::borrow::Cow;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -120,9 +121,9 @@ pub struct OctreeBuild<'a> {
     pub buffers: OctreeBuffers,
     /// Called after each level is decided with the level's depth and the cells so far.
     pub on_level: Option<&'a (dyn Fn(u8, usize) + Sync)>,
-    /// Everything on the calling thread: for a build that runs beside other parallel work,
-    /// which a parallel step's wait would join until that work is done.
-    pub serial: bool,
+    /// Set while other parallel work runs beside the build: its parallel steps then stay on
+    /// the calling thread (a parallel step's wait would join that work until it is done).
+    pub beside: Option<&'a AtomicBool>,
 }
 
 impl Octree {
@@ -171,8 +172,9 @@ impl Octree {
             known,
             buffers,
             on_level,
-            serial,
+            beside,
         } = options;
+        let serial = || beside.is_some_and(|b| b.load(Ordering::Acquire));
         let RootCube { center, half } = match root {
             Some(r) => r,
             None => {
@@ -275,7 +277,7 @@ impl Octree {
                     Some(_) => {
                         let new: Vec<usize> =
                             level.clone().filter(|&i| old_of[i] == NO_CELL).collect();
-                        let new: Vec<(bool, T)> = match serial {
+                        let new: Vec<(bool, T)> = match serial() {
                             true => new.iter().map(|&i| view(i)).collect(),
                             false => new.par_iter().map(|&i| view(i)).collect(),
                         };
@@ -291,7 +293,7 @@ impl Octree {
                             })
                             .collect()
                     }
-                    None if serial => (level.start..level.end).map(view).collect(),
+                    None if serial() => (level.start..level.end).map(view).collect(),
                     None => (level.start..level.end).into_par_iter().map(view).collect(),
                 }
             };
@@ -358,7 +360,7 @@ impl Octree {
                         .filter(|(_, p)| p.is_none())
                         .map(|(&i, _)| i)
                         .collect();
-                    let mut unknown = match serial {
+                    let mut unknown = match serial() {
                         true => unknown.iter().map(|&i| afresh(i)).collect::<Vec<_>>(),
                         false => unknown.par_iter().map(|&i| afresh(i)).collect(),
                     }
@@ -367,7 +369,7 @@ impl Octree {
                         .into_iter()
                         .map(|p| p.unwrap_or_else(|| unknown.next().expect("one per cell")))
                         .collect()
-                } else if serial {
+                } else if serial() {
                     to_split.iter().map(|&i| afresh(i)).collect()
                 } else {
                     to_split.par_iter().map(|&i| afresh(i)).collect()
