@@ -380,6 +380,27 @@ mod tests {
         assert_as_from_scratch(&new, &points, 37);
     }
 
+    /// The octree rebuilt beside the refits takes each fit from whichever thread made it: on 1,
+    /// 2 and 3 threads a brush's rebuild (every cell marked, so that the octree and the refits
+    /// meet over every cell) is a build from scratch's.
+    #[test]
+    fn the_rebuild_beside_the_refits_is_exact_on_any_thread_count() {
+        let mut points = psi_shapes::sample_builtin(12_000, 9);
+        let old = Mpu::build(&points, &MpuParams::paper()).unwrap();
+        let moved: Vec<u32> = (0..1500).map(|k| k * 8).collect();
+        for &i in &moved {
+            points[i as usize].p += DVec3::new(0.0, 2e-3, 0.0);
+        }
+        for threads in 1..=3 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let new = pool.install(|| rebuild_all_marked(&old, &points, &moved));
+            assert_as_from_scratch(&new, &points, 53);
+        }
+    }
+
     /// A brush over the whole model (every cell marked) keeps ball answers within the budget,
     /// and the next such brush reads some of them and builds what a build from scratch
     /// builds.
