@@ -362,7 +362,8 @@ impl Mpu {
             let cell_fit = match old.and_then(|o| marked_fits.get(o)) {
                 Some(fit) => fit,
                 // (New to the octree; or, never in fact, a marked cell skipped because a marked
-                // ancestor keeps its function: fitted here, to the same result.)
+                // ancestor keeps its function, or whose fit unwound on another thread: fitted
+                // here, to the same result.)
                 None => fit_octree_cell(&input.over(v.positions), v.cell, eps0),
             };
             let split = cell_fit.splits(v.cell, eps0, params.max_depth);
@@ -385,7 +386,6 @@ impl Mpu {
         );
         let (unplaced, records) = built?;
         fitted?;
-        monitor.check()?;
         let Prefit {
             fits: prefit,
             balls,

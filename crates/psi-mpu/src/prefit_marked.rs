@@ -127,8 +127,8 @@ pub(crate) struct MarkedFits<'a> {
     slots: Vec<OnceLock<Refit>>,
 }
 
-/// Sets a claimed cell's slot to "no fit" if its fit unwinds, so that no thread waits for it
-/// (the octree then fits the cell itself).
+/// Sets a claimed cell's slot to "no fit" unless the claim set it (a cell found gone, or a fit
+/// that unwinds), so that no thread waits for it (the octree then fits such a cell itself).
 struct Claim<'s>(&'s OnceLock<Refit>);
 
 impl Drop for Claim<'_> {
@@ -186,21 +186,18 @@ impl<'a> MarkedFits<'a> {
         false
     }
 
-    /// Takes the `k`-th marked cell's fit on unless a thread has (then `false`), and makes it;
-    /// with `skip_gone`, a cell found gone is left unfitted.
-    fn make(&self, k: usize, skip_gone: bool) -> bool {
+    /// Takes the `k`-th marked cell's fit on unless a thread has, and makes it; with
+    /// `skip_gone`, a cell found gone is left unfitted (its slot says "no fit").
+    fn make(&self, k: usize, skip_gone: bool) {
         if self.claimed[k].swap(true, Ordering::AcqRel) {
-            return false;
+            return;
         }
-        let claim = Claim(&self.slots[k]);
+        let _claim = Claim(&self.slots[k]);
         let c = self.marked[k];
         let cell = self.old_cell(c);
         let (fit, answer, read) = match &self.early[k] {
             Some(fit) => (fit.clone(), None, false),
-            None if skip_gone && self.gone(k) => {
-                drop(claim);
-                return true;
-            }
+            None if skip_gone && self.gone(k) => return,
             None => {
                 let old = self.old.expect("marked cells come with reuse");
                 let earlier = Earlier {
@@ -223,9 +220,6 @@ impl<'a> MarkedFits<'a> {
         let max_depth = self.input.params.max_depth;
         self.keeps[k].store(!fit.splits(&cell, self.eps0, max_depth), Ordering::Relaxed);
         let _ = self.slots[k].set((Some(fit), answer, read));
-        // (The claim's slot is set: dropping it changes nothing.)
-        drop(claim);
-        true
     }
 
     /// Fits every marked cell no thread has taken on, in parallel; stops early (`Err`) once
