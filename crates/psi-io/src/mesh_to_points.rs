@@ -3,6 +3,7 @@
 
 use glam::DVec3;
 use psi_octree::OrientedPoint;
+use rayon::prelude::*;
 
 use crate::attributes;
 use crate::error::ReadError;
@@ -113,6 +114,42 @@ fn vertex_normals(mesh: &TriangleMesh) -> (Vec<OrientedPoint>, usize, usize, Vec
     (points, degenerate, dropped, kept)
 }
 
+/// The oriented points of `positions` (shape: N, world units) with their `normals` (shape: N,
+/// any length): each normal made unit, the points whose normal is zero left out. Computed in
+/// parallel. Returns the points and, when some were left out, the indices of those kept.
+///
+/// Errors: [`ReadError::NonFinite`] naming the first point whose normal is not finite.
+fn oriented_points(
+    positions: &[DVec3],
+    normals: &[DVec3],
+) -> Result<(Vec<OrientedPoint>, Option<Vec<usize>>), ReadError> {
+    if let Some(index) = normals.par_iter().position_first(|n| !n.is_finite()) {
+        return Err(ReadError::NonFinite {
+            element: "vertex",
+            index,
+            what: "normal",
+            line: None,
+        });
+    }
+    // A zero normal marks a point left out (`unit` never gives one).
+    let mut points: Vec<OrientedPoint> = positions
+        .par_iter()
+        .zip(normals)
+        .map(|(&p, &n)| OrientedPoint {
+            p,
+            n: unit(n).unwrap_or(DVec3::ZERO),
+        })
+        .collect();
+    if points.par_iter().all(|q| q.n != DVec3::ZERO) {
+        return Ok((points, None));
+    }
+    let kept = (0..points.len())
+        .filter(|&i| points[i].n != DVec3::ZERO)
+        .collect();
+    points.retain(|q| q.n != DVec3::ZERO);
+    Ok((points, Some(kept)))
+}
+
 /// Oriented points from parsed data per `opts`; see [`crate::read_points`] for the rules.
 pub(crate) fn to_point_cloud(
     parsed: Parsed,
@@ -177,7 +214,7 @@ pub(crate) fn to_point_cloud(
         PointCloudFile {
             points: parsed
                 .vertices
-                .iter()
+                .par_iter()
                 .map(|&p| OrientedPoint { p, n: DVec3::ZERO })
                 .collect(),
             normals: NormalSource::Missing,
@@ -191,33 +228,13 @@ pub(crate) fn to_point_cloud(
         }
     } else {
         let normals = parsed.normals.unwrap_or_default();
-        let mut points = Vec::with_capacity(vertices);
-        let mut kept = Vec::new();
-        let track = !parsed.attributes.is_empty();
-        let mut dropped_points = 0;
-        for (index, (&p, &n)) in parsed.vertices.iter().zip(&normals).enumerate() {
-            if !n.is_finite() {
-                return Err(ReadError::NonFinite {
-                    element: "vertex",
-                    index,
-                    what: "normal",
-                    line: None,
-                });
+        let (points, kept) = oriented_points(&parsed.vertices, &normals)?;
+        let dropped_points = vertices - points.len();
+        let attributes = match kept {
+            Some(kept) if !parsed.attributes.is_empty() => {
+                attributes::select(&parsed.attributes, &kept)
             }
-            match unit(n) {
-                Some(n) => {
-                    points.push(OrientedPoint { p, n });
-                    if track {
-                        kept.push(index);
-                    }
-                }
-                None => dropped_points += 1,
-            }
-        }
-        let attributes = if dropped_points == 0 {
-            parsed.attributes
-        } else {
-            attributes::select(&parsed.attributes, &kept)
+            _ => parsed.attributes,
         };
         PointCloudFile {
             points,
@@ -256,6 +273,38 @@ pub(crate) fn to_mesh(parsed: Parsed) -> Result<TriangleMesh, ReadError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The parallel points against a plain loop: unit normals, zero ones left out with the
+    /// indices of the kept, the first non-finite normal named.
+    #[test]
+    fn oriented_points_are_the_plain_loops() {
+        let n = 100_003;
+        let positions: Vec<DVec3> = (0..n).map(|i| DVec3::new(i as f64, 1.0, 2.0)).collect();
+        for zeros in [vec![], vec![0, 5, 70_000, n - 1]] {
+            let normals: Vec<DVec3> = (0..n)
+                .map(|i| {
+                    if zeros.contains(&i) {
+                        DVec3::ZERO
+                    } else {
+                        DVec3::new(1.0, (i % 7) as f64, -3.0)
+                    }
+                })
+                .collect();
+            let (points, kept) = oriented_points(&positions, &normals).unwrap();
+            let want: Vec<usize> = (0..n).filter(|i| !zeros.contains(i)).collect();
+            assert_eq!(points.len(), want.len());
+            for (q, &i) in points.iter().zip(&want) {
+                assert_eq!(q.p, positions[i]);
+                assert_eq!(Some(q.n), unit(normals[i]));
+            }
+            assert_eq!(kept, (!zeros.is_empty()).then_some(want));
+        }
+        let mut normals = vec![DVec3::Z; n];
+        normals[90_000] = DVec3::new(f64::INFINITY, 0.0, 0.0);
+        normals[60_000] = DVec3::new(0.0, f64::NAN, 0.0);
+        let err = oriented_points(&positions, &normals).unwrap_err();
+        assert!(err.to_string().contains("60000"), "{err}");
+    }
 
     #[test]
     fn unit_handles_tiny_and_huge_vectors() {

@@ -7,7 +7,7 @@ use std::ops::ControlFlow;
 use crate::error::ReadError;
 use crate::format::Format;
 use crate::point_chunk::{PointChunk, StreamEnd, StreamHeader, emit_if_full, emit_rest, io_error};
-use crate::read_xyz::{XyzState, read_xyz_block};
+use crate::read_xyz::{BLOCK_BYTES, XyzState, read_xyz_lines};
 use crate::text::is_blank;
 
 /// Bytes read at a time.
@@ -75,7 +75,7 @@ impl<R: Read> XyzStream<R> {
             let more = self.fill()?;
             let lines = self.take_lines();
             if !lines.is_empty() {
-                let (positions, normals) = read_xyz_block(&lines, &mut self.state)?;
+                let (positions, normals) = read_xyz_lines(&lines, &mut self.state, BLOCK_BYTES)?;
                 for (p, n) in positions.into_iter().zip(normals) {
                     chunk.positions.push(p);
                     if let Some(ns) = chunk.normals.as_mut() {

@@ -29,36 +29,89 @@ enum Channel {
     Unit(f64),
 }
 
+/// Where a property's value goes in a [`VertexRecord`], resolved from its name once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Slot {
+    /// `v[k]`: `x y z nx ny nz`.
+    Coordinate(usize),
+    /// `rgb[k]`: `red green blue`.
+    Color(usize),
+    /// `intensity[k]`: [`INTENSITY_NAMES`]`[k]`.
+    Intensity(usize),
+}
+
+impl Slot {
+    /// The slot of property `name` (`None`: psi ignores it).
+    fn of(name: &str) -> Option<Slot> {
+        Some(match name {
+            "x" => Slot::Coordinate(0),
+            "y" => Slot::Coordinate(1),
+            "z" => Slot::Coordinate(2),
+            "nx" => Slot::Coordinate(3),
+            "ny" => Slot::Coordinate(4),
+            "nz" => Slot::Coordinate(5),
+            "red" => Slot::Color(0),
+            "green" => Slot::Color(1),
+            "blue" => Slot::Color(2),
+            _ => Slot::Intensity(INTENSITY_NAMES.iter().position(|&n| n == name)?),
+        })
+    }
+}
+
 impl VertexRecord {
-    fn set(&mut self, name: &str, value: f64, channel: Channel) -> PropertyAccessResult {
-        let slot = match name {
-            "x" => 0,
-            "y" => 1,
-            "z" => 2,
-            "nx" => 3,
-            "ny" => 4,
-            "nz" => 5,
-            "red" | "green" | "blue" => {
-                let k = usize::from(name != "red") + usize::from(name == "blue");
+    fn set(&mut self, name: &str, (value, channel): (f64, Channel)) -> PropertyAccessResult {
+        match Slot::of(name) {
+            Some(slot) => {
+                self.put(slot, value, channel);
+                PropertyAccessResult::Set
+            }
+            None => PropertyAccessResult::Ignored,
+        }
+    }
+
+    /// Stores a property's `value` (and its colour reading `channel`) in `slot`.
+    #[inline]
+    fn put(&mut self, slot: Slot, value: f64, channel: Channel) {
+        match slot {
+            Slot::Coordinate(k) => self.v[k] = value,
+            Slot::Color(k) => {
                 self.rgb[k] = match channel {
                     Channel::Byte(v) => v,
                     Channel::Wide(v) => channel_from_u16(v),
                     Channel::Int(v) => v.clamp(0, 255) as u8,
                     Channel::Unit(v) => channel_from_unit(v),
-                };
-                return PropertyAccessResult::Set;
-            }
-            _ => match INTENSITY_NAMES.iter().position(|&n| n == name) {
-                Some(k) => {
-                    self.intensity[k] = intensity_value(value);
-                    return PropertyAccessResult::Set;
                 }
-                None => return PropertyAccessResult::Ignored,
-            },
-        };
-        self.v[slot] = value;
-        PropertyAccessResult::Set
+            }
+            Slot::Intensity(k) => self.intensity[k] = intensity_value(value),
+        }
     }
+}
+
+/// A property value of each PLY type as a number and as a colour channel: what the setters
+/// store and what the block decoder stores, the one through the other.
+fn of_i8(v: i8) -> (f64, Channel) {
+    (f64::from(v), Channel::Int(i64::from(v)))
+}
+fn of_u8(v: u8) -> (f64, Channel) {
+    (f64::from(v), Channel::Byte(v))
+}
+fn of_i16(v: i16) -> (f64, Channel) {
+    (f64::from(v), Channel::Wide(v.max(0) as u16))
+}
+fn of_u16(v: u16) -> (f64, Channel) {
+    (f64::from(v), Channel::Wide(v))
+}
+fn of_i32(v: i32) -> (f64, Channel) {
+    (f64::from(v), Channel::Int(i64::from(v)))
+}
+fn of_u32(v: u32) -> (f64, Channel) {
+    (f64::from(v), Channel::Int(i64::from(v)))
+}
+fn of_f32(v: f32) -> (f64, Channel) {
+    (f64::from(v), Channel::Unit(f64::from(v)))
+}
+fn of_f64(v: f64) -> (f64, Channel) {
+    (v, Channel::Unit(v))
 }
 
 impl PropertyAccess for VertexRecord {
@@ -70,29 +123,28 @@ impl PropertyAccess for VertexRecord {
         }
     }
     fn set_char(&mut self, name: &str, value: i8) -> PropertyAccessResult {
-        self.set(name, f64::from(value), Channel::Int(i64::from(value)))
+        self.set(name, of_i8(value))
     }
     fn set_uchar(&mut self, name: &str, value: u8) -> PropertyAccessResult {
-        self.set(name, f64::from(value), Channel::Byte(value))
+        self.set(name, of_u8(value))
     }
     fn set_short(&mut self, name: &str, value: i16) -> PropertyAccessResult {
-        let wide = Channel::Wide(value.max(0) as u16);
-        self.set(name, f64::from(value), wide)
+        self.set(name, of_i16(value))
     }
     fn set_ushort(&mut self, name: &str, value: u16) -> PropertyAccessResult {
-        self.set(name, f64::from(value), Channel::Wide(value))
+        self.set(name, of_u16(value))
     }
     fn set_int(&mut self, name: &str, value: i32) -> PropertyAccessResult {
-        self.set(name, f64::from(value), Channel::Int(i64::from(value)))
+        self.set(name, of_i32(value))
     }
     fn set_uint(&mut self, name: &str, value: u32) -> PropertyAccessResult {
-        self.set(name, f64::from(value), Channel::Int(i64::from(value)))
+        self.set(name, of_u32(value))
     }
     fn set_float(&mut self, name: &str, value: f32) -> PropertyAccessResult {
-        self.set(name, f64::from(value), Channel::Unit(f64::from(value)))
+        self.set(name, of_f32(value))
     }
     fn set_double(&mut self, name: &str, value: f64) -> PropertyAccessResult {
-        self.set(name, value, Channel::Unit(value))
+        self.set(name, of_f64(value))
     }
 }
 
@@ -128,9 +180,27 @@ pub(crate) struct VertexBlock {
     pub(crate) attributes: PointAttributes,
 }
 
+/// One chunk's share of a [`VertexBlock`]'s arrays, written by one task.
+struct ChunkOut<'a> {
+    positions: &'a mut [DVec3],
+    normals: Option<&'a mut [DVec3]>,
+    colors: Option<&'a mut [[u8; 3]]>,
+    intensity: Option<&'a mut [f32]>,
+}
+
+/// `v` cut into pieces of `CHUNK` items, or `count` pieces of nothing when absent.
+fn pieces<T>(v: Option<&mut Vec<T>>, count: usize) -> Vec<Option<&mut [T]>> {
+    match v {
+        Some(v) => v.chunks_mut(CHUNK).map(Some).collect(),
+        None => (0..count).map(|_| None).collect(),
+    }
+}
+
 /// Decodes the `def.count` fixed-size binary records of `data` (exactly that many bytes; big-
-/// endian when `big_endian`), each through [`VertexRecord`]'s setters, as the record-at-a-time
-/// reader does; `normals`, `colors` and `intensity` (which intensity name) as its layout says.
+/// endian when `big_endian`) as the record-at-a-time reader does through [`VertexRecord`]'s
+/// setters (the same conversions, each property's slot resolved once instead of by name per
+/// record); `normals`, `colors` and `intensity` (which intensity name) as its layout says.
+/// Chunks of records are decoded in parallel straight into the block's arrays.
 /// `Err(index)`: the first record whose position is not finite.
 pub(crate) fn decode_vertex_block(
     data: &[u8],
@@ -139,22 +209,21 @@ pub(crate) fn decode_vertex_block(
     (normals, colors, intensity): (bool, bool, Option<usize>),
 ) -> Result<VertexBlock, usize> {
     let size = fixed_record_size(def).unwrap_or(0).max(1);
-    // The properties the record uses, with their offsets (the others are skipped).
-    let mut fields: Vec<(&str, ScalarType, usize)> = Vec::new();
+    // The properties the record uses, with their slots and offsets (the others are skipped).
+    let mut fields: Vec<(Slot, ScalarType, usize)> = Vec::new();
     let mut offset = 0;
     for (name, p) in &def.properties {
         if let PropertyType::Scalar(s) = &p.data_type {
-            let used = VertexRecord::new().set_double(name, 0.0) == PropertyAccessResult::Set;
-            if used {
-                fields.push((name.as_str(), s.clone(), offset));
+            if let Some(slot) = Slot::of(name) {
+                fields.push((slot, s.clone(), offset));
             }
             offset += scalar_size(s);
         }
     }
     let read = |r: &[u8]| -> VertexRecord {
         let mut rec = VertexRecord::new();
-        for (name, ty, at) in &fields {
-            let b = &r[*at..*at + scalar_size(ty)];
+        for &(slot, ref ty, at) in &fields {
+            let b = &r[at..at + scalar_size(ty)];
             macro_rules! num {
                 ($t:ty) => {{
                     let bytes = b.try_into().unwrap_or_default();
@@ -165,84 +234,75 @@ pub(crate) fn decode_vertex_block(
                     }
                 }};
             }
-            match ty {
-                ScalarType::Char => rec.set_char(name, b[0] as i8),
-                ScalarType::UChar => rec.set_uchar(name, b[0]),
-                ScalarType::Short => rec.set_short(name, num!(i16)),
-                ScalarType::UShort => rec.set_ushort(name, num!(u16)),
-                ScalarType::Int => rec.set_int(name, num!(i32)),
-                ScalarType::UInt => rec.set_uint(name, num!(u32)),
-                ScalarType::Float => rec.set_float(name, num!(f32)),
-                ScalarType::Double => rec.set_double(name, num!(f64)),
+            let (value, channel) = match ty {
+                ScalarType::Char => of_i8(b[0] as i8),
+                ScalarType::UChar => of_u8(b[0]),
+                ScalarType::Short => of_i16(num!(i16)),
+                ScalarType::UShort => of_u16(num!(u16)),
+                ScalarType::Int => of_i32(num!(i32)),
+                ScalarType::UInt => of_u32(num!(u32)),
+                ScalarType::Float => of_f32(num!(f32)),
+                ScalarType::Double => of_f64(num!(f64)),
             };
+            rec.put(slot, value, channel);
         }
         rec
     };
-    type Chunk = (
-        Vec<DVec3>,
-        Vec<DVec3>,
-        Vec<[u8; 3]>,
-        Vec<f32>,
-        Option<usize>,
-    );
-    let chunks: Vec<Chunk> = data
-        .par_chunks(CHUNK * size)
-        .enumerate()
-        .map(|(c, bytes)| {
-            let n = bytes.len() / size;
-            let mut out: Chunk = (
-                Vec::with_capacity(n),
-                Vec::with_capacity(if normals { n } else { 0 }),
-                Vec::with_capacity(if colors { n } else { 0 }),
-                Vec::with_capacity(if intensity.is_some() { n } else { 0 }),
-                None,
-            );
-            for (k, r) in bytes.chunks_exact(size).enumerate() {
-                let rec = read(r);
-                let p = DVec3::new(rec.v[0], rec.v[1], rec.v[2]);
-                if !p.is_finite() && out.4.is_none() {
-                    out.4 = Some(c * CHUNK + k);
-                }
-                out.0.push(p);
-                if normals {
-                    out.1.push(DVec3::new(rec.v[3], rec.v[4], rec.v[5]));
-                }
-                if colors {
-                    out.2.push(rec.rgb);
-                }
-                if let Some(which) = intensity {
-                    out.3.push(rec.intensity[which]);
-                }
-            }
-            out
-        })
-        .collect();
-    if let Some(bad) = chunks.iter().find_map(|c| c.4) {
-        return Err(bad);
-    }
     let count = data.len() / size;
+    // Zeroed allocations: fresh pages, written once by the decoding tasks.
     let mut block = VertexBlock {
-        positions: Vec::with_capacity(count),
-        normals: normals.then(|| Vec::with_capacity(count)),
+        positions: vec![DVec3::ZERO; count],
+        normals: normals.then(|| vec![DVec3::ZERO; count]),
         attributes: PointAttributes {
-            colors: colors.then(|| Vec::with_capacity(count)),
-            intensity: intensity.map(|_| Vec::with_capacity(count)),
+            colors: colors.then(|| vec![[0u8; 3]; count]),
+            intensity: intensity.map(|_| vec![0f32; count]),
             classification: None,
         },
     };
-    for (p, n, c, i, _) in chunks {
-        block.positions.extend(p);
-        if let Some(v) = &mut block.normals {
-            v.extend(n);
-        }
-        if let Some(v) = &mut block.attributes.colors {
-            v.extend(c);
-        }
-        if let Some(v) = &mut block.attributes.intensity {
-            v.extend(i);
-        }
+    let chunks = count.div_ceil(CHUNK);
+    let outs: Vec<ChunkOut<'_>> = block
+        .positions
+        .chunks_mut(CHUNK)
+        .zip(pieces(block.normals.as_mut(), chunks))
+        .zip(pieces(block.attributes.colors.as_mut(), chunks))
+        .zip(pieces(block.attributes.intensity.as_mut(), chunks))
+        .map(|(((positions, normals), colors), intensity)| ChunkOut {
+            positions,
+            normals,
+            colors,
+            intensity,
+        })
+        .collect();
+    let first_bad = outs
+        .into_par_iter()
+        .zip(data[..count * size].par_chunks(CHUNK * size))
+        .enumerate()
+        .filter_map(|(c, (mut out, bytes))| {
+            let mut bad = None;
+            for (k, r) in bytes.chunks_exact(size).enumerate() {
+                let rec = read(r);
+                let p = DVec3::new(rec.v[0], rec.v[1], rec.v[2]);
+                if !p.is_finite() && bad.is_none() {
+                    bad = Some(c * CHUNK + k);
+                }
+                out.positions[k] = p;
+                if let Some(n) = &mut out.normals {
+                    n[k] = DVec3::new(rec.v[3], rec.v[4], rec.v[5]);
+                }
+                if let Some(c) = &mut out.colors {
+                    c[k] = rec.rgb;
+                }
+                if let (Some(i), Some(which)) = (&mut out.intensity, intensity) {
+                    i[k] = rec.intensity[which];
+                }
+            }
+            bad
+        })
+        .min();
+    match first_bad {
+        Some(bad) => Err(bad),
+        None => Ok(block),
     }
-    Ok(block)
 }
 
 #[cfg(test)]
