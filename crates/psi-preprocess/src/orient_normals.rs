@@ -196,17 +196,35 @@ pub fn orient_normals_with(points: &mut [OrientedPoint], monitor: &Monitor<'_>) 
     } = &mut graphs;
     let n = sorted.len();
     let mut done = vec![false; n];
-    let mut order: Vec<u32> = (0..n as u32).collect();
-    order.par_sort_unstable_by(|&a, &b| {
-        sorted[b as usize]
-            .p
-            .x
-            .total_cmp(&sorted[a as usize].p.x)
-            .then(ids[a as usize].cmp(&ids[b as usize]))
-    });
+    let (adj, fallback, points_in_slots, ids) = (&*adj, &*fallback, &*sorted, &*ids);
+    // The seeds' order (largest x first) and the same-sheet islands are made beside the
+    // forest: they need only the graphs, and the forest's serial joins leave a core idle.
+    let by_x = || {
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        order.par_sort_unstable_by(|&a, &b| {
+            points_in_slots[b as usize]
+                .p
+                .x
+                .total_cmp(&points_in_slots[a as usize].p.x)
+                .then(ids[a as usize].cmp(&ids[b as usize]))
+        });
+        order
+    };
+    // The maximum-|n_i·n_j| spanning forest, every same-sheet edge above every other one,
+    // then each tree oriented from its first seed along its edges.
+    let forest = || {
+        maximum_spanning_forest(n, ids, |i, out| {
+            for (graph, rank) in [(adj, 1.0), (fallback, 0.0)] {
+                for &j in graph.row(i) {
+                    let dot = points_in_slots[i].n.dot(points_in_slots[j as usize].n);
+                    out.push((j, dot.abs() + rank));
+                }
+            }
+        })
+    };
+    let ((mut order, island), forest) = rayon::join(|| rayon::join(by_x, || islands(adj)), forest);
     // The first seed: the largest x of the largest same-sheet island (the whole surface,
     // usually), so that a small island at the extreme does not set everyone's side.
-    let island = islands(adj);
     let mut size = vec![0usize; n];
     for &c in &island {
         size[c as usize] += 1;
@@ -218,16 +236,6 @@ pub fn orient_normals_with(points: &mut [OrientedPoint], monitor: &Monitor<'_>) 
     {
         order[..=first].rotate_right(1);
     }
-    // The maximum-|n_i·n_j| spanning forest, every same-sheet edge above every other one,
-    // then each tree oriented from its first seed along its edges.
-    let forest = maximum_spanning_forest(n, ids, |i, out| {
-        for (graph, rank) in [(&*adj, 1.0), (&*fallback, 0.0)] {
-            for &j in graph.row(i) {
-                let dot = sorted[i].n.dot(sorted[j as usize].n);
-                out.push((j, dot.abs() + rank));
-            }
-        }
-    });
     if monitor.stopped() {
         return 0;
     }
