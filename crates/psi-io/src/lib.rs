@@ -104,7 +104,14 @@ use model::Parsed;
 /// Parses a text or PLY file (the formats read whole); the streamed formats go through
 /// [`read_points_from`].
 fn parse(bytes: &[u8], format: Format) -> Result<Parsed, ReadError> {
+    parse_as(bytes, format, false)
+}
+
+/// [`parse`]; `for_points`: only the points are wanted, not a mesh (a PLY without faces may
+/// then come back as `Parsed::oriented`).
+fn parse_as(bytes: &[u8], format: Format, for_points: bool) -> Result<Parsed, ReadError> {
     let mut parsed = match format {
+        Format::Ply if for_points => read_ply::read_ply_for_points(bytes),
         Format::Ply => read_ply::read_ply(bytes),
         Format::Obj => read_obj::read_obj(bytes),
         Format::Xyz => read_xyz::read_xyz(bytes),
@@ -150,7 +157,7 @@ pub fn read_points(
     if format.is_streamed() {
         return read_points_from(std::io::Cursor::new(bytes.to_vec()), format, opts);
     }
-    mesh_to_points::to_point_cloud(parse(bytes, format)?, opts)
+    mesh_to_points::to_point_cloud(parse_as(bytes, format, true)?, opts)
 }
 
 /// The oriented points of columns given in memory (a caller's arrays, not a file), read as an

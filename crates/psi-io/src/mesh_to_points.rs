@@ -115,15 +115,27 @@ fn vertex_normals(mesh: &TriangleMesh) -> (Vec<OrientedPoint>, usize, usize, Vec
 }
 
 /// The oriented points of `positions` (shape: N, world units) with their `normals` (shape: N,
-/// any length): each normal made unit, the points whose normal is zero left out. Computed in
-/// parallel. Returns the points and, when some were left out, the indices of those kept.
-///
-/// Errors: [`ReadError::NonFinite`] naming the first point whose normal is not finite.
+/// any length), as [`orient_in_place`] makes them. Computed in parallel.
 fn oriented_points(
     positions: &[DVec3],
     normals: &[DVec3],
 ) -> Result<(Vec<OrientedPoint>, Option<Vec<usize>>), ReadError> {
-    if let Some(index) = normals.par_iter().position_first(|n| !n.is_finite()) {
+    let mut points: Vec<OrientedPoint> = positions
+        .par_iter()
+        .zip(normals)
+        .map(|(&p, &n)| OrientedPoint { p, n })
+        .collect();
+    let kept = orient_in_place(&mut points)?;
+    Ok((points, kept))
+}
+
+/// Makes each point's normal (as read: any length) unit and leaves out the points whose
+/// normal is zero, in place and in parallel. Returns, when some were left out, the indices of
+/// those kept.
+///
+/// Errors: [`ReadError::NonFinite`] naming the first point whose normal is not finite.
+fn orient_in_place(points: &mut Vec<OrientedPoint>) -> Result<Option<Vec<usize>>, ReadError> {
+    if let Some(index) = points.par_iter().position_first(|q| !q.n.is_finite()) {
         return Err(ReadError::NonFinite {
             element: "vertex",
             index,
@@ -132,22 +144,17 @@ fn oriented_points(
         });
     }
     // A zero normal marks a point left out (`unit` never gives one).
-    let mut points: Vec<OrientedPoint> = positions
-        .par_iter()
-        .zip(normals)
-        .map(|(&p, &n)| OrientedPoint {
-            p,
-            n: unit(n).unwrap_or(DVec3::ZERO),
-        })
-        .collect();
+    points
+        .par_iter_mut()
+        .for_each(|q| q.n = unit(q.n).unwrap_or(DVec3::ZERO));
     if points.par_iter().all(|q| q.n != DVec3::ZERO) {
-        return Ok((points, None));
+        return Ok(None);
     }
     let kept = (0..points.len())
         .filter(|&i| points[i].n != DVec3::ZERO)
         .collect();
     points.retain(|q| q.n != DVec3::ZERO);
-    Ok((points, Some(kept)))
+    Ok(Some(kept))
 }
 
 /// Oriented points from parsed data per `opts`; see [`crate::read_points`] for the rules.
@@ -158,7 +165,28 @@ pub(crate) fn to_point_cloud(
     let vertices = parsed.vertices.len();
     let faces = parsed.faces.len();
     let source = parsed.source;
-    let result = if faces > 0 {
+    let result = if let Some(mut points) = parsed.oriented {
+        let vertices = points.len();
+        let kept = orient_in_place(&mut points)?;
+        let dropped_points = vertices - points.len();
+        let attributes = match kept {
+            Some(kept) if !parsed.attributes.is_empty() => {
+                attributes::select(&parsed.attributes, &kept)
+            }
+            _ => parsed.attributes,
+        };
+        PointCloudFile {
+            points,
+            normals: NormalSource::File,
+            vertices,
+            faces,
+            degenerate_faces: 0,
+            dropped_points,
+            mesh: None,
+            attributes,
+            source,
+        }
+    } else if faces > 0 {
         let mesh = TriangleMesh {
             vertices: parsed.vertices,
             faces: parsed.faces,

@@ -125,7 +125,11 @@ pub(crate) struct Parsed {
     pub(crate) normals: Option<Vec<DVec3>>,
     /// Triangles, indices `< vertices.len()`.
     pub(crate) faces: Vec<[u32; 3]>,
-    /// Per-vertex attributes, each present column as long as `vertices`.
+    /// The vertices with their normals as read (any length), when the reader made the points
+    /// directly (a PLY without faces read for its points): `vertices` and `normals` are then
+    /// empty.
+    pub(crate) oriented: Option<Vec<OrientedPoint>>,
+    /// Per-vertex attributes, each present column as long as `vertices` (or `oriented`).
     pub(crate) attributes: PointAttributes,
     /// What the file was (the format is set by the caller of the reader).
     pub(crate) source: SourceInfo,

@@ -21,7 +21,8 @@ use crate::error::ReadError;
 use crate::model::Parsed;
 use crate::text::is_blank;
 use crate::vertex_record::{
-    INTENSITY_NAMES, VertexRecord, decode_vertex_block, fixed_record_size, scalar_size,
+    INTENSITY_NAMES, VertexRecord, decode_oriented_block, decode_vertex_block, fixed_record_size,
+    scalar_size,
 };
 
 /// The two names PLY writers use for a face's vertex index list.
@@ -36,6 +37,17 @@ fn is_index_list(name: &str) -> bool {
 /// the `face` element's index lists, triangulated as fans. Other elements and properties are
 /// skipped.
 pub(crate) fn read_ply(bytes: &[u8]) -> Result<Parsed, ReadError> {
+    read_ply_as(bytes, false)
+}
+
+/// [`read_ply`] for the file's points only (not its mesh): a binary file without faces whose
+/// vertices have normals comes back as oriented points (`Parsed::oriented`), decoded straight
+/// into one array.
+pub(crate) fn read_ply_for_points(bytes: &[u8]) -> Result<Parsed, ReadError> {
+    read_ply_as(bytes, true)
+}
+
+fn read_ply_as(bytes: &[u8], for_points: bool) -> Result<Parsed, ReadError> {
     let (header, mut records) = open(bytes)?;
     let layout = Layout::of(&header)?;
     let mut parsed = Parsed::default();
@@ -45,7 +57,8 @@ pub(crate) fn read_ply(bytes: &[u8]) -> Result<Parsed, ReadError> {
             break;
         }
         if name == "vertex" {
-            read_vertices(&mut records, def, &layout, &mut parsed)?;
+            let oriented = for_points && !layout.faces && layout.normals;
+            read_vertices(&mut records, def, &layout, &mut parsed, oriented)?;
             pending -= 1;
         } else if layout.faces && name == "face" {
             parsed.faces = read_faces(&mut records, def, layout.vertex_count)?;
@@ -321,19 +334,27 @@ fn read_vertices(
     def: &ElementDef,
     layout: &Layout,
     parsed: &mut Parsed,
+    oriented: bool,
 ) -> Result<(), ReadError> {
     let normals = layout.normals;
+    let non_finite = |index| ReadError::NonFinite {
+        element: "vertex",
+        index,
+        what: "position",
+        line: None,
+    };
     // Binary records of one size: decoded in parallel through the same setters.
     if let Some((block, big_endian)) = records.fixed_block(def) {
+        if oriented {
+            let (points, attributes) =
+                decode_oriented_block(block, def, big_endian, (layout.colors, layout.intensity))
+                    .map_err(non_finite)?;
+            parsed.oriented = Some(points);
+            parsed.attributes = attributes;
+            return Ok(());
+        }
         let wanted = (normals, layout.colors, layout.intensity);
-        let block = decode_vertex_block(block, def, big_endian, wanted).map_err(|index| {
-            ReadError::NonFinite {
-                element: "vertex",
-                index,
-                what: "position",
-                line: None,
-            }
-        })?;
+        let block = decode_vertex_block(block, def, big_endian, wanted).map_err(non_finite)?;
         parsed.vertices = block.positions;
         parsed.normals = block.normals;
         parsed.attributes = block.attributes;

@@ -174,6 +174,7 @@ pub fn read_points_from<R: Read + Seek + Send + Sync + 'static>(
         vertices: all.positions,
         normals: all.normals,
         faces: Vec::new(),
+        oriented: None,
         attributes: all.attributes,
         source: SourceInfo {
             format: Some(header.format),

@@ -5,6 +5,7 @@
 
 use glam::DVec3;
 use ply_rs_bw::ply::{ElementDef, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType};
+use psi_octree::OrientedPoint;
 use rayon::prelude::*;
 
 use crate::attributes::{PointAttributes, channel_from_u16, channel_from_unit, intensity_value};
@@ -196,6 +197,54 @@ fn pieces<T>(v: Option<&mut Vec<T>>, count: usize) -> Vec<Option<&mut [T]>> {
     }
 }
 
+/// The properties of `def` a record uses, with their slots, types and byte offsets (the
+/// others are skipped), and the record size in bytes (at least 1).
+fn record_fields(def: &ElementDef) -> (Vec<(Slot, ScalarType, usize)>, usize) {
+    let size = fixed_record_size(def).unwrap_or(0).max(1);
+    let mut fields = Vec::new();
+    let mut offset = 0;
+    for (name, p) in &def.properties {
+        if let PropertyType::Scalar(s) = &p.data_type {
+            if let Some(slot) = Slot::of(name) {
+                fields.push((slot, s.clone(), offset));
+            }
+            offset += scalar_size(s);
+        }
+    }
+    (fields, size)
+}
+
+/// The record `r` (one record's bytes; big-endian when `big_endian`) through `fields`, with the
+/// setters' conversions.
+fn read_record(r: &[u8], fields: &[(Slot, ScalarType, usize)], big_endian: bool) -> VertexRecord {
+    let mut rec = VertexRecord::new();
+    for &(slot, ref ty, at) in fields {
+        let b = &r[at..at + scalar_size(ty)];
+        macro_rules! num {
+            ($t:ty) => {{
+                let bytes = b.try_into().unwrap_or_default();
+                if big_endian {
+                    <$t>::from_be_bytes(bytes)
+                } else {
+                    <$t>::from_le_bytes(bytes)
+                }
+            }};
+        }
+        let (value, channel) = match ty {
+            ScalarType::Char => of_i8(b[0] as i8),
+            ScalarType::UChar => of_u8(b[0]),
+            ScalarType::Short => of_i16(num!(i16)),
+            ScalarType::UShort => of_u16(num!(u16)),
+            ScalarType::Int => of_i32(num!(i32)),
+            ScalarType::UInt => of_u32(num!(u32)),
+            ScalarType::Float => of_f32(num!(f32)),
+            ScalarType::Double => of_f64(num!(f64)),
+        };
+        rec.put(slot, value, channel);
+    }
+    rec
+}
+
 /// Decodes the `def.count` fixed-size binary records of `data` (exactly that many bytes; big-
 /// endian when `big_endian`) as the record-at-a-time reader does through [`VertexRecord`]'s
 /// setters (the same conversions, each property's slot resolved once instead of by name per
@@ -208,46 +257,8 @@ pub(crate) fn decode_vertex_block(
     big_endian: bool,
     (normals, colors, intensity): (bool, bool, Option<usize>),
 ) -> Result<VertexBlock, usize> {
-    let size = fixed_record_size(def).unwrap_or(0).max(1);
-    // The properties the record uses, with their slots and offsets (the others are skipped).
-    let mut fields: Vec<(Slot, ScalarType, usize)> = Vec::new();
-    let mut offset = 0;
-    for (name, p) in &def.properties {
-        if let PropertyType::Scalar(s) = &p.data_type {
-            if let Some(slot) = Slot::of(name) {
-                fields.push((slot, s.clone(), offset));
-            }
-            offset += scalar_size(s);
-        }
-    }
-    let read = |r: &[u8]| -> VertexRecord {
-        let mut rec = VertexRecord::new();
-        for &(slot, ref ty, at) in &fields {
-            let b = &r[at..at + scalar_size(ty)];
-            macro_rules! num {
-                ($t:ty) => {{
-                    let bytes = b.try_into().unwrap_or_default();
-                    if big_endian {
-                        <$t>::from_be_bytes(bytes)
-                    } else {
-                        <$t>::from_le_bytes(bytes)
-                    }
-                }};
-            }
-            let (value, channel) = match ty {
-                ScalarType::Char => of_i8(b[0] as i8),
-                ScalarType::UChar => of_u8(b[0]),
-                ScalarType::Short => of_i16(num!(i16)),
-                ScalarType::UShort => of_u16(num!(u16)),
-                ScalarType::Int => of_i32(num!(i32)),
-                ScalarType::UInt => of_u32(num!(u32)),
-                ScalarType::Float => of_f32(num!(f32)),
-                ScalarType::Double => of_f64(num!(f64)),
-            };
-            rec.put(slot, value, channel);
-        }
-        rec
-    };
+    let (fields, size) = record_fields(def);
+    let read = |r: &[u8]| read_record(r, &fields, big_endian);
     let count = data.len() / size;
     // Zeroed allocations: fresh pages, written once by the decoding tasks.
     let mut block = VertexBlock {
@@ -303,6 +314,59 @@ pub(crate) fn decode_vertex_block(
         Some(bad) => Err(bad),
         None => Ok(block),
     }
+}
+
+/// The records of [`decode_vertex_block`] as oriented points (position, and normal as read:
+/// `nx ny nz`, any length), collected in parallel straight into one array, with the attributes
+/// `colors` and `intensity` ask for. `Err(index)`: the first record whose position is not
+/// finite.
+pub(crate) fn decode_oriented_block(
+    data: &[u8],
+    def: &ElementDef,
+    big_endian: bool,
+    (colors, intensity): (bool, Option<usize>),
+) -> Result<(Vec<OrientedPoint>, PointAttributes), usize> {
+    let (fields, size) = record_fields(def);
+    let records = &data[..(data.len() / size) * size];
+    let read = |r: &[u8]| read_record(r, &fields, big_endian);
+    let mut points = Vec::new();
+    records
+        .par_chunks_exact(size)
+        .map(|r| {
+            let rec = read(r);
+            OrientedPoint {
+                p: DVec3::new(rec.v[0], rec.v[1], rec.v[2]),
+                n: DVec3::new(rec.v[3], rec.v[4], rec.v[5]),
+            }
+        })
+        .collect_into_vec(&mut points);
+    if let Some(bad) = points.par_iter().position_first(|q| !q.p.is_finite()) {
+        return Err(bad);
+    }
+    let colors = colors.then(|| {
+        let mut out = Vec::new();
+        records
+            .par_chunks_exact(size)
+            .map(|r| read(r).rgb)
+            .collect_into_vec(&mut out);
+        out
+    });
+    let intensity = intensity.map(|which| {
+        let mut out = Vec::new();
+        records
+            .par_chunks_exact(size)
+            .map(|r| read(r).intensity[which])
+            .collect_into_vec(&mut out);
+        out
+    });
+    Ok((
+        points,
+        PointAttributes {
+            colors,
+            intensity,
+            classification: None,
+        },
+    ))
 }
 
 #[cfg(test)]
@@ -444,5 +508,63 @@ mod tests {
         }
         let err = read_ply(&bytes).unwrap_err();
         assert!(err.to_string().contains("150001"), "{err}");
+    }
+
+    /// A binary PLY without faces read for its points (decoded straight into oriented points)
+    /// gives the points, attributes and counts that the mesh reader's vertices and normals give
+    /// (zero normals left out with their attributes, the first non-finite normal named).
+    #[test]
+    fn points_decoded_for_themselves_are_the_vertex_readers() {
+        use crate::mesh_to_points::to_point_cloud;
+        use crate::options::ReadOptions;
+        use crate::read_ply::read_ply_for_points;
+        let mut rng = Pcg64Mcg::seed_from_u64(7);
+        for (count, zeros, nan) in [
+            (10usize, vec![3usize], None),
+            (70_000, vec![], None),
+            (200_000, vec![0, 70_000, 199_999], None),
+            (200_000, vec![5], Some(150_001usize)),
+        ] {
+            let mut bytes = format!(
+                "ply\nformat binary_little_endian 1.0\nelement vertex {count}\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n"
+            )
+            .into_bytes();
+            for i in 0..count {
+                let mut v: Vec<f32> = (0..6).map(|_| rng.random_range(-2.0..2.0)).collect();
+                if zeros.contains(&i) {
+                    v[3..].fill(0.0);
+                }
+                if nan == Some(i) {
+                    v[4] = f32::NAN;
+                }
+                for x in v {
+                    bytes.extend(x.to_le_bytes());
+                }
+                bytes.extend([(i % 251) as u8, (i % 7) as u8, 9]);
+            }
+            let opts = ReadOptions::paper();
+            let direct = read_ply_for_points(&bytes).unwrap();
+            assert!(direct.oriented.is_some() && direct.vertices.is_empty());
+            let got = to_point_cloud(direct, &opts);
+            let want = to_point_cloud(read_ply(&bytes).unwrap(), &opts);
+            match (got, want) {
+                (Ok(a), Ok(b)) => {
+                    assert_eq!(a, b, "{count} points");
+                    assert_eq!(a.dropped_points, zeros.len());
+                    assert_eq!(
+                        a.attributes.colors.as_ref().map(Vec::len),
+                        Some(a.points.len())
+                    );
+                }
+                (Err(a), Err(b)) => {
+                    assert_eq!(a.to_string(), b.to_string());
+                    assert!(
+                        nan.is_some_and(|k| a.to_string().contains(&k.to_string())),
+                        "{a}"
+                    );
+                }
+                (a, b) => panic!("{count} points: {a:?} against {b:?}"),
+            }
+        }
     }
 }
