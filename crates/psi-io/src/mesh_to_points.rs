@@ -5,9 +5,9 @@ use glam::DVec3;
 use psi_octree::OrientedPoint;
 use rayon::prelude::*;
 
-use crate::attributes;
+use crate::attributes::{self, PointAttributes};
 use crate::error::ReadError;
-use crate::model::{NormalSource, Parsed, PointCloudFile, TriangleMesh};
+use crate::model::{NormalSource, Parsed, PointCloudFile, SourceInfo, TriangleMesh};
 use crate::options::{MeshSampling, ReadOptions};
 
 /// `v / |v|`, robust to lengths that under- or overflow when squared; `None` for a zero or
@@ -114,19 +114,31 @@ fn vertex_normals(mesh: &TriangleMesh) -> (Vec<OrientedPoint>, usize, usize, Vec
     (points, degenerate, dropped, kept)
 }
 
-/// The oriented points of `positions` (shape: N, world units) with their `normals` (shape: N,
-/// any length), as [`orient_in_place`] makes them. Computed in parallel.
-fn oriented_points(
-    positions: &[DVec3],
-    normals: &[DVec3],
-) -> Result<(Vec<OrientedPoint>, Option<Vec<usize>>), ReadError> {
-    let mut points: Vec<OrientedPoint> = positions
-        .par_iter()
-        .zip(normals)
-        .map(|(&p, &n)| OrientedPoint { p, n })
-        .collect();
+/// The file of `points` with their normals as read (any length; see [`orient_in_place`]) and
+/// their `attributes` (aligned, or empty), from a file of `faces` (0) faces read as `source`.
+fn file_of_points(
+    mut points: Vec<OrientedPoint>,
+    attributes: PointAttributes,
+    faces: usize,
+    source: SourceInfo,
+) -> Result<PointCloudFile, ReadError> {
+    let vertices = points.len();
     let kept = orient_in_place(&mut points)?;
-    Ok((points, kept))
+    let attributes = match kept {
+        Some(kept) if !attributes.is_empty() => attributes::select(&attributes, &kept),
+        _ => attributes,
+    };
+    Ok(PointCloudFile {
+        dropped_points: vertices - points.len(),
+        points,
+        normals: NormalSource::File,
+        vertices,
+        faces,
+        degenerate_faces: 0,
+        mesh: None,
+        attributes,
+        source,
+    })
 }
 
 /// Makes each point's normal (as read: any length) unit and leaves out the points whose
@@ -165,27 +177,8 @@ pub(crate) fn to_point_cloud(
     let vertices = parsed.vertices.len();
     let faces = parsed.faces.len();
     let source = parsed.source;
-    let result = if let Some(mut points) = parsed.oriented {
-        let vertices = points.len();
-        let kept = orient_in_place(&mut points)?;
-        let dropped_points = vertices - points.len();
-        let attributes = match kept {
-            Some(kept) if !parsed.attributes.is_empty() => {
-                attributes::select(&parsed.attributes, &kept)
-            }
-            _ => parsed.attributes,
-        };
-        PointCloudFile {
-            points,
-            normals: NormalSource::File,
-            vertices,
-            faces,
-            degenerate_faces: 0,
-            dropped_points,
-            mesh: None,
-            attributes,
-            source,
-        }
+    let result = if let Some(points) = parsed.oriented {
+        file_of_points(points, parsed.attributes, faces, source)?
     } else if faces > 0 {
         let mesh = TriangleMesh {
             vertices: parsed.vertices,
@@ -256,25 +249,13 @@ pub(crate) fn to_point_cloud(
         }
     } else {
         let normals = parsed.normals.unwrap_or_default();
-        let (points, kept) = oriented_points(&parsed.vertices, &normals)?;
-        let dropped_points = vertices - points.len();
-        let attributes = match kept {
-            Some(kept) if !parsed.attributes.is_empty() => {
-                attributes::select(&parsed.attributes, &kept)
-            }
-            _ => parsed.attributes,
-        };
-        PointCloudFile {
-            points,
-            normals: NormalSource::File,
-            vertices,
-            faces,
-            degenerate_faces: 0,
-            dropped_points,
-            mesh: None,
-            attributes,
-            source,
-        }
+        let points = parsed
+            .vertices
+            .par_iter()
+            .zip(&normals)
+            .map(|(&p, &n)| OrientedPoint { p, n })
+            .collect();
+        file_of_points(points, parsed.attributes, faces, source)?
     };
     if result.points.is_empty() {
         return Err(ReadError::NoPoints {
@@ -302,6 +283,20 @@ pub(crate) fn to_mesh(parsed: Parsed) -> Result<TriangleMesh, ReadError> {
 mod tests {
     use super::*;
 
+    /// `orient_in_place` of the points of `positions` with `normals` (as read).
+    fn raw_oriented(
+        positions: &[DVec3],
+        normals: &[DVec3],
+    ) -> Result<(Vec<OrientedPoint>, Option<Vec<usize>>), ReadError> {
+        let mut points: Vec<OrientedPoint> = positions
+            .iter()
+            .zip(normals)
+            .map(|(&p, &n)| OrientedPoint { p, n })
+            .collect();
+        let kept = orient_in_place(&mut points)?;
+        Ok((points, kept))
+    }
+
     /// The parallel points against a plain loop: unit normals, zero ones left out with the
     /// indices of the kept, the first non-finite normal named.
     #[test]
@@ -318,7 +313,7 @@ mod tests {
                     }
                 })
                 .collect();
-            let (points, kept) = oriented_points(&positions, &normals).unwrap();
+            let (points, kept) = raw_oriented(&positions, &normals).unwrap();
             let want: Vec<usize> = (0..n).filter(|i| !zeros.contains(i)).collect();
             assert_eq!(points.len(), want.len());
             for (q, &i) in points.iter().zip(&want) {
@@ -330,7 +325,7 @@ mod tests {
         let mut normals = vec![DVec3::Z; n];
         normals[90_000] = DVec3::new(f64::INFINITY, 0.0, 0.0);
         normals[60_000] = DVec3::new(0.0, f64::NAN, 0.0);
-        let err = oriented_points(&positions, &normals).unwrap_err();
+        let err = raw_oriented(&positions, &normals).unwrap_err();
         assert!(err.to_string().contains("60000"), "{err}");
     }
 
