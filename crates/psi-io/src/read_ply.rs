@@ -9,7 +9,6 @@
 use std::collections::HashSet;
 use std::io::ErrorKind;
 
-use glam::DVec3;
 use ply_rs_bw::parser::{ParseError, Parser, Reader};
 use ply_rs_bw::ply::{
     BeginList, ElementDef, Encoding, Header, PropertyAccess, PropertyAccessResult, PropertyType,
@@ -371,8 +370,7 @@ fn read_vertices(
     };
     for index in 0..def.count {
         let record = records.read(&parser, def, index)?;
-        let v = record.v;
-        let p = DVec3::new(v[0], v[1], v[2]);
+        let p = record.position();
         if !p.is_finite() {
             return Err(ReadError::NonFinite {
                 element: "vertex",
@@ -383,7 +381,7 @@ fn read_vertices(
         }
         positions.push(p);
         if normals {
-            vertex_normals.push(DVec3::new(v[3], v[4], v[5]));
+            vertex_normals.push(record.normal());
         }
         if let Some(colors) = &mut attributes.colors {
             colors.push(record.rgb);

@@ -1,6 +1,6 @@
 //! One PLY vertex record as psi reads it ([`VertexRecord`], filled through `ply-rs-bw`'s
-//! setters), and the binary vertex blocks whose records all have one size decoded in parallel
-//! chunks through the same setters (issue "Throughput": the record-at-a-time reader works on
+//! setters), and the binary vertex blocks whose records all have one size decoded in parallel,
+//! array by array, through the same conversions (issue "Throughput": the record-at-a-time reader works on
 //! one core; measured in docs/notes/2026-11-26-throughput.md).
 
 use glam::DVec3;
@@ -60,6 +60,16 @@ impl Slot {
 }
 
 impl VertexRecord {
+    /// `x y z` (world units).
+    pub(crate) fn position(&self) -> DVec3 {
+        DVec3::new(self.v[0], self.v[1], self.v[2])
+    }
+
+    /// `nx ny nz` as read (any length).
+    pub(crate) fn normal(&self) -> DVec3 {
+        DVec3::new(self.v[3], self.v[4], self.v[5])
+    }
+
     fn set(&mut self, name: &str, (value, channel): (f64, Channel)) -> PropertyAccessResult {
         match Slot::of(name) {
             Some(slot) => {
@@ -149,9 +159,6 @@ impl PropertyAccess for VertexRecord {
     }
 }
 
-/// Records per parallel chunk.
-const CHUNK: usize = 1 << 16;
-
 /// Bytes of a scalar of type `s`.
 pub(crate) fn scalar_size(s: &ScalarType) -> usize {
     match s {
@@ -179,22 +186,6 @@ pub(crate) struct VertexBlock {
     pub(crate) positions: Vec<DVec3>,
     pub(crate) normals: Option<Vec<DVec3>>,
     pub(crate) attributes: PointAttributes,
-}
-
-/// One chunk's share of a [`VertexBlock`]'s arrays, written by one task.
-struct ChunkOut<'a> {
-    positions: &'a mut [DVec3],
-    normals: Option<&'a mut [DVec3]>,
-    colors: Option<&'a mut [[u8; 3]]>,
-    intensity: Option<&'a mut [f32]>,
-}
-
-/// `v` cut into pieces of `CHUNK` items, or `count` pieces of nothing when absent.
-fn pieces<T>(v: Option<&mut Vec<T>>, count: usize) -> Vec<Option<&mut [T]>> {
-    match v {
-        Some(v) => v.chunks_mut(CHUNK).map(Some).collect(),
-        None => (0..count).map(|_| None).collect(),
-    }
 }
 
 /// The properties of `def` a record uses, with their slots, types and byte offsets (the
@@ -249,7 +240,7 @@ fn read_record(r: &[u8], fields: &[(Slot, ScalarType, usize)], big_endian: bool)
 /// endian when `big_endian`) as the record-at-a-time reader does through [`VertexRecord`]'s
 /// setters (the same conversions, each property's slot resolved once instead of by name per
 /// record); `normals`, `colors` and `intensity` (which intensity name) as its layout says.
-/// Chunks of records are decoded in parallel straight into the block's arrays.
+/// Each array is collected in parallel straight into its allocation.
 /// `Err(index)`: the first record whose position is not finite.
 pub(crate) fn decode_vertex_block(
     data: &[u8],
@@ -257,63 +248,25 @@ pub(crate) fn decode_vertex_block(
     big_endian: bool,
     (normals, colors, intensity): (bool, bool, Option<usize>),
 ) -> Result<VertexBlock, usize> {
-    let (fields, size) = record_fields(def);
-    let read = |r: &[u8]| read_record(r, &fields, big_endian);
-    let count = data.len() / size;
-    // Zeroed allocations: fresh pages, written once by the decoding tasks.
-    let mut block = VertexBlock {
-        positions: vec![DVec3::ZERO; count],
-        normals: normals.then(|| vec![DVec3::ZERO; count]),
-        attributes: PointAttributes {
-            colors: colors.then(|| vec![[0u8; 3]; count]),
-            intensity: intensity.map(|_| vec![0f32; count]),
-            classification: None,
-        },
+    let records = Records::of(data, def, big_endian);
+    let (positions, normals) = if normals {
+        let (mut positions, mut normals) = (Vec::new(), Vec::new());
+        records
+            .par_iter()
+            .map(|rec| (rec.position(), rec.normal()))
+            .unzip_into_vecs(&mut positions, &mut normals);
+        (positions, Some(normals))
+    } else {
+        (records.column(|rec| rec.position()), None)
     };
-    let chunks = count.div_ceil(CHUNK);
-    let outs: Vec<ChunkOut<'_>> = block
-        .positions
-        .chunks_mut(CHUNK)
-        .zip(pieces(block.normals.as_mut(), chunks))
-        .zip(pieces(block.attributes.colors.as_mut(), chunks))
-        .zip(pieces(block.attributes.intensity.as_mut(), chunks))
-        .map(|(((positions, normals), colors), intensity)| ChunkOut {
-            positions,
-            normals,
-            colors,
-            intensity,
-        })
-        .collect();
-    let first_bad = outs
-        .into_par_iter()
-        .zip(data[..count * size].par_chunks(CHUNK * size))
-        .enumerate()
-        .filter_map(|(c, (mut out, bytes))| {
-            let mut bad = None;
-            for (k, r) in bytes.chunks_exact(size).enumerate() {
-                let rec = read(r);
-                let p = DVec3::new(rec.v[0], rec.v[1], rec.v[2]);
-                if !p.is_finite() && bad.is_none() {
-                    bad = Some(c * CHUNK + k);
-                }
-                out.positions[k] = p;
-                if let Some(n) = &mut out.normals {
-                    n[k] = DVec3::new(rec.v[3], rec.v[4], rec.v[5]);
-                }
-                if let Some(c) = &mut out.colors {
-                    c[k] = rec.rgb;
-                }
-                if let (Some(i), Some(which)) = (&mut out.intensity, intensity) {
-                    i[k] = rec.intensity[which];
-                }
-            }
-            bad
-        })
-        .min();
-    match first_bad {
-        Some(bad) => Err(bad),
-        None => Ok(block),
+    if let Some(bad) = positions.par_iter().position_first(|p| !p.is_finite()) {
+        return Err(bad);
     }
+    Ok(VertexBlock {
+        positions,
+        normals,
+        attributes: records.attributes(colors, intensity),
+    })
 }
 
 /// The records of [`decode_vertex_block`] as oriented points (position, and normal as read:
@@ -326,47 +279,59 @@ pub(crate) fn decode_oriented_block(
     big_endian: bool,
     (colors, intensity): (bool, Option<usize>),
 ) -> Result<(Vec<OrientedPoint>, PointAttributes), usize> {
-    let (fields, size) = record_fields(def);
-    let records = &data[..(data.len() / size) * size];
-    let read = |r: &[u8]| read_record(r, &fields, big_endian);
-    let mut points = Vec::new();
-    records
-        .par_chunks_exact(size)
-        .map(|r| {
-            let rec = read(r);
-            OrientedPoint {
-                p: DVec3::new(rec.v[0], rec.v[1], rec.v[2]),
-                n: DVec3::new(rec.v[3], rec.v[4], rec.v[5]),
-            }
-        })
-        .collect_into_vec(&mut points);
+    let records = Records::of(data, def, big_endian);
+    let points = records.column(|rec| OrientedPoint {
+        p: rec.position(),
+        n: rec.normal(),
+    });
     if let Some(bad) = points.par_iter().position_first(|q| !q.p.is_finite()) {
         return Err(bad);
     }
-    let colors = colors.then(|| {
+    Ok((points, records.attributes(colors, intensity)))
+}
+
+/// A block of fixed-size binary records with the fields a [`VertexRecord`] reads of them.
+struct Records<'a> {
+    /// Whole records only (a trailing partial record is left out).
+    bytes: &'a [u8],
+    fields: Vec<(Slot, ScalarType, usize)>,
+    size: usize,
+    big_endian: bool,
+}
+
+impl<'a> Records<'a> {
+    fn of(data: &'a [u8], def: &ElementDef, big_endian: bool) -> Self {
+        let (fields, size) = record_fields(def);
+        Self {
+            bytes: &data[..(data.len() / size) * size],
+            fields,
+            size,
+            big_endian,
+        }
+    }
+
+    /// The records decoded, in order, in parallel.
+    fn par_iter(&self) -> impl IndexedParallelIterator<Item = VertexRecord> + '_ {
+        self.bytes
+            .par_chunks_exact(self.size)
+            .map(|r| read_record(r, &self.fields, self.big_endian))
+    }
+
+    /// One value per record (shape: the record count), collected in parallel.
+    fn column<T: Send>(&self, f: impl Fn(VertexRecord) -> T + Sync + Send) -> Vec<T> {
         let mut out = Vec::new();
-        records
-            .par_chunks_exact(size)
-            .map(|r| read(r).rgb)
-            .collect_into_vec(&mut out);
+        self.par_iter().map(f).collect_into_vec(&mut out);
         out
-    });
-    let intensity = intensity.map(|which| {
-        let mut out = Vec::new();
-        records
-            .par_chunks_exact(size)
-            .map(|r| read(r).intensity[which])
-            .collect_into_vec(&mut out);
-        out
-    });
-    Ok((
-        points,
+    }
+
+    /// The colours when `colors`, the intensity named `intensity` when given.
+    fn attributes(&self, colors: bool, intensity: Option<usize>) -> PointAttributes {
         PointAttributes {
-            colors,
-            intensity,
+            colors: colors.then(|| self.column(|rec| rec.rgb)),
+            intensity: intensity.map(|which| self.column(|rec| rec.intensity[which])),
             classification: None,
-        },
-    ))
+        }
+    }
 }
 
 #[cfg(test)]
