@@ -32,7 +32,8 @@ impl Clone for MpuBuffers {
 
 impl MpuBuffers {
     /// Buffers sized for an MPU like `mpu` (about its cells, its number of points), their
-    /// memory touched once.
+    /// memory touched once. No footprint table: a brush carries `mpu`'s
+    /// ([`Mpu::carry_footprint`]), and a table allocated here would only be freed then.
     pub fn like(mpu: &Mpu) -> Self {
         let n = mpu.points.len();
         let blank = OrientedPoint {
@@ -50,15 +51,13 @@ impl MpuBuffers {
             octree: OctreeBuffers::with_capacity(cells, n),
             nodes: Vec::with_capacity(cells),
             candidates: Vec::with_capacity(cells),
-            input_local: Vec::with_capacity(n),
+            input_local: Vec::new(),
         };
         // Touched once, then emptied (capacity kept).
         b.nodes.extend(mpu.nodes.iter().copied());
         b.nodes.clear();
         b.candidates.resize_with(cells, OnceLock::new);
         b.candidates.clear();
-        b.input_local.resize_with(n, Default::default);
-        b.input_local.clear();
         b
     }
 

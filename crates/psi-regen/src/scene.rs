@@ -309,8 +309,10 @@ impl Scene {
         // Carrying the footprint table checks the entries near the changed positions, a fresh
         // one writes 64 bytes a point in order: carry below 1 changed position in 16 points
         // (near the measured break-even: notes 2026-11-25-edit-index, 2026-11-27-edit-balls;
-        // both give the same answers).
-        let carry = synced.is_some() && 16 * changed.len() < points.len();
+        // both give the same answers). Every brush may carry, the first of a scene too: the
+        // scene then keeps one table from stroke to stroke, and no stroke frees a second
+        // (64 bytes a point: 9 ms on the David stand-in, docs/notes/2026-11-29-edit-hitches.md).
+        let carry = matches!(edit, Edit::Brush { .. }) && 16 * changed.len() < points.len();
         let options = BuildOptions {
             frame: Some(*self.mpu.frame()),
             reuse: Some(Reuse {
