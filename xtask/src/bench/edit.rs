@@ -171,6 +171,26 @@ fn phases_median(strokes: &[Stroke]) -> Value {
     })
 }
 
+/// One stroke's frame (ms), its size and its phases (ms).
+fn stroke_row(s: &Stroke) -> Value {
+    let (r, b) = (&s.report, &s.build);
+    json!({
+        "frame_ms": 1e3 * s.frame,
+        "marked_cells": r.marked_cells,
+        "regenerated": r.particles_regenerated,
+        "edit_ms": 1e3 * r.edit_seconds,
+        "mark_ms": 1e3 * r.mark_seconds,
+        "mpu_prepare_ms": 1e3 * b.prepare,
+        "mpu_ms": 1e3 * r.mpu_seconds,
+        // The frame outside the MPU and the particles (replacing the earlier MPU, mostly).
+        "rest_ms": 1e3 * (s.frame - r.mpu_seconds - r.particle_seconds),
+        "mpu_indexes_ms": 1e3 * b.indexes,
+        "mpu_fits_and_octree_ms": 1e3 * b.fits_and_octree,
+        "mpu_assemble_ms": 1e3 * b.assemble,
+        "particles_ms": 1e3 * r.particle_seconds,
+    })
+}
+
 /// Median, worst and first of a series (ms).
 fn summary(values: &[f64]) -> Value {
     let warm = &values[1.min(values.len())..];
@@ -286,6 +306,8 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             "settle_median_ms": 1e3 * median(&pick(&|s| s.settle)),
             "cpu_per_stroke_median_ms": 1e3 * median(&pick(&|s| s.cpu)),
             "phases_median_ms": phases_median(all),
+            // Every warm stroke, in order (drag after drag), to find what the worst ones do.
+            "warm_strokes": all.iter().map(stroke_row).collect::<Vec<_>>(),
         });
         let f = &row["frame"];
         let ph = &row["phases_median_ms"];
