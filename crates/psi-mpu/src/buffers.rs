@@ -11,7 +11,7 @@ use crate::data_footprint::InputLocalSlot;
 use crate::eval_nodes::EvalNode;
 
 /// Memory for an MPU build to fill instead of allocating: the largest arrays of an earlier MPU
-/// ([`Mpu::into_buffers`]) or fresh ones touched once ([`MpuBuffers::like`]). Memory the
+/// ([`Mpu::into_buffers`]) or fresh ones touched once ([`MpuBuffers::in_step_with`]). Memory the
 /// process already maps costs nothing to write; fresh memory costs a page fault per 4 KiB.
 #[derive(Debug, Default)]
 pub struct MpuBuffers {
@@ -31,24 +31,17 @@ impl Clone for MpuBuffers {
 }
 
 impl MpuBuffers {
-    /// Buffers sized for an MPU like `mpu` (about its cells, its number of points), their
-    /// memory touched once. No footprint table: a brush carries `mpu`'s
-    /// ([`Mpu::carry_footprint`]), and a table allocated here would only be freed then.
-    pub fn like(mpu: &Mpu) -> Self {
-        let n = mpu.points.len();
-        let blank = OrientedPoint {
-            p: DVec3::ZERO,
-            n: DVec3::ZERO,
-        };
-        let mut points = vec![blank; n];
-        points.clear();
-        let mut positions = vec![DVec3::ZERO; n];
-        positions.clear();
+    /// Buffers for the build after `mpu`'s, in step with it: its points and their local
+    /// positions copied (a brush then brings up to date only the points it moves:
+    /// [`crate::BuildOptions::synced`] with no earlier lag), the other arrays sized like its
+    /// (about its cells) and their memory touched once. No footprint table: a brush carries
+    /// `mpu`'s ([`Mpu::carry_footprint`]), and a table allocated here would only be freed then.
+    pub fn in_step_with(mpu: &Mpu) -> Self {
         let cells = mpu.octree.cells().len() + 1024;
         let mut b = Self {
-            points,
-            positions,
-            octree: OctreeBuffers::with_capacity(cells, n),
+            points: mpu.points.clone(),
+            positions: mpu.octree.positions().to_vec(),
+            octree: OctreeBuffers::with_capacity(cells, mpu.points.len()),
             nodes: Vec::with_capacity(cells),
             candidates: Vec::with_capacity(cells),
             input_local: Vec::new(),

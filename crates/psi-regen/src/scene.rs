@@ -29,8 +29,9 @@ pub struct Scene {
     mpu_params: MpuParams,
     particle_params: ParticleParams,
     /// Memory the next edit builds its MPU in: the arrays of the MPU it replaced last, or
-    /// fresh ones touched when the scene was made, so that no edit (the first included) pays
-    /// for new pages (the price: one more MPU's worth of memory; notes: local regeneration).
+    /// fresh ones touched when the scene was made (with a copy of the points, in step), so
+    /// that no edit (the first included) pays for new pages or a copy of every point (the
+    /// price: one more MPU's worth of memory; notes: local regeneration).
     spare: MpuBuffers,
     /// The last stroke's relaxation when it is still settling ([`Scene::apply_deferred`]).
     pending: Option<Pending>,
@@ -77,9 +78,9 @@ impl Scene {
         let run = psi_particles::sample_with(&mpu, particle_params, monitor)?;
         let particle_attributes = transfer_attributes(&mpu, &run.particles, &attributes);
         let field = run.report.density;
-        let spare = MpuBuffers::like(&mpu);
+        let spare = MpuBuffers::in_step_with(&mpu);
         let scene = Scene {
-            spare_lag: None,
+            spare_lag: Some(Vec::new()),
             pending: None,
             spare,
             mpu,
@@ -118,9 +119,9 @@ impl Scene {
         };
         let mpu = Mpu::build_with(points, mpu_params, options)?;
         Ok(Scene {
-            spare_lag: None,
+            spare_lag: Some(Vec::new()),
             pending: None,
-            spare: MpuBuffers::like(&mpu),
+            spare: MpuBuffers::in_step_with(&mpu),
             mpu,
             particles,
             attributes,
