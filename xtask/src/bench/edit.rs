@@ -254,6 +254,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         radius: f64,
         all: Vec<Stroke>,
         firsts: Vec<f64>,
+        first_rows: Vec<Value>,
     }
     let mut runs = Vec::new();
     for name in &models {
@@ -271,6 +272,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             radius,
             all: Vec::new(),
             firsts: Vec::new(),
+            first_rows: Vec::new(),
         });
     }
     for seed in first_seed..first_seed + seeds {
@@ -278,6 +280,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             let edits = drag(&m.points, &m.index, m.radius, seed, strokes);
             let mut run = session(&m.points, &edits, FRAME_ITERATIONS)?;
             m.firsts.push(run[0].frame);
+            m.first_rows.push(stroke_row(&run[0]));
             m.all.extend(run.drain(1..));
         }
     }
@@ -289,6 +292,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             radius,
             all,
             firsts,
+            first_rows,
         } = m;
         let (radius, d) = (*radius, diagonal(points));
         let pick = |f: &dyn Fn(&Stroke) -> f64| -> Vec<f64> { all.iter().map(f).collect() };
@@ -303,6 +307,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             "regenerated_median": median(&pick(&|s| s.report.particles_regenerated as f64)),
             "frame": summary(&frames),
             "first_strokes_ms": firsts.iter().map(|f| 1e3 * f).collect::<Vec<_>>(),
+            "first_strokes": first_rows,
             "settle_median_ms": 1e3 * median(&pick(&|s| s.settle)),
             "cpu_per_stroke_median_ms": 1e3 * median(&pick(&|s| s.cpu)),
             "phases_median_ms": phases_median(all),
