@@ -56,6 +56,8 @@ fn convex(a: &Piece, b: &Piece) -> bool {
 }
 
 /// Splits the points by which of `axes` their normal is closest to and fits each cluster.
+/// The clusters are laid out one after another in one copy of the points, each in the input's
+/// order (the sums of its fit are those of a cluster gathered point by point).
 fn clusters<const K: usize>(
     pos: &[DVec3],
     nrm: &[DVec3],
@@ -63,23 +65,33 @@ fn clusters<const K: usize>(
     axes: [DVec3; K],
     scale: f64,
 ) -> Option<[Piece; K]> {
-    let mut sel: [(Vec<DVec3>, Vec<DVec3>, Vec<f64>); K] =
-        std::array::from_fn(|_| Default::default());
-    for k in 0..pos.len() {
-        let best = (0..K).max_by(|&a, &b| {
-            nrm[k]
-                .dot(axes[a])
-                .total_cmp(&nrm[k].dot(axes[b]))
-                .then(b.cmp(&a))
-        })?;
-        sel[best].0.push(pos[k]);
-        sel[best].1.push(nrm[k]);
-        sel[best].2.push(w[k]);
+    let mut of = Vec::with_capacity(pos.len());
+    let mut counts = [0usize; K];
+    for n in nrm {
+        let best =
+            (0..K).max_by(|&a, &b| n.dot(axes[a]).total_cmp(&n.dot(axes[b])).then(b.cmp(&a)))?;
+        of.push(best);
+        counts[best] += 1;
     }
-    let pieces: Vec<Piece> = sel
-        .iter()
-        .map(|(p, n, w)| fit_piece(p, n, w, scale))
-        .collect::<Option<_>>()?;
+    let mut starts = [0usize; K];
+    for c in 1..K {
+        starts[c] = starts[c - 1] + counts[c - 1];
+    }
+    let (mut p, mut n, mut v) = (
+        vec![DVec3::ZERO; pos.len()],
+        vec![DVec3::ZERO; pos.len()],
+        vec![0.0; pos.len()],
+    );
+    let mut at = starts;
+    for (k, &c) in of.iter().enumerate() {
+        (p[at[c]], n[at[c]], v[at[c]]) = (pos[k], nrm[k], w[k]);
+        at[c] += 1;
+    }
+    let mut pieces = Vec::with_capacity(K);
+    for c in 0..K {
+        let r = starts[c]..starts[c] + counts[c];
+        pieces.push(fit_piece(&p[r.clone()], &n[r.clone()], &v[r], scale)?);
+    }
     pieces.try_into().ok()
 }
 
