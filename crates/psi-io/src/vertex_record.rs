@@ -1,7 +1,7 @@
 //! One PLY vertex record as psi reads it ([`VertexRecord`], filled through `ply-rs-bw`'s
 //! setters), and the binary vertex blocks whose records all have one size decoded in parallel,
-//! array by array, through the same conversions (issue "Throughput": the record-at-a-time reader works on
-//! one core; measured in docs/notes/2026-11-26-throughput.md).
+//! array by array, through the same conversions (issue "Throughput": the record-at-a-time
+//! reader works on one core; measured in docs/notes/2026-11-26-throughput.md).
 
 use glam::DVec3;
 use ply_rs_bw::ply::{ElementDef, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType};

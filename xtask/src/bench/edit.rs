@@ -253,8 +253,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         index: PointIndex,
         radius: f64,
         all: Vec<Stroke>,
-        firsts: Vec<f64>,
-        first_rows: Vec<Value>,
+        firsts: Vec<Stroke>,
     }
     let mut runs = Vec::new();
     for name in &models {
@@ -272,16 +271,14 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             radius,
             all: Vec::new(),
             firsts: Vec::new(),
-            first_rows: Vec::new(),
         });
     }
     for seed in first_seed..first_seed + seeds {
         for m in &mut runs {
             let edits = drag(&m.points, &m.index, m.radius, seed, strokes);
             let mut run = session(&m.points, &edits, FRAME_ITERATIONS)?;
-            m.firsts.push(run[0].frame);
-            m.first_rows.push(stroke_row(&run[0]));
             m.all.extend(run.drain(1..));
+            m.firsts.extend(run);
         }
     }
     for m in &runs {
@@ -292,7 +289,6 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             radius,
             all,
             firsts,
-            first_rows,
         } = m;
         let (radius, d) = (*radius, diagonal(points));
         let pick = |f: &dyn Fn(&Stroke) -> f64| -> Vec<f64> { all.iter().map(f).collect() };
@@ -306,8 +302,8 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             "marked_cells_median": median(&pick(&|s| s.report.marked_cells as f64)),
             "regenerated_median": median(&pick(&|s| s.report.particles_regenerated as f64)),
             "frame": summary(&frames),
-            "first_strokes_ms": firsts.iter().map(|f| 1e3 * f).collect::<Vec<_>>(),
-            "first_strokes": first_rows,
+            "first_strokes_ms": firsts.iter().map(|s| 1e3 * s.frame).collect::<Vec<_>>(),
+            "first_strokes": firsts.iter().map(stroke_row).collect::<Vec<_>>(),
             "settle_median_ms": 1e3 * median(&pick(&|s| s.settle)),
             "cpu_per_stroke_median_ms": 1e3 * median(&pick(&|s| s.cpu)),
             "phases_median_ms": phases_median(all),
@@ -324,7 +320,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             row["regenerated_median"].as_f64().unwrap_or(0.0),
             f["median_ms"].as_f64().unwrap_or(f64::NAN),
             f["worst_ms"].as_f64().unwrap_or(f64::NAN),
-            1e3 * median(firsts),
+            1e3 * median(&firsts.iter().map(|s| s.frame).collect::<Vec<_>>()),
             row["settle_median_ms"].as_f64().unwrap_or(f64::NAN),
             row["cpu_per_stroke_median_ms"].as_f64().unwrap_or(f64::NAN),
             ph["edit"].as_f64().unwrap_or(f64::NAN),
