@@ -111,6 +111,14 @@ proptest! {
             .collect();
         prop_assert_eq!(got, brute(&points, x, k, None));
     }
+
+    /// Every point's k nearest others from the sweep equal brute force, whichever path each
+    /// point takes (the block within its predecessor's bound or the block's reach, the outer
+    /// ring, the search from a coarser level).
+    #[test]
+    fn sweeps_equal_brute_force(seed in 0u64..1000, n in 1usize..1200, k in 1usize..64) {
+        check_all(&cloud(seed, n), k);
+    }
 }
 
 #[test]

@@ -1,11 +1,14 @@
 //! The all-points sweep of a [`MortonIndex`]: every indexed point's k nearest others, cell
 //! by cell, each point starting from its predecessor's reach (a child module of
-//! `morton_index`, which owns the fields).
+//! `morton_index`, which owns the fields). Most points take the block path: the points of the
+//! 3 × 3 × 3 cells around a cell are copied once, coordinate by coordinate, and each point of
+//! the cell keeps those within a radius the block contains; a point with fewer than k there
+//! is searched cell by cell, as [`MortonIndex::nearest`] does.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{BITS, Best, Found, MortonIndex, closer, morton};
+use super::{BITS, Best, MortonIndex, morton};
 use crate::{Interrupted, Monitor};
 
 impl MortonIndex {
@@ -130,6 +133,8 @@ impl MortonIndex {
                 let (a, b) = (starts[cell], starts[cell + 1]);
                 let c = self.cell_of(self.points[a], level);
                 let near_cells = cells_at(c, cell, &offsets[..inner]);
+                let block = Block::gather(self, &near_cells, level);
+                let mut hits = Hits::default();
                 let mut outer_cells = None;
                 let mut near: Vec<(u32, f64)> = Vec::with_capacity(k);
                 let mut best = Best::new(k);
@@ -154,37 +159,30 @@ impl MortonIndex {
                 // that distance plus the step from the previous one (its k nearest and
                 // itself, less the point if it was one of them).
                 let mut previous: Option<(DVec3, f64)> = None;
-                let mut within: Vec<Found> = Vec::with_capacity(4 * k);
                 (a..b)
                     .map(|s| {
                         let x = self.points[s];
                         let reach1 = self.block_reach(x, c, level, 1);
-                        // Fast path: gather the points within the bound, keep the k nearest.
-                        if let Some((p, r)) = previous {
-                            let bound = r + (x - p).length();
-                            if k > 0 && bound <= reach1 {
-                                let b2 = bound * bound * (1.0 + 1e-12);
-                                within.clear();
-                                for (cc, (ra, rb)) in &near_cells {
-                                    if self.cell_distance2(x, *cc, level) > b2 {
-                                        continue;
-                                    }
-                                    for t in *ra..*rb {
-                                        let d2 = (self.points[t] - x).length_squared();
-                                        if t != s && d2 <= b2 {
-                                            within.push((d2, self.ids[t], t as u32));
-                                        }
-                                    }
-                                }
-                                if within.len() >= k {
-                                    within.select_nth_unstable_by(k - 1, closer);
-                                    let firsts = &mut within[..k];
-                                    firsts.sort_unstable_by(closer);
-                                    previous = Some((x, firsts[k - 1].0.sqrt()));
-                                    near.clear();
-                                    near.extend(firsts.iter().map(|g| (g.2, g.0)));
-                                    return f(s, &near);
-                                }
+                        // Fast path: gather the points of the block within a radius that
+                        // stays inside it — the bound from the previous point when it does,
+                        // else the block's reach — and keep the k nearest when there are k.
+                        let radius2 = match previous {
+                            Some((p, r)) if r + (x - p).length() <= reach1 => {
+                                let bound = r + (x - p).length();
+                                bound * bound * (1.0 + 1e-12)
+                            }
+                            _ => reach1 * reach1.abs(),
+                        };
+                        if k > 0 && radius2 > 0.0 {
+                            let keys = hits.within(&block, x, s as u32, radius2, &self.ids);
+                            if keys.len() >= k {
+                                keys.select_nth_unstable(k - 1);
+                                let firsts = &mut keys[..k];
+                                firsts.sort_unstable();
+                                near.clear();
+                                near.extend(firsts.iter().map(|&key| unpack(key)));
+                                previous = Some((x, near[k - 1].1.sqrt()));
+                                return f(s, &near);
                             }
                         }
                         best.clear();
@@ -211,5 +209,119 @@ impl MortonIndex {
                     .collect::<Vec<T>>()
             })
             .collect()
+    }
+}
+
+/// The points of the 3 × 3 × 3 cells around a sweep cell, coordinate by coordinate (so that the
+/// distance loops run over plain arrays), with each cell's box grown by the index's slack and
+/// its range in the arrays.
+struct Block {
+    cells: Vec<(DVec3, DVec3, usize, usize)>,
+    x: Vec<f64>,
+    y: Vec<f64>,
+    z: Vec<f64>,
+    slots: Vec<u32>,
+}
+
+impl Block {
+    /// The block of `cells` (cell coordinates at `level`, slot ranges) of `index`.
+    fn gather(index: &MortonIndex, cells: &[([u64; 3], (usize, usize))], level: u32) -> Self {
+        let count: usize = cells.iter().map(|(_, (a, b))| b - a).sum();
+        let mut block = Block {
+            cells: Vec::with_capacity(cells.len()),
+            x: Vec::with_capacity(count),
+            y: Vec::with_capacity(count),
+            z: Vec::with_capacity(count),
+            slots: Vec::with_capacity(count),
+        };
+        let w = index.cell_edge(level);
+        for &(c, (a, b)) in cells {
+            let lo = index.lo + DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64) * w;
+            let start = block.x.len();
+            for (t, p) in index.points[a..b].iter().enumerate() {
+                block.x.push(p.x);
+                block.y.push(p.y);
+                block.z.push(p.z);
+                block.slots.push((a + t) as u32);
+            }
+            block.cells.push((
+                lo - index.slack,
+                lo + DVec3::splat(w) + index.slack,
+                start,
+                block.x.len(),
+            ));
+        }
+        block
+    }
+}
+
+/// A neighbour as one sortable key: the squared distance's bits (non-negative, so ordered as
+/// the distances), then the original index, then the slot — the (distance, original index)
+/// order of `morton_index::closer`.
+type Key = u128;
+
+fn pack(d2: f64, id: u32, slot: u32) -> Key {
+    (u128::from(d2.to_bits()) << 64) | (u128::from(id) << 32) | u128::from(slot)
+}
+
+/// `(slot, squared distance)` of a key.
+fn unpack(key: Key) -> (u32, f64) {
+    (key as u32, f64::from_bits((key >> 64) as u64))
+}
+
+/// Scratch of [`Hits::within`].
+#[derive(Default)]
+struct Hits {
+    d2: Vec<f64>,
+    at: Vec<u32>,
+    keys: Vec<Key>,
+}
+
+impl Hits {
+    /// The points of `block` within squared distance `radius2` of `x`, other than slot `skip`,
+    /// as keys (unordered). The test is written without branches (the hits are too irregular for
+    /// the branch predictor); a cell farther than the radius is skipped whole.
+    fn within(
+        &mut self,
+        block: &Block,
+        x: DVec3,
+        skip: u32,
+        radius2: f64,
+        ids: &[u32],
+    ) -> &mut [Key] {
+        let n = block.x.len();
+        if self.at.len() < n {
+            self.at.resize(n, 0);
+            self.d2.resize(n, 0.0);
+        }
+        let mut count = 0;
+        for &(lo, hi, a, b) in &block.cells {
+            let gap = (lo - x).max(x - hi).max(DVec3::ZERO);
+            if gap.length_squared() > radius2 {
+                continue;
+            }
+            // The distances first (a loop over plain arrays the compiler vectorises), then the
+            // hits kept.
+            let d2 = &mut self.d2[a..b];
+            let coords = block.x[a..b].iter().zip(&block.y[a..b]).zip(&block.z[a..b]);
+            for (d, ((px, py), pz)) in d2.iter_mut().zip(coords) {
+                // As `(p - x).length_squared()`, to the bit.
+                let (dx, dy, dz) = (px - x.x, py - x.y, pz - x.z);
+                *d = dx * dx + dy * dy + dz * dz;
+            }
+            for (j, &d) in d2.iter().enumerate() {
+                self.at[count] = (a + j) as u32;
+                count += usize::from(d <= radius2);
+            }
+        }
+        self.keys.clear();
+        for &j in &self.at[..count] {
+            let slot = block.slots[j as usize];
+            if slot != skip {
+                self.keys
+                    .push(pack(self.d2[j as usize], ids[slot as usize], slot));
+            }
+        }
+        &mut self.keys
     }
 }
