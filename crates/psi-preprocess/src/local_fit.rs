@@ -188,6 +188,15 @@ impl QuadricFit {
     /// units of `scale` (world units; about the neighbourhood's radius). `None` for fewer than
     /// 7 points, a degenerate plane or a singular system.
     pub(crate) fn of(points: &[DVec3], scale: f64) -> Option<Self> {
+        let mut fit = Self::solved(points, scale)?;
+        // The residual summed directly (the normal equations' identity loses digits).
+        fit.rss = points.iter().map(|p| fit.height(*p).powi(2)).sum();
+        fit.finite()
+    }
+
+    /// The fit of [`QuadricFit::of`] before its residual: `None` where `of` gives none for
+    /// want of points, plane or a solvable system.
+    fn solved(points: &[DVec3], scale: f64) -> Option<Self> {
         if points.len() < 7 || scale.is_nan() || scale <= 0.0 {
             return None;
         }
@@ -202,23 +211,33 @@ impl QuadricFit {
             rss: 0.0,
             count: points.len(),
         };
-        // The normal equations of the height field.
+        // The normal equations of the height field: the upper triangle summed, the lower one
+        // mirrored (a product is the same either way round, so the matrix is the full loop's
+        // to the bit).
         let mut ata = SMatrix::<f64, 6, 6>::zeros();
         let mut atb = SVector::<f64, 6>::zeros();
         for p in points {
             let (row, h) = fit.row(*p);
             for i in 0..6 {
                 atb[i] += row[i] * h;
-                for j in 0..6 {
+                for j in i..6 {
                     ata[(i, j)] += row[i] * row[j];
                 }
             }
         }
+        for i in 0..6 {
+            for j in 0..i {
+                ata[(i, j)] = ata[(j, i)];
+            }
+        }
         let coef = ata.cholesky()?.solve(&atb);
         fit.coef = [coef[0], coef[1], coef[2], coef[3], coef[4], coef[5]];
-        // The residual summed directly (the normal equations' identity loses digits).
-        fit.rss = points.iter().map(|p| fit.height(*p).powi(2)).sum();
-        (fit.rss.is_finite() && coef.iter().all(|c| c.is_finite())).then_some(fit)
+        Some(fit)
+    }
+
+    /// This fit when its residual and coefficients are finite.
+    fn finite(self) -> Option<Self> {
+        (self.rss.is_finite() && self.coef.iter().all(|c| c.is_finite())).then_some(self)
     }
 
     /// [`QuadricFit::of`] made robust to one stray point among `points`: when the point
@@ -228,8 +247,14 @@ impl QuadricFit {
     /// bends towards a stray neighbour, and a second stray point beside it then seems to lie on
     /// the surface.)
     pub(crate) fn of_trimmed(points: &[DVec3], scale: f64, floor: f64) -> Option<Self> {
-        let fit = Self::of(points, scale)?;
-        let mut heights: Vec<f64> = points.iter().map(|p| fit.height(*p).abs()).collect();
+        // [`QuadricFit::of`], each point's height computed once for the residual and the trim.
+        let mut fit = Self::solved(points, scale)?;
+        let mut heights: Vec<f64> = points.iter().map(|p| fit.height(*p)).collect();
+        fit.rss = heights.iter().map(|h| h.powi(2)).sum();
+        let fit = fit.finite()?;
+        for h in &mut heights {
+            *h = h.abs();
+        }
         let (worst, largest) =
             heights
                 .iter()
