@@ -10,6 +10,8 @@
 //! Neighbours come in increasing (squared distance, original index) order: the result is a
 //! function of the positions alone, whatever the thread count or the way the search met them.
 
+use std::collections::BinaryHeap;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -58,56 +60,72 @@ fn morton(c: [u64; 3]) -> u64 {
 /// A neighbour: `(squared distance, original index, slot)`.
 type Found = (f64, u32, u32);
 
-/// The (squared distance, original index) order of neighbours.
-fn closer(a: &Found, b: &Found) -> std::cmp::Ordering {
-    a.0.total_cmp(&b.0).then(a.1.cmp(&b.1))
+/// A neighbour as one sortable key: the squared distance's bits (non-negative, so ordered as
+/// the distances), then the original index, then the slot: the (distance, original index)
+/// order of neighbours, the original index breaking ties.
+type Key = u128;
+
+fn pack(d2: f64, id: u32, slot: u32) -> Key {
+    (u128::from(d2.to_bits()) << 64) | (u128::from(id) << 32) | u128::from(slot)
 }
 
-/// The k best neighbours met so far, in order.
+/// The squared distance of a key.
+fn key_distance2(key: Key) -> f64 {
+    f64::from_bits((key >> 64) as u64)
+}
+
+/// The neighbour of a key.
+fn unpack(key: Key) -> Found {
+    (key_distance2(key), (key >> 32) as u32, key as u32)
+}
+
+/// The k best neighbours met so far: a max-heap of their keys, so that a nearer one replaces
+/// the worst in O(log k) (k reaches 256 in the noise estimate's searches).
 struct Best {
     k: usize,
-    found: Vec<Found>,
+    heap: BinaryHeap<Key>,
 }
 
 impl Best {
     fn new(k: usize) -> Self {
         Self {
             k,
-            found: Vec::with_capacity(k + 1),
+            heap: BinaryHeap::with_capacity(k),
         }
     }
 
     fn full(&self) -> bool {
-        self.found.len() >= self.k
+        self.heap.len() >= self.k
     }
 
     /// The k-th squared distance (infinite until k are found).
     fn worst(&self) -> f64 {
-        if self.full() {
-            self.found[self.k - 1].0
-        } else {
-            f64::INFINITY
+        match self.heap.peek() {
+            Some(&top) if self.full() => key_distance2(top),
+            _ => f64::INFINITY,
         }
     }
 
     fn offer(&mut self, f: Found) {
-        if self.full() {
-            if closer(&f, &self.found[self.k - 1]).is_ge() {
-                return;
-            }
-            self.found.pop();
+        let key = pack(f.0, f.1, f.2);
+        if !self.full() {
+            self.heap.push(key);
+        } else if let Some(mut top) = self.heap.peek_mut()
+            && key < *top
+        {
+            *top = key;
         }
-        let mut at = self.found.len();
-        self.found.push(f);
-        while at > 0 && closer(&self.found[at - 1], &f).is_gt() {
-            self.found[at] = self.found[at - 1];
-            at -= 1;
-        }
-        self.found[at] = f;
     }
 
     fn clear(&mut self) {
-        self.found.clear();
+        self.heap.clear();
+    }
+
+    /// The neighbours found, nearest first.
+    fn sorted(&self) -> Vec<Found> {
+        let mut keys = self.heap.clone().into_vec();
+        keys.sort_unstable();
+        keys.into_iter().map(unpack).collect()
     }
 }
 
@@ -337,20 +355,24 @@ impl MortonIndex {
             }
             return;
         }
-        let mut children: Vec<(f64, [u64; 3], (usize, usize))> = (0..8u64)
-            .map(|t| {
-                let cc = [
-                    2 * c[0] + (t & 1),
-                    2 * c[1] + (t >> 1 & 1),
-                    2 * c[2] + (t >> 2),
-                ];
-                let r = self.cell_range(cc, level + 1, range);
-                (self.cell_distance2(x, cc, level + 1), cc, r)
-            })
-            .filter(|ch| ch.2.0 < ch.2.1)
-            .collect();
+        // The occupied children, nearest first (on the stack: this runs once per cell visited).
+        let mut children = [(0.0, [0u64; 3], (0usize, 0usize)); 8];
+        let mut count = 0;
+        for t in 0..8u64 {
+            let cc = [
+                2 * c[0] + (t & 1),
+                2 * c[1] + (t >> 1 & 1),
+                2 * c[2] + (t >> 2),
+            ];
+            let r = self.cell_range(cc, level + 1, range);
+            if r.0 < r.1 {
+                children[count] = (self.cell_distance2(x, cc, level + 1), cc, r);
+                count += 1;
+            }
+        }
+        let children = &mut children[..count];
         children.sort_by(|a, b| a.0.total_cmp(&b.0));
-        for (_, cc, r) in children {
+        for &(_, cc, r) in children.iter() {
             self.visit(x, skip, cc, level + 1, r, best);
         }
     }
@@ -380,7 +402,7 @@ impl MortonIndex {
             }
             let reach = self.block_reach(x, c, level, 1);
             if level == 0 || (best.full() && best.worst() <= reach * reach.abs()) {
-                return best.found;
+                return best.sorted();
             }
             level = level.saturating_sub(2);
         }

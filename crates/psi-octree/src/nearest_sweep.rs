@@ -8,7 +8,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{BITS, Best, MortonIndex, morton};
+use super::{BITS, Best, Key, MortonIndex, key_distance2, morton, pack};
 use crate::{Interrupted, Monitor};
 
 impl MortonIndex {
@@ -180,7 +180,9 @@ impl MortonIndex {
                                 let firsts = &mut keys[..k];
                                 firsts.sort_unstable();
                                 near.clear();
-                                near.extend(firsts.iter().map(|&key| unpack(key)));
+                                near.extend(
+                                    firsts.iter().map(|&key| (key as u32, key_distance2(key))),
+                                );
                                 previous = Some((x, near[k - 1].1.sqrt()));
                                 return f(s, &near);
                             }
@@ -194,12 +196,10 @@ impl MortonIndex {
                             scan(x, s, outer, &mut best);
                             held = holds(&best, self.block_reach(x, c, level, 2));
                         }
-                        let fallback;
                         let found = if held {
-                            &best.found
+                            best.sorted()
                         } else {
-                            fallback = self.search(x, k, s as u32, level.saturating_sub(2));
-                            &fallback
+                            self.search(x, k, s as u32, level.saturating_sub(2))
                         };
                         previous = (found.len() == k).then(|| (x, found[k - 1].0.sqrt()));
                         near.clear();
@@ -253,20 +253,6 @@ impl Block {
         }
         block
     }
-}
-
-/// A neighbour as one sortable key: the squared distance's bits (non-negative, so ordered as
-/// the distances), then the original index, then the slot — the (distance, original index)
-/// order of `morton_index::closer`.
-type Key = u128;
-
-fn pack(d2: f64, id: u32, slot: u32) -> Key {
-    (u128::from(d2.to_bits()) << 64) | (u128::from(id) << 32) | u128::from(slot)
-}
-
-/// `(slot, squared distance)` of a key.
-fn unpack(key: Key) -> (u32, f64) {
-    (key as u32, f64::from_bits((key >> 64) as u64))
 }
 
 /// Scratch of [`Hits::within`].
