@@ -433,6 +433,9 @@ impl MortonIndex {
 #[path = "nearest_sweep.rs"]
 mod nearest_sweep;
 
+#[path = "morton_ball.rs"]
+mod morton_ball;
+
 #[cfg(test)]
 #[path = "morton_index_tests.rs"]
 mod tests;

@@ -95,6 +95,31 @@ fn degenerate_clouds() {
     check_all(&far, 9);
 }
 
+/// A ball holds the points on its sphere (|p − x| = radius exactly, on an integer grid), as the
+/// kd-tree's does: the centre and its 6 face neighbours at radius 1; at radius 2 also the 12 edge
+/// and 8 corner neighbours and the 6 two steps away.
+#[test]
+fn a_ball_holds_the_points_on_its_sphere() {
+    let grid: Vec<DVec3> = (0..1000)
+        .map(|i| DVec3::new((i % 10) as f64, (i / 10 % 10) as f64, (i / 100) as f64))
+        .collect();
+    let index = MortonIndex::new(&grid);
+    let tree = crate::PointIndex::new(&grid);
+    let x = DVec3::new(4.0, 5.0, 6.0);
+    for (radius, count) in [(1.0, 7), (1.5, 19), (2.0, 33), (0.5, 1)] {
+        let (mut ours, mut theirs) = (Vec::new(), Vec::new());
+        index.within(x, radius, &mut ours);
+        tree.within(x, radius, &mut theirs);
+        ours.sort_unstable();
+        theirs.sort_unstable();
+        assert_eq!(ours.len(), count, "radius {radius}");
+        assert_eq!(ours, theirs, "radius {radius}");
+    }
+    let mut none = Vec::new();
+    index.within(DVec3::NAN, 1.0, &mut none);
+    assert!(none.is_empty());
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
     /// Queries anywhere, inside the cloud's box or far outside it, equal brute force.
@@ -110,6 +135,34 @@ proptest! {
             .map(|(s, d)| (index.ids()[s as usize], d))
             .collect();
         prop_assert_eq!(got, brute(&points, x, k, None));
+    }
+
+    /// Ball queries anywhere equal brute force and `PointIndex`'s: the same points with the
+    /// same squared distances (ties on the sphere included: the cloud has grid points).
+    #[test]
+    fn balls_equal_brute_force_and_the_kd_tree(seed in 0u64..1000, n in 1usize..1500,
+                                               radius in 0.0f64..3.0, at in 0usize..1500,
+                                               qx in -8.0f64..8.0, qy in -8.0f64..8.0) {
+        let points = cloud(seed, n);
+        let index = MortonIndex::new(&points);
+        let tree = crate::PointIndex::new(&points);
+        // Half the queries at a point of the cloud (grid ties at exact distances).
+        let x = if at % 2 == 0 { points[at % n] } else { DVec3::new(qx, qy, 0.0) };
+        let mut got = Vec::new();
+        index.within_distances(x, radius, &mut got);
+        got.sort_by_key(|g| g.0);
+        let want: Vec<(u32, f64)> = (0..n as u32)
+            .map(|i| (i, (points[i as usize] - x).length_squared()))
+            .filter(|g| g.1 <= radius * radius)
+            .collect();
+        prop_assert_eq!(&got, &want);
+        let mut kd = Vec::new();
+        tree.within_distances(x, radius, &mut kd);
+        kd.sort_by_key(|g| g.0);
+        prop_assert_eq!(&got, &kd);
+        let mut ids = Vec::new();
+        index.within(x, radius, &mut ids);
+        prop_assert_eq!(ids.len(), got.len());
     }
 
     /// Every point's k nearest others from the sweep equal brute force, whichever path each

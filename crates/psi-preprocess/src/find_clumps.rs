@@ -14,11 +14,12 @@
 //! (docs/notes/2026-11-25-real-scans-2.md: the dragon scan).
 //!
 //! The groups come from a grid of cubes whose adjacent cubes' points are always linked, the
-//! few links between non-adjacent cubes from a kd-tree: linear time, exact (a brute-force
-//! twin of the definition checks it), and a verdict that reads only the data near a point.
+//! few links between non-adjacent cubes from ball queries on a Morton index: linear time,
+//! exact (a brute-force twin of the definition checks it), and a verdict that reads only the
+//! data near a point.
 
 use glam::DVec3;
-use psi_octree::{Aabb, Monitor, PointIndex};
+use psi_octree::{Aabb, Monitor, MortonIndex};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -166,7 +167,7 @@ fn stray_groups(positions: &[DVec3], monitor: &Monitor<'_>) -> (Vec<Vec<u32>>, f
     if !(diagonal > 0.0 && diagonal.is_finite()) || positions.len() >= u32::MAX as usize {
         return (Vec::new(), 0.0);
     }
-    let index = PointIndex::new(positions);
+    let index = MortonIndex::new(positions);
     let scale = Scale::of(positions, &index, diagonal);
     (clumps_at(positions, &index, &scale, monitor), scale.link)
 }
@@ -175,7 +176,7 @@ fn stray_groups(positions: &[DVec3], monitor: &Monitor<'_>) -> (Vec<Vec<u32>>, f
 /// these points, or of a larger set they are a part of), as [`stray_groups`] gives them.
 fn clumps_at(
     positions: &[DVec3],
-    index: &PointIndex,
+    index: &MortonIndex,
     scale: &Scale,
     monitor: &Monitor<'_>,
 ) -> Vec<Vec<u32>> {
@@ -215,7 +216,7 @@ impl Scale {
     /// The scale of `positions` (shape: N ≥ 1) indexed by `index`, of bounding-box diagonal
     /// `diagonal`: h = max(0.02 D, 3 × the 90th percentile of the spacing), the spacings
     /// measured on every ⌈N / 4096⌉-th point.
-    fn of(positions: &[DVec3], index: &PointIndex, diagonal: f64) -> Scale {
+    fn of(positions: &[DVec3], index: &MortonIndex, diagonal: f64) -> Scale {
         let stride = positions.len().div_ceil(SPACING_SAMPLES).max(1);
         let sampled: Vec<usize> = (0..positions.len()).step_by(stride).collect();
         let mut spacings: Vec<f64> = sampled
@@ -254,12 +255,12 @@ fn cube_key(c: [u64; 3]) -> u64 {
 /// First cubes of edge e = link / (2√3): two points in the same or in 26-adjacent cubes are at
 /// most 2√3·e = link apart, so each set of occupied cubes connected by adjacency lies within
 /// one group, and a set of more than 100 points or wider than 2 `link` belongs to no small
-/// group. Only the points of the other sets are then linked exactly, through the kd-tree: the
+/// group. Only the points of the other sets are then linked exactly, by ball queries: the
 /// links between points of non-adjacent cubes. (Cubes per axis: at most D / e + 1 ≈ 174, as
 /// link ≥ 0.02 D.)
 fn small_groups(
     positions: &[DVec3],
-    index: &PointIndex,
+    index: &MortonIndex,
     origin: DVec3,
     link: f64,
 ) -> Vec<Vec<u32>> {
@@ -350,7 +351,7 @@ fn small_groups(
 fn off_surface(
     group: &[u32],
     positions: &[DVec3],
-    index: &PointIndex,
+    index: &MortonIndex,
     scale: &Scale,
     in_small: &[bool],
 ) -> bool {

@@ -167,7 +167,7 @@ fn shape_reach(points: &[DVec3]) -> f64 {
     Aabb::from_points(points.iter().copied()).map_or(0.0, |b| b.diagonal() / 2.0)
 }
 
-/// The grid-and-kd-tree method equals the brute-force definition on random scenes, and the
+/// The grid-and-index method equals the brute-force definition on random scenes, and the
 /// scenes reach every verdict: clumps found, and small groups kept beside a surface.
 #[test]
 fn clumps_equal_the_brute_force_definition() {
@@ -306,7 +306,7 @@ fn clean_samplings_have_no_clumps() {
 
 /// Every small group of `points`, whatever the verdict on it, at their own scale.
 fn small_groups_of(points: &[DVec3]) -> Vec<Vec<u32>> {
-    let index = PointIndex::new(points);
+    let index = MortonIndex::new(points);
     let bounds = Aabb::from_points(points.iter().copied()).expect("points");
     let scale = Scale::of(points, &index, bounds.diagonal());
     small_groups(points, &index, bounds.min, scale.link)
@@ -319,7 +319,7 @@ fn tiles_with_a_halo_of_the_reach_decide_as_the_whole() {
     let mut total = 0;
     for seed in (4..60).step_by(5) {
         let points = scene(seed);
-        let index = PointIndex::new(&points);
+        let index = MortonIndex::new(&points);
         let bounds = Aabb::from_points(points.iter().copied()).expect("points");
         let scale = Scale::of(&points, &index, bounds.diagonal());
         let mut whole = vec![false; points.len()];
@@ -344,7 +344,7 @@ fn tiles_with_a_halo_of_the_reach_decide_as_the_whole() {
                 .filter(|&i| near(points[i as usize]))
                 .collect();
             let sub_points: Vec<DVec3> = sub.iter().map(|&i| points[i as usize]).collect();
-            let sub_index = PointIndex::new(&sub_points);
+            let sub_index = MortonIndex::new(&sub_points);
             let mut judged = vec![false; sub.len()];
             for &k in clumps_at(&sub_points, &sub_index, &scale, &Monitor::silent())
                 .iter()
