@@ -57,6 +57,37 @@ fn morton(c: [u64; 3]) -> u64 {
     spread(c[0]) | spread(c[1]) << 1 | spread(c[2]) << 2
 }
 
+/// The first position in `keys` (ascending) whose key is at least `key`, searched outward from
+/// position `near` by doubling steps, then by bisection.
+fn lower_bound_near(keys: &[u64], key: u64, near: usize) -> usize {
+    let n = keys.len();
+    let near = near.min(n);
+    let (lo, hi) = if near < n && keys[near] < key {
+        // After `near`: widen until a key reaches `key` or the end.
+        let (mut lo, mut step) = (near + 1, 1);
+        loop {
+            let hi = (near + step).min(n);
+            if hi == n || keys[hi] >= key {
+                break (lo, hi);
+            }
+            lo = hi + 1;
+            step *= 2;
+        }
+    } else {
+        // At or before `near`: widen until a key falls below `key` or the start.
+        let (mut hi, mut step) = (near, 1);
+        loop {
+            let lo = near.saturating_sub(step);
+            if lo == 0 || keys[lo] < key {
+                break (lo, hi);
+            }
+            hi = lo;
+            step *= 2;
+        }
+    };
+    lo + keys[lo..hi].partition_point(|&k| k < key)
+}
+
 /// A neighbour: `(squared distance, original index, slot)`.
 type Found = (f64, u32, u32);
 
@@ -304,6 +335,19 @@ impl MortonIndex {
         (within.0 + a, within.0 + b)
     }
 
+    /// [`MortonIndex::cell_range`] over all slots, searched outward from slot `near` (a
+    /// galloping search: neighbouring cells lie mostly near in Morton order, so the search
+    /// stays in cache where a binary search over all keys would not).
+    fn cell_range_near(&self, c: [u64; 3], level: u32, near: usize) -> (usize, usize) {
+        if level == 0 {
+            return (0, self.len());
+        }
+        let shift = 3 * (BITS - level);
+        let a = lower_bound_near(&self.keys, morton(c) << shift, near);
+        let b = lower_bound_near(&self.keys, (morton(c) + 1) << shift, a);
+        (a, b)
+    }
+
     /// Squared distance from `x` to cell `c` of `level` (grown by the slack).
     fn cell_distance2(&self, x: DVec3, c: [u64; 3], level: u32) -> f64 {
         let w = self.cell_edge(level);
@@ -387,6 +431,7 @@ impl MortonIndex {
             let mut best = Best::new(k);
             let c = self.cell_of(x, level);
             let last = (1u64 << level) - 1;
+            let home = self.cell_range(c, level, (0, self.len())).0;
             for dz in -1i64..=1 {
                 for dy in -1i64..=1 {
                     for dx in -1i64..=1 {
@@ -395,7 +440,7 @@ impl MortonIndex {
                             continue;
                         }
                         let cc = cc.map(|v| v as u64);
-                        let r = self.cell_range(cc, level, (0, self.len()));
+                        let r = self.cell_range_near(cc, level, home);
                         self.visit(x, skip, cc, level, r, &mut best);
                     }
                 }

@@ -95,6 +95,50 @@ fn degenerate_clouds() {
     check_all(&far, 9);
 }
 
+/// A cell's slots found by galloping from any slot are the binary search's, for occupied and
+/// empty cells at every level, and the lower bound near any position is the first key not
+/// below the one sought.
+#[test]
+fn galloping_finds_what_bisection_finds() {
+    use rand::{RngExt, SeedableRng};
+    let index = MortonIndex::new(&cloud(9, 3000));
+    let n = index.len();
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+    for level in [0, 1, 3, 6, 9, 12] {
+        let side = 1u64 << level;
+        for _ in 0..400 {
+            let c = [0; 3].map(|_: u64| rng.random_range(0..side));
+            let near = rng.random_range(0..=n);
+            assert_eq!(
+                index.cell_range_near(c, level, near),
+                index.cell_range(c, level, (0, n)),
+                "level {level}, cell {c:?}, from {near}"
+            );
+        }
+        // The occupied cells themselves, from their neighbours in slot order.
+        for s in (0..n).step_by(37) {
+            let c = index.cell_of(index.points()[s], level);
+            let near = s.saturating_sub(rng.random_range(0..50));
+            assert_eq!(
+                index.cell_range_near(c, level, near),
+                index.cell_range(c, level, (0, n))
+            );
+        }
+    }
+    let keys = [1u64, 3, 3, 3, 7, 9];
+    for key in 0..11 {
+        let want = keys.partition_point(|&k| k < key);
+        for near in 0..=keys.len() + 2 {
+            assert_eq!(
+                lower_bound_near(&keys, key, near),
+                want,
+                "key {key} from {near}"
+            );
+        }
+    }
+    assert_eq!(lower_bound_near(&[], 5, 0), 0);
+}
+
 /// A ball holds the points on its sphere (|p − x| = radius exactly, on an integer grid), as the
 /// kd-tree's does: the centre and its 6 face neighbours at radius 1; at radius 2 also the 12 edge
 /// and 8 corner neighbours and the 6 two steps away.
