@@ -55,12 +55,7 @@ impl MortonIndex {
             return;
         }
         for t in 0..8u64 {
-            let cc = [
-                2 * c[0] + (t & 1),
-                2 * c[1] + (t >> 1 & 1),
-                2 * c[2] + (t >> 2),
-            ];
-            let r = self.cell_range(cc, level + 1, range);
+            let (cc, r) = self.child(c, level, range, t);
             self.ball_in(x, r2, cc, level + 1, r, f);
         }
     }

@@ -348,6 +348,23 @@ impl MortonIndex {
         (a, b)
     }
 
+    /// Child `t` (octant bits x, y, z) of cell `c` of `level`, whose slots are `range`: its
+    /// cell coordinates at `level + 1` and its slots.
+    fn child(
+        &self,
+        c: [u64; 3],
+        level: u32,
+        range: (usize, usize),
+        t: u64,
+    ) -> ([u64; 3], (usize, usize)) {
+        let cc = [
+            2 * c[0] + (t & 1),
+            2 * c[1] + (t >> 1 & 1),
+            2 * c[2] + (t >> 2),
+        ];
+        (cc, self.cell_range(cc, level + 1, range))
+    }
+
     /// Squared distance from `x` to cell `c` of `level` (grown by the slack).
     fn cell_distance2(&self, x: DVec3, c: [u64; 3], level: u32) -> f64 {
         let w = self.cell_edge(level);
@@ -403,12 +420,7 @@ impl MortonIndex {
         let mut children = [(0.0, [0u64; 3], (0usize, 0usize)); 8];
         let mut count = 0;
         for t in 0..8u64 {
-            let cc = [
-                2 * c[0] + (t & 1),
-                2 * c[1] + (t >> 1 & 1),
-                2 * c[2] + (t >> 2),
-            ];
-            let r = self.cell_range(cc, level + 1, range);
+            let (cc, r) = self.child(c, level, range, t);
             if r.0 < r.1 {
                 children[count] = (self.cell_distance2(x, cc, level + 1), cc, r);
                 count += 1;
