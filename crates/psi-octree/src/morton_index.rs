@@ -88,6 +88,11 @@ fn lower_bound_near(keys: &[u64], key: u64, near: usize) -> usize {
     lo + keys[lo..hi].partition_point(|&k| k < key)
 }
 
+/// Squared distance from `x` to the box `(low, high)` (0 inside).
+fn box_distance2((low, high): (DVec3, DVec3), x: DVec3) -> f64 {
+    (low - x).max(x - high).max(DVec3::ZERO).length_squared()
+}
+
 /// A neighbour: `(squared distance, original index, slot)`.
 type Found = (f64, u32, u32);
 
@@ -152,10 +157,9 @@ impl Best {
         self.heap.clear();
     }
 
-    /// The neighbours found, nearest first.
-    fn sorted(&self) -> Vec<Found> {
-        let mut keys = self.heap.clone().into_vec();
-        keys.sort_unstable();
+    /// The neighbours found, nearest first; the list is left empty.
+    fn take_sorted(&mut self) -> Vec<Found> {
+        let keys = std::mem::take(&mut self.heap).into_sorted_vec();
         keys.into_iter().map(unpack).collect()
     }
 }
@@ -367,13 +371,14 @@ impl MortonIndex {
 
     /// Squared distance from `x` to cell `c` of `level` (grown by the slack).
     fn cell_distance2(&self, x: DVec3, c: [u64; 3], level: u32) -> f64 {
+        box_distance2(self.cell_box(c, level), x)
+    }
+
+    /// The low and high corners of cell `c` of `level`, grown by the slack (world units).
+    fn cell_box(&self, c: [u64; 3], level: u32) -> (DVec3, DVec3) {
         let w = self.cell_edge(level);
         let lo = self.lo + DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64) * w;
-        let hi = lo + DVec3::splat(w);
-        let d = (lo - self.slack - x)
-            .max(x - hi - self.slack)
-            .max(DVec3::ZERO);
-        d.length_squared()
+        (lo - self.slack, lo + DVec3::splat(w) + self.slack)
     }
 
     /// How far from `x` the block of cells of `level` within `ring` cells of cell `c` (3 × 3 × 3
@@ -459,7 +464,7 @@ impl MortonIndex {
             }
             let reach = self.block_reach(x, c, level, 1);
             if level == 0 || (best.full() && best.worst() <= reach * reach.abs()) {
-                return best.sorted();
+                return best.take_sorted();
             }
             level = level.saturating_sub(2);
         }

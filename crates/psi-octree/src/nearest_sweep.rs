@@ -8,7 +8,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{BITS, Best, Key, MortonIndex, key_distance2, morton, pack};
+use super::{BITS, Best, Key, MortonIndex, box_distance2, key_distance2, morton, pack};
 use crate::{Interrupted, Monitor};
 
 impl MortonIndex {
@@ -166,14 +166,14 @@ impl MortonIndex {
                         // Fast path: gather the points of the block within a radius that
                         // stays inside it — the bound from the previous point when it does,
                         // else the block's reach — and keep the k nearest when there are k.
-                        let radius2 = match previous {
-                            Some((p, r)) if r + (x - p).length() <= reach1 => {
-                                let bound = r + (x - p).length();
-                                bound * bound * (1.0 + 1e-12)
-                            }
-                            _ => reach1 * reach1.abs(),
+                        let bound = previous
+                            .map(|(p, r)| r + (x - p).length())
+                            .filter(|&bound| bound <= reach1);
+                        let radius2 = match bound {
+                            Some(bound) => bound * bound * (1.0 + 1e-12),
+                            None => reach1 * reach1.abs(),
                         };
-                        if k > 0 && radius2 > 0.0 {
+                        if radius2 > 0.0 {
                             let keys = hits.within(&block, x, s as u32, radius2, &self.ids);
                             if keys.len() >= k {
                                 keys.select_nth_unstable(k - 1);
@@ -197,7 +197,7 @@ impl MortonIndex {
                             held = holds(&best, self.block_reach(x, c, level, 2));
                         }
                         let found = if held {
-                            best.sorted()
+                            best.take_sorted()
                         } else {
                             self.search(x, k, s as u32, level.saturating_sub(2))
                         };
@@ -216,7 +216,8 @@ impl MortonIndex {
 /// distance loops run over plain arrays), with each cell's box grown by the index's slack and
 /// its range in the arrays.
 struct Block {
-    cells: Vec<(DVec3, DVec3, usize, usize)>,
+    /// Per cell: its box (grown by the slack) and its range in the arrays.
+    cells: Vec<((DVec3, DVec3), usize, usize)>,
     x: Vec<f64>,
     y: Vec<f64>,
     z: Vec<f64>,
@@ -234,9 +235,7 @@ impl Block {
             z: Vec::with_capacity(count),
             slots: Vec::with_capacity(count),
         };
-        let w = index.cell_edge(level);
         for &(c, (a, b)) in cells {
-            let lo = index.lo + DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64) * w;
             let start = block.x.len();
             for (t, p) in index.points[a..b].iter().enumerate() {
                 block.x.push(p.x);
@@ -244,12 +243,9 @@ impl Block {
                 block.z.push(p.z);
                 block.slots.push((a + t) as u32);
             }
-            block.cells.push((
-                lo - index.slack,
-                lo + DVec3::splat(w) + index.slack,
-                start,
-                block.x.len(),
-            ));
+            block
+                .cells
+                .push((index.cell_box(c, level), start, block.x.len()));
         }
         block
     }
@@ -281,9 +277,8 @@ impl Hits {
             self.d2.resize(n, 0.0);
         }
         let mut count = 0;
-        for &(lo, hi, a, b) in &block.cells {
-            let gap = (lo - x).max(x - hi).max(DVec3::ZERO);
-            if gap.length_squared() > radius2 {
+        for &(cell_box, a, b) in &block.cells {
+            if box_distance2(cell_box, x) > radius2 {
                 continue;
             }
             // The distances first (a loop over plain arrays the compiler vectorises), then the
