@@ -285,6 +285,29 @@ impl MortonIndex {
         }
     }
 
+    /// The index of the points for which `keep` (shape: N, by original index) holds, numbered
+    /// as `Vec::retain` with `keep` numbers them (a point's new index is the number of kept
+    /// points before it): the index [`MortonIndex::new`] makes of the retained positions, up to
+    /// its frame, so every query answers the same (answers depend on the positions alone).
+    /// Same frame and order, no sort.
+    ///
+    /// # Panics
+    ///
+    /// When `keep` is shorter than an indexed point's original index.
+    pub fn retained(&self, keep: &[bool]) -> Self {
+        let mut rank = Vec::with_capacity(keep.len());
+        let mut kept = 0u32;
+        for &k in keep {
+            rank.push(kept);
+            kept += u32::from(k);
+        }
+        let sub = self.subset(|s| keep[self.ids[s] as usize]);
+        Self {
+            ids: sub.ids.par_iter().map(|&i| rank[i as usize]).collect(),
+            ..sub
+        }
+    }
+
     /// Indexed points (the finite ones).
     pub fn len(&self) -> usize {
         self.keys.len()

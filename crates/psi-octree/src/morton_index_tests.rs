@@ -242,6 +242,51 @@ fn a_subset_answers_for_its_points_alone() {
     }
 }
 
+/// A retained index answers as a fresh index of the retained points (renumbered as `retain`
+/// numbers them), sweeps and single queries alike, though its frame is the whole set's: the
+/// dropped points set the cube (a far point among them), and a non-finite point is skipped.
+#[test]
+fn a_retained_index_answers_as_a_fresh_one() {
+    let mut points = cloud(11, 3000);
+    points[17] = DVec3::new(1e3, -1e3, 5e2);
+    points[40] = DVec3::new(f64::NAN, 0.0, 0.0);
+    let keep: Vec<bool> = (0..points.len()).map(|i| i % 4 != 1 && i != 17).collect();
+    let mut left = keep.iter();
+    let mut kept = points.clone();
+    kept.retain(|_| *left.next().unwrap());
+    let retained = MortonIndex::new(&points).retained(&keep);
+    let fresh = MortonIndex::new(&kept);
+    assert_eq!(retained.len(), fresh.len());
+    let by_id = |index: &MortonIndex, k| {
+        let mut all: Vec<(u32, Vec<(u32, u64)>)> = index
+            .ids()
+            .iter()
+            .zip(index.map_nearest(k, |_, near| {
+                near.iter()
+                    .map(|&(s, d2)| (index.ids()[s as usize], d2.to_bits()))
+                    .collect::<Vec<_>>()
+            }))
+            .map(|(&id, near)| (id, near))
+            .collect();
+        all.sort_by_key(|e| e.0);
+        all
+    };
+    for k in [1, 7, 30] {
+        assert_eq!(by_id(&retained, k), by_id(&fresh, k));
+    }
+    for q in [DVec3::ZERO, DVec3::new(0.3, -0.2, 0.1), DVec3::splat(4.0)] {
+        let ids = |index: &MortonIndex| -> Vec<(u32, f64)> {
+            index
+                .nearest(q, 12)
+                .into_iter()
+                .map(|(s, d)| (index.ids()[s as usize], d))
+                .collect()
+        };
+        assert_eq!(ids(&retained), ids(&fresh));
+        assert_eq!(ids(&fresh), brute(&kept, q, 12, None));
+    }
+}
+
 #[test]
 fn the_monitored_sweep_equals_the_plain_one_and_stops_between_cells() {
     let points = cloud(7, 20_000);

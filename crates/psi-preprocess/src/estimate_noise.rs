@@ -52,6 +52,11 @@ pub struct NoiseEstimate {
 /// assert!(estimate_noise(&bowl).sigma < 1e-3 * 0.02);
 /// ```
 pub fn estimate_noise(positions: &[DVec3]) -> NoiseEstimate {
+    estimate_noise_in(positions, &MortonIndex::new(positions))
+}
+
+/// [`estimate_noise`], `index` the Morton index of `positions`.
+pub(crate) fn estimate_noise_in(positions: &[DVec3], index: &MortonIndex) -> NoiseEstimate {
     let none = NoiseEstimate {
         sigma: 0.0,
         samples: 0,
@@ -59,10 +64,9 @@ pub fn estimate_noise(positions: &[DVec3]) -> NoiseEstimate {
     if positions.len() < 7 {
         return none;
     }
-    let index = MortonIndex::new(positions);
     let stride = positions.len().div_ceil(MAX_SAMPLES).max(1);
     let samples: Vec<usize> = (0..positions.len()).step_by(stride).collect();
-    let Some((sigma, reach)) = median_residual(positions, &index, &samples, NEIGHBOURS) else {
+    let Some((sigma, reach)) = median_residual(positions, index, &samples, NEIGHBOURS) else {
         return none;
     };
     // Noise comparable to the neighbourhood's radius is cut off by it (a point displaced far
@@ -76,7 +80,7 @@ pub fn estimate_noise(positions: &[DVec3]) -> NoiseEstimate {
             .copied()
             .step_by(samples.len().div_ceil(MAX_WIDE_SAMPLES).max(1))
             .collect();
-        let sigma = median_residual(positions, &index, &fewer, k).map_or(sigma, |(s, _)| s);
+        let sigma = median_residual(positions, index, &fewer, k).map_or(sigma, |(s, _)| s);
         (sigma, fewer.len())
     } else {
         (sigma, samples.len())

@@ -39,7 +39,16 @@ pub fn estimate_normals(positions: &[DVec3]) -> Vec<DVec3> {
 /// few dozen points, before their searches; the caller then discards the result).
 pub fn estimate_normals_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<DVec3> {
     // The points in Morton order (slots), each with its nearest others in one sweep.
-    let index = MortonIndex::new(positions);
+    estimate_normals_in(positions.len(), &MortonIndex::new(positions), monitor)
+}
+
+/// [`estimate_normals_with`] of the `n` points that `index` indexes (ids 0..n; a point left
+/// out of it gets no normal).
+pub(crate) fn estimate_normals_in(
+    n: usize,
+    index: &MortonIndex,
+    monitor: &Monitor<'_>,
+) -> Vec<DVec3> {
     let by_slot = index.points();
     let largest = SIZES[SIZES.len() - 1];
     let Ok(normals) = index.map_nearest_with(largest - 1, monitor, |s, near| {
@@ -74,10 +83,10 @@ pub fn estimate_normals_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<
             .or_else(|| moments.plane())
             .map_or(DVec3::ZERO, |fit| fit.normal)
     }) else {
-        return vec![DVec3::ZERO; positions.len()];
+        return vec![DVec3::ZERO; n];
     };
     // Back to the caller's order (a point with a non-finite coordinate has no normal).
-    let mut out = vec![DVec3::ZERO; positions.len()];
+    let mut out = vec![DVec3::ZERO; n];
     for (&i, n) in index.ids().iter().zip(normals) {
         out[i as usize] = n;
     }

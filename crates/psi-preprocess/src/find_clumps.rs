@@ -138,7 +138,16 @@ pub fn find_clumps(positions: &[DVec3]) -> Clumps {
 /// [`find_clumps`], stopping early once `monitor`'s flag is set (the result is then empty and
 /// the caller discards it).
 pub fn find_clumps_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Clumps {
-    let (groups, link) = stray_groups(positions, monitor);
+    find_clumps_in(positions, &MortonIndex::new(positions), monitor)
+}
+
+/// [`find_clumps_with`], `index` the Morton index of `positions`.
+pub(crate) fn find_clumps_in(
+    positions: &[DVec3],
+    index: &MortonIndex,
+    monitor: &Monitor<'_>,
+) -> Clumps {
+    let (groups, link) = stray_groups(positions, index, monitor);
     let mut found = Clumps {
         mask: vec![false; positions.len()],
         link,
@@ -156,10 +165,15 @@ pub fn find_clumps_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Clumps {
     found
 }
 
-/// The stray clumps of `positions` (shape: N, world units) before the 1 % rule: each as
-/// ascending point indices, in the order of their first points; and the link distance h
+/// The stray clumps of `positions` (shape: N, world units; `index` their Morton index) before
+/// the 1 % rule: each as ascending point indices, in the order of their first points; and the
+/// link distance h
 /// (0 for fewer than two distinct points). None once `monitor`'s flag is set.
-fn stray_groups(positions: &[DVec3], monitor: &Monitor<'_>) -> (Vec<Vec<u32>>, f64) {
+fn stray_groups(
+    positions: &[DVec3],
+    index: &MortonIndex,
+    monitor: &Monitor<'_>,
+) -> (Vec<Vec<u32>>, f64) {
     let Some(bounds) = Aabb::from_points(positions.iter().copied()) else {
         return (Vec::new(), 0.0);
     };
@@ -167,9 +181,8 @@ fn stray_groups(positions: &[DVec3], monitor: &Monitor<'_>) -> (Vec<Vec<u32>>, f
     if !(diagonal > 0.0 && diagonal.is_finite()) || positions.len() >= u32::MAX as usize {
         return (Vec::new(), 0.0);
     }
-    let index = MortonIndex::new(positions);
-    let scale = Scale::of(positions, &index, diagonal);
-    (clumps_at(positions, &index, &scale, monitor), scale.link)
+    let scale = Scale::of(positions, index, diagonal);
+    (clumps_at(positions, index, &scale, monitor), scale.link)
 }
 
 /// The stray clumps of `positions` (shape: N ≥ 1, indexed by `index`) at `scale` (that of

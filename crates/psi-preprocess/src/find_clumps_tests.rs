@@ -174,7 +174,7 @@ fn clumps_equal_the_brute_force_definition() {
     let (mut found, mut kept) = (0, 0);
     for seed in 0..60 {
         let points = scene(seed);
-        let (groups, link) = stray_groups(&points, &Monitor::silent());
+        let (groups, link) = stray_groups(&points, &MortonIndex::new(&points), &Monitor::silent());
         let (twin, twin_link, small) = brute_force(&points);
         assert!(
             (link - twin_link).abs() <= 1e-12 * link,

@@ -189,19 +189,34 @@ pub fn find_outliers_with(
     normals: Option<&[DVec3]>,
     monitor: &Monitor<'_>,
 ) -> Outliers {
-    let normals = normals.filter(|v| v.len() == positions.len());
     // The points in Morton order (slots), where neighbours' data lie together.
-    let index = MortonIndex::new(positions);
+    find_outliers_in(
+        &MortonIndex::new(positions),
+        positions.len(),
+        normals,
+        monitor,
+    )
+}
+
+/// [`find_outliers_with`] of the `n` points that `index` indexes (its ids: 0..n, the
+/// non-finite points left out), `normals` by original index.
+pub(crate) fn find_outliers_in(
+    index: &MortonIndex,
+    n: usize,
+    normals: Option<&[DVec3]>,
+    monitor: &Monitor<'_>,
+) -> Outliers {
+    let normals = normals.filter(|v| v.len() == n);
     let ids = index.ids();
     let sorted_normals: Option<Vec<DVec3>> =
         normals.map(|v| ids.par_iter().map(|&i| v[i as usize]).collect());
-    let found = outliers_in_order(&index, sorted_normals.as_deref(), monitor);
+    let found = outliers_in_order(index, sorted_normals.as_deref(), monitor);
     // Back to the caller's order; a point with a non-finite coordinate is far from everything.
-    let mut mask = vec![true; positions.len()];
+    let mut mask = vec![true; n];
     for (&i, &m) in ids.iter().zip(&found.mask) {
         mask[i as usize] = m;
     }
-    let unindexed = positions.len() - index.len();
+    let unindexed = n - index.len();
     Outliers {
         mask,
         far: found.far + unindexed,

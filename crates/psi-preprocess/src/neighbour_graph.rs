@@ -139,12 +139,21 @@ impl SlotGraphs {
     }
 }
 
-/// The neighbour graphs of `points` (shape: N, unit normals of either sign); None once
-/// `monitor`'s flag is set (checked during the neighbour search).
-pub(crate) fn slot_graphs(points: &[OrientedPoint], monitor: &Monitor<'_>) -> Option<SlotGraphs> {
+/// The Morton index of `points`' positions (shape: N).
+pub(crate) fn morton_index_of(points: &[OrientedPoint]) -> MortonIndex {
     let positions: Vec<_> = points.iter().map(|p| p.p).collect();
-    let index = MortonIndex::new(&positions);
-    drop(positions);
+    MortonIndex::new(&positions)
+}
+
+/// The neighbour graphs of `points` (shape: N, unit normals of either sign; `index` their
+/// Morton index, dropped once the neighbours are found, before the graphs' memory peaks); None
+/// once
+/// `monitor`'s flag is set (checked during the neighbour search).
+pub(crate) fn slot_graphs(
+    points: &[OrientedPoint],
+    index: MortonIndex,
+    monitor: &Monitor<'_>,
+) -> Option<SlotGraphs> {
     let ids = index.ids().to_vec();
     let sorted: Vec<OrientedPoint> = ids.par_iter().map(|&i| points[i as usize]).collect();
     // Per slot: up to K neighbours (u32::MAX past the last) and which are on the same sheet.
@@ -215,7 +224,7 @@ mod tests {
             half: glam::DVec3::new(0.5, 0.4, 0.05),
         }
         .sample(1500, 3);
-        let g = slot_graphs(&points, &Monitor::silent()).unwrap();
+        let g = slot_graphs(&points, morton_index_of(&points), &Monitor::silent()).unwrap();
         assert_eq!((g.same.len(), g.other.len()), (1500, 1500));
         let n = points.len();
         let mut same = vec![std::collections::BTreeSet::new(); n];

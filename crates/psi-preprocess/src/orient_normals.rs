@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use psi_octree::{Monitor, MortonIndex, OrientedPoint};
 
-use crate::neighbour_graph::{Graph, K, SlotGraphs, slot_graphs};
+use crate::neighbour_graph::{Graph, K, SlotGraphs, morton_index_of, slot_graphs};
 use crate::spanning_forest::maximum_spanning_forest;
 
 /// What the consistency check found.
@@ -40,9 +40,11 @@ impl NormalConsistency {
 /// points is mostly tangential (|n_i·(p_j − p_i)| ≤ ½|p_j − p_i|), so the two faces of a thin
 /// part do not pair as long as they are farther apart than the sample spacing (closer sheets
 /// are locally indistinguishable from flipped normals).
-fn neighbour_pairs(points: &[OrientedPoint], stride: usize) -> Vec<Vec<(u32, f64, bool)>> {
-    let positions: Vec<_> = points.iter().map(|p| p.p).collect();
-    let index = MortonIndex::new(&positions);
+fn neighbour_pairs(
+    points: &[OrientedPoint],
+    index: &MortonIndex,
+    stride: usize,
+) -> Vec<Vec<(u32, f64, bool)>> {
     let ids = index.ids();
     // A pair: the neighbour j of point i at squared distance d2 (world units²).
     let pair = |i: usize, j: u32, d2: f64| {
@@ -72,8 +74,17 @@ fn neighbour_pairs(points: &[OrientedPoint], stride: usize) -> Vec<Vec<(u32, f64
 /// Counts same-sheet neighbour pairs whose normals oppose (shape: N points, unit normals),
 /// querying the neighbours of at most `max_queries` evenly strided points.
 pub fn check_normal_consistency(points: &[OrientedPoint], max_queries: usize) -> NormalConsistency {
+    check_normal_consistency_in(points, &morton_index_of(points), max_queries)
+}
+
+/// [`check_normal_consistency`], `index` the Morton index of the points' positions.
+pub(crate) fn check_normal_consistency_in(
+    points: &[OrientedPoint],
+    index: &MortonIndex,
+    max_queries: usize,
+) -> NormalConsistency {
     let stride = points.len().div_ceil(max_queries.max(1)).max(1);
-    let graph = neighbour_pairs(points, stride);
+    let graph = neighbour_pairs(points, index, stride);
     let mut c = NormalConsistency::default();
     for edges in &graph {
         for &(_, dot, same) in edges {
@@ -184,8 +195,18 @@ pub fn orient_normals(points: &mut [OrientedPoint]) -> usize {
 /// [`orient_normals`], stopping early once `monitor`'s flag is set (checked between its
 /// steps: the neighbour graphs, the spanning forest; the caller then discards the points).
 pub fn orient_normals_with(points: &mut [OrientedPoint], monitor: &Monitor<'_>) -> usize {
+    orient_normals_in(points, morton_index_of(points), monitor)
+}
+
+/// [`orient_normals_with`], `index` the Morton index of the points' positions (dropped as soon
+/// as the neighbours are found: the graphs need the memory).
+pub(crate) fn orient_normals_in(
+    points: &mut [OrientedPoint],
+    index: MortonIndex,
+    monitor: &Monitor<'_>,
+) -> usize {
     // In Morton order (slots), where the propagation's next points lie in cache.
-    let Some(mut graphs) = slot_graphs(points, monitor) else {
+    let Some(mut graphs) = slot_graphs(points, index, monitor) else {
         return 0;
     };
     let SlotGraphs {
@@ -324,7 +345,7 @@ pub fn orient_toward(points: &mut [OrientedPoint], viewpoint: glam::DVec3) -> us
     }
     let silent = Monitor::silent();
     if done.iter().any(|d| !d)
-        && let Some(mut graphs) = slot_graphs(points, &silent)
+        && let Some(mut graphs) = slot_graphs(points, morton_index_of(points), &silent)
     {
         // By slot (Morton order), then back.
         let mut slot_done: Vec<bool> = graphs.ids.iter().map(|&i| done[i as usize]).collect();
@@ -408,7 +429,8 @@ mod tests {
             .zip(normals)
             .map(|(&p, n)| OrientedPoint { p, n })
             .collect();
-        let label = islands(&slot_graphs(&pts, &Monitor::silent()).unwrap().same);
+        let index = morton_index_of(&pts);
+        let label = islands(&slot_graphs(&pts, index, &Monitor::silent()).unwrap().same);
         let mut sizes = std::collections::BTreeMap::new();
         for l in &label {
             *sizes.entry(*l).or_insert(0usize) += 1;

@@ -4,14 +4,19 @@
 use std::time::Instant;
 
 use glam::DVec3;
-use psi_octree::{Aabb, Interrupted, Monitor, OrientedPoint};
+use psi_octree::{Aabb, Interrupted, Monitor, MortonIndex, OrientedPoint};
 use serde::{Deserialize, Serialize};
 
+use crate::estimate_noise::estimate_noise_in;
+use crate::estimate_normals::estimate_normals_in;
+use crate::find_clumps::find_clumps_in;
+use crate::find_outliers::find_outliers_in;
+use crate::neighbour_graph::morton_index_of;
+use crate::orient_normals::{check_normal_consistency_in, orient_normals_in};
 use crate::{
-    DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, Spread,
-    check_normal_consistency, denoise_with, densify_mesh_with_sources, estimate_noise,
-    estimate_normals_with, find_clumps_with, find_outliers_with, inward_votes, mesh_coarseness,
-    orient_normals_with, orient_toward, point_spread,
+    DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, Spread, denoise_with,
+    densify_mesh_with_sources, estimate_noise, inward_votes, mesh_coarseness, orient_toward,
+    point_spread,
 };
 
 /// Ohtake's error threshold ε0 relative to the bounding-box diagonal D (algorithms.md §1.1):
@@ -437,6 +442,11 @@ pub fn preprocess_with(
         step("densify", 1)?;
     }
 
+    // One Morton index of the points serves the neighbour searches below: made once, carried
+    // through the steps that drop points (`MortonIndex::retained`, no second sort; its answers
+    // are a fresh index's), made again only after the orientation (which frees it for its
+    // graphs) or denoising (which moves the points).
+    let mut index: Option<MortonIndex> = None;
     let mut outliers = None;
     if params.remove_outliers && !origin.is_mesh() {
         step("outliers", 0)?;
@@ -444,13 +454,18 @@ pub fn preprocess_with(
         let mut positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
         let normals: Option<Vec<DVec3>> =
             normals_given.then(|| points.iter().map(|p| p.n).collect());
-        let found = find_outliers_with(&positions, normals.as_deref(), monitor);
+        let all = index.get_or_insert_with(|| MortonIndex::new(&positions));
+        let found = find_outliers_in(all, positions.len(), normals.as_deref(), monitor);
         monitor.check()?;
         // Stray clumps support themselves: judged as groups, among the points left.
-        let mut left = found.mask.iter().map(|m| !m);
-        positions.retain(|_| left.next().unwrap_or(true));
-        let clumps = find_clumps_with(&positions, monitor);
+        let left: Vec<bool> = found.mask.iter().map(|m| !m).collect();
+        let mut kept = left.iter();
+        positions.retain(|_| *kept.next().unwrap_or(&true));
+        let left_index = all.retained(&left);
+        let clumps = find_clumps_in(&positions, &left_index, monitor);
         monitor.check()?;
+        let unclumped: Vec<bool> = clumps.mask.iter().map(|m| !m).collect();
+        index = Some(left_index.retained(&unclumped));
         let mut clumped = clumps.mask.iter(); // over the points left: `||` skips the others
         let drop: Vec<bool> = found
             .mask
@@ -477,11 +492,14 @@ pub fn preprocess_with(
     let mut normals_flipped = 0;
     let mut inward_normals_flipped = false;
     let normals = if normals_given {
-        let check = check_normal_consistency(&points, 20_000);
+        let at = index.get_or_insert_with(|| morton_index_of(&points));
+        let check = check_normal_consistency_in(&points, at, 20_000);
         consistency = Some(check);
         monitor.check()?;
         if params.orient_given_normals {
-            normals_flipped = orient_normals_with(&mut points, monitor);
+            // (The orientation takes the index: its graphs need the memory.)
+            let at = index.take().unwrap_or_else(|| morton_index_of(&points));
+            normals_flipped = orient_normals_in(&mut points, at, monitor);
             monitor.check()?;
             NormalTreatment::GivenReoriented
         } else {
@@ -495,20 +513,20 @@ pub fn preprocess_with(
             NormalTreatment::Given
         }
     } else {
-        let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
-        let estimated = estimate_normals_with(&positions, monitor);
+        let at = index.get_or_insert_with(|| morton_index_of(&points));
+        let estimated = estimate_normals_in(points.len(), at, monitor);
         monitor.check()?;
         for (p, n) in points.iter_mut().zip(estimated) {
             p.n = n;
         }
         // A point whose neighbourhood gave no plane is dropped: it has no normal to fit with.
-        let mut has_normal = points
-            .iter()
-            .map(|p| p.n != DVec3::ZERO)
-            .collect::<Vec<_>>()
-            .into_iter();
-        source.retain(|_| has_normal.next().unwrap_or(true));
+        let has_normal: Vec<bool> = points.iter().map(|p| p.n != DVec3::ZERO).collect();
+        let mut kept = has_normal.iter();
+        source.retain(|_| *kept.next().unwrap_or(&true));
         points.retain(|p| p.n != DVec3::ZERO);
+        if has_normal.iter().any(|h| !h) {
+            *at = at.retained(&has_normal);
+        }
         match params.viewpoint {
             Some(v) => {
                 normals_flipped = orient_toward(&mut points, v);
@@ -518,7 +536,8 @@ pub fn preprocess_with(
                 // Its own stage, after the estimation's (each stage is one block).
                 step("normals", 1)?;
                 step("orient", 0)?;
-                normals_flipped = orient_normals_with(&mut points, monitor);
+                let at = index.take().unwrap_or_else(|| morton_index_of(&points));
+                normals_flipped = orient_normals_in(&mut points, at, monitor);
                 monitor.check()?;
                 NormalTreatment::EstimatedPropagated
             }
@@ -537,7 +556,8 @@ pub fn preprocess_with(
         step("noise", 0)?;
         let t = Instant::now();
         let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
-        let estimate = estimate_noise(&positions);
+        let at = index.get_or_insert_with(|| MortonIndex::new(&positions));
+        let estimate = estimate_noise_in(&positions, at);
         let diagonal = Aabb::from_points(positions.iter().copied()).map_or(0.0, |b| b.diagonal());
         if diagonal > 0.0 {
             let rel = estimate.sigma / diagonal;
@@ -555,6 +575,8 @@ pub fn preprocess_with(
         } else if params.denoise && error_rel > PAPER_ERROR_REL && !inconsistent {
             step("denoise", 0)?;
             let t = Instant::now();
+            // Denoising moves the points: the index no longer describes them.
+            drop(index.take());
             denoised = Some(denoise_with(&mut points, estimate.sigma, monitor));
             monitor.check()?;
             seconds.denoise = t.elapsed().as_secs_f64();

@@ -173,3 +173,60 @@ fn stray_clumps_are_left_out_with_the_outliers() {
         assert_eq!(p.p, points[s as usize].p);
     }
 }
+
+/// The one Morton index carried through the steps (retained as points are dropped) gives what
+/// each public step gives with its own index: the same outliers, clumps, estimated and oriented
+/// normals, noise and normal check, x y z only and with normals reoriented.
+#[test]
+fn the_carried_index_answers_as_each_steps_own() {
+    let mut points = noisy_sphere_with_strays();
+    let mut rng = Pcg64Mcg::seed_from_u64(3);
+    let base = points[500];
+    for _ in 0..30 {
+        let p = base.p + 0.25 * base.n + 0.01 * gaussian_vector(&mut rng);
+        points.push(OrientedPoint { p, n: base.n });
+    }
+    let positions = |pts: &[OrientedPoint]| pts.iter().map(|p| p.p).collect::<Vec<_>>();
+    let params = PreprocessParams {
+        denoise: false,
+        orient_given_normals: true,
+        ..PreprocessParams::scan()
+    };
+    for normals_given in [false, true] {
+        let mut expected = points.clone();
+        if !normals_given {
+            expected.iter_mut().for_each(|p| p.n = DVec3::ZERO);
+        }
+        let done = preprocess(
+            ScanInput {
+                points: expected.clone(),
+                normals_given,
+                origin: PointOrigin::Scan,
+            },
+            &params,
+        )
+        .unwrap();
+        // Step by step, each with its own index.
+        let given = normals_given.then(|| expected.iter().map(|p| p.n).collect::<Vec<_>>());
+        let found = crate::find_outliers(&positions(&expected), given.as_deref());
+        let mut keep = found.mask.iter();
+        expected.retain(|_| !keep.next().unwrap());
+        let clumps = crate::find_clumps(&positions(&expected));
+        assert!(clumps.points > 0, "no clump to drop");
+        let mut keep = clumps.mask.iter();
+        expected.retain(|_| !keep.next().unwrap());
+        if normals_given {
+            let check = crate::check_normal_consistency(&expected, 20_000);
+            assert_eq!(done.report.consistency, Some(check));
+            crate::orient_normals(&mut expected);
+        } else {
+            let normals = crate::estimate_normals(&positions(&expected));
+            expected.iter_mut().zip(normals).for_each(|(p, n)| p.n = n);
+            expected.retain(|p| p.n != DVec3::ZERO);
+            crate::orient_normals(&mut expected);
+        }
+        let noise = crate::estimate_noise(&positions(&expected));
+        assert_eq!(done.report.noise, Some(noise));
+        assert_eq!(done.points, expected, "normals given: {normals_given}");
+    }
+}
