@@ -259,7 +259,8 @@ fn outliers_in_order(
     }) else {
         return Outliers::none(n);
     };
-    let (neighbours, reach): (Vec<[u32; NEIGHBOURS]>, Vec<f64>) = nearest.into_par_iter().unzip();
+    // (Read in place: no second copy of the neighbour lists.)
+    let reach: Vec<f64> = nearest.par_iter().map(|n| n.1).collect();
     let typical = median(&mut reach.clone());
     let status: Vec<Status> = (0..n)
         .into_par_iter()
@@ -267,7 +268,7 @@ fn outliers_in_order(
             if monitor.stopped() {
                 return Status::Core;
             }
-            let near = &neighbours[i];
+            let near = &nearest[i].0;
             let mut around = near.map(|j| reach[j as usize]);
             let local = median(&mut around);
             let pts = near.map(|j| positions[j as usize]);
@@ -307,7 +308,7 @@ fn outliers_in_order(
             }
         })
         .collect();
-    drop(neighbours);
+    drop(nearest);
     if monitor.stopped() || !status.contains(&Status::Unsure) {
         return Outliers::none(n);
     }

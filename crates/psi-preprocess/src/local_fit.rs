@@ -249,10 +249,20 @@ impl QuadricFit {
     pub(crate) fn of_trimmed(points: &[DVec3], scale: f64, floor: f64) -> Option<Self> {
         // [`QuadricFit::of`], each point's height computed once for the residual and the trim.
         let mut fit = Self::solved(points, scale)?;
-        let mut heights: Vec<f64> = points.iter().map(|p| fit.height(*p)).collect();
+        // (On the stack for a neighbourhood's few dozen points: no allocation per fit.)
+        let (mut on_stack, mut on_heap) = ([0.0f64; 32], Vec::new());
+        let heights: &mut [f64] = if points.len() <= on_stack.len() {
+            &mut on_stack[..points.len()]
+        } else {
+            on_heap.resize(points.len(), 0.0);
+            &mut on_heap
+        };
+        for (h, p) in heights.iter_mut().zip(points) {
+            *h = fit.height(*p);
+        }
         fit.rss = heights.iter().map(|h| h.powi(2)).sum();
         let fit = fit.finite()?;
-        for h in &mut heights {
+        for h in heights.iter_mut() {
             *h = h.abs();
         }
         let (worst, largest) =
@@ -263,7 +273,7 @@ impl QuadricFit {
                 .fold((0, f64::NEG_INFINITY), |best, (k, h)| {
                     if h > best.1 { (k, h) } else { best }
                 });
-        let mad = crate::median::median(&mut heights);
+        let mad = crate::median::median(heights);
         if largest <= floor.max(TRIM_MADS * 1.4826 * mad) {
             return Some(fit);
         }
