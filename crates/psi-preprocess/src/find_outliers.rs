@@ -190,27 +190,22 @@ pub fn find_outliers_with(
     monitor: &Monitor<'_>,
 ) -> Outliers {
     // The points in Morton order (slots), where neighbours' data lie together.
-    find_outliers_in(
-        &MortonIndex::new(positions),
-        positions.len(),
-        normals,
-        monitor,
-    )
+    let index = MortonIndex::new(positions);
+    let normals = normals.filter(|v| v.len() == positions.len());
+    let by_slot = normals.map(|v| index.ids().par_iter().map(|&i| v[i as usize]).collect());
+    find_outliers_in(&index, positions.len(), by_slot, monitor)
 }
 
 /// [`find_outliers_with`] of the `n` points that `index` indexes (its ids: 0..n, the
-/// non-finite points left out), `normals` by original index.
+/// non-finite points left out), `normals` by slot (shape: the index's length).
 pub(crate) fn find_outliers_in(
     index: &MortonIndex,
     n: usize,
-    normals: Option<&[DVec3]>,
+    normals: Option<Vec<DVec3>>,
     monitor: &Monitor<'_>,
 ) -> Outliers {
-    let normals = normals.filter(|v| v.len() == n);
     let ids = index.ids();
-    let sorted_normals: Option<Vec<DVec3>> =
-        normals.map(|v| ids.par_iter().map(|&i| v[i as usize]).collect());
-    let found = outliers_in_order(index, sorted_normals.as_deref(), monitor);
+    let found = outliers_in_order(index, normals.as_deref(), monitor);
     // Back to the caller's order; a point with a non-finite coordinate is far from everything.
     let mut mask = vec![true; n];
     for (&i, &m) in ids.iter().zip(&found.mask) {

@@ -451,16 +451,19 @@ pub fn preprocess_with(
     if params.remove_outliers && !origin.is_mesh() {
         step("outliers", 0)?;
         let t = Instant::now();
-        let mut positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+        let all = index.get_or_insert_with(|| morton_index_of(&points));
+        // (By slot, straight from the points: no copy in their order at the search's peak.)
         let normals: Option<Vec<DVec3>> =
-            normals_given.then(|| points.iter().map(|p| p.n).collect());
-        let all = index.get_or_insert_with(|| MortonIndex::new(&positions));
-        let found = find_outliers_in(all, positions.len(), normals.as_deref(), monitor);
+            normals_given.then(|| all.ids().iter().map(|&i| points[i as usize].n).collect());
+        let found = find_outliers_in(all, points.len(), normals, monitor);
         monitor.check()?;
         // Stray clumps support themselves: judged as groups, among the points left.
         let left: Vec<bool> = found.mask.iter().map(|m| !m).collect();
-        let mut kept = left.iter();
-        positions.retain(|_| *kept.next().unwrap_or(&true));
+        let positions: Vec<DVec3> = points
+            .iter()
+            .zip(&left)
+            .filter_map(|(p, &l)| l.then_some(p.p))
+            .collect();
         let left_index = all.retained(&left);
         let clumps = find_clumps_in(&positions, &left_index, monitor);
         monitor.check()?;
