@@ -7,10 +7,9 @@ use glam::DVec3;
 use psi_octree::{Aabb, Interrupted, Monitor, MortonIndex, OrientedPoint};
 use serde::{Deserialize, Serialize};
 
+use crate::drop_strays::drop_strays;
 use crate::estimate_noise::estimate_noise_in;
 use crate::estimate_normals::estimate_normals_in;
-use crate::find_clumps::find_clumps_in;
-use crate::find_outliers::find_outliers_in;
 use crate::neighbour_graph::morton_index_of;
 use crate::orient_normals::{check_normal_consistency_in, orient_normals_in};
 use crate::{
@@ -451,40 +450,9 @@ pub fn preprocess_with(
     if params.remove_outliers && !origin.is_mesh() {
         step("outliers", 0)?;
         let t = Instant::now();
-        let all = index.get_or_insert_with(|| morton_index_of(&points));
-        // (By slot, straight from the points: no copy in their order at the search's peak.)
-        let normals: Option<Vec<DVec3>> =
-            normals_given.then(|| all.ids().iter().map(|&i| points[i as usize].n).collect());
-        let found = find_outliers_in(all, points.len(), normals, monitor);
-        monitor.check()?;
-        // Stray clumps support themselves: judged as groups, among the points left.
-        let left: Vec<bool> = found.mask.iter().map(|m| !m).collect();
-        let positions: Vec<DVec3> = points
-            .iter()
-            .zip(&left)
-            .filter_map(|(p, &l)| l.then_some(p.p))
-            .collect();
-        let left_index = all.retained(&left);
-        let clumps = find_clumps_in(&positions, &left_index, monitor);
-        monitor.check()?;
-        let unclumped: Vec<bool> = clumps.mask.iter().map(|m| !m).collect();
-        index = Some(left_index.retained(&unclumped));
-        let mut clumped = clumps.mask.iter(); // over the points left: `||` skips the others
-        let drop: Vec<bool> = found
-            .mask
-            .iter()
-            .map(|&m| m || clumped.next() == Some(&true))
-            .collect();
-        let mut keep = drop.iter().map(|m| !m);
-        points.retain(|_| keep.next().unwrap_or(true));
-        let mut keep = drop.iter().map(|m| !m);
-        source.retain(|_| keep.next().unwrap_or(true));
-        outliers = Some(OutlierReport {
-            removed: found.count() + clumps.points,
-            far: found.far,
-            off_surface: found.off_surface,
-            clumps: clumps.points,
-        });
+        let all = morton_index_of(&points);
+        let (report, kept) = drop_strays(&mut points, &mut source, normals_given, all, monitor)?;
+        (outliers, index) = (Some(report), Some(kept));
         seconds.outliers = t.elapsed().as_secs_f64();
         step("outliers", 1)?;
     }

@@ -1,0 +1,59 @@
+//! The stray points of a scan left out: the outlier search ([`crate::find_outliers`]), then
+//! the clump search ([`crate::find_clumps`]) among the points it kept, over one Morton index
+//! retained as points leave.
+
+use glam::DVec3;
+use psi_octree::{Interrupted, Monitor, MortonIndex, OrientedPoint};
+
+use crate::OutlierReport;
+use crate::find_clumps::find_clumps_in;
+use crate::find_outliers::find_outliers_in;
+
+/// Leaves the outliers and stray clumps out of `points` (shape: N; normals read when
+/// `normals_given`) and of `source` (shape: N, their input indices), given `index`, the Morton
+/// index of the points' positions (freed once the clump search has its own). Returns what was left out and the index of the points kept
+/// (no second sort: [`MortonIndex::retained`]). `Err` once `monitor`'s flag is set (the points
+/// are then as given).
+pub(crate) fn drop_strays(
+    points: &mut Vec<OrientedPoint>,
+    source: &mut Vec<u32>,
+    normals_given: bool,
+    index: MortonIndex,
+    monitor: &Monitor<'_>,
+) -> Result<(OutlierReport, MortonIndex), Interrupted> {
+    // (By slot, straight from the points: no copy in their order at the search's peak.)
+    let normals: Option<Vec<DVec3>> =
+        normals_given.then(|| index.ids().iter().map(|&i| points[i as usize].n).collect());
+    let found = find_outliers_in(&index, points.len(), normals, monitor);
+    monitor.check()?;
+    // Stray clumps support themselves: judged as groups, among the points left.
+    let left: Vec<bool> = found.mask.iter().map(|m| !m).collect();
+    let positions: Vec<DVec3> = points
+        .iter()
+        .zip(&left)
+        .filter_map(|(p, &l)| l.then_some(p.p))
+        .collect();
+    let left_index = index.retained(&left);
+    drop(index);
+    let clumps = find_clumps_in(&positions, &left_index, monitor);
+    monitor.check()?;
+    let unclumped: Vec<bool> = clumps.mask.iter().map(|m| !m).collect();
+    let kept_index = left_index.retained(&unclumped);
+    let mut clumped = clumps.mask.iter(); // over the points left: `||` skips the others
+    let keep: Vec<bool> = found
+        .mask
+        .iter()
+        .map(|&m| !(m || clumped.next() == Some(&true)))
+        .collect();
+    let mut kept = keep.iter();
+    points.retain(|_| *kept.next().unwrap_or(&true));
+    let mut kept = keep.iter();
+    source.retain(|_| *kept.next().unwrap_or(&true));
+    let report = OutlierReport {
+        removed: found.count() + clumps.points,
+        far: found.far,
+        off_surface: found.off_surface,
+        clumps: clumps.points,
+    };
+    Ok((report, kept_index))
+}
