@@ -4,10 +4,24 @@
 
 use glam::DVec3;
 use psi_octree::{Interrupted, Monitor, MortonIndex, OrientedPoint};
+use serde::{Deserialize, Serialize};
 
-use crate::OutlierReport;
 use crate::find_clumps::find_clumps_in;
 use crate::find_outliers::find_outliers_in;
+
+/// The outlier step's result.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct OutlierReport {
+    /// Points dropped.
+    pub removed: usize,
+    /// Of those, farther than a few sample spacings from every surface point.
+    pub far: usize,
+    /// Of those, near the data but off the surface it describes.
+    pub off_surface: usize,
+    /// Of those, in small groups lying apart from the rest, off its surface (stray clumps).
+    #[serde(default)]
+    pub clumps: usize,
+}
 
 /// Leaves the outliers and stray clumps out of `points` (shape: N; normals read when
 /// `normals_given`) and of `source` (shape: N, their input indices), given `index`, the Morton

@@ -52,6 +52,7 @@ mod spatial_order;
 
 pub use denoise::{DenoiseReport, denoise, denoise_with};
 pub use densify_mesh::{MeshCoarseness, densify_mesh, densify_mesh_with_sources, mesh_coarseness};
+pub use drop_strays::OutlierReport;
 pub use estimate_noise::{NoiseEstimate, estimate_noise};
 pub use estimate_normals::{estimate_normals, estimate_normals_with};
 pub use find_clumps::{CLUMP_GAP, CLUMP_POINTS, Clumps, find_clumps, find_clumps_with};
@@ -63,7 +64,7 @@ pub use orient_normals::{
 pub use point_spread::{Spread, point_spread};
 pub use preprocess::{
     ErrorThreshold, INCONSISTENT_NORMALS, MeshRef, MeshReport, NOISE_ERROR_FACTOR, NormalTreatment,
-    OutlierReport, PAPER_ERROR_REL, PointOrigin, PreprocessError, PreprocessParams,
-    PreprocessReport, Preprocessed, ScanInput, StepSeconds, ThresholdSource,
-    error_threshold_for_noise, preprocess, preprocess_with,
+    PAPER_ERROR_REL, PointOrigin, PreprocessError, PreprocessParams, PreprocessReport,
+    Preprocessed, ScanInput, StepSeconds, ThresholdSource, error_threshold_for_noise, preprocess,
+    preprocess_with,
 };

@@ -7,7 +7,7 @@ use glam::DVec3;
 use psi_octree::{Aabb, Interrupted, Monitor, MortonIndex, OrientedPoint};
 use serde::{Deserialize, Serialize};
 
-use crate::drop_strays::drop_strays;
+use crate::drop_strays::{OutlierReport, drop_strays};
 use crate::estimate_noise::estimate_noise_in;
 use crate::estimate_normals::estimate_normals_in;
 use crate::neighbour_graph::morton_index_of;
@@ -105,20 +105,6 @@ pub enum NormalTreatment {
     EstimatedPropagated,
     /// Estimated, then oriented toward the sensor.
     EstimatedTowardViewpoint,
-}
-
-/// The outlier step's result.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct OutlierReport {
-    /// Points dropped.
-    pub removed: usize,
-    /// Of those, farther than a few sample spacings from every surface point.
-    pub far: usize,
-    /// Of those, near the data but off the surface it describes.
-    pub off_surface: usize,
-    /// Of those, in small groups lying apart from the rest, off its surface (stray clumps).
-    #[serde(default)]
-    pub clumps: usize,
 }
 
 /// A triangle mesh the points were taken from, borrowed.
