@@ -7,8 +7,8 @@ use glam::DVec3;
 use psi_octree::{OctreeBuffers, OrientedPoint};
 
 use crate::Mpu;
-use crate::data_footprint::InputLocalSlot;
 use crate::eval_nodes::EvalNode;
+use crate::input_local::InputLocalSlot;
 
 /// Memory for an MPU build to fill instead of allocating: the largest arrays of an earlier MPU
 /// ([`Mpu::into_buffers`]) or fresh ones touched once ([`MpuBuffers::in_step_with`]). Memory the

@@ -14,8 +14,9 @@ use psi_octree::PointIndex;
 use rayon::prelude::*;
 
 use crate::Mpu;
-use crate::data_footprint::{DataFootprint, InputLocalSlot};
+use crate::data_footprint::DataFootprint;
 use crate::fit_reach::CellReach;
+use crate::input_local::InputLocalSlot;
 
 /// The entries of an MPU's footprint table that an edit may have changed
 /// ([`Mpu::stale_footprint`]): what [`Mpu::carry_stale_footprint`] empties.
@@ -46,11 +47,12 @@ impl Mpu {
     /// [`Mpu::carry_stale_footprint`] (query neither MPU in between).
     pub fn stale_footprint(&self, changed: &[DVec3]) -> StaleFootprint {
         let n = self.points.len();
-        if !(self.params.n_min + 1 >= 9 && n >= 9 && self.footprint.len() == n) {
+        let table = self.footprint.table().filter(|t| t.len() == n);
+        let Some(table) = table.filter(|_| self.params.n_min + 1 >= 9 && n >= 9) else {
             return StaleFootprint::default();
-        }
+        };
         StaleFootprint {
-            entries: stale_entries(self, self.footprint.table(), changed),
+            entries: stale_entries(self, table, changed),
             len: n,
         }
     }

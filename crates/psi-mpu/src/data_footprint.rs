@@ -3,132 +3,14 @@
 //! it, their centroid), cached on first use; and the test whether a position lies within the
 //! data rather than on a part of the implicit that no data backs (a hole, a scan's border).
 
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 use glam::DVec3;
-use psi_octree::{OrientedPoint, PointIndex, all_k_nearest};
+use psi_octree::all_k_nearest;
 
-use crate::point_footprint::{BAND_EDGE_OFFSET, DEEP, PointFootprint, SUBSET_SLACK, vector_of};
+use crate::input_local::{InputData, InputLocal, InputLocalSlot, LocalTable, tangential_length};
+use crate::point_footprint::{BAND_EDGE_OFFSET, DEEP, PointFootprint, SUBSET_SLACK};
 use crate::surrounded::{SURROUND_REACH, surrounded};
-
-/// The input as the footprint reads it.
-#[derive(Clone, Copy)]
-pub(crate) struct InputData<'a> {
-    /// Positions, local frame (shape: N).
-    pub(crate) positions: &'a [DVec3],
-    /// The points, for their unit normals (shape: N).
-    pub(crate) points: &'a [OrientedPoint],
-    /// A kd-tree over `positions`.
-    pub(crate) index: &'a PointIndex,
-}
-
-/// What an input point's 9 nearest points (itself and 8 neighbours) say about the data around
-/// it: a pure function of the input. 56 bytes, so that with its once-flag an entry of the table
-/// fills one cache line ([`InputLocalSlot`]): the footprint test reads one line a point
-/// instead of two.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct InputLocal {
-    /// Centroid of the point's 8 nearest input points (itself included) minus the point, local
-    /// frame (f32: a fraction of a spacing, to about 1e-7 of it).
-    centroid_offset: [f32; 3],
-    /// The distance to the 9th nearest (to the last, when there are fewer), world units.
-    last: f64,
-    /// The point's nearest input points other than itself (its 9 nearest but itself; the
-    /// first 8 of them in a cluster of 9 or more coincident points that leaves it out), the
-    /// first `near_len` valid.
-    near: [u32; 8],
-    near_len: u8,
-    /// Whether the point's 9 nearest are 9 (the input has more points than that).
-    full: bool,
-    /// [`DataFootprint::is_interior`].
-    interior: bool,
-}
-
-impl InputLocal {
-    /// The entry of input point `q` from its 9 nearest points `around` (itself and 8
-    /// neighbours, as `(index, squared distance)`, nearest first; the centroid is of the
-    /// first 8).
-    fn from_nearest(data: InputData<'_>, q: u32, around: &[(u32, f64)]) -> InputLocal {
-        let positions = data.positions;
-        let y = positions[q as usize];
-        let last = around.last().map_or(0.0, |n| n.1.sqrt());
-        let spacing = spacing_of(last);
-        let first = &around[..around.len().min(8)];
-        let centroid = first
-            .iter()
-            .map(|&(i, _)| positions[i as usize])
-            .sum::<DVec3>()
-            / first.len().max(1) as f64;
-        let n = data.points[q as usize].n;
-        let offset = centroid - y;
-        let interior = tangential_length(offset, n) <= 0.5 * spacing;
-        let mut near = [0u32; 8];
-        let mut near_len = 0;
-        for &(i, _) in around {
-            if i != q && near_len < near.len() {
-                near[near_len] = i;
-                near_len += 1;
-            }
-        }
-        InputLocal {
-            centroid_offset: [offset.x as f32, offset.y as f32, offset.z as f32],
-            last,
-            near,
-            near_len: near_len as u8,
-            full: around.len() >= 9,
-            interior,
-        }
-    }
-
-    /// d₈·√(π/8), world units ([`DataFootprint::spacing`]).
-    #[inline]
-    fn spacing(&self) -> f64 {
-        spacing_of(self.last)
-    }
-
-    /// The centroid of the point's 8 nearest minus the point, local frame, world units.
-    #[inline]
-    fn centroid_offset(&self) -> DVec3 {
-        vector_of(self.centroid_offset)
-    }
-
-    /// Every input point but the point and `near` is at least this far from the point, world
-    /// units (the 9th nearest's distance; ∞ when there are no more points).
-    #[inline]
-    fn beyond(&self) -> f64 {
-        if self.full { self.last } else { f64::INFINITY }
-    }
-}
-
-/// The length of `v`'s component in the plane normal to unit `n` (the units of `v`).
-#[inline]
-fn tangential_length(v: DVec3, n: DVec3) -> f64 {
-    (v - n * v.dot(n)).length()
-}
-
-/// The input spacing d₈·√(π/8) for a distance d₈ to the 8th neighbour (world units): the
-/// radius of the disc that holds one point on average when 8 points fill the disc of radius d₈.
-#[inline]
-fn spacing_of(d8: f64) -> f64 {
-    d8 * (std::f64::consts::PI / 8.0).sqrt()
-}
-
-/// A table entry: an [`InputLocal`] filled on first use, aligned to a cache line.
-#[derive(Debug, Default)]
-#[repr(align(64))]
-pub(crate) struct InputLocalSlot(OnceLock<InputLocal>);
-
-impl InputLocalSlot {
-    /// The distance to the point's 9th nearest input point (world units) when filled.
-    pub(crate) fn reach(&self) -> Option<f64> {
-        self.0.get().map(InputLocal::beyond)
-    }
-
-    /// Empties the entry (filled again on next use).
-    pub(crate) fn clear(&mut self) {
-        self.0.take();
-    }
-}
 
 /// An input point a particle was near, with what [`crate::Mpu::near_data_from`] reads of it:
 /// kept by the particle between moves.
@@ -162,7 +44,7 @@ pub struct FootprintTest {
 /// The per-point table of [`InputLocal`]s, filled lazily and shared by the clones of an MPU.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct DataFootprint {
-    table: Arc<Vec<InputLocalSlot>>,
+    table: Arc<LocalTable>,
     /// The whole input's footprint at each point, when the points are a thinned subset of it
     /// (shape: N).
     whole: Option<Arc<[PointFootprint]>>,
@@ -170,11 +52,9 @@ pub(crate) struct DataFootprint {
 
 impl DataFootprint {
     /// An empty table for `n` input points, in `memory`'s allocation (emptied first).
-    pub(crate) fn new_in(mut memory: Vec<InputLocalSlot>, n: usize) -> Self {
-        memory.clear();
-        memory.resize_with(n, InputLocalSlot::default);
+    pub(crate) fn new_in(memory: Vec<InputLocalSlot>, n: usize) -> Self {
         Self {
-            table: Arc::new(memory),
+            table: Arc::new(LocalTable::new_in(memory, n)),
             whole: None,
         }
     }
@@ -224,7 +104,7 @@ impl DataFootprint {
         };
         qs.iter()
             .map(|&q| {
-                let local = *self.local(data, q);
+                let local = self.local(data, q);
                 let hops = if !interior(q) {
                     0
                 } else if touches_edge(q) {
@@ -249,25 +129,26 @@ impl DataFootprint {
 
     /// The table's memory, when no other MPU shares it.
     pub(crate) fn into_memory(self) -> Vec<InputLocalSlot> {
-        Arc::try_unwrap(self.table).unwrap_or_default()
+        Arc::try_unwrap(self.table)
+            .map(LocalTable::into_memory)
+            .unwrap_or_default()
     }
 
     /// The table, to be carried to a later MPU, when no other MPU shares it and it has `n`
     /// entries; this footprint is left empty.
     pub(crate) fn take_table(&mut self, n: usize) -> Option<Vec<InputLocalSlot>> {
-        let table = Arc::get_mut(&mut self.table)?;
-        (table.len() == n).then(|| std::mem::take(table))
+        Arc::get_mut(&mut self.table)?.take_dense(n)
     }
 
-    /// The table's entries (shape: one per input point).
-    pub(crate) fn table(&self) -> &[InputLocalSlot] {
-        &self.table
+    /// The table's entries (shape: one per input point) when the table is dense.
+    pub(crate) fn table(&self) -> Option<&[InputLocalSlot]> {
+        self.table.dense()
     }
 
     /// A footprint over a carried table.
     pub(crate) fn from_table(table: Vec<InputLocalSlot>) -> Self {
         Self {
-            table: Arc::new(table),
+            table: Arc::new(LocalTable::Dense(table)),
             whole: None,
         }
     }
@@ -293,8 +174,8 @@ impl DataFootprint {
 
     /// The cached [`InputLocal`] of input point `q`, computed on first use from one query of
     /// its 9 nearest points (itself and 8 neighbours; the centroid is of the first 8).
-    fn local(&self, data: InputData<'_>, q: u32) -> &InputLocal {
-        self.table[q as usize].0.get_or_init(|| {
+    fn local(&self, data: InputData<'_>, q: u32) -> InputLocal {
+        self.table.get_or_init(q, || {
             let y = data.positions[q as usize];
             InputLocal::from_nearest(data, q, &data.index.nearest_of_entry(q, y, 9))
         })
@@ -314,12 +195,17 @@ impl DataFootprint {
     }
 
     /// Fills every entry of the table at once ([`psi_octree::all_k_nearest`]: a grid instead
-    /// of a kd-tree query per point), for a caller that reads them all.
-    pub(crate) fn fill_all(&self, data: InputData<'_>) {
+    /// of a kd-tree query per point), for a caller that reads them all. A sparse table not
+    /// shared with another MPU becomes a dense one first (all its entries will be held).
+    pub(crate) fn fill_all(&mut self, data: InputData<'_>) {
+        if let Some(table) = Arc::get_mut(&mut self.table)
+            && table.dense().is_none()
+        {
+            *table = LocalTable::dense_for(table.len());
+        }
         all_k_nearest(data.positions, data.index, 9, |q, around| {
-            self.table[q as usize]
-                .0
-                .get_or_init(|| InputLocal::from_nearest(data, q, around));
+            self.table
+                .get_or_init(q, || InputLocal::from_nearest(data, q, around));
         });
     }
 
@@ -357,7 +243,7 @@ impl DataFootprint {
         // whole test on the subset's own points, its spacing capped where a point stands nearly
         // alone in the subset (`SUBSET_SLACK`).
         let Some(whole) = &self.whole else {
-            return self.whole_test(data, local, at_q, y, local.spacing(), reach);
+            return self.whole_test(data, &local, at_q, y, local.spacing(), reach);
         };
         let at = whole[q as usize];
         if !at.own_test() {
@@ -370,7 +256,7 @@ impl DataFootprint {
         } else {
             local.spacing()
         };
-        self.whole_test(data, local, at_q, y, spacing, reach)
+        self.whole_test(data, &local, at_q, y, spacing, reach)
     }
 
     /// The whole test of local position `y` at its nearest input point (`at_q`, whose cached
@@ -523,9 +409,74 @@ struct Nearest {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use psi_octree::PointIndex;
     use psi_shapes::AnalyticShape;
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg64Mcg;
+
+    /// A sparse table (what inputs above `SPARSE_ABOVE` points get) answers as a dense one:
+    /// the footprint test at positions on, beside and off the data, and every point's spacing,
+    /// interior flag and footprint, the entries filled from two threads at once; and it holds
+    /// only the entries asked for.
+    #[test]
+    fn a_sparse_table_answers_as_a_dense_one() {
+        use rayon::prelude::*;
+        let points = AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.3,
+        }
+        .sample(3000, 7);
+        let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+        let index = PointIndex::new(&positions);
+        let data = InputData {
+            positions: &positions,
+            points: &points,
+            index: &index,
+        };
+        let dense = DataFootprint::new_in(Vec::new(), points.len());
+        let sparse = DataFootprint {
+            table: Arc::new(LocalTable::sparse(points.len())),
+            whole: None,
+        };
+        let mut rng = Pcg64Mcg::seed_from_u64(8);
+        let probes: Vec<(DVec3, f64)> = (0..600)
+            .map(|t| {
+                let p = points[t * 5 % points.len()];
+                let lift = [0.0, 0.01, 0.1][t % 3] * (rng.random::<f64>() - 0.5);
+                let side = DVec3::new(rng.random(), rng.random(), rng.random()) * 0.02;
+                (p.p + lift * p.n + side, [1.0, 1.5][t % 2])
+            })
+            .collect();
+        let answers = |f: &DataFootprint| -> Vec<FootprintTest> {
+            probes
+                .par_iter()
+                .map(|&(y, reach)| f.near_data_from(data, y, reach, None))
+                .collect()
+        };
+        assert_eq!(answers(&sparse), answers(&dense));
+        let asked = sparse.table.filled();
+        assert!(0 < asked && asked < points.len() / 2, "{asked} entries");
+        assert_eq!(asked, dense.table.filled());
+        let every: Vec<u32> = (0..points.len() as u32).collect();
+        let complete = |_: DVec3, _: f64| true;
+        assert_eq!(
+            sparse.point_footprints(data, &every, &complete),
+            dense.point_footprints(data, &every, &complete)
+        );
+        // Filling every entry makes an unshared table dense first.
+        let mut filled = DataFootprint {
+            table: Arc::new(LocalTable::sparse(points.len())),
+            whole: None,
+        };
+        filled.fill_all(data);
+        assert!(filled.table().is_some());
+        assert_eq!(filled.table.filled(), points.len());
+        for q in every {
+            assert_eq!(sparse.spacing(data, q), dense.spacing(data, q));
+            assert_eq!(filled.spacing(data, q), dense.spacing(data, q));
+            assert_eq!(sparse.is_interior(data, q), dense.is_interior(data, q));
+        }
+    }
 
     #[test]
     fn a_footprint_entry_is_one_cache_line() {

@@ -50,6 +50,7 @@ mod fit_sharp;
 mod fit_store;
 mod fit_top;
 mod frame;
+mod input_local;
 mod least_squares;
 mod local_function;
 mod mpu;

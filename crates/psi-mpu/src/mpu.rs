@@ -7,9 +7,10 @@ use glam::DVec3;
 use psi_octree::{Aabb, Octree, OrientedPoint, PointIndex};
 
 use crate::coarse_index::CoarseIndex;
-use crate::data_footprint::{DataFootprint, FootprintTest, InputData};
+use crate::data_footprint::{DataFootprint, FootprintTest};
 use crate::eval_nodes::{EvalNode, NO_FIT};
 use crate::fit_store::FitStore;
+use crate::input_local::InputData;
 use crate::point_footprint::PointFootprint;
 use crate::trial_balls::TrialBalls;
 use crate::{BuildReport, DataAnchor, FitKind, LocalFunction, MpuFrame, MpuParams};
@@ -215,8 +216,13 @@ impl Mpu {
 
     /// Fills the footprint's cache for every input point at once (a grid's 9 nearest instead
     /// of a kd-tree query each: `psi_octree::all_k_nearest`).
-    pub fn fill_footprint(&self) {
-        self.footprint.fill_all(self.input_data());
+    pub fn fill_footprint(&mut self) {
+        let data = InputData {
+            positions: self.octree.positions(),
+            points: &self.points,
+            index: &self.index,
+        };
+        self.footprint.fill_all(data);
     }
 
     /// Whether input point `q` lies at or near the data's edge as [`Mpu::point_footprints`]

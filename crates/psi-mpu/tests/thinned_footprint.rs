@@ -47,7 +47,7 @@ fn a_thinned_subset_with_the_whole_footprint_tests_as_the_whole_input() {
         .filter(|p| (p.p - hole).length() > radius)
         .collect();
     let params = MpuParams::paper();
-    let whole = Mpu::build(&points, &params).unwrap();
+    let mut whole = Mpu::build(&points, &params).unwrap();
     whole.fill_footprint();
     let all: Vec<u32> = (0..points.len() as u32).collect();
     let footprints = whole.point_footprints(&all, &|_, _| true);

@@ -410,7 +410,7 @@ fn seed_region(
         monitor: monitor.quiet(),
         ..Default::default()
     };
-    let mpu = Mpu::build_with(points, mpu_params, options)?;
+    let mut mpu = Mpu::build_with(points, mpu_params, options)?;
     monitor.check()?;
     let tree = mpu.octree();
     let mut leaves = Vec::new();
@@ -443,7 +443,7 @@ fn seed_region(
                 in_region(y) || cover.holds(y)
             })
         };
-        thinned.keep_from_region(&mpu, &own_leaves, rate, &complete);
+        thinned.keep_from_region(&mut mpu, &own_leaves, rate, &complete);
     }
     Ok(OctantSeeds {
         leaves,

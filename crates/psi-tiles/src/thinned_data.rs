@@ -55,7 +55,7 @@ impl ThinnedData {
     /// `complete` as [`Mpu::point_footprints`]'.
     pub(crate) fn keep_from_region(
         &mut self,
-        mpu: &Mpu,
+        mpu: &mut Mpu,
         leaves: &[u32],
         rate: f64,
         complete: &dyn Fn(DVec3, f64) -> bool,
@@ -96,6 +96,7 @@ impl ThinnedData {
             return;
         }
         mpu.fill_footprint();
+        let input = mpu.points();
         let footprints = mpu.point_footprints(&qs, complete);
         let within = |k: u8| footprints.iter().filter(|f| f.hops() < k).count() as f64;
         let band = [DEEP, DEEP - 1]
