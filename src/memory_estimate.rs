@@ -13,9 +13,14 @@ use crate::files::{extension_format, open_error};
 
 /// Bytes of an in-core run beyond its points (the program, the tables of a small input).
 const BASE_BYTES: u64 = 40 << 20;
-/// Bytes a point with normals costs in core (from measured peaks:
-/// docs/results/2026-11-25-scale, `cargo xtask bench scale`).
-const BYTES_PER_POINT: u64 = 240;
+/// Bytes a point with normals costs in core besides the data footprint's table (from measured
+/// peaks: docs/results/2026-11-25-scale, `cargo xtask bench scale`;
+/// docs/results/2026-11-29-shared-index for the table's share).
+const BYTES_PER_POINT: u64 = 180;
+/// The data footprint's table: 64 bytes a point for inputs of up to
+/// [`psi_mpu::FOOTPRINT_SPARSE_ABOVE`] points; larger inputs' tables are sparse (the entries
+/// near particles, a few megabytes).
+const TABLE_BYTES_PER_POINT: u64 = 64;
 /// Bytes a point without normals costs (normals estimated and oriented; issue 30's 30 M-point
 /// measurement).
 const BYTES_PER_BARE_POINT: u64 = 350;
@@ -49,12 +54,18 @@ pub fn estimate_points(
 /// Bytes an in-core `psi sample` of `points` points takes at its peak (within about 25 %),
 /// with or without normals in the file.
 pub fn estimate_in_core_bytes(points: u64, normals: bool) -> u64 {
-    let per = if normals {
-        BYTES_PER_POINT
+    if !normals {
+        // (The peak is the orientation's, before the MPU and its table.)
+        return BASE_BYTES.saturating_add(points.saturating_mul(BYTES_PER_BARE_POINT));
+    }
+    let table = if points <= psi_mpu::FOOTPRINT_SPARSE_ABOVE as u64 {
+        points * TABLE_BYTES_PER_POINT
     } else {
-        BYTES_PER_BARE_POINT
+        0
     };
-    BASE_BYTES.saturating_add(points.saturating_mul(per))
+    BASE_BYTES
+        .saturating_add(points.saturating_mul(BYTES_PER_POINT))
+        .saturating_add(table)
 }
 
 /// The memory available to a new run (Linux `MemAvailable`), bytes; `PSI_AVAILABLE_MEMORY`

@@ -414,7 +414,7 @@ mod tests {
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg64Mcg;
 
-    /// A sparse table (what inputs above `SPARSE_ABOVE` points get) answers as a dense one:
+    /// A sparse table (what inputs above `FOOTPRINT_SPARSE_ABOVE` points get) answers as a dense one:
     /// the footprint test at positions on, beside and off the data, and every point's spacing,
     /// interior flag and footprint, the entries filled from two threads at once; and it holds
     /// only the entries asked for.

@@ -1,7 +1,7 @@
 //! What an input point's 9 nearest points say about the data around it ([`InputLocal`]: its
 //! spacing, its neighbours, whether they surround it), and the table that keeps one per input
 //! point, computed on first use ([`LocalTable`]): dense (a once-cell per point, a cache line
-//! each) up to [`SPARSE_ABOVE`] points, sparse above (only the entries computed, in a sharded
+//! each) up to [`FOOTPRINT_SPARSE_ABOVE`] points, sparse above (only the entries computed, in a sharded
 //! hash map: a relaxation reads the points near its particles, a small share of a dense scan's:
 //! 131 k–200 k of 1 M points, notes: 2026-11-29-shared-index). An entry is a pure function of
 //! the input, so which thread computes it first changes nothing.
@@ -15,8 +15,9 @@ use psi_octree::{IdHasher, OrientedPoint, PointIndex};
 
 use crate::point_footprint::vector_of;
 
-/// Inputs of more points than this keep their table sparse (a dense one is 64 bytes a point).
-pub(crate) const SPARSE_ABOVE: usize = 1 << 21;
+/// Inputs of more points than this keep their data footprint's table sparse (a dense one is
+/// 64 bytes a point, written when the MPU is made).
+pub const FOOTPRINT_SPARSE_ABOVE: usize = 1 << 21;
 
 /// Shards of a sparse table (by point index), so that threads filling it seldom wait.
 const SHARDS: usize = 64;
@@ -160,9 +161,9 @@ impl Default for LocalTable {
 
 impl LocalTable {
     /// An empty table for `n` input points: dense in `memory`'s allocation (emptied first) up to
-    /// [`SPARSE_ABOVE`] points, sparse above.
+    /// [`FOOTPRINT_SPARSE_ABOVE`] points, sparse above.
     pub(crate) fn new_in(mut memory: Vec<InputLocalSlot>, n: usize) -> Self {
-        if n > SPARSE_ABOVE {
+        if n > FOOTPRINT_SPARSE_ABOVE {
             return LocalTable::sparse(n);
         }
         memory.clear();
@@ -181,7 +182,7 @@ impl LocalTable {
     }
 
     /// An empty sparse table for `n` input points (what [`LocalTable::new_in`] makes above
-    /// [`SPARSE_ABOVE`] points).
+    /// [`FOOTPRINT_SPARSE_ABOVE`] points).
     pub(crate) fn sparse(n: usize) -> Self {
         LocalTable::Sparse {
             len: n,

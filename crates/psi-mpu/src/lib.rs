@@ -78,6 +78,7 @@ pub use fit_fetched::{BallSource, FetchBall, KthDistance};
 pub use fit_region::{FarBalls, Region, RegionFit, RegionPoints, fit_region};
 pub use fit_top::{fit_top, fit_top_region, is_coarse_point};
 pub use frame::MpuFrame;
+pub use input_local::FOOTPRINT_SPARSE_ABOVE;
 pub use local_function::{FitKind, LocalFunction};
 pub use mpu::Mpu;
 pub use params::MpuParams;
