@@ -409,10 +409,22 @@ struct Nearest {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use psi_octree::PointIndex;
+    use psi_octree::{OrientedPoint, PointIndex};
     use psi_shapes::AnalyticShape;
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg64Mcg;
+
+    /// `n` points sampled on a torus with `seed`, their positions and a kd-tree of them.
+    fn torus(n: usize, seed: u64) -> (Vec<OrientedPoint>, Vec<DVec3>, PointIndex) {
+        let points = AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.3,
+        }
+        .sample(n, seed);
+        let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+        let index = PointIndex::new(&positions);
+        (points, positions, index)
+    }
 
     /// A sparse table (what inputs above `FOOTPRINT_SPARSE_ABOVE` points get) answers as a dense one:
     /// the footprint test at positions on, beside and off the data, and every point's spacing,
@@ -421,13 +433,7 @@ mod tests {
     #[test]
     fn a_sparse_table_answers_as_a_dense_one() {
         use rayon::prelude::*;
-        let points = AnalyticShape::Torus {
-            major: 1.0,
-            minor: 0.3,
-        }
-        .sample(3000, 7);
-        let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
-        let index = PointIndex::new(&positions);
+        let (points, positions, index) = torus(3000, 7);
         let data = InputData {
             positions: &positions,
             points: &points,
@@ -490,13 +496,7 @@ mod tests {
     /// spacings away are tried too, for the answers' sake.
     #[test]
     fn nearest_among_neighbours_is_the_brute_force_nearest() {
-        let points = AnalyticShape::Torus {
-            major: 1.0,
-            minor: 0.3,
-        }
-        .sample(4000, 5);
-        let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
-        let index = PointIndex::new(&positions);
+        let (points, positions, index) = torus(4000, 5);
         let data = InputData {
             positions: &positions,
             points: &points,
