@@ -7,7 +7,7 @@ use psi_octree::{Interrupted, Monitor, MortonIndex, OrientedPoint};
 use serde::{Deserialize, Serialize};
 
 use crate::find_clumps::find_clumps_in;
-use crate::find_outliers::find_outliers_in;
+use crate::find_outliers::{NormalOf, find_outliers_in};
 
 /// The outlier step's result.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -35,10 +35,10 @@ pub(crate) fn drop_strays(
     index: MortonIndex,
     monitor: &Monitor<'_>,
 ) -> Result<(OutlierReport, MortonIndex), Interrupted> {
-    // (By slot, straight from the points: no copy in their order at the search's peak.)
-    let normals: Option<Vec<DVec3>> =
-        normals_given.then(|| index.ids().iter().map(|&i| points[i as usize].n).collect());
-    let found = find_outliers_in(&index, points.len(), normals, monitor);
+    // (Read from the points where needed: no copy of the normals at the search's peak.)
+    let normal_of = |i: usize| points[i].n;
+    let normal_of = normals_given.then_some(&normal_of as &NormalOf<'_>);
+    let found = find_outliers_in(&index, points.len(), normal_of, monitor);
     monitor.check()?;
     // Stray clumps support themselves: judged as groups, among the points left.
     let left: Vec<bool> = found.mask.iter().map(|m| !m).collect();

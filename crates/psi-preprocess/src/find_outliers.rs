@@ -191,21 +191,28 @@ pub fn find_outliers_with(
 ) -> Outliers {
     // The points in Morton order (slots), where neighbours' data lie together.
     let index = MortonIndex::new(positions);
-    let normals = normals.filter(|v| v.len() == positions.len());
-    let by_slot = normals.map(|v| index.ids().par_iter().map(|&i| v[i as usize]).collect());
-    find_outliers_in(&index, positions.len(), by_slot, monitor)
+    let given = normals.filter(|v| v.len() == positions.len());
+    let normal_of = given.map(|v| move |i: usize| v[i]);
+    let normal_of = normal_of.as_ref().map(|f| f as &NormalOf<'_>);
+    find_outliers_in(&index, positions.len(), normal_of, monitor)
 }
 
+/// The given unit normal of the point of an index (either sign).
+pub(crate) type NormalOf<'a> = dyn Fn(usize) -> DVec3 + Sync + 'a;
+
 /// [`find_outliers_with`] of the `n` points that `index` indexes (its ids: 0..n, the
-/// non-finite points left out), `normals` by slot (shape: the index's length).
+/// non-finite points left out), `normal_of` giving a point's normal by original index (read
+/// only where a point lies a little off its neighbours' quadric: no copy of all normals).
 pub(crate) fn find_outliers_in(
     index: &MortonIndex,
     n: usize,
-    normals: Option<Vec<DVec3>>,
+    normal_of: Option<&NormalOf<'_>>,
     monitor: &Monitor<'_>,
 ) -> Outliers {
     let ids = index.ids();
-    let found = outliers_in_order(index, normals.as_deref(), monitor);
+    let by_slot = normal_of.map(|f| move |s: usize| f(ids[s] as usize));
+    let by_slot = by_slot.as_ref().map(|f| f as &NormalOf<'_>);
+    let found = outliers_in_order(index, by_slot, monitor);
     // Back to the caller's order; a point with a non-finite coordinate is far from everything.
     let mut mask = vec![true; n];
     for (&i, &m) in ids.iter().zip(&found.mask) {
@@ -219,10 +226,10 @@ pub(crate) fn find_outliers_in(
     }
 }
 
-/// [`find_outliers`] on the points of `index`, by slot (`normals` by slot too).
+/// [`find_outliers`] on the points of `index`, by slot (`normal_of` by slot too).
 fn outliers_in_order(
     index: &MortonIndex,
-    normals: Option<&[DVec3]>,
+    normal_of: Option<&NormalOf<'_>>,
     monitor: &Monitor<'_>,
 ) -> Outliers {
     let positions = index.points();
@@ -230,13 +237,14 @@ fn outliers_in_order(
     // Whether a point's given normal lies along the normals of at least a quarter of `near`
     // (either sign: orientation is repaired later), as a point of a surface's does.
     let normal_fits = |i: usize, near: &mut dyn Iterator<Item = usize>| {
-        let Some(normals) = normals else {
+        let Some(normal_of) = normal_of else {
             return true;
         };
+        let n_i = normal_of(i);
         let (mut agree, mut count) = (0, 0);
         for j in near {
             count += 1;
-            agree += usize::from(normals[i].dot(normals[j]).abs() >= NORMAL_AGREEMENT);
+            agree += usize::from(n_i.dot(normal_of(j)).abs() >= NORMAL_AGREEMENT);
         }
         4 * agree >= count
     };
@@ -497,6 +505,48 @@ mod tests {
             found.mask[..clean].iter().filter(|&&m| m).count(),
             0,
             "rim points removed"
+        );
+    }
+
+    /// A point a little off the surface (0.8 spacings, inside the band its neighbours allow)
+    /// with a normal across it is an outlier; with the surface's normal, or with no normals
+    /// given, it is kept. The torus's sample order is not the search's Morton order, so each
+    /// point must be read with its own normal.
+    #[test]
+    fn a_normal_across_the_surface_counts_against_a_lifted_point() {
+        let shape = AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.35,
+        };
+        let surface = shape.sample(20_000, 9);
+        let spacing = (shape.area() / 20_000.0).sqrt();
+        let mut positions: Vec<DVec3> = surface.iter().map(|p| p.p).collect();
+        let mut normals: Vec<DVec3> = surface.iter().map(|p| p.n).collect();
+        let lifted: Vec<usize> = (0..40).map(|k| k * 487).collect();
+        for &i in &lifted {
+            positions[i] += 0.8 * spacing * normals[i];
+        }
+        let kept = |found: &Outliers| lifted.iter().filter(|&&i| !found.mask[i]).count();
+        let along = find_outliers(&positions, Some(&normals));
+        assert_eq!(
+            kept(&along),
+            lifted.len(),
+            "lifted points with their normals"
+        );
+        assert_eq!(kept(&find_outliers(&positions, None)), lifted.len());
+        for &i in &lifted {
+            normals[i] = normals[i].any_orthonormal_vector();
+        }
+        let across = find_outliers(&positions, Some(&normals));
+        assert!(
+            kept(&across) <= 2,
+            "{} lifted points with a normal across kept",
+            kept(&across)
+        );
+        assert!(
+            across.count() <= lifted.len() + 2,
+            "{} outliers",
+            across.count()
         );
     }
 }
