@@ -426,10 +426,10 @@ mod tests {
         (points, positions, index)
     }
 
-    /// A sparse table (what inputs above `FOOTPRINT_SPARSE_ABOVE` points get) answers as a dense one:
-    /// the footprint test at positions on, beside and off the data, and every point's spacing,
-    /// interior flag and footprint, the entries filled from two threads at once; and it holds
-    /// only the entries asked for.
+    /// A sparse table (what inputs above `FOOTPRINT_SPARSE_ABOVE` points get) answers as a
+    /// dense one: the footprint test at positions on, beside and off the data, and every
+    /// point's spacing, interior flag and footprint, the entries filled from two threads at
+    /// once; and it holds only the entries asked for.
     #[test]
     fn a_sparse_table_answers_as_a_dense_one() {
         use rayon::prelude::*;

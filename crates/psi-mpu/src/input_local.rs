@@ -1,10 +1,10 @@
 //! What an input point's 9 nearest points say about the data around it ([`InputLocal`]: its
 //! spacing, its neighbours, whether they surround it), and the table that keeps one per input
 //! point, computed on first use ([`LocalTable`]): dense (a once-cell per point, a cache line
-//! each) up to [`FOOTPRINT_SPARSE_ABOVE`] points, sparse above (only the entries computed, in a sharded
-//! hash map: a relaxation reads the points near its particles, a small share of a dense scan's:
-//! 131 k–200 k of 1 M points, notes: 2026-11-29-shared-index). An entry is a pure function of
-//! the input, so which thread computes it first changes nothing.
+//! each) up to [`FOOTPRINT_SPARSE_ABOVE`] points, sparse above (only the entries computed, in
+//! a sharded hash map: a relaxation reads the points near its particles, a small share of a
+//! dense scan's; counted in docs/notes/2026-11-29-shared-index.md). An entry is a pure
+//! function of the input, so which thread computes it first changes nothing.
 
 use std::collections::HashMap;
 use std::hash::BuildHasherDefault;

@@ -167,8 +167,7 @@ pub(crate) fn find_clumps_in(
 
 /// The stray clumps of `positions` (shape: N, world units; `index` their Morton index) before
 /// the 1 % rule: each as ascending point indices, in the order of their first points; and the
-/// link distance h
-/// (0 for fewer than two distinct points). None once `monitor`'s flag is set.
+/// link distance h (0 for fewer than two distinct points). None once `monitor`'s flag is set.
 fn stray_groups(
     positions: &[DVec3],
     index: &MortonIndex,
