@@ -22,6 +22,7 @@ use crate::frame::check_input_size;
 use crate::point_footprint::PointFootprint;
 use crate::prefit_marked::{MarkedFits, Prefit, marked_indexes};
 use crate::select_fit::LeafFit;
+use crate::surface_leaf::holds_surface;
 use crate::{BuildReport, FitKind, Mpu, MpuBuffers, MpuError, MpuFrame, MpuParams};
 
 /// What a local rebuild may take from an earlier MPU: the records of its cells that no edit
@@ -440,6 +441,7 @@ impl Mpu {
             population: n,
         };
         let mut reach = vec![0.0f64; depth_slots];
+        let project = params.error_rank.is_some();
         for (i, rec) in records.into_iter().enumerate() {
             let cell = octree.cell(i as u32);
             let leaf = match rec {
@@ -480,17 +482,21 @@ impl Mpu {
                 }
             });
             cell_fit[i] = id;
-            report.count_leaf(
-                cell.depth,
-                !octree.points_in(i as u32).is_empty(),
-                kind,
-                fallback,
-            );
+            // (A noisy cloud's surface leaves are counted once the fits are stored.)
+            let holds = !project && holds_surface(&octree, None, i as u32);
+            report.count_leaf(cell.depth, holds, kind, fallback);
         }
         report.max_depth = octree.max_depth_reached();
         report.seconds = start.elapsed().as_secs_f64();
         monitor.report("mpu", levels, levels);
         let fits = fits.finish();
+        if project {
+            for l in octree.leaves() {
+                if holds_surface(&octree, Some((&fits, cell_fit[l as usize])), l) {
+                    report.count_surface_leaf(octree.cell(l).depth);
+                }
+            }
+        }
         eval_nodes_into(&octree, &cell_fit, params.alpha, &mut nodes);
         // The lazily filled tables start empty, in the buffers' memory when there is some.
         candidates.clear();

@@ -63,6 +63,7 @@ mod ranked_error;
 mod region_points;
 mod report;
 mod select_fit;
+mod surface_leaf;
 mod surrounded;
 mod trial_balls;
 

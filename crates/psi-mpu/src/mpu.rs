@@ -114,11 +114,23 @@ impl Mpu {
         self.octree.leaves()
     }
 
-    /// Leaves whose cube holds at least one input point (particles are seeded from these).
+    /// Leaves that hold the surface (particles are seeded in these), arena order: whose cube
+    /// holds an input point, or for a noisy point cloud ([`MpuParams::error_rank`]) a point
+    /// moved onto the leaf's fit by one Newton step.
     pub fn surface_leaves(&self) -> impl Iterator<Item = u32> + '_ {
-        self.octree
-            .leaves()
-            .filter(|&l| !self.octree.points_in(l).is_empty())
+        self.octree.leaves().filter(|&l| self.is_surface_leaf(l))
+    }
+
+    /// Whether `cell` is a leaf of [`Mpu::surface_leaves`].
+    pub fn is_surface_leaf(&self, cell: u32) -> bool {
+        let fit = self.cell_fit.get(cell as usize).copied().unwrap_or(NO_FIT);
+        let project = self.params.error_rank.is_some();
+        fit != NO_FIT
+            && crate::surface_leaf::holds_surface(
+                &self.octree,
+                project.then_some((&self.fits, fit)),
+                cell,
+            )
     }
 
     /// The local function of leaf `cell`, `None` for an inner cell.

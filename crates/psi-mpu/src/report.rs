@@ -75,14 +75,19 @@ pub struct BuildPhases {
 }
 
 impl BuildReport {
+    /// Counts one surface leaf at `depth` (counted as a leaf apart).
+    pub(crate) fn count_surface_leaf(&mut self, depth: u8) {
+        self.surface_leaves += 1;
+        self.surface_leaves_per_depth[usize::from(depth)] += 1;
+    }
+
     /// Counts one leaf at `depth` (the per-depth vectors must reach it) with its fit `kind`,
-    /// whether its cube holds input points (`surface`) and whether its fit fell back.
+    /// whether it is a surface leaf (`surface`) and whether its fit fell back.
     pub(crate) fn count_leaf(&mut self, depth: u8, surface: bool, kind: FitKind, fallback: bool) {
         self.leaves += 1;
         self.leaves_per_depth[usize::from(depth)] += 1;
         if surface {
-            self.surface_leaves += 1;
-            self.surface_leaves_per_depth[usize::from(depth)] += 1;
+            self.count_surface_leaf(depth);
         }
         self.fallbacks += usize::from(fallback);
         let counts = &mut self.fits;

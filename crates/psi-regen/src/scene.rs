@@ -394,7 +394,7 @@ impl Scene {
         let mut particle_attributes = self.particle_attributes.select(&kept_ids);
         let leaves: Vec<u32> = refit_leaves
             .into_iter()
-            .filter(|&l| !mpu.octree().points_in(l).is_empty())
+            .filter(|&l| mpu.is_surface_leaf(l))
             .collect();
         particles.extend(&seed_leaves(
             &mpu,
