@@ -14,7 +14,7 @@ use crate::local_fit::QuadricFit;
 use crate::median::median;
 
 /// Neighbours per fit.
-const NEIGHBOURS: usize = 32;
+pub(crate) const NEIGHBOURS: usize = 32;
 
 /// At most this many points are sampled (evenly by index): the estimate is one number.
 const MAX_SAMPLES: usize = 8192;
@@ -57,17 +57,23 @@ pub fn estimate_noise(positions: &[DVec3]) -> NoiseEstimate {
 
 /// [`estimate_noise`], `index` the Morton index of `positions`.
 pub(crate) fn estimate_noise_in(positions: &[DVec3], index: &MortonIndex) -> NoiseEstimate {
+    noise_and_reach_in(positions, index).0
+}
+
+/// [`estimate_noise_in`], and the median over the samples of the distance to their 32nd
+/// nearest point (world units; 0 when no sample had neighbours).
+pub(crate) fn noise_and_reach_in(positions: &[DVec3], index: &MortonIndex) -> (NoiseEstimate, f64) {
     let none = NoiseEstimate {
         sigma: 0.0,
         samples: 0,
     };
     if positions.len() < 7 {
-        return none;
+        return (none, 0.0);
     }
     let stride = positions.len().div_ceil(MAX_SAMPLES).max(1);
     let samples: Vec<usize> = (0..positions.len()).step_by(stride).collect();
     let Some((sigma, reach)) = median_residual(positions, index, &samples, NEIGHBOURS) else {
-        return none;
+        return (none, 0.0);
     };
     // Noise comparable to the neighbourhood's radius is cut off by it (a point displaced far
     // along the normal is not among the nearest): then again with neighbourhoods about
@@ -85,7 +91,7 @@ pub(crate) fn estimate_noise_in(positions: &[DVec3], index: &MortonIndex) -> Noi
     } else {
         (sigma, samples.len())
     };
-    NoiseEstimate { sigma, samples }
+    (NoiseEstimate { sigma, samples }, reach)
 }
 
 /// Neighbourhoods at least this many estimated noise deviations across (radius).

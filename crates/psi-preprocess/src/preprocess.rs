@@ -8,8 +8,8 @@ use psi_octree::{Aabb, Interrupted, Monitor, MortonIndex, OrientedPoint};
 use serde::{Deserialize, Serialize};
 
 use crate::drop_strays::{OutlierReport, drop_strays};
-use crate::estimate_noise::estimate_noise_in;
-use crate::estimate_normals::estimate_normals_in;
+use crate::estimate_noise::{estimate_noise_in, noise_and_reach_in};
+use crate::estimate_normals::{estimate_normals_in, noise_level};
 use crate::neighbour_graph::morton_index_of;
 use crate::orient_normals::{check_normal_consistency_in, orient_normals_in};
 use crate::{
@@ -446,6 +446,8 @@ pub fn preprocess_with(
     step("normals", 0)?;
     let t = Instant::now();
     let mut consistency = None;
+    // The noise estimate of the points as they are after the normals, when made before them.
+    let mut noise_before_normals = None;
     let mut normals_flipped = 0;
     let mut inward_normals_flipped = false;
     let normals = if normals_given {
@@ -471,13 +473,22 @@ pub fn preprocess_with(
         }
     } else {
         let at = index.get_or_insert_with(|| morton_index_of(&points));
-        let estimated = estimate_normals_in(points.len(), at, monitor);
+        // The noise sets the neighbourhoods' scale; the noise step below reads the same
+        // points when every point gets a normal.
+        let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+        let (noise, reach) = noise_and_reach_in(&positions, at);
+        drop(positions);
+        let level = noise_level(noise.sigma, reach);
+        let estimated = estimate_normals_in(points.len(), at, level, monitor);
         monitor.check()?;
         for (p, n) in points.iter_mut().zip(estimated) {
             p.n = n;
         }
         // A point whose neighbourhood gave no plane is dropped: it has no normal to fit with.
         let has_normal: Vec<bool> = points.iter().map(|p| p.n != DVec3::ZERO).collect();
+        if has_normal.iter().all(|&h| h) {
+            noise_before_normals = Some(noise);
+        }
         let mut kept = has_normal.iter();
         source.retain(|_| *kept.next().unwrap_or(&true));
         points.retain(|p| p.n != DVec3::ZERO);
@@ -513,8 +524,13 @@ pub fn preprocess_with(
         step("noise", 0)?;
         let t = Instant::now();
         let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
-        let at = index.get_or_insert_with(|| MortonIndex::new(&positions));
-        let estimate = estimate_noise_in(&positions, at);
+        let estimate = match noise_before_normals {
+            Some(estimate) => estimate,
+            None => {
+                let at = index.get_or_insert_with(|| MortonIndex::new(&positions));
+                estimate_noise_in(&positions, at)
+            }
+        };
         let diagonal = Aabb::from_points(positions.iter().copied()).map_or(0.0, |b| b.diagonal());
         if diagonal > 0.0 {
             let rel = estimate.sigma / diagonal;
