@@ -201,6 +201,13 @@ pub struct MortonIndex {
     cells: [usize; BITS as usize + 1],
 }
 
+/// The Morton key of `p` (world units, finite) in the frame of low corner `lo` and `scale`
+/// quantised units per world unit, clamped to the grid.
+fn key_in(p: DVec3, lo: DVec3, scale: f64) -> u64 {
+    let q = ((p - lo) * scale).clamp(DVec3::ZERO, DVec3::splat(GRID));
+    morton([q.x as u64, q.y as u64, q.z as u64])
+}
+
 /// The number of occupied cells of each level (shape: 22) over ascending `keys`: consecutive
 /// keys fall apart at the level of their highest differing bit.
 fn cells_per_level(keys: &[u64]) -> [usize; BITS as usize + 1] {
@@ -246,10 +253,7 @@ impl MortonIndex {
             .par_iter()
             .enumerate()
             .filter(|(_, p)| p.is_finite())
-            .map(|(i, p)| {
-                let q = ((*p - lo) * scale).clamp(DVec3::ZERO, DVec3::splat(GRID));
-                (morton([q.x as u64, q.y as u64, q.z as u64]), i as u32)
-            })
+            .map(|(i, p)| (key_in(*p, lo, scale), i as u32))
             .collect();
         keyed.par_sort_unstable();
         let keys: Vec<u64> = keyed.par_iter().map(|k| k.0).collect();
@@ -503,6 +507,17 @@ impl MortonIndex {
             .into_iter()
             .map(|f| (f.2, f.0))
             .collect()
+    }
+
+    /// The number of indexed points whose Morton key (in this index's frame) is below that of
+    /// `x` (world units; clamped to the index's cube): the slot `x` would take in the order,
+    /// before any point of its key. A non-finite `x` ranks 0.
+    pub fn rank_of(&self, x: DVec3) -> usize {
+        if !x.is_finite() {
+            return 0;
+        }
+        let key = key_in(x, self.lo, self.scale);
+        self.keys.partition_point(|&k| k < key)
     }
 
     /// The finest level whose occupied cells hold on average at least `OCCUPANCY × k` points.

@@ -245,6 +245,33 @@ fn a_subset_answers_for_its_points_alone() {
 /// A retained index answers as a fresh index of the retained points (renumbered as `retain`
 /// numbers them), sweeps and single queries alike, though its frame is the whole set's: the
 /// dropped points set the cube (a far point among them), and a non-finite point is skipped.
+/// `rank_of` against brute force: the number of keys below the query's, for the indexed
+/// points (twins and grid ties among them), points between them, a far one and a non-finite one.
+#[test]
+fn a_rank_counts_the_keys_below() {
+    let points = cloud(11, 3_000);
+    let index = MortonIndex::new(&points);
+    let mut queries: Vec<DVec3> = index.points().to_vec();
+    queries.extend(
+        points
+            .windows(2)
+            .map(|w| 0.5 * (w[0] + w[1]))
+            .filter(|q| q.is_finite()),
+    );
+    queries.extend([DVec3::splat(1e9), DVec3::splat(-1e9)]);
+    for x in queries {
+        let key = key_in(x, index.lo, index.scale);
+        let below = index.keys.iter().filter(|&&k| k < key).count();
+        assert_eq!(index.rank_of(x), below, "{x}");
+    }
+    assert_eq!(index.rank_of(DVec3::new(f64::NAN, 0.0, 0.0)), 0);
+    // Along the order, each point ranks at its first slot among its key's.
+    for s in 0..index.len() {
+        let r = index.rank_of(index.points()[s]);
+        assert!(r <= s && index.keys[r] == index.keys[s], "slot {s}: {r}");
+    }
+}
+
 #[test]
 fn a_retained_index_answers_as_a_fresh_one() {
     let mut points = cloud(11, 3000);

@@ -11,7 +11,7 @@
 //! noise exceeds a tenth of the radius of the 48 nearest points, the planes are fitted among
 //! one point in 4^L (L the least level that brings the noise under a tenth of that subset's
 //! radius; a hash of the position picks the points), and each point takes the plane of the
-//! nearest of them (notes: docs/notes/2026-11-29-surface-leaves.md). The normals come out
+//! nearest of those around it in Morton order (notes: docs/notes/2026-11-29-surface-leaves.md). The normals come out
 //! unoriented; `orient_normals` or `orient_toward` give them a side.
 
 use glam::DVec3;
@@ -77,13 +77,19 @@ const NOISE_PER_RADIUS: f64 = 0.1;
 /// The coarsest level: one point in 4^6 (radii 64 times the full cloud's).
 const MAX_LEVEL: u32 = 6;
 
+/// A point of a finer level takes the normal of the nearest of the coarser level's this many
+/// points before it and this many after it in Morton order: the dragon's normals from 10 M
+/// points, median error 2.77° (the exact nearest point: 2.74°, one before or after: 2.81°),
+/// in a third of the exact nearest point's time.
+const AROUND: usize = 4;
+
 /// Levels above 0 keep at least this many points, else level 0 is used.
 const LEVEL_POINTS: usize = 4 * SIZES[SIZES.len() - 1];
 
 /// [`estimate_normals_with`] of the `n` points that `index` indexes (ids 0..n; a point left
-/// out of it gets no normal), at coarseness `level` ([`noise_level`]): above 0, each point
-/// takes the normal of the nearest of the points of that level ([`in_level`]), estimated among
-/// them.
+/// out of it gets no normal), at coarseness `level` ([`noise_level`]): above 0, the normals
+/// of the level's points ([`in_level`]) are estimated among them, and each other point takes
+/// that of the nearest of the level's [`AROUND`] points on either side in Morton order.
 pub(crate) fn estimate_normals_in(
     n: usize,
     index: &MortonIndex,
@@ -91,21 +97,34 @@ pub(crate) fn estimate_normals_in(
     monitor: &Monitor<'_>,
 ) -> Vec<DVec3> {
     let by_slot = index.points();
+    // The level's points, indexed alone: the order below is theirs, whatever `index`'s frame.
     let coarse = (level > 0)
-        .then(|| index.subset(|s| in_level(by_slot[s], level)))
+        .then(|| {
+            let points: Vec<DVec3> = by_slot
+                .par_iter()
+                .copied()
+                .filter(|&p| in_level(p, level))
+                .collect();
+            MortonIndex::new(&points)
+        })
         .filter(|sub| sub.len() >= LEVEL_POINTS);
     let normals = match &coarse {
         None => slot_normals(index, monitor),
-        Some(sub) => slot_normals(sub, monitor).and_then(|of_sub| {
-            let normals = by_slot
+        Some(sub) => slot_normals(sub, monitor).map(|of_sub| {
+            let of = sub.points();
+            by_slot
                 .par_iter()
                 .map(|&p| {
-                    sub.nearest(p, 1)
-                        .first()
-                        .map_or(DVec3::ZERO, |&(t, _)| of_sub[t as usize])
+                    // The nearest of the level's points around its place in their Morton
+                    // order (the first on a tie; a point of the level finds itself): a point's
+                    // nearest is there but for the order's jumps.
+                    let at = sub.rank_of(p);
+                    let d2 = |t: usize| (of[t] - p).length_squared();
+                    (at.saturating_sub(AROUND)..(at + AROUND).min(of.len()))
+                        .min_by(|&x, &y| d2(x).total_cmp(&d2(y)))
+                        .map_or(DVec3::ZERO, |t| of_sub[t])
                 })
-                .collect();
-            monitor.check().map(|()| normals)
+                .collect()
         }),
     };
     let Ok(normals) = normals else {
@@ -277,8 +296,17 @@ mod tests {
         let (dense_level, index) = level(&dense);
         assert_eq!((sparse_level, dense_level), (0, 1));
         let sparse_error = median_error(&sparse, &estimate_normals(&sparse));
-        let dense_error = median_error(&dense, &estimate_normals(&dense));
+        let dense_normals = estimate_normals(&dense);
+        let dense_error = median_error(&dense, &dense_normals);
+        // The normals are a function of the positions: an index in another frame (made with a
+        // far point, then retained without it, as the preprocessing carries one) gives them.
+        let mut with_far = dense.clone();
+        with_far.push(DVec3::splat(40.0));
+        let mut keep = vec![true; with_far.len()];
+        keep[dense.len()] = false;
+        let carried = MortonIndex::new(&with_far).retained(&keep);
         let silent = Monitor::silent();
+        assert!(estimate_normals_in(dense.len(), &carried, 1, &silent) == dense_normals);
         let counted = estimate_normals_in(dense.len(), &index, 0, &silent);
         let counted_error = median_error(&dense, &counted);
         eprintln!(
