@@ -49,7 +49,9 @@ pub struct MpuParams {
     /// noisy distances grows with n (as σ·√(2 ln n)), so a denser sampling of the same surface
     /// split more cells (issue 28); an order statistic at a fixed rank per M points does not,
     /// and a spike of fewer than n/M points does not split a cell either. `None` (the paper;
-    /// meshes): the largest. Measured in docs/notes/2026-11-25-density-invariance.md.
+    /// meshes): the largest. Measured in docs/notes/2026-11-25-density-invariance.md. With a
+    /// rank, the surface leaves are those holding a point projected onto their fit
+    /// ([`crate::Mpu::surface_leaves`]; docs/notes/2026-11-29-surface-leaves.md).
     #[serde(default)]
     pub error_rank: Option<usize>,
 }
