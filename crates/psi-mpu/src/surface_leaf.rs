@@ -3,7 +3,7 @@
 //! on the surface". For a noisy point cloud
 //! ([`crate::MpuParams::error_rank`]) the points scatter about the surface, and the denser
 //! the sampling the more of the cubes the surface only grazes receive a stray point: the count
-//! grew with density (the dragon at 1 M and 10 M points: 8.7 %). There a leaf holds the
+//! grew with density (measured in the note below). There a leaf holds the
 //! surface when one of its points, moved onto the leaf's own fit by one Newton step along the
 //! gradient, lies in its cube (docs/notes/2026-11-29-surface-leaves.md). Both rules read only
 //! the leaf's points and its fit, which a local regeneration refits and a tile builds exactly.

@@ -106,7 +106,7 @@ fn projected_leaves(mpu: &Mpu) -> Vec<u32> {
 /// only grazes; counting those that hold a point moved onto the leaf's fit, it does not. The
 /// oracles: the noiseless samplings' leaves (their points lie on the surface), and the rule
 /// evaluated again through the public leaf functions. (Ellipsoid leaves are large against the
-/// noise, so the effect is a few per cent here; the dragon at 1 M and 10 M points: 8.7 %.)
+/// noise, so the effect is a few per cent here; the dragon's: docs/notes/2026-11-29-surface-leaves.md.)
 #[test]
 fn noisy_samplings_hold_the_surface_in_as_many_leaves_at_any_density() {
     let params = MpuParams {

@@ -6,8 +6,8 @@
 //! neighbours rather than a fixed radius follows changes of density.
 //!
 //! Counting neighbours alone would let the noise decide at high density: ten times the points
-//! of the same noisy surface shrink every neighbourhood by √10 while the noise stays (the
-//! dragon's normals: median error 2.6° from 1 M points, 4.3° from 10 M). Where the estimated
+//! of the same noisy surface shrink every neighbourhood by √10 while the noise stays (measured
+//! on the dragon in the note below). Where the estimated
 //! noise exceeds a tenth of the radius of the 48 nearest points, the planes are fitted among
 //! one point in 4^L (L the least level that brings the noise under a tenth of that subset's
 //! radius; a hash of the position picks the points), and each point takes the plane of the
@@ -78,9 +78,8 @@ const NOISE_PER_RADIUS: f64 = 0.1;
 const MAX_LEVEL: u32 = 6;
 
 /// A point of a finer level takes the normal of the nearest of the coarser level's this many
-/// points before it and this many after it in Morton order: the dragon's normals from 10 M
-/// points, median error 2.77° (the exact nearest point: 2.74°, one before or after: 2.81°),
-/// in a third of the exact nearest point's time.
+/// points before it and this many after it in Morton order: nearly the exact nearest point's
+/// normals in a third of its time (docs/notes/2026-11-29-surface-leaves.md).
 const AROUND: usize = 4;
 
 /// Levels above 0 keep at least this many points, else level 0 is used.
