@@ -80,10 +80,10 @@ const MAX_LEVEL: u32 = 6;
 /// A point of a finer level takes the normal of the nearest of the coarser level's this many
 /// points before it and this many after it in Morton order: nearly the exact nearest point's
 /// normals in a third of its time (docs/notes/2026-11-29-surface-leaves.md).
-const AROUND: usize = 4;
+pub(crate) const AROUND: usize = 4;
 
 /// Levels above 0 keep at least this many points, else level 0 is used.
-const LEVEL_POINTS: usize = 4 * SIZES[SIZES.len() - 1];
+pub(crate) const LEVEL_POINTS: usize = 4 * SIZES[SIZES.len() - 1];
 
 /// [`estimate_normals_with`] of the `n` points that `index` indexes (ids 0..n; a point left
 /// out of it gets no normal), at coarseness `level` ([`noise_level`]): above 0, the normals
@@ -140,7 +140,7 @@ pub(crate) fn estimate_normals_in(
 /// Whether a point at `p` belongs to coarseness `level`: one point in 4^level, nested (a
 /// point of a level belongs to every finer one), by a hash of its coordinates' bits, so the
 /// levels depend on the positions alone, not on their order.
-fn in_level(p: DVec3, level: u32) -> bool {
+pub(crate) fn in_level(p: DVec3, level: u32) -> bool {
     let mut h = 0x9E37_79B9_7F4A_7C15u64;
     for c in [p.x, p.y, p.z] {
         h = mix(h ^ c.to_bits());

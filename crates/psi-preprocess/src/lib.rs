@@ -44,6 +44,7 @@ mod inward_normals;
 mod local_fit;
 mod median;
 mod neighbour_graph;
+mod orient_from_level;
 mod orient_normals;
 mod point_spread;
 mod preprocess;

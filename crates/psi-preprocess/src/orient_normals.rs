@@ -221,15 +221,19 @@ pub(crate) fn orient_normals_in(
     // The seeds' order (largest x first) and the same-sheet islands are made beside the
     // forest: they need only the graphs, and the forest's serial joins leave a core idle.
     let by_x = || {
-        let mut order: Vec<u32> = (0..n as u32).collect();
-        order.par_sort_unstable_by(|&a, &b| {
-            points_in_slots[b as usize]
-                .p
-                .x
-                .total_cmp(&points_in_slots[a as usize].p.x)
-                .then(ids[a as usize].cmp(&ids[b as usize]))
-        });
-        order
+        // Largest x first, ties to the lower original index: sorted by a key (the x's
+        // order-preserving bits, reversed, and the index), where comparing the points read
+        // them at random.
+        let mut keyed: Vec<(u64, u32, u32)> = (0..n as u32)
+            .into_par_iter()
+            .map(|i| {
+                let x = points_in_slots[i as usize].p.x.to_bits();
+                let ordered = if x >> 63 == 1 { !x } else { x | 1 << 63 };
+                (!ordered, ids[i as usize], i)
+            })
+            .collect();
+        keyed.par_sort_unstable();
+        keyed.into_par_iter().map(|k| k.2).collect::<Vec<u32>>()
     };
     // The maximum-|n_i·n_j| spanning forest, every same-sheet edge above every other one,
     // then each tree oriented from its first seed along its edges.

@@ -11,6 +11,7 @@ use crate::drop_strays::{OutlierReport, drop_strays};
 use crate::estimate_noise::{estimate_noise_in, noise_and_reach_in};
 use crate::estimate_normals::{estimate_normals_in, noise_level};
 use crate::neighbour_graph::morton_index_of;
+use crate::orient_from_level::orient_from_level;
 use crate::orient_normals::{check_normal_consistency_in, orient_normals_in};
 use crate::{
     DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, Spread, denoise_with,
@@ -505,7 +506,7 @@ pub fn preprocess_with(
                 step("normals", 1)?;
                 step("orient", 0)?;
                 let at = index.take().unwrap_or_else(|| morton_index_of(&points));
-                normals_flipped = orient_normals_in(&mut points, at, monitor);
+                normals_flipped = orient_from_level(&mut points, at, level, monitor);
                 monitor.check()?;
                 NormalTreatment::EstimatedPropagated
             }
