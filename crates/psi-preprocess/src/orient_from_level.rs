@@ -38,7 +38,6 @@ pub(crate) fn orient_from_level(
     if chosen.len() < LEVEL_POINTS {
         return orient_normals_in(points, index, monitor);
     }
-    drop(index);
     let mut coarse = chosen;
     let positions: Vec<DVec3> = coarse.iter().map(|p| p.p).collect();
     orient_normals_in(&mut coarse, MortonIndex::new(&positions), monitor);
@@ -46,23 +45,31 @@ pub(crate) fn orient_from_level(
         return 0;
     }
     let sub = MortonIndex::new(&positions);
-    let (of, ids) = (sub.points(), sub.ids());
+    let (of, sub_ids) = (sub.points(), sub.ids());
+    // Whether each point's normal turns, found in the points' Morton order (`index`'s slots,
+    // where consecutive searches of the level's order read the same memory), then applied.
+    let turn_by_slot: Vec<bool> = index
+        .points()
+        .par_iter()
+        .zip(index.ids())
+        .map(|(&p, &i)| {
+            let at = sub.rank_of(p);
+            let d2 = |t: usize| (of[t] - p).length_squared();
+            (at.saturating_sub(AROUND)..(at + AROUND).min(of.len()))
+                .min_by(|&x, &y| d2(x).total_cmp(&d2(y)))
+                .is_some_and(|t| points[i as usize].n.dot(coarse[sub_ids[t] as usize].n) < 0.0)
+        })
+        .collect();
+    let mut turn = vec![false; points.len()];
+    for (&i, &t) in index.ids().iter().zip(&turn_by_slot) {
+        turn[i as usize] = t;
+    }
     points
         .par_iter_mut()
-        .map(|p| {
-            let at = sub.rank_of(p.p);
-            let d2 = |t: usize| (of[t] - p.p).length_squared();
-            let nearest = (at.saturating_sub(AROUND)..(at + AROUND).min(of.len()))
-                .min_by(|&x, &y| d2(x).total_cmp(&d2(y)));
-            match nearest {
-                Some(t) if p.n.dot(coarse[ids[t] as usize].n) < 0.0 => {
-                    p.n = -p.n;
-                    1
-                }
-                _ => 0,
-            }
-        })
-        .sum()
+        .zip(&turn)
+        .filter(|(_, t)| **t)
+        .map(|(p, _)| p.n = -p.n)
+        .count()
 }
 
 #[cfg(test)]
