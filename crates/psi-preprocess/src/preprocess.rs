@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 use psi_octree::{Aabb, Interrupted, Monitor, MortonIndex, OrientedPoint};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::drop_strays::{OutlierReport, drop_strays};
@@ -482,11 +483,12 @@ pub fn preprocess_with(
         let level = noise_level(noise.sigma, reach);
         let estimated = estimate_normals_in(points.len(), at, level, monitor);
         monitor.check()?;
-        for (p, n) in points.iter_mut().zip(estimated) {
-            p.n = n;
-        }
+        points
+            .par_iter_mut()
+            .zip(estimated)
+            .for_each(|(p, n)| p.n = n);
         // A point whose neighbourhood gave no plane is dropped: it has no normal to fit with.
-        let has_normal: Vec<bool> = points.iter().map(|p| p.n != DVec3::ZERO).collect();
+        let has_normal: Vec<bool> = points.par_iter().map(|p| p.n != DVec3::ZERO).collect();
         if has_normal.iter().all(|&h| h) {
             noise_before_normals = Some(noise);
         }
