@@ -11,6 +11,7 @@ use glam::DVec3;
 use psi_octree::{
     Aabb, KnownPartitions, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint,
 };
+use rayon::prelude::*;
 
 use crate::cell_table::CellTable;
 use crate::data_footprint::DataFootprint;
@@ -167,17 +168,20 @@ fn prepare(
         }
         return Ok(Prepared { positions, points });
     }
-    if let Some(index) = points.iter().position(bad) {
+    // Each pass over the points in parallel (page faults of fresh memory included: on a
+    // virtual machine they are a large share of a copy).
+    if let Some(index) = points.par_iter().position_first(bad) {
         return Err(MpuError::BadPoint { index });
     }
-    let mut points = points.into_owned();
+    let mut points = match points {
+        Cow::Owned(points) => points,
+        Cow::Borrowed(points) => points.par_iter().copied().collect(),
+    };
     if !unit_normals {
-        for p in &mut points {
-            p.n /= p.n.length();
-        }
+        points.par_iter_mut().for_each(|p| p.n /= p.n.length());
     }
     positions.clear();
-    positions.extend(points.iter().map(|p| p.p - frame.origin));
+    positions.par_extend(points.par_iter().map(|p| p.p - frame.origin));
     Ok(Prepared { positions, points })
 }
 

@@ -3,7 +3,7 @@
 //! oriented among themselves (`orient_normals_in`: the same spanning forest over one point in
 //! 4^L), and every point takes the side of the nearest of them, found as the estimation found
 //! the plane it copies. The orientation then costs what the level's points cost, not what
-//! the whole cloud does: at 30 M points of a noisy scan the level is one point in 4 or 16.
+//! the whole cloud does (docs/notes/2026-11-29-orientation-from-level.md).
 
 use glam::DVec3;
 use psi_octree::{Monitor, MortonIndex, OrientedPoint};
