@@ -168,8 +168,8 @@ fn prepare(
         }
         return Ok(Prepared { positions, points });
     }
-    // Each pass over the points in parallel (page faults of fresh memory included: on a
-    // virtual machine they are a large share of a copy).
+    // Each pass over the points in parallel, the copies' page faults included
+    // (docs/results/2026-11-29-orientation/).
     if let Some(index) = points.par_iter().position_first(bad) {
         return Err(MpuError::BadPoint { index });
     }

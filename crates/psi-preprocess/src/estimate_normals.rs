@@ -80,7 +80,7 @@ const MAX_LEVEL: u32 = 6;
 /// A point of a finer level takes the normal of the nearest of the coarser level's this many
 /// points before it and this many after it in Morton order: nearly the exact nearest point's
 /// normals in a third of its time (docs/notes/2026-11-29-surface-leaves.md).
-pub(crate) const AROUND: usize = 4;
+const AROUND: usize = 4;
 
 /// Levels above 0 keep at least this many points, else level 0 is used.
 pub(crate) const LEVEL_POINTS: usize = 4 * SIZES[SIZES.len() - 1];
@@ -110,19 +110,9 @@ pub(crate) fn estimate_normals_in(
     let normals = match &coarse {
         None => slot_normals(index, monitor),
         Some(sub) => slot_normals(sub, monitor).map(|of_sub| {
-            let of = sub.points();
             by_slot
                 .par_iter()
-                .map(|&p| {
-                    // The nearest of the level's points around its place in their Morton
-                    // order (the first on a tie; a point of the level finds itself): a point's
-                    // nearest is there but for the order's jumps.
-                    let at = sub.rank_of(p);
-                    let d2 = |t: usize| (of[t] - p).length_squared();
-                    (at.saturating_sub(AROUND)..(at + AROUND).min(of.len()))
-                        .min_by(|&x, &y| d2(x).total_cmp(&d2(y)))
-                        .map_or(DVec3::ZERO, |t| of_sub[t])
-                })
+                .map(|&p| nearest_in_level(sub, p).map_or(DVec3::ZERO, |t| of_sub[t]))
                 .collect()
         }),
     };
@@ -140,6 +130,18 @@ pub(crate) fn estimate_normals_in(
         .into_par_iter()
         .map(|s| normals.get(s as usize).copied().unwrap_or(DVec3::ZERO))
         .collect()
+}
+
+/// The slot in `level`'s Morton order (an index of a level's points alone) of the nearest of
+/// its points among the [`AROUND`] on either side of `p`'s place in that order (the first on a
+/// tie; a point of the level finds itself; world units): a point's nearest is there but for
+/// the order's jumps. `None` for an empty level.
+pub(crate) fn nearest_in_level(level: &MortonIndex, p: DVec3) -> Option<usize> {
+    let of = level.points();
+    let at = level.rank_of(p);
+    let d2 = |t: usize| (of[t] - p).length_squared();
+    (at.saturating_sub(AROUND)..(at + AROUND).min(of.len()))
+        .min_by(|&x, &y| d2(x).total_cmp(&d2(y)))
 }
 
 /// Whether a point at `p` belongs to coarseness `level`: one point in 4^level, nested (a

@@ -14,7 +14,7 @@ pub(crate) fn median(v: &mut [f64]) -> f64 {
 /// the bits as a signed integer, the magnitude bits flipped for negative values). Selecting by
 /// it makes the comparisons `total_cmp` makes, with the same outcomes, compared inline.
 #[inline]
-fn total_order_key(x: f64) -> i64 {
+pub(crate) fn total_order_key(x: f64) -> i64 {
     let bits = x.to_bits() as i64;
     bits ^ ((((bits >> 63) as u64) >> 1) as i64)
 }

@@ -9,15 +9,15 @@ use glam::DVec3;
 use psi_octree::{Monitor, MortonIndex, OrientedPoint};
 use rayon::prelude::*;
 
-use crate::estimate_normals::{AROUND, LEVEL_POINTS, in_level};
+use crate::estimate_normals::{LEVEL_POINTS, in_level, nearest_in_level};
 use crate::orient_normals::orient_normals_in;
 
 /// Orients `points`' normals (shape: N, unit, each sign arbitrary; estimated at coarseness
 /// `level`, [`crate::estimate_normals`]' level rule; `index` the Morton index of their
 /// positions): at level 0, or when the level holds too few points, as
 /// [`crate::orient_normals`]; else the level's points ([`in_level`]) as `orient_normals` orients
-/// them alone, and each point the side of the nearest of them among the [`AROUND`] on either
-/// side of its place in their Morton order (n·n_q ≥ 0). Returns the number of normals
+/// them alone, and each point the side of the nearest of them as the estimation finds it
+/// ([`nearest_in_level`]; n·n_q ≥ 0). Returns the number of normals
 /// flipped. Deterministic, whatever the thread count; stops early once `monitor`'s flag is set
 /// (the caller then discards the points).
 pub(crate) fn orient_from_level(
@@ -40,24 +40,26 @@ pub(crate) fn orient_from_level(
     }
     let mut coarse = chosen;
     let positions: Vec<DVec3> = coarse.iter().map(|p| p.p).collect();
-    orient_normals_in(&mut coarse, MortonIndex::new(&positions), monitor);
+    let sub = MortonIndex::new(&positions);
+    // Each point's nearest of the level's points, found in the points' Morton order (`index`'s
+    // slots, where consecutive searches of the level's order read the same memory), before the
+    // orientation takes the level's index.
+    let nearest_by_slot: Vec<Option<usize>> = index
+        .points()
+        .par_iter()
+        .map(|&p| nearest_in_level(&sub, p))
+        .collect();
+    let sub_ids = sub.ids().to_vec();
+    orient_normals_in(&mut coarse, sub, monitor);
     if monitor.stopped() {
         return 0;
     }
-    let sub = MortonIndex::new(&positions);
-    let (of, sub_ids) = (sub.points(), sub.ids());
-    // Whether each point's normal turns, found in the points' Morton order (`index`'s slots,
-    // where consecutive searches of the level's order read the same memory), then applied.
     let turn_by_slot: Vec<bool> = index
-        .points()
+        .ids()
         .par_iter()
-        .zip(index.ids())
-        .map(|(&p, &i)| {
-            let at = sub.rank_of(p);
-            let d2 = |t: usize| (of[t] - p).length_squared();
-            (at.saturating_sub(AROUND)..(at + AROUND).min(of.len()))
-                .min_by(|&x, &y| d2(x).total_cmp(&d2(y)))
-                .is_some_and(|t| points[i as usize].n.dot(coarse[sub_ids[t] as usize].n) < 0.0)
+        .zip(&nearest_by_slot)
+        .map(|(&i, t)| {
+            t.is_some_and(|t| points[i as usize].n.dot(coarse[sub_ids[t] as usize].n) < 0.0)
         })
         .collect();
     let mut turn = vec![false; points.len()];

@@ -3,7 +3,7 @@
 //! prefers nearly parallel normals, oriented from an extreme point whose outward direction is
 //! known).
 
-use std::cmp::Ordering;
+use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
 
 use rayon::prelude::*;
@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use psi_octree::{Monitor, MortonIndex, OrientedPoint};
 
+use crate::median::total_order_key;
 use crate::neighbour_graph::{Graph, K, SlotGraphs, morton_index_of, slot_graphs};
 use crate::spanning_forest::maximum_spanning_forest;
 
@@ -221,15 +222,13 @@ pub(crate) fn orient_normals_in(
     // The seeds' order (largest x first) and the same-sheet islands are made beside the
     // forest: they need only the graphs, and the forest's serial joins leave a core idle.
     let by_x = || {
-        // Largest x first, ties to the lower original index: sorted by a key (the x's
-        // order-preserving bits, reversed, and the index), where comparing the points read
-        // them at random.
-        let mut keyed: Vec<(u64, u32, u32)> = (0..n as u32)
+        // Largest x first, ties to the lower original index: sorted by a key (x's total order,
+        // reversed, and the index), where comparing the points read them at random.
+        let mut keyed: Vec<(Reverse<i64>, u32, u32)> = (0..n as u32)
             .into_par_iter()
             .map(|i| {
-                let x = points_in_slots[i as usize].p.x.to_bits();
-                let ordered = if x >> 63 == 1 { !x } else { x | 1 << 63 };
-                (!ordered, ids[i as usize], i)
+                let x = points_in_slots[i as usize].p.x;
+                (Reverse(total_order_key(x)), ids[i as usize], i)
             })
             .collect();
         keyed.par_sort_unstable();
