@@ -1,4 +1,4 @@
-"""Shared fixtures: the repository, the paper's models, the release ``psi`` binary (the CLI the
+"""Shared fixtures: the repository, the paper's models, the ``psi`` binary (the CLI the
 package must agree with) and a reader of the binary PLY files it writes (numpy only)."""
 
 import json
@@ -26,24 +26,35 @@ def model(name):
 
 @pytest.fixture(scope="session")
 def cli():
-    """The release ``psi`` binary of this checkout (``$PSI_CLI`` if set), built with cargo when
-    needed; a skip when neither is available (the package installed away from its sources)."""
+    """The ``psi`` binary of this checkout (``$PSI_CLI`` if set): the one the workspace's tests
+    run (``cargo test --workspace``, which the README runs first, so here nothing is built
+    again; a release build would add minutes of link-time optimisation to every CI run, and
+    the two builds write the same bytes: Rust does not reorder floating-point operations
+    between optimisation levels). A skip when neither is available (the package installed
+    away from its sources)."""
     given = os.environ.get("PSI_CLI")
     if given:
         return Path(given)
     if not (ROOT / "Cargo.toml").is_file() or shutil.which("cargo") is None:
         pytest.skip("no psi checkout with cargo to build the CLI from (set PSI_CLI)")
-    subprocess.run(
-        ["cargo", "build", "--release", "--bin", "psi", "--quiet"], cwd=ROOT, check=True
-    )
-    meta = subprocess.run(
-        ["cargo", "metadata", "--format-version", "1", "--no-deps"],
+    built = subprocess.run(
+        ["cargo", "test", "--workspace", "--no-run", "--message-format=json", "--quiet"],
         cwd=ROOT,
         check=True,
-        capture_output=True,
+        stdout=subprocess.PIPE,
         text=True,
     )
-    return Path(json.loads(meta.stdout)["target_directory"]) / "release" / "psi"
+    for line in built.stdout.splitlines():
+        message = json.loads(line)
+        target = message.get("target", {})
+        if (
+            message.get("reason") == "compiler-artifact"
+            and target.get("name") == "psi"
+            and target.get("kind") == ["bin"]
+            and not message["profile"]["test"]
+        ):
+            return Path(message["executable"])
+    raise AssertionError("cargo test --workspace --no-run built no psi binary")
 
 
 def run_cli(cli, *args, expect_ok=True):
