@@ -45,8 +45,8 @@ try:
 except KeyboardInterrupt:
     print("interrupted", flush=True)
     # The work stops too: two seconds after the interruption (an unchecked step may finish
-    # meanwhile: the MPU's kd-tree of all the input's points, about 1.1 s for 2 M points on two
-    # cores, 1.6 s for 3 M) the process's CPU time over one more second (2 cores: 2 s).
+    # meanwhile, the longest the MPU's kd-tree of all the input's points: docs/notes/
+    # 2026-12-02-ci-time.md) the process's CPU time over one more second (2 cores: 2 s).
     time.sleep(2.0)
     before = os.times()
     time.sleep(1.0)
