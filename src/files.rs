@@ -42,7 +42,7 @@ pub(crate) fn check_not_dir(path: &Path) -> Result<(), PsiError> {
 
 fn read_bytes(path: &Path) -> Result<Vec<u8>, PsiError> {
     check_not_dir(path)?;
-    fs::read(path).map_err(|e| open_error(path, e))
+    crate::read_file::read_file(path).map_err(|e| open_error(path, e))
 }
 
 /// The format its extension names (`ply`, `obj`, `xyz`/`pts`/`txt`, `las`, `laz`, `e57`,

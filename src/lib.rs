@@ -31,6 +31,7 @@ mod out_of_core;
 mod partition;
 mod prepare;
 mod read_ahead;
+mod read_file;
 pub mod render;
 pub mod report;
 

@@ -1,5 +1,5 @@
 //! Reading a million oriented points from memory: binary PLY with normals (decoded straight
-//! into points), binary PLY of positions only (the vertex block), and XYZ text with normals
+//! into points), binary PLY of positions only (the vertex block; doubles and floats), and XYZ text with normals
 //! (blocks of lines parsed in parallel). The inputs are the built-in model sampled with a
 //! fixed seed and written by psi-io itself.
 
@@ -29,6 +29,17 @@ fn read(c: &mut Criterion) {
             positions_only.extend(v.to_le_bytes());
         }
     }
+    // Positions only in single precision, as scanners and samplers write them.
+    let mut float_positions = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {POINTS}\n\
+         property float x\nproperty float y\nproperty float z\nend_header\n"
+    )
+    .into_bytes();
+    for p in &positions {
+        for v in p.to_array() {
+            float_positions.extend((v as f32).to_le_bytes());
+        }
+    }
     let mut xyz = String::new();
     for p in &points {
         xyz += &format!(
@@ -43,6 +54,7 @@ fn read(c: &mut Criterion) {
     for (name, bytes, format) in [
         ("ply_normals", &with_normals[..], Format::Ply),
         ("ply_positions", &positions_only[..], Format::Ply),
+        ("ply_float_positions", &float_positions[..], Format::Ply),
         ("xyz_normals", xyz.as_bytes(), Format::Xyz),
     ] {
         group.bench_function(name, |b| {

@@ -290,11 +290,58 @@ pub(crate) fn decode_oriented_block(
     Ok((points, records.attributes(colors, intensity)))
 }
 
+/// The fields of a record that holds only coordinates in floating point (`x y z`, maybe
+/// `nx ny nz`, each `float` or `double`; other properties skipped), the common layout of
+/// scans: `(k, offset, double)` for `v[k]`. `None` when some field is a colour, an intensity or
+/// an integer.
+fn float_coordinates(fields: &[(Slot, ScalarType, usize)]) -> Option<Vec<(usize, usize, bool)>> {
+    fields
+        .iter()
+        .map(|(slot, ty, at)| match (slot, ty) {
+            (Slot::Coordinate(k), ScalarType::Float) => Some((*k, *at, false)),
+            (Slot::Coordinate(k), ScalarType::Double) => Some((*k, *at, true)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The record `r` through `coordinates` ([`float_coordinates`]): [`read_record`]'s values
+/// (a `float` widened to f64, a `double` as is) without its per-field dispatch on type, slot
+/// and colour channel.
+#[inline]
+fn read_coordinates(
+    r: &[u8],
+    coordinates: &[(usize, usize, bool)],
+    big_endian: bool,
+) -> VertexRecord {
+    let mut rec = VertexRecord::new();
+    for &(k, at, double) in coordinates {
+        rec.v[k] = if double {
+            let b: [u8; 8] = r[at..at + 8].try_into().unwrap_or_default();
+            if big_endian {
+                f64::from_be_bytes(b)
+            } else {
+                f64::from_le_bytes(b)
+            }
+        } else {
+            let b: [u8; 4] = r[at..at + 4].try_into().unwrap_or_default();
+            f64::from(if big_endian {
+                f32::from_be_bytes(b)
+            } else {
+                f32::from_le_bytes(b)
+            })
+        };
+    }
+    rec
+}
+
 /// A block of fixed-size binary records with the fields a [`VertexRecord`] reads of them.
 struct Records<'a> {
     /// Whole records only (a trailing partial record is left out).
     bytes: &'a [u8],
     fields: Vec<(Slot, ScalarType, usize)>,
+    /// [`float_coordinates`] of `fields`.
+    coordinates: Option<Vec<(usize, usize, bool)>>,
     size: usize,
     big_endian: bool,
 }
@@ -304,6 +351,7 @@ impl<'a> Records<'a> {
         let (fields, size) = record_fields(def);
         Self {
             bytes: &data[..(data.len() / size) * size],
+            coordinates: float_coordinates(&fields),
             fields,
             size,
             big_endian,
@@ -314,7 +362,10 @@ impl<'a> Records<'a> {
     fn par_iter(&self) -> impl IndexedParallelIterator<Item = VertexRecord> + '_ {
         self.bytes
             .par_chunks_exact(self.size)
-            .map(|r| read_record(r, &self.fields, self.big_endian))
+            .map(|r| match &self.coordinates {
+                Some(coordinates) => read_coordinates(r, coordinates, self.big_endian),
+                None => read_record(r, &self.fields, self.big_endian),
+            })
     }
 
     /// One value per record (shape: the record count), collected in parallel.
@@ -342,8 +393,17 @@ mod tests {
     use crate::read_ply::read_ply;
 
     /// One property of the test files: its PLY type and name.
-    const LAYOUTS: [&[(&str, &str)]; 4] = [
+    const LAYOUTS: [&[(&str, &str)]; 5] = [
         &[("float", "x"), ("float", "y"), ("float", "z")],
+        &[
+            ("double", "x"),
+            ("uchar", "quality"),
+            ("double", "y"),
+            ("double", "z"),
+            ("float", "nx"),
+            ("float", "ny"),
+            ("float", "nz"),
+        ],
         &[
             ("double", "x"),
             ("double", "y"),
@@ -404,6 +464,38 @@ mod tests {
             "float" => out!(f as f32),
             _ => out!(f),
         }
+    }
+
+    /// The coordinates-only decoder gives the general one's records (its brute-force twin), in
+    /// both byte orders; a layout with a colour or an integer coordinate takes the general one.
+    #[test]
+    fn coordinates_only_records_decode_as_the_general_decoder() {
+        use super::*;
+        let f = |slot, ty, at| (slot, ty, at);
+        let fields = vec![
+            f(Slot::Coordinate(0), ScalarType::Double, 0),
+            f(Slot::Coordinate(1), ScalarType::Double, 9),
+            f(Slot::Coordinate(2), ScalarType::Double, 17),
+            f(Slot::Coordinate(5), ScalarType::Float, 25),
+            f(Slot::Coordinate(3), ScalarType::Float, 29),
+        ];
+        let coordinates = float_coordinates(&fields).expect("coordinates only");
+        let mut rng = Pcg64Mcg::seed_from_u64(5);
+        for big_endian in [false, true] {
+            for _ in 0..1000 {
+                let r: Vec<u8> = (0..33).map(|_| rng.random::<u8>()).collect();
+                let general = read_record(&r, &fields, big_endian);
+                let fast = read_coordinates(&r, &coordinates, big_endian);
+                let bits = |v: [f64; 6]| v.map(f64::to_bits);
+                assert_eq!(bits(fast.v), bits(general.v));
+                assert_eq!((fast.rgb, fast.intensity), (general.rgb, general.intensity));
+            }
+        }
+        let mut coloured = fields.clone();
+        coloured.push(f(Slot::Color(0), ScalarType::UChar, 8));
+        assert!(float_coordinates(&coloured).is_none());
+        let integer = vec![f(Slot::Coordinate(0), ScalarType::Int, 0)];
+        assert!(float_coordinates(&integer).is_none());
     }
 
     /// The same records as ASCII, binary little- and big-endian PLY read through the PLY
