@@ -8,13 +8,12 @@
 //! spaced by one rule). Where every input point is covered nothing changes, as on the paper's
 //! models (measured in docs/notes/2026-11-25-spacing-ceiling.md).
 
-use std::collections::HashMap;
-
 use glam::DVec3;
 use psi_mpu::Mpu;
 use psi_octree::Aabb;
 use rayon::prelude::*;
 
+use crate::dart_grid::DartGrid;
 use crate::project::project_to_surface;
 use crate::seed::spread_hash;
 use crate::sigma_scale::SigmaScale;
@@ -100,26 +99,15 @@ pub(crate) fn uncovered_points(
 pub(crate) fn throw_darts(mpu: &Mpu, candidates: &[u32], radius: f64, seed: u64) -> Vec<u32> {
     let points = mpu.points();
     let mut order = candidates.to_vec();
-    order.sort_by_key(|&q| (spread_hash(q as usize ^ seed as usize), q));
-    let cube = |p: DVec3| (p / radius).floor().as_i64vec3().to_array();
-    let mut kept: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+    // (The keys are distinct, so an unstable sort gives the one order.)
+    order.par_sort_unstable_by_key(|&q| (spread_hash(q as usize ^ seed as usize), q));
+    let mut kept = DartGrid::new(radius, 1024);
     let mut out = Vec::new();
     let r2 = radius * radius;
     for q in order {
         let p = points[q as usize].p;
-        let [x, y, z] = cube(p);
-        let near = (-1..=1).any(|dx| {
-            (-1..=1).any(|dy| {
-                (-1..=1).any(|dz| {
-                    kept.get(&[x + dx, y + dy, z + dz]).is_some_and(|c| {
-                        c.iter()
-                            .any(|&k| points[k as usize].p.distance_squared(p) < r2)
-                    })
-                })
-            })
-        });
-        if !near {
-            kept.entry([x, y, z]).or_default().push(q);
+        if !kept.any_around(p, |_, k| k.distance_squared(p) < r2) {
+            kept.insert(q, p);
             out.push(q);
         }
     }

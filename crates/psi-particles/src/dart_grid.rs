@@ -50,12 +50,34 @@ impl DartGrid {
         ((h ^ (h >> 29)) & self.mask) as usize
     }
 
-    /// Adds dart `id` at `p`.
+    /// Adds dart `id` at `p`. The table doubles when it holds as many darts as half its
+    /// buckets (the darts rechained in insertion order: every query finds the same darts).
     pub(crate) fn insert(&mut self, id: u32, p: DVec3) {
-        let b = self.bucket(cube_of(p, self.edge));
-        self.next.push(self.head[b]);
-        self.head[b] = self.darts.len() as u32;
+        if 2 * (self.darts.len() + 1) > self.head.len() {
+            self.grow();
+        }
+        self.chain(self.darts.len() as u32, p);
         self.darts.push((id, p));
+    }
+
+    /// Links entry `k` at `p` into its bucket's chain.
+    fn chain(&mut self, k: u32, p: DVec3) {
+        let b = self.bucket(cube_of(p, self.edge));
+        if self.next.len() <= k as usize {
+            self.next.resize(k as usize + 1, NONE);
+        }
+        self.next[k as usize] = self.head[b];
+        self.head[b] = k;
+    }
+
+    /// Twice the buckets, every dart chained again.
+    fn grow(&mut self) {
+        let buckets = 2 * self.head.len();
+        self.mask = buckets as u64 - 1;
+        self.head = vec![NONE; buckets];
+        for k in 0..self.darts.len() {
+            self.chain(k as u32, self.darts[k].1);
+        }
     }
 
     /// Whether `near(id, position)` holds for a dart in the 27 cubes around `p`'s (every dart
