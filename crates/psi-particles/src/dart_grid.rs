@@ -111,8 +111,9 @@ mod tests {
 
     use super::DartGrid;
 
-    /// Brute force: for random darts and edges (a tiny table, so that buckets collide), a
-    /// query finds a dart within r ≤ edge exactly when one exists.
+    /// Brute force: for random darts and edges (a table started at 8 buckets and doubled as
+    /// the darts came, each dart chained again; buckets shared by other cubes), a query finds a
+    /// dart within r ≤ edge exactly when one exists.
     #[test]
     fn finds_a_dart_within_an_edge_exactly_when_one_exists() {
         let mut rng = Pcg64Mcg::seed_from_u64(3);
@@ -124,6 +125,7 @@ mod tests {
             for (i, &p) in darts.iter().enumerate() {
                 grid.insert(i as u32, p);
             }
+            assert_eq!(grid.head.len(), 1024, "grown from 8 buckets to hold 300 darts");
             let (mut hits, mut misses) = (0, 0);
             for _ in 0..2000 {
                 // Half the queries near a dart (within an edge), half anywhere.
