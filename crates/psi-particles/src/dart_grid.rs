@@ -125,7 +125,11 @@ mod tests {
             for (i, &p) in darts.iter().enumerate() {
                 grid.insert(i as u32, p);
             }
-            assert_eq!(grid.head.len(), 1024, "grown from 8 buckets to hold 300 darts");
+            assert_eq!(
+                grid.head.len(),
+                1024,
+                "grown from 8 buckets to hold 300 darts"
+            );
             let (mut hits, mut misses) = (0, 0);
             for _ in 0..2000 {
                 // Half the queries near a dart (within an edge), half anywhere.
