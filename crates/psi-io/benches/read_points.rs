@@ -11,6 +11,25 @@ use psi_io::{Format, ReadOptions, read_points, write_points_ply};
 
 const POINTS: usize = 1_000_000;
 
+/// A binary little-endian PLY of `positions` alone, as `float` when `single`, else `double`.
+fn positions_ply(positions: &[DVec3], single: bool) -> Vec<u8> {
+    let ty = if single { "float" } else { "double" };
+    let mut out = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\n\
+         property {ty} x\nproperty {ty} y\nproperty {ty} z\nend_header\n",
+        positions.len()
+    )
+    .into_bytes();
+    for v in positions.iter().flat_map(|p| p.to_array()) {
+        if single {
+            out.extend((v as f32).to_le_bytes());
+        } else {
+            out.extend(v.to_le_bytes());
+        }
+    }
+    out
+}
+
 fn read(c: &mut Criterion) {
     let points = psi_shapes::sample_builtin(POINTS, 0x5051_2007);
     let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
@@ -18,28 +37,10 @@ fn read(c: &mut Criterion) {
     let mut with_normals = Vec::new();
     write_points_ply(&mut with_normals, &positions, &normals, &[]).unwrap();
     // Positions only: the same file without its normal columns (written by hand: psi-io's
-    // writer always writes normals).
-    let mut positions_only = format!(
-        "ply\nformat binary_little_endian 1.0\nelement vertex {POINTS}\n\
-         property double x\nproperty double y\nproperty double z\nend_header\n"
-    )
-    .into_bytes();
-    for p in &positions {
-        for v in p.to_array() {
-            positions_only.extend(v.to_le_bytes());
-        }
-    }
-    // Positions only in single precision, as scanners and samplers write them.
-    let mut float_positions = format!(
-        "ply\nformat binary_little_endian 1.0\nelement vertex {POINTS}\n\
-         property float x\nproperty float y\nproperty float z\nend_header\n"
-    )
-    .into_bytes();
-    for p in &positions {
-        for v in p.to_array() {
-            float_positions.extend((v as f32).to_le_bytes());
-        }
-    }
+    // writer always writes normals), in double and, as scanners and samplers write them, in
+    // single precision.
+    let positions_only = positions_ply(&positions, false);
+    let float_positions = positions_ply(&positions, true);
     let mut xyz = String::new();
     for p in &points {
         xyz += &format!(
