@@ -35,13 +35,14 @@ fn read_in_ranges(file: File, len: u64, range: usize) -> std::io::Result<Vec<u8>
     {
         use rayon::prelude::*;
         use std::os::unix::fs::FileExt;
+        let range = range.max(1);
         let size = usize::try_from(len).map_err(std::io::Error::other)?;
         // Zeroed: the pages come mapped on first touch, which the reads do in parallel.
         let mut bytes = vec![0u8; size];
         bytes
-            .par_chunks_mut(range.max(1))
+            .par_chunks_mut(range)
             .enumerate()
-            .try_for_each(|(i, chunk)| file.read_exact_at(chunk, (i * range.max(1)) as u64))?;
+            .try_for_each(|(i, chunk)| file.read_exact_at(chunk, (i * range) as u64))?;
         let mut rest = file;
         std::io::Seek::seek(&mut rest, std::io::SeekFrom::Start(len))?;
         rest.read_to_end(&mut bytes)?;

@@ -1,7 +1,7 @@
 //! Reading a million oriented points from memory: binary PLY with normals (decoded straight
-//! into points), binary PLY of positions only (the vertex block; doubles and floats), and XYZ text with normals
-//! (blocks of lines parsed in parallel). The inputs are the built-in model sampled with a
-//! fixed seed and written by psi-io itself.
+//! into points), binary PLY of positions only (the vertex block; doubles and floats), and XYZ
+//! text with normals (blocks of lines parsed in parallel). The inputs are the built-in model
+//! sampled with a fixed seed and written by psi-io itself.
 
 use std::hint::black_box;
 

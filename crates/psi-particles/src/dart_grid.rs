@@ -27,8 +27,8 @@ fn cube_of(p: DVec3, edge: f64) -> [i64; 3] {
 }
 
 impl DartGrid {
-    /// An empty grid of cubes of edge `edge` (world units, > 0) for up to about `capacity`
-    /// darts.
+    /// An empty grid of cubes of edge `edge` (world units, > 0) with room for about `capacity`
+    /// darts before its table grows.
     pub(crate) fn new(edge: f64, capacity: usize) -> Self {
         let buckets = (2 * capacity.max(1)).next_power_of_two();
         Self {
@@ -56,16 +56,14 @@ impl DartGrid {
         if 2 * (self.darts.len() + 1) > self.head.len() {
             self.grow();
         }
+        self.next.push(NONE);
         self.chain(self.darts.len() as u32, p);
         self.darts.push((id, p));
     }
 
-    /// Links entry `k` at `p` into its bucket's chain.
+    /// Links entry `k` (its `next` slot allocated) at `p` into its bucket's chain.
     fn chain(&mut self, k: u32, p: DVec3) {
         let b = self.bucket(cube_of(p, self.edge));
-        if self.next.len() <= k as usize {
-            self.next.resize(k as usize + 1, NONE);
-        }
         self.next[k as usize] = self.head[b];
         self.head[b] = k;
     }
