@@ -230,3 +230,85 @@ fn front_documents_stay_short() {
         assert!(lines <= limit, "{file}: {lines} lines (at most {limit})");
     }
 }
+
+/// Each package of a `cargo tree -f '{p} [{f}]' --prefix none` listing with its features:
+/// `name version` → the feature names.
+fn features_by_package(tree: &str) -> BTreeMap<String, BTreeSet<String>> {
+    let mut out: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for line in tree.lines() {
+        let Some((package, rest)) = line.split_once(" [") else {
+            continue;
+        };
+        let mut words = package.split_whitespace();
+        let (Some(name), Some(version)) = (words.next(), words.next()) else {
+            continue;
+        };
+        let features = rest.split(']').next().unwrap_or_default();
+        out.entry(format!("{name} {version}")).or_default().extend(
+            features
+                .split(',')
+                .filter(|f| !f.is_empty())
+                .map(String::from),
+        );
+    }
+    out
+}
+
+/// The packages both listings hold with different features, one line each.
+fn feature_differences(workspace: &str, package: &str) -> Vec<String> {
+    let ws = features_by_package(workspace);
+    features_by_package(package)
+        .into_iter()
+        .filter_map(|(p, f)| {
+            let w = ws.get(&p)?;
+            (w != &f).then(|| {
+                let only_ws: Vec<_> = w.difference(&f).collect();
+                let only_p: Vec<_> = f.difference(w).collect();
+                format!("{p}: test build only {only_ws:?}, package only {only_p:?}")
+            })
+        })
+        .collect()
+}
+
+/// `cargo tree` over the workspace with `edges`, or over one package.
+fn cargo_tree(package: Option<&str>, edges: &str) -> String {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = std::process::Command::new(cargo);
+    cmd.current_dir(project_root())
+        .args(["tree", "--offline", "--prefix", "none", "-e", edges])
+        .args(["-f", "{p} [{f}]"]);
+    match package {
+        Some(p) => cmd.args(["-p", p]),
+        None => cmd.arg("--workspace"),
+    };
+    let out = cmd.output().expect("cargo tree runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).expect("cargo tree prints UTF-8")
+}
+
+/// CI builds the Python package's wheel in the dev profile after `cargo test --workspace`
+/// (README): it reuses the test build's crates only where it resolves every shared dependency
+/// with the same features (the root Cargo.toml names the ones the test build adds).
+#[test]
+fn the_python_package_resolves_the_test_builds_features() {
+    let differences = feature_differences(
+        &cargo_tree(None, "normal,build,dev"),
+        &cargo_tree(Some("psi-python"), "normal,build"),
+    );
+    assert!(differences.is_empty(), "{}", differences.join("\n"));
+}
+
+#[test]
+fn the_feature_check_sees_a_difference() {
+    let ws = "glam v0.33.12 [approx,std]\nrayon v1.12.0 []\npsi v0.1.0 (/w) [default]\n";
+    let py = "glam v0.33.12 [std]\nrayon v1.12.0 []\npsi v0.1.0 (/w) [default] (*)\n";
+    assert_eq!(
+        feature_differences(ws, py),
+        [r#"glam v0.33.12: test build only ["approx"], package only []"#]
+    );
+    assert!(feature_differences(ws, ws).is_empty());
+}

@@ -36,7 +36,7 @@ impl MortonIndex {
         let mapped = self.map_nearest_until(k, &|| monitor.stopped(), f);
         monitor.check()?;
         // (A stop seen by a cell is seen by the check above: the flag is never cleared.)
-        debug_assert_eq!(mapped.len(), self.len());
+        assert_eq!(mapped.len(), self.len());
         Ok(mapped)
     }
 
