@@ -110,8 +110,9 @@ fn initialize_with(mpu: &Mpu, params: &ParticleParams, monitor: &Monitor<'_>) ->
     };
     let uniform = params.density == DensityMode::Uniform;
     // The paper's seeding (k per leaf) unless an exact count or uniform spacing is asked for;
-    // those throw darts over the input points with the target spacing's shape.
-    let seeds = match (params.count, uniform) {
+    // those throw darts over the input points with the target spacing's shape. Uniform mode's
+    // area (a polygonization) is measured beside the darts, which mostly keep one thread.
+    let throw = || match (params.count, uniform) {
         (None, false) => seed(mpu, &leaves, &quotas(mpu, &leaves, params), params),
         (count, _) => {
             let n = count.unwrap_or(leaves.len());
@@ -133,6 +134,12 @@ fn initialize_with(mpu: &Mpu, params: &ParticleParams, monitor: &Monitor<'_>) ->
             })
         }
     };
+    let (seeds, area) = if uniform {
+        let (seeds, area) = rayon::join(throw, || surface_area(mpu));
+        (seeds, Some(area))
+    } else {
+        (throw(), None)
+    };
     if monitor.stopped() {
         // The caller checks the flag and discards this.
         return Seeding {
@@ -143,9 +150,8 @@ fn initialize_with(mpu: &Mpu, params: &ParticleParams, monitor: &Monitor<'_>) ->
     }
     let per_leaf = seeds.len() as f64 / leaves.len().max(1) as f64;
     field.scale = 1.0 / per_leaf.max(1e-12).sqrt();
-    if uniform {
+    if let Some(area) = area {
         // Hexagonal packing: spacing a = sqrt(2A / (√3 N)), σ̂ = a/2.
-        let area = surface_area(mpu);
         let a = (2.0 * area / (3f64.sqrt() * seeds.len().max(1) as f64)).sqrt();
         field.uniform = Some(0.5 * a);
     }
