@@ -2,7 +2,7 @@
 
 use std::time::Instant;
 
-use psi_mpu::{Mpu, PolygonizeParams, polygonize};
+use psi_mpu::{Mpu, PolygonizeParams, polygonize_with};
 use psi_octree::{Interrupted, Monitor};
 use serde::{Deserialize, Serialize};
 
@@ -71,21 +71,26 @@ pub struct Sampling {
 
 /// Total triangle area of the polygonized surface, world units² (uniform mode's area).
 pub fn surface_area(mpu: &Mpu) -> f64 {
-    let mesh = polygonize(
-        mpu,
-        &PolygonizeParams {
-            resolution: 128,
-            newton_steps: 2,
-            max_data_distance: f64::INFINITY,
-        },
-    );
-    mesh.faces
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
-            0.5 * (b - a).cross(c - a).length()
-        })
-        .sum()
+    surface_area_with(mpu, &Monitor::silent()).expect("a silent monitor never stops")
+}
+
+/// [`surface_area`], `None` once `monitor`'s flag is set (the polygonization checks it).
+fn surface_area_with(mpu: &Mpu, monitor: &Monitor<'_>) -> Option<f64> {
+    let params = PolygonizeParams {
+        resolution: 128,
+        newton_steps: 2,
+        max_data_distance: f64::INFINITY,
+    };
+    let mesh = polygonize_with(mpu, &params, monitor).ok()?;
+    Some(
+        mesh.faces
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum(),
+    )
 }
 
 /// Seeds particles from `mpu`'s surface leaves and returns them with their density field
@@ -135,8 +140,8 @@ fn initialize_with(mpu: &Mpu, params: &ParticleParams, monitor: &Monitor<'_>) ->
         }
     };
     let (seeds, area) = if uniform {
-        let (seeds, area) = rayon::join(throw, || surface_area(mpu));
-        (seeds, Some(area))
+        // (Interrupted, the area is `None` and the caller discards the seeds.)
+        rayon::join(throw, || surface_area_with(mpu, &monitor.quiet()))
     } else {
         (throw(), None)
     };
