@@ -12,8 +12,8 @@ use crate::Mpu;
 /// The data-backed share (0..=1) of the leaves the zero set crosses, weighted by edge².
 ///
 /// The corners lie on the lattice of the deepest level (root corner + integer × that level's
-/// edge) and each is evaluated once, however many leaves share it (about a third of the
-/// evaluations of nine per leaf).
+/// edge) and each is evaluated once, however many leaves share it (measured against nine
+/// evaluations per leaf in docs/results/2026-12-02-throughput/).
 pub fn data_coverage(mpu: &Mpu) -> f64 {
     let tree = mpu.octree();
     let origin = mpu.frame_origin();

@@ -63,8 +63,8 @@ impl ParticleGrid {
         let c = count(edge);
         let dims = [c.x as usize, c.y as usize, c.z as usize];
         let inv_edge = 1.0 / edge;
-        // (`as usize` truncates and saturates, so a clamped coordinate needs no `floor`: a libm
-        // call on baseline x86-64, a few per cent of an edit's stroke.)
+        // (`as usize` truncates and saturates, so a clamped coordinate needs no `floor`, a libm
+        // call on baseline x86-64: docs/notes/2026-12-02-dragon-stroke-profile.md.)
         let cube = |p: DVec3| {
             let k = (p - min) * inv_edge;
             let clamp = |v: f64, n: usize| (v.max(0.0) as usize).min(n - 1);
