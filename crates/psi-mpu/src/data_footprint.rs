@@ -216,6 +216,7 @@ impl DataFootprint {
         data: InputData<'_>,
         y: DVec3,
         reach: f64,
+        floor: f64,
         anchor: Option<DataAnchor>,
     ) -> FootprintTest {
         let answer = |inside, anchor| FootprintTest { inside, anchor };
@@ -242,12 +243,13 @@ impl DataFootprint {
         // many for a band) and a subset dense enough (`PointFootprint::with_own_test`), the
         // whole test on the subset's own points, its spacing capped where a point stands nearly
         // alone in the subset (`SUBSET_SLACK`).
+        let limit = Reach { reach, floor };
         let Some(whole) = &self.whole else {
-            return self.whole_test(data, &local, at_q, y, local.spacing(), reach);
+            return self.whole_test(data, &local, at_q, y, local.spacing(), limit);
         };
         let at = whole[q as usize];
         if !at.own_test() {
-            return thinned_test(at, local.last, at_q, y, reach);
+            return thinned_test(at, local.last, at_q, y, limit);
         }
         let spacing = if at.spacing() > 0.0 {
             local
@@ -256,11 +258,11 @@ impl DataFootprint {
         } else {
             local.spacing()
         };
-        self.whole_test(data, &local, at_q, y, spacing, reach)
+        self.whole_test(data, &local, at_q, y, spacing, limit)
     }
 
     /// The whole test of local position `y` at its nearest input point (`at_q`, whose cached
-    /// entry is `local`), for input spacing `spacing` there (world units; see
+    /// entry is `local`), for input spacing `spacing` there (world units) and `limit` (see
     /// `Mpu::near_data_from`).
     fn whole_test(
         &self,
@@ -269,7 +271,7 @@ impl DataFootprint {
         at_q: Nearest,
         y: DVec3,
         spacing: f64,
-        reach: f64,
+        limit: Reach,
     ) -> FootprintTest {
         let answer = |inside, anchor| FootprintTest { inside, anchor };
         let Nearest {
@@ -284,7 +286,7 @@ impl DataFootprint {
             fast_radius: if local.interior { 0.5 * spacing } else { -1.0 },
         });
         let d = d2.sqrt();
-        if d > reach * spacing {
+        if d > limit.distance(spacing) {
             return answer(false, new_anchor);
         }
         // Fast path: q lies well inside the data and y is within half a spacing of it.
@@ -292,10 +294,14 @@ impl DataFootprint {
             return answer(true, new_anchor);
         }
         // The edge rule: the input points within a couple of spacings of y surround it in q's
-        // tangent plane. Points that surround y surround it with more points added, so q and
-        // its cached 8 nearest, where they lie within that reach (a hair inside it, so that they
-        // are among the query's), decide most positions without the kd-tree query.
-        let around = SURROUND_REACH * spacing;
+        // tangent plane. The spacing is read as at least the floor, up to
+        // [`FLOOR_SURROUND_SPACINGS`] spacings: a gap of the sampling that the floor lets pass
+        // is surrounded by its rim at that reach, while an edge's points lie to one side of y at
+        // any reach. Points that surround y surround it with more points added, so q and its
+        // cached 8 nearest, where they lie within that reach (a hair inside it, so that they are
+        // among the query's), decide most positions without the kd-tree query.
+        let floor = limit.floor.min(FLOOR_SURROUND_SPACINGS * spacing);
+        let around = SURROUND_REACH * spacing.max(floor);
         let inner2 = (around * around) * (1.0 - 1e-9);
         let cached = std::iter::once(q)
             .chain(local.near[..usize::from(local.near_len)].iter().copied())
@@ -355,14 +361,15 @@ impl DataFootprint {
 ///   irregular (a hashed subset of a regular input most of all), which made the thinned
 ///   relaxation's spacing less even (docs/notes/2026-11-27-carried-footprint.md).
 ///
-/// The anchor's fast radius is half the whole spacing at an interior point, as in the whole
-/// test.
+/// The distance rules read the spacing and d₈ as at least `floor` (world units), as in the whole
+/// test. The anchor's fast radius is half the whole spacing at an interior point, as in the
+/// whole test.
 fn thinned_test(
     whole: PointFootprint,
     subset_d8: f64,
     q: Nearest,
     y: DVec3,
-    reach: f64,
+    limit: Reach,
 ) -> FootprintTest {
     let spacing = whole.spacing();
     let anchor = Some(DataAnchor {
@@ -384,15 +391,37 @@ fn thinned_test(
         } else {
             subset_d8
         };
-        d <= reach * d8
+        d <= limit.distance(d8)
     } else {
         let offset = q.position + whole.centroid_offset() - y;
-        d <= reach * spacing
+        d <= limit.distance(spacing)
             && ((whole.interior() && d <= 0.5 * spacing)
                 || tangential_length(offset, q.normal) <= spacing)
     };
     FootprintTest { inside, anchor }
 }
+
+/// The distance rule of the footprint test: within `reach` spacings, the spacing read as at
+/// least `floor` (world units; `Mpu::near_data_from`).
+#[derive(Clone, Copy)]
+struct Reach {
+    reach: f64,
+    floor: f64,
+}
+
+impl Reach {
+    /// The largest distance (world units) from the nearest input point at input spacing
+    /// `spacing` (world units).
+    fn distance(self, spacing: f64) -> f64 {
+        self.reach * spacing.max(self.floor)
+    }
+}
+
+/// The edge rule reads a floor on the spacing up to this many input spacings: far beyond the
+/// gaps of a random sampling (a gap wider than two spacings is about e^−4π of its positions),
+/// and a query of a few hundred points, where the whole floor (a coarse particle's σ on a dense
+/// input, tens of spacings) would gather thousands for each position off its nearest point.
+const FLOOR_SURROUND_SPACINGS: f64 = 4.0;
 
 /// The subset point nearest a tested position.
 #[derive(Clone, Copy)]
@@ -456,7 +485,7 @@ mod tests {
         let answers = |f: &DataFootprint| -> Vec<FootprintTest> {
             probes
                 .par_iter()
-                .map(|&(y, reach)| f.near_data_from(data, y, reach, None))
+                .map(|&(y, reach)| f.near_data_from(data, y, reach, 0.0, None))
                 .collect()
         };
         assert_eq!(answers(&sparse), answers(&dense));

@@ -181,8 +181,11 @@ impl Mpu {
 
     /// Whether world position `x` lies inside the data's footprint: within `reach` local input
     /// spacings of the nearest input point q, and not beyond the edge of the data (a hole or a
-    /// scan's border). The spacing at q is [`Mpu::input_spacing`]; x is past an edge when the
-    /// input points within 2 spacings of it do not surround it in the tangent plane of q: their
+    /// scan's border). The spacing at q is [`Mpu::input_spacing`], read by this distance rule
+    /// as at least `floor` (world units; the caller's resolution, e.g. a fraction of a
+    /// particle's σ: a gap of the sampling narrower than it is not a hole; 0 reads the input's
+    /// own; the edge rule below keeps the input's spacing); x is past an edge when the input
+    /// points within 2 spacings of it do not surround it in the tangent plane of q: their
     /// directions from x leave a gap of half a turn or more. On a straight edge that holds x on
     /// the edge line or beyond it; a hole's rim, read within 2 spacings, does not wrap around a
     /// position inside the hole. Range-scan rows and seams between denser and sparser views,
@@ -201,10 +204,16 @@ impl Mpu {
         &self,
         x: DVec3,
         reach: f64,
+        floor: f64,
         anchor: Option<DataAnchor>,
     ) -> FootprintTest {
-        self.footprint
-            .near_data_from(self.input_data(), x - self.frame.origin, reach, anchor)
+        self.footprint.near_data_from(
+            self.input_data(),
+            x - self.frame.origin,
+            reach,
+            floor,
+            anchor,
+        )
     }
 
     /// What the input says about each of its points `qs` (the spacing, whether it is

@@ -82,11 +82,11 @@ fn a_thinned_subset_with_the_whole_footprint_tests_as_the_whole_input() {
         let to_square = x.x.min(x.y).min(edge - x.x).min(edge - x.y);
         let to_hole = (x - hole).length() - radius;
         let depth = to_square.min(to_hole);
-        let expected = whole.near_data_from(x, 1.0, None).inside;
-        let got = thinned.near_data_from(x, 1.0, None).inside;
+        let expected = whole.near_data_from(x, 1.0, 0.0, None).inside;
+        let got = thinned.near_data_from(x, 1.0, 0.0, None).inside;
         all_tests += 1;
         agree += usize::from(got == expected);
-        own_agree += usize::from(own.near_data_from(x, 1.0, None).inside == expected);
+        own_agree += usize::from(own.near_data_from(x, 1.0, 0.0, None).inside == expected);
         if depth.abs() > 2.0 * h {
             clear += 1;
             assert_eq!(got, expected, "{x:?}: {depth} from the edge");
@@ -143,12 +143,12 @@ fn a_thin_feature_does_not_open_its_gaps_to_an_unmeasured_subset() {
             0.0,
         );
         assert!(
-            !whole.near_data_from(x, 1.0, None).inside,
+            !whole.near_data_from(x, 1.0, 0.0, None).inside,
             "the oracle at {x:?}"
         );
         for thinned in &both {
             assert!(
-                !thinned.near_data_from(x, 1.0, None).inside,
+                !thinned.near_data_from(x, 1.0, 0.0, None).inside,
                 "{x:?} in a gap passed"
             );
         }
@@ -168,10 +168,10 @@ fn a_thin_feature_does_not_open_its_gaps_to_an_unmeasured_subset() {
         );
         // Inside the squares, away from the bridge (whose points' spacing is capped).
         if x.x < 0.25 || x.x > 0.75 {
-            let got = both[1].near_data_from(x, 1.0, None).inside;
-            assert_eq!(got, own.near_data_from(x, 1.0, None).inside, "{x:?}");
+            let got = both[1].near_data_from(x, 1.0, 0.0, None).inside;
+            assert_eq!(got, own.near_data_from(x, 1.0, 0.0, None).inside, "{x:?}");
             assert!(got, "{x:?} inside a square");
-            assert!(both[0].near_data_from(x, 1.0, None).inside, "{x:?}");
+            assert!(both[0].near_data_from(x, 1.0, 0.0, None).inside, "{x:?}");
         }
     }
 }
@@ -206,10 +206,10 @@ fn an_unmeasured_subset_of_a_random_sampling_tests_as_the_subset_alone() {
             0.1 + 0.8 * rng.random::<f64>(),
             0.0,
         );
-        let expected = own.near_data_from(x, 1.0, None).inside;
-        agree += usize::from(thinned.near_data_from(x, 1.0, None).inside == expected);
+        let expected = own.near_data_from(x, 1.0, 0.0, None).inside;
+        agree += usize::from(thinned.near_data_from(x, 1.0, 0.0, None).inside == expected);
         rejected += usize::from(!expected);
-        lenient_rejected += usize::from(!lenient.near_data_from(x, 1.0, None).inside);
+        lenient_rejected += usize::from(!lenient.near_data_from(x, 1.0, 0.0, None).inside);
     }
     // The cap on a point's spacing (twice the rate's) only binds where the subset is sparsest.
     assert!(agree as f64 >= 0.995 * tests as f64, "{agree} of {tests}");

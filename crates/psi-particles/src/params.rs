@@ -79,6 +79,14 @@ pub struct ParticleParams {
     /// local input spacing: particles stay where there is data (open scans, holes). 1 (see
     /// docs/notes/2026-11-24-relaxation.md, for why not more).
     pub data_reach: f64,
+    /// The data test reads the input spacing as at least this multiple of the particle's σ_i
+    /// (0.5): a gap in the data narrower than that is a gap of the input's sampling, not a
+    /// hole the particles resolve, and a move into it is not refused. Without it, a dense
+    /// input refuses the e^−π ≈ 4 % of positions that fall in a random sampling's gaps at its
+    /// own spacing, and which moves are refused depends on the sampling (a thinned subset out
+    /// of core refuses other moves than the whole input: docs/notes/2026-12-02-data-floor.md).
+    #[serde(default = "default_data_floor")]
+    pub data_floor: f64,
     /// The ceiling on spacing, world units: after relaxation, particles are added where input
     /// points lie farther than [`crate::COVER_RADIUS`] × this from every particle, so that flat
     /// regions (one big octree cell each) are covered at about this spacing. `None`: 2.5 % of
@@ -89,6 +97,12 @@ pub struct ParticleParams {
     pub max_spacing: Option<f64>,
     /// Seed of every random choice.
     pub seed: u64,
+}
+
+/// [`ParticleParams::data_floor`]'s value in the paper's set-up (also what a serialized
+/// parameter set without it reads).
+fn default_data_floor() -> f64 {
+    0.5
 }
 
 impl ParticleParams {
@@ -119,6 +133,7 @@ impl ParticleParams {
             newton_tolerance: 1e-4,
             newton_steps: 4,
             data_reach: 1.0,
+            data_floor: default_data_floor(),
             max_spacing: None,
             seed: 2007,
         }

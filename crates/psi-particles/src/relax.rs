@@ -315,7 +315,8 @@ impl Relaxation {
                     let moved =
                         newton_project(mpu, x + step, tol, params.newton_steps, si, leaves[k]);
                     let x1 = moved.position;
-                    let test = mpu.near_data_from(x1, params.data_reach, anchors[k]);
+                    let floor = params.data_floor * si;
+                    let test = mpu.near_data_from(x1, params.data_reach, floor, anchors[k]);
                     let (on_data, new_anchor) = (test.inside, test.anchor);
                     let ok = moved.gradient.length_squared() > 0.0
                         && on_data

@@ -163,7 +163,9 @@ fn push_apart(
                 && on_surface
                 && (y - origin).length() <= MAX_PUSH * s
                 && accept.is_none_or(|a| a(y))
-                && mpu.near_data_from(y, params.data_reach, None).inside;
+                && mpu
+                    .near_data_from(y, params.data_reach, params.data_floor * s, None)
+                    .inside;
             if ok {
                 (x, n, best, from) = (y, g.normalize(), d, p);
             } else {

@@ -282,7 +282,9 @@ fn the_built_in_models_flat_sides_are_covered_and_its_count_kept() {
     eprintln!(
         "built-in: coverage p99 {p99:.2} max {max:.2} (without the ceiling p99 {p99_without:.2})"
     );
-    assert!(p99 <= p99_without + 0.05 && max <= 2.5);
+    // The ceiling's particles shorten the local spacing the measure divides by, so its p99 may
+    // sit a little above the run without it.
+    assert!(p99 <= p99_without + 0.1 && max <= 2.5);
     // No particle farther from the data than before: the darts are projected input points.
     let far = |run: &Sampling| {
         run.particles

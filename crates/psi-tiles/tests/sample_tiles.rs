@@ -14,12 +14,13 @@ use psi_tiles::{PointsInMemory, TileParams, decide_tiled, sample_tiled};
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 
-/// The per-level spacing CV with a tenth of the points in the data test at most this × the
-/// whole sampling's (issue 26). These random samplings look irregular to the whole data test,
-/// which rejects moves the thinned one accepts: the thinned CVs came out lower
-/// (docs/notes/2026-11-27-carried-footprint.md). A tenth of these inputs is a few points a
+/// The per-level spacing CV with a third of the points in the data test within this factor of
+/// the whole sampling's either way (issue 26). A third of these inputs is a few points a
 /// particle, too few for the subset's own test (`OWN_TEST_POINTS_PER_PARTICLE`), so they take
-/// the lenient one (docs/notes/2026-11-28-unmeasured-own-test.md).
+/// the lenient one (docs/notes/2026-11-28-unmeasured-own-test.md); with the data test's floor
+/// neither run refuses moves into the gaps of the sampling. (A tenth, about one point a
+/// particle, has gaps the particles' own size, which the floor does not cover:
+/// docs/notes/2026-12-02-data-floor.md.)
 const CV_RATIO: f64 = 1.05;
 
 fn cv(v: &[f64]) -> f64 {
@@ -96,12 +97,12 @@ fn check(points: &[OrientedPoint], depth: u8, seam: bool) {
     assert!(exact.report.regions >= 8, "{:?}", exact.report);
     assert_eq!(exact.after, measure_quality(&whole, &exact.particles));
 
-    // A tenth of the points fit: the data test reads about a tenth of them.
-    let tiled = run(points.len() / 10);
+    // A third of the points fit: the data test reads about a third of them.
+    let tiled = run(points.len() / 3);
     assert_eq!(tiled.seeds, expected_seeds);
     assert_eq!(tiled.particles.len(), expected.particles.len());
     assert!(
-        tiled.report.relax_points > 0 && tiled.report.relax_points <= points.len() / 9,
+        tiled.report.relax_points > 0 && tiled.report.relax_points <= points.len() / 2,
         "{:?}",
         tiled.report
     );
@@ -122,8 +123,9 @@ fn check(points: &[OrientedPoint], depth: u8, seam: bool) {
     );
     for (la, lb) in a.levels.iter().zip(&b.levels) {
         if la.spacing.count >= 100 {
+            let ratio = lb.spacing.cv / la.spacing.cv;
             assert!(
-                lb.spacing.cv <= CV_RATIO * la.spacing.cv,
+                (1.0 / CV_RATIO..=CV_RATIO).contains(&ratio),
                 "depth {}: tiled CV {} against {}",
                 la.depth,
                 lb.spacing.cv,
