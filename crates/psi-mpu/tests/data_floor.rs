@@ -7,10 +7,13 @@
 //! point and the analytic geometry of the square and the hole.
 
 use glam::DVec3;
-use psi_mpu::{BuildOptions, DEEP, Mpu, MpuFrame, MpuParams, PointFootprint};
+use psi_mpu::{Mpu, MpuParams, PointFootprint};
 use psi_octree::OrientedPoint;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
+
+mod common;
+use common::{band_and_every_fourth, subset_mpu};
 
 /// Uniform random points on the unit square (z = 0, normals +z) outside the disc of `radius`
 /// around `hole`.
@@ -21,16 +24,6 @@ fn random_square(n: usize, hole: DVec3, radius: f64, seed: u64) -> Vec<OrientedP
         .take(n)
         .map(|p| OrientedPoint { p, n: DVec3::Z })
         .collect()
-}
-
-/// An MPU over `subset` in `frame`, its points carrying `carried`.
-fn subset_mpu(subset: &[OrientedPoint], frame: MpuFrame, carried: &[PointFootprint]) -> Mpu {
-    let options = BuildOptions {
-        frame: Some(frame),
-        whole_footprint: Some(carried),
-        ..Default::default()
-    };
-    Mpu::build_with(subset, &MpuParams::paper(), options).unwrap()
 }
 
 #[test]
@@ -48,23 +41,8 @@ fn the_floor_ignores_the_samplings_gaps_and_keeps_holes_and_borders() {
     // a random sampling its band of seeming edges spans much of the data (why out of core
     // does not measure such regions), whose positions read the input's own spacing: only the
     // outside is asserted for it.
-    whole.fill_footprint();
-    let all: Vec<u32> = (0..points.len() as u32).collect();
-    let footprints = whole.point_footprints(&all, &|_, _| true);
-    let kept: Vec<usize> = (0..points.len())
-        .filter(|&i| footprints[i].hops() < DEEP || i % 4 == 0)
-        .collect();
-    let band = kept
-        .iter()
-        .filter(|&&i| footprints[i].hops() < DEEP)
-        .count();
-    let rate = (kept.len() - band) as f64 / (points.len() - band) as f64;
-    let subset: Vec<OrientedPoint> = kept.iter().map(|&i| whole.points()[i]).collect();
-    let carried: Vec<_> = kept
-        .iter()
-        .map(|&i| footprints[i].thinned_to(rate, DEEP - 1))
-        .collect();
-    let thinned = subset_mpu(&subset, *whole.frame(), &carried);
+    let (subset, carried, _) = band_and_every_fourth(&mut whole);
+    let thinned = subset_mpu(&subset, *whole.frame(), Some(&carried));
     // Every fourth point, unmeasured, taking the whole test on its own points.
     let quarter: Vec<OrientedPoint> = points.iter().copied().step_by(4).collect();
     let own = vec![
@@ -73,7 +51,7 @@ fn the_floor_ignores_the_samplings_gaps_and_keeps_holes_and_borders() {
             .with_own_test();
         quarter.len()
     ];
-    let own = subset_mpu(&quarter, *whole.frame(), &own);
+    let own = subset_mpu(&quarter, *whole.frame(), Some(&own));
 
     let nearest = |x: DVec3| {
         points

@@ -7,34 +7,19 @@
 //! (the edge rule reads the position's own nearest points, `surrounded.rs`).
 
 use glam::DVec3;
-use psi_mpu::{BuildOptions, DEEP, Mpu, MpuFrame, MpuParams, PointFootprint};
+use psi_mpu::{Mpu, MpuParams, PointFootprint};
 use psi_octree::OrientedPoint;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
 mod common;
-use common::jittered_patch;
+use common::{band_and_every_fourth, jittered_patch, subset_mpu};
 
 /// The MPU over `points` (the paper's parameters) and every fourth of its points.
 fn whole_and_every_fourth(points: &[OrientedPoint]) -> (Mpu, Vec<OrientedPoint>) {
     let whole = Mpu::build(points, &MpuParams::paper()).unwrap();
     let subset = whole.points().iter().copied().step_by(4).collect();
     (whole, subset)
-}
-
-/// An MPU over `subset` (the paper's parameters) in the whole input's `frame`, its points
-/// carrying `carried` (what the whole input says of each) or, with `None`, taken as the input.
-fn subset_mpu(
-    subset: &[OrientedPoint],
-    frame: MpuFrame,
-    carried: Option<&[PointFootprint]>,
-) -> Mpu {
-    let options = BuildOptions {
-        frame: Some(frame),
-        whole_footprint: carried,
-        ..Default::default()
-    };
-    Mpu::build_with(subset, &MpuParams::paper(), options).unwrap()
 }
 
 #[test]
@@ -48,24 +33,9 @@ fn a_thinned_subset_with_the_whole_footprint_tests_as_the_whole_input() {
         .collect();
     let params = MpuParams::paper();
     let mut whole = Mpu::build(&points, &params).unwrap();
-    whole.fill_footprint();
-    let all: Vec<u32> = (0..points.len() as u32).collect();
-    let footprints = whole.point_footprints(&all, &|_, _| true);
     // The band (two hops of the edge) whole, every fourth of the others.
-    let kept: Vec<usize> = (0..points.len())
-        .filter(|&i| footprints[i].hops() < DEEP || i % 4 == 0)
-        .collect();
-    let band = kept
-        .iter()
-        .filter(|&&i| footprints[i].hops() < DEEP)
-        .count();
+    let (subset, carried, band) = band_and_every_fourth(&mut whole);
     assert!(band > 100 && band < points.len() / 2, "band {band}");
-    let rate = (kept.len() - band) as f64 / (points.len() - band) as f64;
-    let subset: Vec<OrientedPoint> = kept.iter().map(|&i| whole.points()[i]).collect();
-    let carried: Vec<_> = kept
-        .iter()
-        .map(|&i| footprints[i].thinned_to(rate, DEEP - 1))
-        .collect();
     let frame = *whole.frame();
     let thinned = subset_mpu(&subset, frame, Some(&carried));
     let own = subset_mpu(&subset, frame, None);
