@@ -184,12 +184,13 @@ impl Mpu {
     /// scan's border). The spacing at q is [`Mpu::input_spacing`], read by this distance rule
     /// as at least `floor` (world units; the caller's resolution, e.g. a fraction of a
     /// particle's σ: a gap of the sampling narrower than it is not a hole; 0 reads the input's
-    /// own; the edge rule below keeps the input's spacing); x is past an edge when the input
-    /// points within 2 spacings of it do not surround it in the tangent plane of q: their
-    /// directions from x leave a gap of half a turn or more. On a straight edge that holds x on
-    /// the edge line or beyond it; a hole's rim, read within 2 spacings, does not wrap around a
-    /// position inside the hole. Range-scan rows and seams between denser and sparser views,
-    /// where q's 8 nearest lie to one side of it, do not read as edges
+    /// own; the edge rule's reach reads it too, up to 4 spacings, the fast path below does
+    /// not); x is past an edge when the input points within 2 spacings of it do not surround it
+    /// in the tangent plane of q: their directions from x leave a gap of half a turn or more.
+    /// On a straight edge that holds x on the edge line or beyond it; a hole's rim, read within
+    /// 2 spacings, does not wrap around a position inside the hole. Range-scan rows and seams
+    /// between denser and sparser views, where q's 8 nearest lie to one side of it, do not
+    /// read as edges
     /// (docs/notes/2026-11-27-multiview-level-cv.md). When q and its cached 8 nearest already
     /// surround x, no kd-tree query is made (the same answer: more points cannot open a gap).
     ///
