@@ -10,10 +10,10 @@
 //! core over in core (issue 26: within 5 %) and the tiled surface distance; for the dragon,
 //! the tiled particles' checks of `reproduce-tables` against the mesh (distance, coverage at
 //! 1.5 mean spacings). With `--cluster PYTHON` (an interpreter with psi and Dask installed),
-//! each input also runs on `LocalCluster`s of 1 and 2 worker processes of one thread
-//! (`python/bench/bench_cluster.py`): wall time, points per second, speed-up and parallel
-//! efficiency, each worker's peak memory, the relaxation's share, and whether the bytes are
-//! the command line's. Writes `target/xtask/scale/scale.md` and `scale.json`.
+//! each input also runs on `LocalCluster`s of 1, 2, 2 and 1 worker processes of one thread
+//! (`python/bench/bench_cluster.py`): mean wall time, points per second, speed-up and parallel
+//! efficiency, the largest worker's peak memory, the relaxation's share, and whether the bytes
+//! are the command line's. Writes `target/xtask/scale/scale.md` and `scale.json`.
 //!
 //! `cargo xtask bench scale 1000000,3000000 1GiB dragon [--cluster .venv/bin/python]`
 
@@ -117,13 +117,20 @@ fn timed(psi: &Path, args: &[&str], report: &Path) -> Result<(Value, f64)> {
     Ok((j, t.elapsed().as_secs_f64()))
 }
 
-/// The cluster runs of `input` (1 and 2 workers) by `python`'s `bench_cluster.py`, written to
-/// `out`; its rows.
+/// The order of the cluster runs: 1, 2, 2, 1 workers. This host's speed drifts by 10–35 % within
+/// an hour (`docs/notes/2026-11-28-edit-frame-costs.md`; two 2-worker runs of the same input
+/// minutes apart took 100.9 and 83.7 s); run in this order, a drift linear in time adds as much
+/// to the 1-worker runs' mean as to the 2-worker runs', so their ratio does not see it.
+const CLUSTER_ORDER: &str = "1,2,2,1";
+
+/// The cluster runs of `input` ([`CLUSTER_ORDER`]) by `python`'s `bench_cluster.py`, written
+/// to `out`; its rows, one per run.
 fn cluster_runs(python: &str, input: &str, budget: &str, out: &Path) -> Result<Vec<Value>> {
     let script = crate::project_root().join("python/bench/bench_cluster.py");
     let status = Command::new(python)
         .arg(&script)
-        .args([input, "--max-memory", budget, "--workers", "1,2", "--out"])
+        .args([input, "--max-memory", budget, "--workers", CLUSTER_ORDER])
+        .arg("--out")
         .arg(out)
         .status()
         .with_context(|| format!("running {python} {}", script.display()))?;
@@ -135,37 +142,56 @@ fn cluster_runs(python: &str, input: &str, budget: &str, out: &Path) -> Result<V
     Ok(rows)
 }
 
-/// The markdown rows of `cluster` (the runs of [`cluster_runs`]) for `n` points; `cli_sha` is
-/// the SHA-256 of the command line's particles out of core.
+/// The markdown rows of `cluster` (the runs of [`cluster_runs`]) for `n` points, one per number
+/// of workers in the order they first ran: the mean wall time of its runs (each run's in
+/// brackets), the speed-up and efficiency of the means over the first count's mean, the peak
+/// memory per worker and the relaxation's share (the largest over its runs), and whether every
+/// run wrote the bytes `cli_sha` (SHA-256) names, the command line's particles out of core.
 fn cluster_rows(n: usize, cluster: &[Value], cli_sha: &str) -> String {
     let seconds = |r: &Value| r["seconds"].as_f64().unwrap_or(f64::NAN);
-    let one = cluster.first().map_or(f64::NAN, seconds);
-    let mut md = String::new();
+    let workers = |r: &Value| r["workers"].as_u64().unwrap_or(0);
+    let mut counts: Vec<u64> = Vec::new();
     for r in cluster {
-        let (w, s) = (r["workers"].as_f64().unwrap_or(f64::NAN), seconds(r));
-        let peaks: Vec<String> = r["worker_peak_bytes"]
-            .as_array()
-            .map(|p| {
-                p.iter()
-                    .map(|b| format!("{:.0}", b.as_f64().unwrap_or(f64::NAN) / 1048576.0))
-                    .collect()
+        if !counts.contains(&workers(r)) {
+            counts.push(workers(r));
+        }
+    }
+    let runs = |w: u64| cluster.iter().filter(move |r| workers(r) == w);
+    let mean = |w: u64| runs(w).map(seconds).sum::<f64>() / runs(w).count() as f64;
+    let w0 = counts.first().copied().unwrap_or(1);
+    let base = mean(w0);
+    let mut md = String::new();
+    for &w in &counts {
+        let s = mean(w);
+        let each: Vec<String> = runs(w).map(|r| format!("{:.1}", seconds(r))).collect();
+        let peaks: Vec<u64> = runs(w)
+            .flat_map(|r| {
+                r["worker_peak_bytes"]
+                    .as_array()
+                    .cloned()
+                    .unwrap_or_default()
             })
-            .unwrap_or_default();
-        let relax = r["tasks"]["_ooc_sample"]["span"]
-            .as_f64()
-            .unwrap_or(f64::NAN);
+            .filter_map(|b| b.as_f64())
+            .map(|b| (b / 1048576.0).round() as u64)
+            .collect();
+        let relax = runs(w)
+            .map(|r| {
+                r["tasks"]["_ooc_sample"]["span"]
+                    .as_f64()
+                    .unwrap_or(f64::NAN)
+                    / seconds(r)
+            })
+            .fold(0.0, f64::max);
+        let same = runs(w).all(|r| r["sha256"].as_str() == Some(cli_sha));
         md += &format!(
-            "| {n} | {w} | {s:.1} | {:.0} | {:.2}× | {:.0} % | {} | {:.1} % | {} |\n",
+            "| {n} | {w} | {s:.1} ({}) | {:.0} | {:.2}× | {:.0} % | {} | {:.1} % | {} |\n",
+            each.join(", "),
             n as f64 / s,
-            one / s,
-            100.0 * one / s / w,
-            peaks.join(", "),
-            100.0 * relax / s,
-            if r["sha256"].as_str() == Some(cli_sha) {
-                "yes"
-            } else {
-                "NO"
-            },
+            base / s,
+            100.0 * base / s * w0 as f64 / w as f64,
+            peaks.iter().max().map_or("—".into(), |p| p.to_string()),
+            100.0 * relax,
+            if same { "yes" } else { "NO" },
         );
     }
     md
@@ -350,9 +376,10 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
     if !md_cluster.is_empty() {
         md += &format!(
             "\nOn `LocalCluster`s of worker processes of one thread each (`psi.distributed`, \
-             `max_memory=\"{budget}\"`); efficiency: speed-up over workers; the relaxation's \
-             share: its task's span over the run:\n\n\
-             | N | workers | s | points/s | speed-up | efficiency | peak MiB per worker | relaxation share | the CLI's bytes |\n\
+             `max_memory=\"{budget}\"`), run with 1, 2, 2 and 1 workers; s: the mean of a count's \
+             runs (each run's in brackets); speed-up: of the means; efficiency: speed-up over \
+             workers; the relaxation's share: its task's span over the run, the largest:\n\n\
+             | N | workers | s | points/s | speed-up | efficiency | peak MiB, largest worker | relaxation share | the CLI's bytes |\n\
              |---|---|---|---|---|---|---|---|---|\n{md_cluster}"
         );
     }
