@@ -5,9 +5,10 @@
 this host's speed drifts within an hour, and a drift linear in time then adds alike to both
 counts' mean): the wall time of each run, the speed-up of each count's mean over the first's,
 each task function's span and busy time (Dask's task stream), each worker process's peak
-resident memory, and whether the particles written are bitwise the same (they must be: the
-tiling is a function of the input and the budget alone). Each run starts from an empty
-scratch directory.
+resident memory, the CPU time of this process (the scheduler's and the client's: on a
+``LocalCluster`` they take it from the workers' cores), and whether the particles written are
+bitwise the same (they must be: the tiling is a function of the input and the budget alone).
+Each run starts from an empty scratch directory.
 
     python python/bench/bench_cluster.py INPUT [--max-memory 1GiB] [--workers 1,2,2,1]
         [--out docs/results/.../cluster.json]
@@ -59,17 +60,18 @@ def run(input_path, workers, max_memory, work):
     scratch = work / f"scratch-{workers}"
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True) as cluster:
         with Client(cluster) as client, get_task_stream(client) as stream:
-            t = time.perf_counter()
+            t, cpu = time.perf_counter(), time.process_time()
             report = psi.distributed.sample_files(
                 input_path, out, client, max_memory=max_memory, scratch=scratch
             )
-            seconds = time.perf_counter() - t
+            seconds, cpu = time.perf_counter() - t, time.process_time() - cpu
             peaks = sorted(client.run(peak_rss).values())
     digest = hashlib.sha256(out.read_bytes()).hexdigest()
     shutil.rmtree(scratch, ignore_errors=True)
     return {
         "workers": workers,
         "seconds": seconds,
+        "scheduler_cpu_seconds": cpu,
         "points": report["input"]["points"],
         "particles": report["particles"]["count"],
         "worker_peak_bytes": peaks,
@@ -105,7 +107,8 @@ def main():
             f"{particles} | {'yes' if same else 'NO'} |"
         )
     for r in rows:
-        print(f"{r['workers']} worker(s): " + ", ".join(
+        print(f"{r['workers']} worker(s), scheduler CPU {r['scheduler_cpu_seconds']:.1f} s: "
+              + ", ".join(
             f"{k} {v['tasks']}× span {v['span']:.1f} s busy {v['busy']:.1f} s"
             for k, v in r["tasks"].items()))
     if args.out:
