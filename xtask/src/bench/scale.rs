@@ -157,7 +157,18 @@ fn cluster_rows(n: usize, cluster: &[Value], cli_sha: &str) -> String {
         }
     }
     let runs = |w: u64| cluster.iter().filter(move |r| workers(r) == w);
-    let mean = |w: u64| runs(w).map(seconds).sum::<f64>() / runs(w).count() as f64;
+    let mean_of =
+        |w: u64, f: &dyn Fn(&Value) -> f64| runs(w).map(f).sum::<f64>() / runs(w).count() as f64;
+    let mean = |w: u64| mean_of(w, &seconds);
+    // The cells above the tiles: eight tasks of the same work in every run, no Dask traffic
+    // between them, so their busy time (summed over the workers) measures how fast the host
+    // ran them, alone or side by side.
+    let octants = |r: &Value| {
+        r["tasks"]["_ooc_top_group"]["busy"]
+            .as_f64()
+            .unwrap_or(f64::NAN)
+    };
+    let scheduler = |r: &Value| r["scheduler_cpu_seconds"].as_f64().unwrap_or(f64::NAN);
     let w0 = counts.first().copied().unwrap_or(1);
     let base = mean(w0);
     let mut md = String::new();
@@ -184,11 +195,14 @@ fn cluster_rows(n: usize, cluster: &[Value], cli_sha: &str) -> String {
             .fold(0.0, f64::max);
         let same = runs(w).all(|r| r["sha256"].as_str() == Some(cli_sha));
         md += &format!(
-            "| {n} | {w} | {s:.1} ({}) | {:.0} | {:.2}× | {:.0} % | {} | {:.1} % | {} |\n",
+            "| {n} | {w} | {s:.1} ({}) | {:.0} | {:.2}× | {:.0} % | {:.1} ({:.2}×) | {:.1} | {} | {:.1} % | {} |\n",
             each.join(", "),
             n as f64 / s,
             base / s,
             100.0 * base / s * w0 as f64 / w as f64,
+            mean_of(w, &octants),
+            mean_of(w, &octants) / mean_of(w0, &octants),
+            mean_of(w, &scheduler),
             peaks.iter().max().map_or("—".into(), |p| p.to_string()),
             100.0 * relax,
             if same { "yes" } else { "NO" },
@@ -378,9 +392,13 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
             "\nOn `LocalCluster`s of worker processes of one thread each (`psi.distributed`, \
              `max_memory=\"{budget}\"`), run with 1, 2, 2 and 1 workers; s: the mean of a count's \
              runs (each run's in brackets); speed-up: of the means; efficiency: speed-up over \
-             workers; the relaxation's share: its task's span over the run, the largest:\n\n\
-             | N | workers | s | points/s | speed-up | efficiency | peak MiB, largest worker | relaxation share | the CLI's bytes |\n\
-             |---|---|---|---|---|---|---|---|---|\n{md_cluster}"
+             workers; the octants' busy time: the eight tasks of the cells above the tiles, the \
+             same work in every run, summed over the workers (over the first count's: how much \
+             slower the host ran them side by side); the scheduler's CPU: the bench process's, \
+             on the workers' cores; the relaxation's share: its task's span over the run, the \
+             largest:\n\n\
+             | N | workers | s | points/s | speed-up | efficiency | octants' busy s | scheduler CPU s | peak MiB, largest worker | relaxation share | the CLI's bytes |\n\
+             |---|---|---|---|---|---|---|---|---|---|---|\n{md_cluster}"
         );
     }
     std::fs::write(dir.join("scale.md"), &md)?;
@@ -390,4 +408,36 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
     )?;
     println!("{md}\nwrote {}", dir.join("scale.md").display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A run of `workers` taking `seconds`, its octants' tasks `octants` busy seconds.
+    fn run(workers: u64, seconds: f64, octants: f64) -> Value {
+        json!({
+            "workers": workers, "seconds": seconds, "scheduler_cpu_seconds": 5.0,
+            "worker_peak_bytes": [600.0 * 1048576.0], "sha256": "ab",
+            "tasks": {"_ooc_top_group": {"busy": octants}, "_ooc_sample": {"span": 1.1}},
+        })
+    }
+
+    #[test]
+    fn cluster_rows_average_each_count_in_the_order_it_first_ran() {
+        // 1, 2, 2, 1: means 110 and 55 s, so 2.00× and 100 %; octants 70 → 77 s, 1.10×.
+        let runs = [
+            run(1, 100.0, 70.0),
+            run(2, 60.0, 77.0),
+            run(2, 50.0, 77.0),
+            run(1, 120.0, 70.0),
+        ];
+        let md = cluster_rows(1000, &runs, "ab");
+        let rows: Vec<&str> = md.lines().collect();
+        assert_eq!(rows.len(), 2, "{md}");
+        assert!(rows[0].starts_with("| 1000 | 1 | 110.0 (100.0, 120.0) | 9 | 1.00× | 100 % | 70.0 (1.00×) | 5.0 | 600 | 1.1 % | yes |"), "{md}");
+        assert!(rows[1].starts_with("| 1000 | 2 | 55.0 (60.0, 50.0) | 18 | 2.00× | 100 % | 77.0 (1.10×) | 5.0 | 600 | 2.2 % | yes |"), "{md}");
+        // Another digest than the command line's is reported.
+        assert!(cluster_rows(1000, &runs, "cd").contains("| NO |"));
+    }
 }
