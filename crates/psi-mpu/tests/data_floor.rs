@@ -13,7 +13,7 @@ use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
 mod common;
-use common::{band_and_every_fourth, subset_mpu};
+use common::{band_and_every_fourth, in_square, subset_mpu};
 
 /// Uniform random points on the unit square (z = 0, normals +z) outside the disc of `radius`
 /// around `hole`.
@@ -62,11 +62,7 @@ fn the_floor_ignores_the_samplings_gaps_and_keeps_holes_and_borders() {
     let mut rng = Pcg64Mcg::seed_from_u64(11);
     let (mut deep, mut gaps_refused, mut own_refused, mut outside) = (0, 0, 0, 0);
     for _ in 0..20_000 {
-        let x = DVec3::new(
-            -0.2 + 1.4 * rng.random::<f64>(),
-            -0.2 + 1.4 * rng.random::<f64>(),
-            0.0,
-        );
+        let x = in_square(-0.2, 1.4, &mut rng);
         let to_square = x.x.min(x.y).min(1.0 - x.x).min(1.0 - x.y);
         let depth = to_square.min((x - hole).length() - radius);
         let d = nearest(x);

@@ -13,7 +13,7 @@ use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
 mod common;
-use common::{band_and_every_fourth, jittered_patch, subset_mpu};
+use common::{band_and_every_fourth, in_square, jittered_patch, subset_mpu};
 
 /// The MPU over `points` (the paper's parameters) and every fourth of its points.
 fn whole_and_every_fourth(points: &[OrientedPoint]) -> (Mpu, Vec<OrientedPoint>) {
@@ -43,11 +43,7 @@ fn a_thinned_subset_with_the_whole_footprint_tests_as_the_whole_input() {
     // inside the data or beyond its edge (the outer square's or the hole's).
     let (mut clear, mut agree, mut all_tests, mut own_agree) = (0, 0, 0, 0);
     for _ in 0..20_000 {
-        let x = DVec3::new(
-            -0.1 + 1.2 * rng.random::<f64>(),
-            -0.1 + 1.2 * rng.random::<f64>(),
-            0.0,
-        );
+        let x = in_square(-0.1, 1.2, &mut rng);
         let edge = (side - 1) as f64 * h;
         let to_square = x.x.min(x.y).min(edge - x.x).min(edge - x.y);
         let to_hole = (x - hole).length() - radius;
@@ -131,11 +127,7 @@ fn a_thin_feature_does_not_open_its_gaps_to_an_unmeasured_subset() {
     }
     assert!(near_bridge > 400, "{near_bridge}: the case this guards");
     for _ in 0..4_000 {
-        let x = DVec3::new(
-            0.05 + 0.9 * rng.random::<f64>(),
-            0.05 + 0.9 * rng.random::<f64>(),
-            0.0,
-        );
+        let x = in_square(0.05, 0.9, &mut rng);
         // Inside the squares, away from the bridge (whose points' spacing is capped).
         if x.x < 0.25 || x.x > 0.75 {
             let got = both[1].near_data_from(x, 1.0, 0.0, None).inside;
@@ -171,11 +163,7 @@ fn an_unmeasured_subset_of_a_random_sampling_tests_as_the_subset_alone() {
     let lenient = subset_mpu(&subset, frame, Some(&vec![lenient; subset.len()]));
     let (mut agree, mut rejected, mut lenient_rejected, tests) = (0, 0, 0, 20_000);
     for _ in 0..tests {
-        let x = DVec3::new(
-            0.1 + 0.8 * rng.random::<f64>(),
-            0.1 + 0.8 * rng.random::<f64>(),
-            0.0,
-        );
+        let x = in_square(0.1, 0.8, &mut rng);
         let expected = own.near_data_from(x, 1.0, 0.0, None).inside;
         agree += usize::from(thinned.near_data_from(x, 1.0, 0.0, None).inside == expected);
         rejected += usize::from(!expected);

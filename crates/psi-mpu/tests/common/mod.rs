@@ -24,6 +24,14 @@ pub(crate) fn jittered_patch(side: usize, h: f64, rng: &mut Pcg64Mcg) -> Vec<Ori
         .collect()
 }
 
+/// A uniform random position in the square [`lo`, `lo` + `span`]² of the z = 0 plane (world
+/// units; x drawn first, then y).
+#[allow(dead_code)] // not every test file that shares this module probes a square
+pub(crate) fn in_square(lo: f64, span: f64, rng: &mut Pcg64Mcg) -> DVec3 {
+    let x = lo + span * rng.random::<f64>();
+    DVec3::new(x, lo + span * rng.random::<f64>(), 0.0)
+}
+
 /// An MPU over `subset` (the paper's parameters) in the whole input's `frame`, its points
 /// carrying `carried` (what the whole input says of each) or, with `None`, taken as the input.
 #[allow(dead_code)] // not every test file that shares this module thins its input
