@@ -130,6 +130,29 @@ pub(crate) fn coverage(particles: &[DVec3], nn: &[f64], inputs: &[DVec3], ceilin
     })
 }
 
+/// The share of a surface sampled by `points` (shape: M, world units) where `flagged` (shape:
+/// M) holds, by area rather than by count: each point weighted by the inverse of the number of
+/// points within `radius` of it (itself included), so a region sampled twice as densely counts
+/// once, as the particles, spread by area, count it. 0 for no points.
+pub(crate) fn share_by_area(points: &[DVec3], flagged: &[bool], radius: f64) -> f64 {
+    let index = PointIndex::new(points);
+    let (flagged_weight, total) = points
+        .par_iter()
+        .zip(flagged)
+        .map_init(Vec::new, |found, (x, &f)| {
+            found.clear();
+            index.within(*x, radius, found);
+            let w = 1.0 / found.len().max(1) as f64;
+            (if f { w } else { 0.0 }, w)
+        })
+        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+    if total > 0.0 {
+        flagged_weight / total
+    } else {
+        0.0
+    }
+}
+
 /// Which particles (shape: N, world units) lie near a flat part: those whose nearest input point
 /// (`inputs`, shape: M, with `labels`, shape: M) has a label whose `flat[label]` holds. Shape: N.
 pub(crate) fn near_flat(
@@ -205,6 +228,31 @@ mod tests {
         let c = coverage(&particles, &nn, &[DVec3::new(3.0, 0.0, 0.0)], 0.5);
         assert!((c["max"].as_f64().unwrap() - 6.0).abs() < 1e-12);
         assert_eq!(c["beyond_2.5"], 1);
+    }
+
+    /// Two squares of side 4 side by side, sampled at random, the left one four times as
+    /// densely: flagging the right one is a fifth of the points and half of the area (up to
+    /// the rims, where the balls hold fewer points, and the spread of the counts).
+    #[test]
+    fn a_denser_half_counts_once_by_area() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        let mut square = |x0: f64, n: usize| -> Vec<DVec3> {
+            (0..n)
+                .map(|_| {
+                    DVec3::new(
+                        x0 + rng.random_range(0.0..4.0),
+                        rng.random_range(0.0..4.0),
+                        0.0,
+                    )
+                })
+                .collect()
+        };
+        let mut points = square(0.0, 25_600);
+        points.extend(square(4.0, 6_400));
+        let flagged: Vec<bool> = (0..points.len()).map(|i| i >= 25_600).collect();
+        let by_area = share_by_area(&points, &flagged, 0.12);
+        assert!((by_area - 0.5).abs() < 0.03, "{by_area}");
     }
 
     #[test]

@@ -14,10 +14,12 @@ use rand_pcg::Pcg64Mcg;
 use serde_json::{Value, json};
 
 use crate::checks::{Check, checks_json};
-use crate::coverage::{coverage, level_cv, nearest_neighbour_distances, spacing_ceiling};
+use crate::coverage::{
+    coverage, level_cv, nearest_neighbour_distances, share_by_area, spacing_ceiling,
+};
 use crate::multiview::{MultiViewParams, multiview_scan};
 use crate::outliers::with_uniform_outliers;
-use crate::reference::Reference;
+use crate::reference::{Reference, distance_stats};
 use crate::scan_case::{
     Sampled, ScanRun, diagonal, distances_to, sample_once, write_positions_ply,
 };
@@ -26,9 +28,15 @@ use crate::scan_case::{
 const DRAGON_SCAN: &str = "dragon_stand_scan.xyz";
 const DRAGON_MESH: &str = "stanford_dragon_vrip_raw.ply";
 
+/// The radius, over D, of the ball whose point count weighs each scan point in the scan's share
+/// beyond 2e-3 D by area ([`share_by_area`]): a few spacings of the real scan (median spacing
+/// about 1.5e-3 D).
+const AREA_BALL: f64 = 3e-3;
+
 /// What a run gives against a reference: the input's and the particles' distances to it (JSON
-/// of `distance_stats`, over D), the largest per-level CV and the levels' text, and how the
-/// particles cover the input (JSON of [`coverage`]; `None` when not asked).
+/// of `distance_stats`, over D, the input's with `beyond_2e-3_by_area`, its share beyond 2e-3 D
+/// weighted by area), the largest per-level CV and the levels' text, and how the particles
+/// cover the input (JSON of [`coverage`]; `None` when not asked).
 struct Measured {
     scan: Value,
     particles: Value,
@@ -53,7 +61,14 @@ fn measure(
     run: &Sampled,
     with_coverage: bool,
 ) -> Measured {
-    let scan = distances_to(reference, inputs, diag);
+    let scan_d: Vec<f64> = reference
+        .distances(inputs)
+        .into_iter()
+        .map(|d| d.max(0.0))
+        .collect();
+    let beyond: Vec<bool> = scan_d.iter().map(|d| *d > 2e-3 * diag).collect();
+    let mut scan = distance_stats(&scan_d, diag);
+    scan["beyond_2e-3_by_area"] = json!(share_by_area(inputs, &beyond, AREA_BALL * diag));
     let particles = distances_to(reference, &run.particles, diag);
     let coverage = with_coverage.then(|| {
         let nn = nearest_neighbour_distances(&run.particles);
@@ -174,14 +189,15 @@ pub(crate) fn dragon_scan(ctx: &ScanRun) -> Result<(String, Vec<Value>)> {
         ),
     ];
     let mut md = format!(
-        "## The real scan `{DRAGON_SCAN}` against `{DRAGON_MESH}` (D = {diag:.6})\n\nDistances over the mesh's D; coverage: input points' distance to the nearest particle in local spacings (the mean nearest-neighbour distance of the particles within 5 ceilings), p99 / max, for information.\n\n| points | scan: mean / p99 / max (D) | scan beyond 2e-3 D | outliers removed | particles | particles: mean / p99 / max (D) | beyond 2e-3 D [≤ scan's {:.2} %] | beyond 1e-2 D [0] | largest level CV [≤ 0.15] (levels) | coverage p99 / max | psi s |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "## The real scan `{DRAGON_SCAN}` against `{DRAGON_MESH}` (D = {diag:.6})\n\nDistances over the mesh's D; the scan's share beyond 2e-3 D also by area (each point weighted by 1 / the points within 3e-3 D of it: the particles sample by area, the scan where the scanner saw best), for information; coverage: input points' distance to the nearest particle in local spacings (the mean nearest-neighbour distance of the particles within 5 ceilings), p99 / max, for information.\n\n| points | scan: mean / p99 / max (D) | scan beyond 2e-3 D (by area) | outliers removed | particles | particles: mean / p99 / max (D) | beyond 2e-3 D [≤ scan's {:.2} %] | beyond 1e-2 D [0] | largest level CV [≤ 0.15] (levels) | coverage p99 / max | psi s |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
         100.0 * own
     );
     md.push_str(&format!(
-        "| {} | {} | {:.2} % | {} | {} | {} | {} | {} | {} ({}) | {} | {:.1} |\n",
+        "| {} | {} | {:.2} % ({:.2} %) | {} | {} | {} | {} | {} | {} ({}) | {} | {:.1} |\n",
         inputs.len(),
         triple(&m.scan),
         100.0 * own,
+        100.0 * num(&m.scan["beyond_2e-3_by_area"]),
         run.report["input"]["outliers"]["removed"],
         run.particles.len(),
         triple(&m.particles),
