@@ -1,8 +1,9 @@
 //! The groups of `cargo xtask scans` judged against a reference mesh (issue 28): the real
 //! multi-view scan `dragon_stand_scan.xyz` (`dragon-scan`), generated multi-view scans of the
 //! shared models (`multiview`) and the 1 % uniform-outlier case over a range of seeds
-//! (`outliers`). Each row shows the scan's own distance to the mesh beside the particles', and a
-//! ✓/✗ per Done-when item.
+//! (`outliers`). Each row shows the scan's own distance to the mesh beside the particles' (the
+//! real scan's share beyond 2e-3 D by count and by area, [`share_by_area`]), and a ✓/✗ per
+//! Done-when item.
 
 use std::path::{Path, PathBuf};
 
