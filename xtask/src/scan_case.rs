@@ -141,14 +141,18 @@ pub(crate) fn diagonal(points: impl IntoIterator<Item = DVec3>) -> Result<f64> {
         .diagonal())
 }
 
-/// [`distance_stats`] (over `diag`, world units) of the distances from `points` (shape: N, world
-/// units) to `reference`, each clamped at zero (parry gives −0 or −1e-17 for a point on a
-/// triangle).
-pub(crate) fn distances_to(reference: &Reference, points: &[DVec3], diag: f64) -> Value {
-    let d: Vec<f64> = reference
+/// The distances from `points` (shape: N, world units) to `reference` (shape: N, world units),
+/// each clamped at zero (parry gives −0 or −1e-17 for a point on a triangle).
+pub(crate) fn clamped_distances(reference: &Reference, points: &[DVec3]) -> Vec<f64> {
+    reference
         .distances(points)
         .into_iter()
         .map(|d| d.max(0.0))
-        .collect();
-    distance_stats(&d, diag)
+        .collect()
+}
+
+/// [`distance_stats`] (over `diag`, world units) of [`clamped_distances`] from `points` to
+/// `reference`.
+pub(crate) fn distances_to(reference: &Reference, points: &[DVec3], diag: f64) -> Value {
+    distance_stats(&clamped_distances(reference, points), diag)
 }

@@ -22,7 +22,7 @@ use crate::multiview::{MultiViewParams, multiview_scan};
 use crate::outliers::with_uniform_outliers;
 use crate::reference::{Reference, distance_stats};
 use crate::scan_case::{
-    Sampled, ScanRun, diagonal, distances_to, sample_once, write_positions_ply,
+    Sampled, ScanRun, clamped_distances, diagonal, distances_to, sample_once, write_positions_ply,
 };
 
 /// The real scan's file name (in `../shared/scans`) and its reference mesh's (in the models).
@@ -30,8 +30,8 @@ const DRAGON_SCAN: &str = "dragon_stand_scan.xyz";
 const DRAGON_MESH: &str = "stanford_dragon_vrip_raw.ply";
 
 /// The radius, over D, of the ball whose point count weighs each scan point in the scan's share
-/// beyond 2e-3 D by area ([`share_by_area`]): a few spacings of the real scan (median spacing
-/// about 1.5e-3 D).
+/// beyond 2e-3 D by area ([`share_by_area`]): a few of the real scan's spacings
+/// (docs/notes/2026-12-02-real-scan-accuracy.md).
 const AREA_BALL: f64 = 3e-3;
 
 /// What a run gives against a reference: the input's and the particles' distances to it (JSON
@@ -62,11 +62,7 @@ fn measure(
     run: &Sampled,
     with_coverage: bool,
 ) -> Measured {
-    let scan_d: Vec<f64> = reference
-        .distances(inputs)
-        .into_iter()
-        .map(|d| d.max(0.0))
-        .collect();
+    let scan_d = clamped_distances(reference, inputs);
     let beyond: Vec<bool> = scan_d.iter().map(|d| *d > 2e-3 * diag).collect();
     let mut scan = distance_stats(&scan_d, diag);
     scan["beyond_2e-3_by_area"] = json!(share_by_area(inputs, &beyond, AREA_BALL * diag));

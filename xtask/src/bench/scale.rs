@@ -117,10 +117,10 @@ fn timed(psi: &Path, args: &[&str], report: &Path) -> Result<(Value, f64)> {
     Ok((j, t.elapsed().as_secs_f64()))
 }
 
-/// The order of the cluster runs: 1, 2, 2, 1 workers. This host's speed drifts by 10–35 % within
-/// an hour (`docs/notes/2026-11-28-edit-frame-costs.md`; two 2-worker runs of the same input
-/// minutes apart took 100.9 and 83.7 s); run in this order, a drift linear in time adds as much
-/// to the 1-worker runs' mean as to the 2-worker runs', so their ratio does not see it.
+/// The order of the cluster runs: 1, 2, 2, 1 workers. This host's speed drifts within an hour
+/// (measured in `docs/notes/2026-12-02-cluster-drift.md`); run in this order, a drift linear in
+/// time adds as much to the 1-worker runs' mean as to the 2-worker runs', so their ratio does
+/// not see it.
 const CLUSTER_ORDER: &str = "1,2,2,1";
 
 /// The cluster runs of `input` ([`CLUSTER_ORDER`]) by `python`'s `bench_cluster.py`, written
@@ -390,7 +390,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
     if !md_cluster.is_empty() {
         md += &format!(
             "\nOn `LocalCluster`s of worker processes of one thread each (`psi.distributed`, \
-             `max_memory=\"{budget}\"`), run with 1, 2, 2 and 1 workers; s: the mean of a count's \
+             `max_memory=\"{budget}\"`), run with {} workers in that order; s: the mean of a count's \
              runs (each run's in brackets); speed-up: of the means; efficiency: speed-up over \
              workers; the octants' busy time: the eight tasks of the cells above the tiles, the \
              same work in every run, summed over the workers (over the first count's: how much \
@@ -398,7 +398,8 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
              on the workers' cores; the relaxation's share: its task's span over the run, the \
              largest:\n\n\
              | N | workers | s | points/s | speed-up | efficiency | octants' busy s | scheduler CPU s | peak MiB, largest worker | relaxation share | the CLI's bytes |\n\
-             |---|---|---|---|---|---|---|---|---|---|---|\n{md_cluster}"
+             |---|---|---|---|---|---|---|---|---|---|---|\n{md_cluster}",
+            CLUSTER_ORDER.replace(',', ", ")
         );
     }
     std::fs::write(dir.join("scale.md"), &md)?;
