@@ -536,6 +536,9 @@ mod nearest_sweep;
 #[path = "morton_ball.rs"]
 mod morton_ball;
 
+#[path = "repeated_positions.rs"]
+mod repeated_positions;
+
 #[cfg(test)]
 #[path = "morton_index_tests.rs"]
 mod tests;

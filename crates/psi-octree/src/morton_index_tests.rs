@@ -340,3 +340,46 @@ fn the_monitored_sweep_equals_the_plain_one_and_stops_between_cells() {
         index.len()
     );
 }
+
+/// Brute force: the indices of the finite points whose position equals (`==` per
+/// coordinate) that of a finite point with a smaller index.
+fn repeated_brute(points: &[DVec3]) -> Vec<u32> {
+    let same = |a: DVec3, b: DVec3| a.x == b.x && a.y == b.y && a.z == b.z;
+    (0..points.len())
+        .filter(|&i| {
+            points[i].is_finite()
+                && (0..i).any(|j| points[j].is_finite() && same(points[i], points[j]))
+        })
+        .map(|i| i as u32)
+        .collect()
+}
+
+#[test]
+fn repeated_positions_equal_brute_force() {
+    let mut points = cloud(5, 600);
+    // (The cloud has coincident twins and grid ties of its own.) Copies before and after their
+    // original, −0 for +0, one position 100 times (a run sorted before it is compared), a
+    // point sharing a Morton cell without being equal, and points that are not finite.
+    let copies: Vec<DVec3> = (0..60).map(|k| points[(k * 7) % 600]).collect();
+    points.extend(copies);
+    points.insert(3, points[400]);
+    points.push(DVec3::new(0.0, 0.25, 0.5));
+    points.push(DVec3::new(-0.0, 0.25, 0.5));
+    points.extend(std::iter::repeat_n(points[10], 100));
+    points.push(points[20] + DVec3::splat(1e-15));
+    points.push(DVec3::new(f64::NAN, 0.0, 0.0));
+    points.push(DVec3::new(f64::NAN, 0.0, 0.0));
+    let want = repeated_brute(&points);
+    assert!(want.len() > 150, "{}", want.len());
+    assert_eq!(MortonIndex::new(&points).repeated_positions(), want);
+    // One position only, many times; and no repeats.
+    let one = vec![DVec3::new(1.0, -2.0, 3.0); 1000];
+    assert_eq!(
+        MortonIndex::new(&one).repeated_positions(),
+        (1..1000).collect::<Vec<u32>>()
+    );
+    let distinct: Vec<DVec3> = (0..500)
+        .map(|i| DVec3::new(i as f64, (i * i % 97) as f64, 0.5))
+        .collect();
+    assert!(MortonIndex::new(&distinct).repeated_positions().is_empty());
+}
