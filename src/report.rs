@@ -58,6 +58,7 @@ pub fn input_json(input: &InputFacts<'_>) -> Value {
             "flipped": p.normals_flipped,
         },
         "inward_normals_flipped": p.inward_normals_flipped,
+        "repeated_points": p.repeated,
         "outliers": p.outliers,
         "noise_estimate": p.noise.map(|n| json!({
             "sigma": n.sigma,

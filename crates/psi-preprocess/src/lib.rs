@@ -35,6 +35,7 @@
 mod denoise;
 mod densify_mesh;
 mod disjoint_sets;
+mod drop_repeated;
 mod drop_strays;
 mod estimate_noise;
 mod estimate_normals;

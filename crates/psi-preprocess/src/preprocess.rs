@@ -8,6 +8,7 @@ use psi_octree::{Aabb, Interrupted, Monitor, MortonIndex, OrientedPoint};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::drop_repeated::drop_repeated;
 use crate::drop_strays::{OutlierReport, drop_strays};
 use crate::estimate_noise::{estimate_noise_in, noise_and_reach_in};
 use crate::estimate_normals::{estimate_normals_in, noise_level};
@@ -192,6 +193,9 @@ pub struct PreprocessReport {
     pub mesh: Option<MeshReport>,
     /// The outlier step, when it ran.
     pub outliers: Option<OutlierReport>,
+    /// Points left out before the outlier step as repeats of an earlier point's position.
+    #[serde(default)]
+    pub repeated: usize,
     /// What happened to the normals.
     pub normals: NormalTreatment,
     /// Normals flipped by an orientation step.
@@ -433,12 +437,13 @@ pub fn preprocess_with(
     // through the steps that drop points (`MortonIndex::retained`, no second sort; its answers
     // are a fresh index's), made again only after the orientation (which frees it for its
     // graphs) or denoising (which moves the points).
-    let mut index: Option<MortonIndex> = None;
-    let mut outliers = None;
+    let (mut index, mut outliers, mut repeated): (Option<MortonIndex>, _, _) = (None, None, 0);
     if params.remove_outliers && !origin.is_mesh() {
         step("outliers", 0)?;
         let t = Instant::now();
         let all = morton_index_of(&points);
+        let (dropped, all) = drop_repeated(&mut points, &mut source, all);
+        repeated = dropped;
         let (report, kept) = drop_strays(&mut points, &mut source, normals_given, all, monitor)?;
         (outliers, index) = (Some(report), Some(kept));
         seconds.outliers = t.elapsed().as_secs_f64();
@@ -572,6 +577,7 @@ pub fn preprocess_with(
             points_out: points.len(),
             mesh: mesh_report,
             outliers,
+            repeated,
             normals,
             normals_flipped,
             inward_normals_flipped,

@@ -230,3 +230,40 @@ fn the_carried_index_answers_as_each_steps_own() {
         assert_eq!(done.points, expected, "normals given: {normals_given}");
     }
 }
+
+/// A scan whose every point comes 20 times (copies interleaved, and the first copies with
+/// another normal) is prepared as the scan once: the same points and sources (each the first
+/// copy's input index), the repeats counted. At 16 copies or more the outlier search, given
+/// the repeats, took nearly every point for an outlier (all 16 nearest at distance 0).
+#[test]
+fn repeated_points_count_once() {
+    let sphere = AnalyticShape::Sphere { radius: 1.0 };
+    let once: Vec<OrientedPoint> = sphere.sample(2_000, 9);
+    let copies = 20;
+    let mut repeated = Vec::with_capacity(copies * once.len());
+    for k in 0..copies {
+        // (A later copy's normal differs: the first copy's is kept.)
+        let flip = if k == 0 { 1.0 } else { -1.0 };
+        repeated.extend(once.iter().map(|p| OrientedPoint {
+            p: p.p,
+            n: flip * p.n,
+        }));
+    }
+    let run = |points: Vec<OrientedPoint>, normals_given| {
+        let input = ScanInput {
+            points,
+            normals_given,
+            origin: PointOrigin::Scan,
+        };
+        preprocess(input, &PreprocessParams::scan()).unwrap()
+    };
+    for normals_given in [true, false] {
+        let a = run(once.clone(), normals_given);
+        let b = run(repeated.clone(), normals_given);
+        assert_eq!(a.report.repeated, 0);
+        assert_eq!(b.report.repeated, (copies - 1) * once.len());
+        assert_eq!(b.points, a.points, "normals given: {normals_given}");
+        assert_eq!(b.source, a.source);
+        assert!(a.points.len() > 1_900, "{}", a.points.len());
+    }
+}

@@ -130,6 +130,12 @@ pub(crate) fn load(args: &InputArgs, ui: crate::ui::Ui) -> Result<Loaded, Failur
                 m.points_added
             );
         }
+        if prep.repeated > 0 {
+            eprintln!(
+                "psi: repeated points: {} left out (each the copy of an earlier point's position)",
+                prep.repeated
+            );
+        }
         if let Some(o) = prep.outliers {
             eprintln!(
                 "psi: outliers: {} removed ({} far from the surface, {} off it, {} in stray clumps)",

@@ -97,6 +97,12 @@ pub(crate) fn run(args: &InputArgs, json: bool, ui: crate::ui::Ui) -> Result<(),
         if p.normals_flipped > 0 {
             println!("reoriented     {} normals flipped", p.normals_flipped);
         }
+        if p.repeated > 0 {
+            println!(
+                "repeated       {} points (copies of earlier positions)",
+                p.repeated
+            );
+        }
         if let Some(o) = p.outliers {
             println!(
                 "outliers       {} ({} far from the surface, {} off it, {} in stray clumps)",
