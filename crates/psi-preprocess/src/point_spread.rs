@@ -15,6 +15,9 @@ pub enum Spread {
     Collinear,
     /// Spread in at least two directions: a surface may pass through them.
     Surface,
+    /// Spread so far that squared distances overflow double precision (coordinates beyond
+    /// about 1e154): no distance between them can be computed.
+    Unbounded,
 }
 
 /// The middle principal variance below this share of the largest is a line: the eigenvalue
@@ -24,7 +27,7 @@ const COLLINEAR: f64 = 1e-12;
 
 /// How `positions` (shape N, world units) spread: from their bounding box (zero: coincident)
 /// and the eigenvalues of their covariance (the middle one vanishing against the largest:
-/// collinear). Non-finite positions are ignored.
+/// collinear; not finite: unbounded). Non-finite positions are ignored.
 ///
 /// ```
 /// use glam::DVec3;
@@ -34,6 +37,8 @@ const COLLINEAR: f64 = 1e-12;
 /// assert_eq!(point_spread(&line), Spread::Collinear);
 /// let strip: Vec<DVec3> = (0..90).map(|i| DVec3::new(i as f64, 1e-3 * (i % 2) as f64, 0.0)).collect();
 /// assert_eq!(point_spread(&strip), Spread::Surface);
+/// let far = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::splat(1e300)];
+/// assert_eq!(point_spread(&far), Spread::Unbounded);
 /// ```
 pub fn point_spread(positions: &[DVec3]) -> Spread {
     let finite = || positions.iter().copied().filter(|p| p.is_finite());
@@ -46,6 +51,9 @@ pub fn point_spread(positions: &[DVec3]) -> Spread {
     let mut moments = Moments::around(first);
     finite().for_each(|p| moments.add(p));
     let cov = moments.covariance();
+    if !cov.iter().all(|v| v.is_finite()) {
+        return Spread::Unbounded;
+    }
     let mut e: Vec<f64> = cov
         .symmetric_eigenvalues()
         .iter()

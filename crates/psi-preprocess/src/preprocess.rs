@@ -267,9 +267,10 @@ pub enum PreprocessError {
     /// ```
     #[error("the points have no normals and normal estimation is off")]
     NoNormals,
-    /// The points can make no surface: they all coincide, or all lie on one line.
+    /// The points make no surface: coincident, collinear or beyond double precision's reach.
     #[error("{}", match .0 {
         Spread::Coincident => "all points coincide: they make no surface",
+        Spread::Unbounded => "the points spread too far for double precision (coordinates beyond about 1e154): scale them or leave the far ones out",
         _ => "all points lie on one straight line: they make no surface",
     })]
     NoSurface(Spread),
