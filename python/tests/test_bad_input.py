@@ -164,7 +164,8 @@ def test_bad_edits_raise_value_error_and_leave_the_scene_unchanged():
     before = scene.particles.positions
     for edit, message in [
         (lambda: scene.brush([0, 0, 0], -1.0, [0, 0, 1]), "applying an edit: bad edit: a brush needs"),
-        (lambda: scene.brush([0, np.nan, 0], 0.2, [0, 0, 1]), "a brush needs a finite centre"),
+        (lambda: scene.brush([0, np.nan, 0], 0.2, [0, 0, 1]), "its centre is [0, NaN, 0]"),
+        (lambda: scene.brush([0, 0, 0], 0.2, [0, np.inf, 1]), "its displacement is [0, inf, 1]"),
         (lambda: scene.brush([1.3, 0, 0], 0.3, [5, 0, 0]), "the brush folds the surface"),
         (lambda: scene.brush([0, 0], 0.3, [0, 0, 1]), "centre must have shape (3,), got (2,)"),
         (lambda: scene.remove([0, 0, 0], float("inf")), "a removal needs a finite centre"),

@@ -168,6 +168,13 @@ impl Edit {
     /// use glam::DVec3;
     /// assert!(Edit::Remove { center: DVec3::ZERO, radius: 0.0 }.validate().is_ok());
     /// assert!(Edit::Remove { center: DVec3::ZERO, radius: -1.0 }.validate().is_err());
+    /// // The message names what is wrong.
+    /// let nan = DVec3::new(0.0, f64::NAN, 0.0);
+    /// let brush = |center, radius, displacement| Edit::Brush { center, radius, displacement };
+    /// let say = |e: Edit| e.validate().unwrap_err().to_string();
+    /// assert!(say(brush(nan, 0.1, DVec3::Z)).ends_with("its centre is [0, NaN, 0]"));
+    /// assert!(say(brush(DVec3::ZERO, 0.1, nan)).ends_with("its displacement is [0, NaN, 0]"));
+    /// assert!(say(brush(DVec3::ZERO, -2.0, DVec3::Z)).ends_with("not -2"));
     /// ```
     ///
     /// # Errors
@@ -181,21 +188,24 @@ impl Edit {
                 radius,
                 displacement,
             } => {
-                if !(*radius > 0.0
-                    && radius.is_finite()
-                    && center.is_finite()
-                    && displacement.is_finite())
-                {
-                    return bad(format!(
-                        "a brush needs a finite centre and displacement and a positive radius, not {radius}"
-                    ));
+                let rule = "a brush needs a finite centre and displacement and a positive radius";
+                if !center.is_finite() {
+                    return bad(format!("{rule}; its centre is {center}"));
+                }
+                if !displacement.is_finite() {
+                    return bad(format!("{rule}; its displacement is {displacement}"));
+                }
+                if !(*radius > 0.0 && radius.is_finite()) {
+                    return bad(format!("{rule}, not {radius}"));
                 }
             }
             Edit::Remove { center, radius } | Edit::Replace { center, radius, .. } => {
-                if !(radius.is_finite() && *radius >= 0.0 && center.is_finite()) {
-                    return bad(format!(
-                        "a removal needs a finite centre and a non-negative radius, not {radius}"
-                    ));
+                let rule = "a removal needs a finite centre and a non-negative radius";
+                if !center.is_finite() {
+                    return bad(format!("{rule}; its centre is {center}"));
+                }
+                if !(radius.is_finite() && *radius >= 0.0) {
+                    return bad(format!("{rule}, not {radius}"));
                 }
             }
             Edit::Insert { .. } => {}
