@@ -5,6 +5,8 @@
 
 use psi_octree::{MortonIndex, OrientedPoint};
 
+use crate::drop_strays::retain_kept;
+
 /// Leaves out of `points` (shape: N) and `source` (shape: N, their input indices) every point
 /// whose position repeats that of a point with a smaller index (the first copy stays, with its
 /// normal), given `index`, the Morton index of their positions. Returns how many were left out
@@ -22,9 +24,6 @@ pub(crate) fn drop_repeated(
     for &c in &copies {
         keep[c as usize] = false;
     }
-    let mut kept = keep.iter();
-    points.retain(|_| *kept.next().unwrap_or(&true));
-    let mut kept = keep.iter();
-    source.retain(|_| *kept.next().unwrap_or(&true));
+    retain_kept(points, source, &keep);
     (copies.len(), index.retained(&keep))
 }

@@ -59,10 +59,7 @@ pub(crate) fn drop_strays(
         .iter()
         .map(|&m| !(m || clumped.next() == Some(&true)))
         .collect();
-    let mut kept = keep.iter();
-    points.retain(|_| *kept.next().unwrap_or(&true));
-    let mut kept = keep.iter();
-    source.retain(|_| *kept.next().unwrap_or(&true));
+    retain_kept(points, source, &keep);
     let report = OutlierReport {
         removed: found.count() + clumps.points,
         far: found.far,
@@ -70,4 +67,13 @@ pub(crate) fn drop_strays(
         clumps: clumps.points,
     };
     Ok((report, kept_index))
+}
+
+/// Keeps the points of `points` (shape: N) and their input indices `source` (shape: N) for
+/// which `keep` (shape: N) holds, in order.
+pub(crate) fn retain_kept(points: &mut Vec<OrientedPoint>, source: &mut Vec<u32>, keep: &[bool]) {
+    let mut kept = keep.iter();
+    points.retain(|_| *kept.next().unwrap_or(&true));
+    let mut kept = keep.iter();
+    source.retain(|_| *kept.next().unwrap_or(&true));
 }

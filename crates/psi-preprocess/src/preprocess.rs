@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::drop_repeated::drop_repeated;
-use crate::drop_strays::{OutlierReport, drop_strays};
+use crate::drop_strays::{OutlierReport, drop_strays, retain_kept};
 use crate::estimate_noise::{estimate_noise_in, noise_and_reach_in};
 use crate::estimate_normals::{estimate_normals_in, noise_level};
 use crate::neighbour_graph::morton_index_of;
@@ -438,7 +438,8 @@ pub fn preprocess_with(
     // through the steps that drop points (`MortonIndex::retained`, no second sort; its answers
     // are a fresh index's), made again only after the orientation (which frees it for its
     // graphs) or denoising (which moves the points).
-    let (mut index, mut outliers, mut repeated): (Option<MortonIndex>, _, _) = (None, None, 0);
+    let mut index: Option<MortonIndex> = None;
+    let (mut outliers, mut repeated) = (None, 0);
     if params.remove_outliers && !origin.is_mesh() {
         step("outliers", 0)?;
         let t = Instant::now();
@@ -498,9 +499,7 @@ pub fn preprocess_with(
         if has_normal.iter().all(|&h| h) {
             noise_before_normals = Some(noise);
         }
-        let mut kept = has_normal.iter();
-        source.retain(|_| *kept.next().unwrap_or(&true));
-        points.retain(|p| p.n != DVec3::ZERO);
+        retain_kept(&mut points, &mut source, &has_normal);
         if has_normal.iter().any(|h| !h) {
             *at = at.retained(&has_normal);
         }
