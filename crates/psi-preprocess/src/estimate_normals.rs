@@ -170,39 +170,48 @@ fn slot_normals(
     monitor: &Monitor<'_>,
 ) -> Result<Vec<DVec3>, psi_octree::Interrupted> {
     let by_slot = index.points();
-    let largest = SIZES[SIZES.len() - 1];
-    index.map_nearest_with(largest - 1, monitor, |s, near| {
-        let p = by_slot[s];
-        let mut moments = Moments::around(p);
-        // The neighbourhoods by variation (eigenvalues only), then the plane of the least
-        // varied one that has a plane (the closed form and the decomposition can disagree
-        // at the flatness limit).
-        // (A fixed array: no allocation per point.)
-        let mut tried = [(f64::INFINITY, Moments::default()); SIZES.len()];
-        let mut count = 0;
-        let mut sizes = SIZES.iter().peekable();
-        // The point itself, then its neighbours nearest first.
-        let points = std::iter::once(p).chain(near.iter().map(|&(t, _)| by_slot[t as usize]));
-        for q in points {
-            moments.add(q);
-            if sizes.peek() == Some(&&moments.count()) {
-                sizes.next();
-                if let Some(v) = moments.variation() {
-                    tried[count] = (v, moments);
-                    count += 1;
-                }
+    index.map_nearest_with(NEIGHBOURHOOD - 1, monitor, |s, near| {
+        plane_normal(by_slot, s, near)
+    })
+}
+
+/// The most neighbours a plane is fitted to (the point itself included).
+pub(crate) const NEIGHBOURHOOD: usize = SIZES[SIZES.len() - 1];
+
+/// The unit normal of the plane of slot `s`'s least varied neighbourhood among its `near`
+/// others (slots and squared distances, nearest first; `by_slot` the index's points), zero
+/// when none has a plane.
+pub(crate) fn plane_normal(by_slot: &[DVec3], s: usize, near: &[(u32, f64)]) -> DVec3 {
+    let p = by_slot[s];
+    let mut moments = Moments::around(p);
+    // The neighbourhoods by variation (eigenvalues only), then the plane of the least
+    // varied one that has a plane (the closed form and the decomposition can disagree
+    // at the flatness limit).
+    // (A fixed array: no allocation per point.)
+    let mut tried = [(f64::INFINITY, Moments::default()); SIZES.len()];
+    let mut count = 0;
+    let mut sizes = SIZES.iter().peekable();
+    // The point itself, then its neighbours nearest first.
+    let points = std::iter::once(p).chain(near.iter().map(|&(t, _)| by_slot[t as usize]));
+    for q in points {
+        moments.add(q);
+        if sizes.peek() == Some(&&moments.count()) {
+            sizes.next();
+            if let Some(v) = moments.variation() {
+                tried[count] = (v, moments);
+                count += 1;
             }
         }
-        // Stable: equal variations keep the smaller neighbourhood first.
-        let tried = &mut tried[..count];
-        tried.sort_by(|a, b| a.0.total_cmp(&b.0));
-        // None of the sizes (fewer points than the smallest): the plane of all of them.
-        tried
-            .iter()
-            .find_map(|(_, m)| m.plane())
-            .or_else(|| moments.plane())
-            .map_or(DVec3::ZERO, |fit| fit.normal)
-    })
+    }
+    // Stable: equal variations keep the smaller neighbourhood first.
+    let tried = &mut tried[..count];
+    tried.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // None of the sizes (fewer points than the smallest): the plane of all of them.
+    tried
+        .iter()
+        .find_map(|(_, m)| m.plane())
+        .or_else(|| moments.plane())
+        .map_or(DVec3::ZERO, |fit| fit.normal)
 }
 
 #[cfg(test)]

@@ -11,6 +11,8 @@
 //!   adaptive neighbourhood;
 //! * [`orient_normals`] (propagation over a neighbour graph, after Hoppe et al. 1992) and
 //!   [`orient_toward`] (a range scan's sensor position) give normals a consistent side;
+//!   [`part_orientation_edges`] and [`orient_by_parts`] give `orient_normals`' sides bitwise
+//!   from parts of the points (tiles with a halo), [`part_normals`] the level-0 estimate;
 //!   [`check_normal_consistency`] counts the neighbours whose normals oppose;
 //! * [`estimate_noise`]: the noise level of the positions, from quadric fits, and
 //!   [`error_threshold_for_noise`], the MPU error threshold it suggests; [`denoise`] takes it
@@ -45,6 +47,8 @@ mod inward_normals;
 mod local_fit;
 mod median;
 mod neighbour_graph;
+mod normals_by_parts;
+mod orient_by_parts;
 mod orient_from_level;
 mod orient_normals;
 mod point_spread;
@@ -60,6 +64,11 @@ pub use estimate_normals::{estimate_normals, estimate_normals_with};
 pub use find_clumps::{CLUMP_GAP, CLUMP_POINTS, Clumps, find_clumps, find_clumps_with};
 pub use find_outliers::{Outliers, find_outliers, find_outliers_with};
 pub use inward_normals::{InwardVotes, inward_votes};
+pub use normals_by_parts::part_normals;
+pub use orient_by_parts::{
+    IncompletePart, OrientEdge, PartEdges, orient_by_parts, orientation_flips,
+    part_orientation_edges,
+};
 pub use orient_normals::{
     NormalConsistency, check_normal_consistency, orient_normals, orient_normals_with, orient_toward,
 };

@@ -1,0 +1,379 @@
+//! Normal orientation by parts: the orientation [`crate::orient_normals`] gives, bitwise, from
+//! parts of the points (tiles, each with a halo of the points around it) that never need to be
+//! held together. The tiling issue asks for it: the same maximum-|n·n| spanning forest whatever
+//! the tiling, ties broken by the global input index.
+//!
+//! Why the parts suffice. `orient_normals` orients each tree of the maximum spanning forest of a
+//! nearest-neighbour graph (Kruskal, edges in a strict order: weight, then the endpoints'
+//! indices) from one seed point. A part that holds every point within the K-th neighbour
+//! distance of its own points finds their neighbours exactly, so it knows every edge between
+//! two of its own points; an edge of those that its own Kruskal drops is the lightest on a cycle
+//! of the whole graph too, so it is in no maximum spanning forest (the cycle property; Tarjan,
+//! *Data Structures and Network Algorithms*, 1983, ch. 6). What is left to join, once, is each
+//! part's own forest and the edges between parts: at most one edge per point plus the edges
+//! across the parts' faces.
+//!
+//! The propagation needs no tree either: along a kept edge (a, b) with n_a·n_b = d, the
+//! depth-first walk gives b the side of a times the sign of d, so each tree's sides are a
+//! union-find with parities (a point's side relative to its set's root), joined as Kruskal keeps
+//! edges. An edge with d = 0 exactly (orthogonal normals) gives the point reached over it the
+//! side its normal has, whatever the other's: those edges cut a tree into pieces whose sides
+//! are then set from the seed outward. The seeds are `orient_normals`' own: per tree the point
+//! of largest x (ties to the lower index), and for the tree of the largest same-sheet island
+//! the largest x of that island.
+
+use std::cmp::Reverse;
+
+use glam::DVec3;
+use psi_octree::{MortonIndex, OrientedPoint};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::disjoint_sets::Sets;
+use crate::median::total_order_key;
+use crate::neighbour_graph::K;
+
+/// An edge of the orientation graph between points `lo` < `hi` (global indices): n_lo·n_hi and
+/// whether the pair lies on one sheet (from either end, as `orient_normals` judges it).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OrientEdge {
+    /// Global index of the lower end.
+    pub lo: u32,
+    /// Global index of the higher end.
+    pub hi: u32,
+    /// n_lo·n_hi (unit normals as the part holds them).
+    pub dot: f64,
+    /// The pair is on one sheet.
+    pub same: bool,
+}
+
+impl OrientEdge {
+    /// The spanning forest's weight: |n·n|, plus 1 on one sheet (every same-sheet edge above
+    /// every other one, as `orient_normals` ranks them).
+    fn weight(&self) -> f64 {
+        self.dot.abs() + if self.same { 1.0 } else { 0.0 }
+    }
+
+    /// Kruskal's order: heavier first, ties to the lower ends' indices (lower, then higher).
+    fn key(&self) -> (u64, u64) {
+        (
+            !self.weight().to_bits(),
+            u64::from(self.lo) << 32 | u64::from(self.hi),
+        )
+    }
+}
+
+/// What one part contributes to the orientation ([`part_orientation_edges`]); small against
+/// the part's points: at most one forest edge per own point, and the edges across its faces.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PartEdges {
+    /// The part's own maximum spanning forest: the edges between two of its own points that its
+    /// Kruskal kept.
+    pub forest: Vec<OrientEdge>,
+    /// Edges from its own points to points of other parts, as seen from this part's end (the
+    /// other part sees the same pair from its end when the pair is among its nearest too).
+    pub across: Vec<OrientEdge>,
+    /// A spanning forest of the same-sheet edges between its own points (the islands).
+    pub same_links: Vec<(u32, u32)>,
+}
+
+/// A part's point whose nearest neighbours the part cannot certify: its halo does not reach
+/// their distance.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "point {id}: its {neighbours} nearest reach {reach} (world units), beyond what the part holds"
+)]
+pub struct IncompletePart {
+    /// The point's global index.
+    pub id: u32,
+    /// How many nearest neighbours were sought.
+    pub neighbours: usize,
+    /// The distance its neighbours reach (infinite when the part holds fewer than K others).
+    pub reach: f64,
+}
+
+/// A part's contribution to the orientation: `points` (shape: M, world units, unit normals of
+/// either sign) the part's own points and its halo, `ids` (shape: M) their global indices,
+/// ascending, `own` (shape: M) which are the part's own (every point is exactly one part's own);
+/// `complete(x, r)` tells whether every point of the whole set within `r` of `x` is among
+/// `points`. Each own point's K nearest are certified by `complete`, else the first uncertain
+/// point is returned. Deterministic, whatever the thread count.
+///
+/// # Panics
+///
+/// When the lengths differ or `ids` do not ascend.
+pub fn part_orientation_edges(
+    points: &[OrientedPoint],
+    ids: &[u32],
+    own: &[bool],
+    complete: &(dyn Fn(DVec3, f64) -> bool + Sync),
+) -> Result<PartEdges, IncompletePart> {
+    assert!(points.len() == ids.len() && ids.len() == own.len());
+    assert!(ids.is_sorted(), "ids ascend");
+    let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+    // Ties among neighbours go to the lower local index, which is the lower global index.
+    let index = MortonIndex::new(&positions);
+    let slot_ids = index.ids();
+    // Per own point (by slot): its pairs as (local other, same from its end), or its reach.
+    let rows: Vec<Result<Vec<(u32, bool)>, IncompletePart>> = index.map_nearest(K, |s, near| {
+        let i = slot_ids[s] as usize;
+        if !own[i] {
+            return Ok(Vec::new());
+        }
+        let p = &points[i];
+        let reach = if near.len() < K {
+            f64::INFINITY
+        } else {
+            near[K - 1].1.sqrt()
+        };
+        if !complete(p.p, reach) {
+            return Err(IncompletePart {
+                id: ids[i],
+                neighbours: K,
+                reach,
+            });
+        }
+        Ok(near
+            .iter()
+            .filter(|n| n.1 > 0.0)
+            .map(|&(t, d2)| {
+                let q = &points[slot_ids[t as usize] as usize];
+                let same = p.n.dot(q.p - p.p).abs() <= 0.5 * d2.sqrt();
+                (slot_ids[t as usize], same)
+            })
+            .collect())
+    });
+    // Directed pairs (local ends), then each undirected pair once, same-sheet from either end.
+    let mut inner: Vec<(u32, u32, bool)> = Vec::new();
+    let mut across: Vec<OrientEdge> = Vec::new();
+    for (s, row) in rows.into_iter().enumerate() {
+        let a = slot_ids[s];
+        for (b, same) in row? {
+            if own[b as usize] {
+                inner.push((a.min(b), a.max(b), same));
+            } else {
+                let (lo, hi) = (
+                    ids[a as usize].min(ids[b as usize]),
+                    ids[a as usize].max(ids[b as usize]),
+                );
+                let dot = points[a as usize].n.dot(points[b as usize].n);
+                across.push(OrientEdge { lo, hi, dot, same });
+            }
+        }
+    }
+    inner.par_sort_unstable();
+    let mut edges: Vec<(u32, u32, OrientEdge)> = Vec::with_capacity(inner.len());
+    for (a, b, same) in inner {
+        match edges.last_mut() {
+            Some(last) if (last.0, last.1) == (a, b) => last.2.same |= same,
+            _ => edges.push((
+                a,
+                b,
+                OrientEdge {
+                    lo: ids[a as usize],
+                    hi: ids[b as usize],
+                    dot: points[a as usize].n.dot(points[b as usize].n),
+                    same,
+                },
+            )),
+        }
+    }
+    edges.par_sort_unstable_by_key(|e| e.2.key());
+    let n = points.len();
+    let (mut trees, mut sheets) = (Sets::new(n), Sets::new(n));
+    let mut part = PartEdges::default();
+    for &(a, b, e) in &edges {
+        if trees.join(a, b) {
+            part.forest.push(e);
+        }
+        if e.same && sheets.join(a, b) {
+            part.same_links.push((e.lo, e.hi));
+        }
+    }
+    across.par_sort_unstable_by_key(|e| (e.lo, e.hi));
+    part.across = across;
+    Ok(part)
+}
+
+/// Union-find with parities: each member's side relative to its set's root (union by the
+/// smaller root, path halving keeps the parities).
+struct SidedSets {
+    parent: Vec<u32>,
+    /// Whether the member's side is the opposite of its parent's.
+    flip: Vec<bool>,
+}
+
+impl SidedSets {
+    fn new(n: usize) -> Self {
+        Self {
+            parent: (0..n as u32).collect(),
+            flip: vec![false; n],
+        }
+    }
+
+    /// The root of `i` and whether `i`'s side is the opposite of the root's.
+    fn root(&mut self, i: u32) -> (u32, bool) {
+        // Parities along the path, then the path pointed at the root.
+        let mut path = Vec::new();
+        let mut at = i;
+        while self.parent[at as usize] != at {
+            path.push(at);
+            at = self.parent[at as usize];
+        }
+        let root = at;
+        let mut above = false;
+        for &m in path.iter().rev() {
+            above ^= self.flip[m as usize];
+            self.flip[m as usize] = above;
+            self.parent[m as usize] = root;
+        }
+        (root, self.flip[i as usize] && i != root)
+    }
+
+    /// Joins the sets of `a` and `b` so that b's side is a's, or its opposite when `opposed`.
+    fn join(&mut self, a: u32, b: u32, opposed: bool) {
+        let ((ra, fa), (rb, fb)) = (self.root(a), self.root(b));
+        if ra == rb {
+            return;
+        }
+        let (top, low) = (ra.min(rb), ra.max(rb));
+        self.parent[low as usize] = top;
+        self.flip[low as usize] = fa ^ fb ^ opposed;
+    }
+}
+
+/// The sides of the `n` points whose parts gave `parts` ([`part_orientation_edges`], every
+/// part of one partition): per point, whether `orient_normals` flips its normal. `x(i)` is point
+/// i's x coordinate and `x_negative(i)` whether its normal's x is negative (the seeds' rule).
+/// Memory: a few words per point (the forest is not held).
+pub fn orientation_flips(
+    n: usize,
+    parts: &[PartEdges],
+    x: &(dyn Fn(u32) -> f64 + Sync),
+    x_negative: &(dyn Fn(u32) -> bool + Sync),
+) -> Vec<bool> {
+    // The edges between parts, each pair once, same-sheet from either end.
+    let mut across: Vec<OrientEdge> = parts
+        .iter()
+        .flat_map(|p| p.across.iter().copied())
+        .collect();
+    across.par_sort_unstable_by_key(|e| (e.lo, e.hi));
+    let mut joined: Vec<OrientEdge> = Vec::with_capacity(across.len());
+    for e in across {
+        match joined.last_mut() {
+            Some(last) if (last.lo, last.hi) == (e.lo, e.hi) => last.same |= e.same,
+            _ => joined.push(e),
+        }
+    }
+    let mut sheets = Sets::new(n);
+    for &(a, b) in parts.iter().flat_map(|p| &p.same_links) {
+        sheets.join(a, b);
+    }
+    for e in joined.iter().filter(|e| e.same) {
+        sheets.join(e.lo, e.hi);
+    }
+    joined.extend(parts.iter().flat_map(|p| p.forest.iter().copied()));
+    joined.par_sort_unstable_by_key(|e| e.key());
+    // Kruskal: the trees, the sides within the pieces of each tree that no d = 0 edge cuts,
+    // and those edges.
+    let (mut trees, mut sides) = (Sets::new(n), SidedSets::new(n));
+    let mut cuts: Vec<OrientEdge> = Vec::new();
+    for e in joined {
+        if trees.join(e.lo, e.hi) {
+            if e.dot == 0.0 {
+                cuts.push(e);
+            } else {
+                sides.join(e.lo, e.hi, e.dot < 0.0);
+            }
+        }
+    }
+    // The seeds: the first point of each tree in the order largest x first (ties to the lower
+    // index); the tree of the largest same-sheet island starts at that island's first point.
+    let order_key = |i: u32| (Reverse(total_order_key(x(i))), i);
+    let mut island_size = vec![0u32; n];
+    let island: Vec<u32> = (0..n as u32).map(|i| sheets.root(i)).collect();
+    for &r in &island {
+        island_size[r as usize] += 1;
+    }
+    let largest = island_size.iter().copied().max().unwrap_or(0);
+    let mut seed: Vec<u32> = vec![u32::MAX; n];
+    let mut first: Option<u32> = None;
+    for i in 0..n as u32 {
+        let t = trees.root(i) as usize;
+        if seed[t] == u32::MAX || order_key(i) < order_key(seed[t]) {
+            seed[t] = i;
+        }
+        if island_size[island[i as usize] as usize] == largest
+            && first.is_none_or(|f| order_key(i) < order_key(f))
+        {
+            first = Some(i);
+        }
+    }
+    if let Some(f) = first {
+        seed[trees.root(f) as usize] = f;
+    }
+    // Each piece's root side: from its tree's seed, then across the cuts outward (the point a
+    // cut reaches keeps its normal's side).
+    let mut piece_flip: Vec<Option<bool>> = vec![None; n];
+    for t in 0..n {
+        let s = seed[t];
+        if s != u32::MAX {
+            let (r, f) = sides.root(s);
+            piece_flip[r as usize] = Some(x_negative(s) ^ f);
+        }
+    }
+    let mut pending = cuts;
+    while !pending.is_empty() {
+        let before = pending.len();
+        pending.retain(|e| {
+            let ((ra, fa), (rb, fb)) = (sides.root(e.lo), sides.root(e.hi));
+            match (piece_flip[ra as usize], piece_flip[rb as usize]) {
+                // lo's piece set: hi is reached from lo and keeps its side.
+                (Some(_), None) => {
+                    piece_flip[rb as usize] = Some(fb);
+                    false
+                }
+                (None, Some(_)) => {
+                    piece_flip[ra as usize] = Some(fa);
+                    false
+                }
+                (Some(_), Some(_)) => false,
+                (None, None) => true,
+            }
+        });
+        assert!(
+            pending.len() < before,
+            "every piece hangs from its tree's seed"
+        );
+    }
+    (0..n as u32)
+        .map(|i| {
+            let (r, f) = sides.root(i);
+            piece_flip[r as usize].expect("every piece has a side") ^ f
+        })
+        .collect()
+}
+
+/// Orients `points` (shape: N, unit normals of either sign) as [`crate::orient_normals`] does,
+/// from `parts` ([`part_orientation_edges`] of a partition of these points, global indices into
+/// `points`); returns the number flipped. Bitwise `orient_normals`' normals.
+pub fn orient_by_parts(points: &mut [OrientedPoint], parts: &[PartEdges]) -> usize {
+    let flips = {
+        let pts = &*points;
+        orientation_flips(pts.len(), parts, &|i| pts[i as usize].p.x, &|i| {
+            pts[i as usize].n.x < 0.0
+        })
+    };
+    let mut count = 0;
+    for (p, flip) in points.iter_mut().zip(flips) {
+        if flip {
+            p.n = -p.n;
+            count += 1;
+        }
+    }
+    count
+}
+
+#[cfg(test)]
+#[path = "orient_by_parts_tests.rs"]
+mod tests;
