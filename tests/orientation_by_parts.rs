@@ -1,0 +1,118 @@
+//! Normals by parts on the real multi-view scan (`../shared/scans/dragon_stand_scan.xyz`,
+//! skipped without): the level-0 estimate and the orientation computed from 8 tiles with a halo
+//! are bitwise those of the whole cloud.
+
+use std::path::Path;
+
+use psi::preprocess::{
+    PartEdges, estimate_normals, orient_by_parts, orient_normals, part_normals,
+    part_orientation_edges,
+};
+use psi::{DVec3, OrientedPoint};
+
+/// The 2 × 2 × 2 tiles of `positions`' bounding box, each with the points within ∞-distance
+/// `halo` of it: per tile, its points' indices (ascending), which are its own, and whether a
+/// ball lies inside what it holds.
+fn tiles(positions: &[DVec3], halo: f64) -> Vec<(Vec<u32>, Vec<bool>, (DVec3, DVec3))> {
+    let (lo, hi) = positions
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), &p| {
+            (l.min(p), h.max(p))
+        });
+    let mid = 0.5 * (lo + hi);
+    let tile_of = |p: DVec3| p.cmpge(mid).bitmask();
+    (0..8u32)
+        .map(|t| {
+            let bit = |axis: u32| t >> axis & 1 == 1;
+            let pick = |axis: u32, a: f64, b: f64| if bit(axis) { b } else { a };
+            let low = DVec3::new(
+                pick(0, lo.x, mid.x),
+                pick(1, lo.y, mid.y),
+                pick(2, lo.z, mid.z),
+            );
+            let high = DVec3::new(
+                pick(0, mid.x, hi.x),
+                pick(1, mid.y, hi.y),
+                pick(2, mid.z, hi.z),
+            );
+            let (box_lo, box_hi) = (low - halo, high + halo);
+            let ids: Vec<u32> = (0..positions.len() as u32)
+                .filter(|&i| {
+                    let p = positions[i as usize];
+                    p.cmpge(box_lo).all() && p.cmple(box_hi).all()
+                })
+                .collect();
+            let own = ids
+                .iter()
+                .map(|&i| tile_of(positions[i as usize]) == t)
+                .collect();
+            (ids, own, (box_lo, box_hi))
+        })
+        .collect()
+}
+
+#[test]
+fn the_real_scan_by_tiles_is_the_whole_scan_bitwise() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scans/dragon_stand_scan.xyz");
+    if !path.is_file() {
+        eprintln!("skipped: {} is absent", path.display());
+        return;
+    }
+    let cloud = psi::load_points(&path, &psi::ReadOptions::paper()).unwrap();
+    let positions: Vec<DVec3> = cloud.points.iter().map(|p| p.p).collect();
+    let diagonal = positions
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), &p| {
+            (l.min(p), h.max(p))
+        });
+    // Stray points of the scan (left in: the outlier step is not run here) have their 47
+    // nearest up to a quarter of the diagonal away.
+    let halo = 0.3 * (diagonal.1 - diagonal.0).length();
+    let whole = estimate_normals(&positions);
+    let inside = |(box_lo, box_hi): (DVec3, DVec3)| {
+        move |x: DVec3, r: f64| (x - r).cmpge(box_lo).all() && (x + r).cmple(box_hi).all()
+    };
+    let mut by_tiles = vec![DVec3::NAN; positions.len()];
+    for (ids, own, bounds) in tiles(&positions, halo) {
+        let held: Vec<DVec3> = ids.iter().map(|&i| positions[i as usize]).collect();
+        let normals = part_normals(&held, &ids, &own, &inside(bounds)).unwrap();
+        let mine = ids.iter().zip(&own).filter(|p| *p.1).map(|p| *p.0);
+        for (i, n) in mine.zip(normals) {
+            by_tiles[i as usize] = n;
+        }
+    }
+    assert!(
+        by_tiles == whole,
+        "the tiles' normals differ from the whole estimate's"
+    );
+    // Oriented as the preprocessing orients them: the points with a plane.
+    let points: Vec<OrientedPoint> = positions
+        .iter()
+        .zip(&whole)
+        .filter(|p| *p.1 != DVec3::ZERO)
+        .map(|(&p, &n)| OrientedPoint { p, n })
+        .collect();
+    let mut oriented = points.clone();
+    let flips = orient_normals(&mut oriented);
+    let kept: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+    let parts: Vec<PartEdges> = tiles(&kept, halo)
+        .into_iter()
+        .map(|(ids, own, bounds)| {
+            let held: Vec<OrientedPoint> = ids.iter().map(|&i| points[i as usize]).collect();
+            part_orientation_edges(&held, &ids, &own, &inside(bounds)).unwrap()
+        })
+        .collect();
+    let across: usize = parts.iter().map(|p| p.across.len()).sum();
+    let mut by_parts = points.clone();
+    assert_eq!(orient_by_parts(&mut by_parts, &parts), flips);
+    assert!(
+        by_parts == oriented,
+        "the tiles' sides differ from the whole orientation's"
+    );
+    eprintln!(
+        "{} points, {} with a plane, {flips} flipped, {across} edges across the tiles",
+        positions.len(),
+        points.len()
+    );
+    assert!(across > 1000);
+}
