@@ -10,10 +10,13 @@ use psi::preprocess::{
 };
 use psi::{DVec3, OrientedPoint};
 
+/// A tile: its points' indices (ascending), which are its own, and the box it holds (a ball
+/// inside it holds every point of the ball).
+type Tile = (Vec<u32>, Vec<bool>, (DVec3, DVec3));
+
 /// The 2 × 2 × 2 tiles of `positions`' bounding box, each with the points within ∞-distance
-/// `halo` of it: per tile, its points' indices (ascending), which are its own, and whether a
-/// ball lies inside what it holds.
-fn tiles(positions: &[DVec3], halo: f64) -> Vec<(Vec<u32>, Vec<bool>, (DVec3, DVec3))> {
+/// `halo` of it.
+fn tiles(positions: &[DVec3], halo: f64) -> Vec<Tile> {
     let (lo, hi) = positions
         .iter()
         .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), &p| {

@@ -1,3 +1,6 @@
+//! Tests of the orientation by parts: bitwise `orient_normals` on shapes whose graphs have ties,
+//! orthogonal pairs, several trees and a second sheet, split into 8 and 27 parts.
+
 use super::*;
 use crate::orient_normals;
 use psi_shapes::AnalyticShape;
