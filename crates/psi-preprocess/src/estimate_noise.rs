@@ -63,35 +63,74 @@ pub(crate) fn estimate_noise_in(positions: &[DVec3], index: &MortonIndex) -> Noi
 /// [`estimate_noise_in`], and the median over the samples of the distance to their 32nd
 /// nearest point (world units; 0 when no sample had neighbours).
 pub(crate) fn noise_and_reach_in(positions: &[DVec3], index: &MortonIndex) -> (NoiseEstimate, f64) {
+    let residuals = |round: NoiseRound| {
+        let samples: Vec<usize> = (0..positions.len()).step_by(round.stride).collect();
+        Ok::<_, std::convert::Infallible>(sample_residuals(positions, index, &samples, round.k))
+    };
+    let Ok(found) = noise_by_rounds(positions.len(), residuals);
+    found
+}
+
+/// A round of the noise estimate over N points: every `stride`-th point by input index is a
+/// sample (points 0, stride, 2·stride, …), read with its `k` nearest (itself among them).
+/// Which points are samples depends on their indices alone, so parts of the input can each
+/// take theirs ([`crate::part_noise_samples`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct NoiseRound {
+    /// Input indices between samples.
+    pub stride: usize,
+    /// Points per fit (the sample itself included).
+    pub k: usize,
+}
+
+impl NoiseRound {
+    /// Whether the point of input index `i` is a sample of this round.
+    pub fn holds(&self, i: usize) -> bool {
+        i.is_multiple_of(self.stride)
+    }
+}
+
+/// The noise estimate of N = `n` points and the median reach of the first round's samples
+/// (world units), from `residuals(round)`: for each sample of `round` whose `round.k`
+/// nearest have a quadric fit, that fit's residual deviation and the distance to the k-th
+/// (world units), in any order. The first round reads the 32 nearest of up to 8192 samples;
+/// where the noise it finds is large against their reach, a second round reads up to 256
+/// nearest of up to 2048 of those samples ([`estimate_noise`]). An error of `residuals` is
+/// passed on.
+pub fn noise_by_rounds<E>(
+    n: usize,
+    mut residuals: impl FnMut(NoiseRound) -> Result<Vec<(f64, f64)>, E>,
+) -> Result<(NoiseEstimate, f64), E> {
     let none = NoiseEstimate {
         sigma: 0.0,
         samples: 0,
     };
-    if positions.len() < 7 {
-        return (none, 0.0);
+    if n < 7 {
+        return Ok((none, 0.0));
     }
-    let stride = positions.len().div_ceil(MAX_SAMPLES).max(1);
-    let samples: Vec<usize> = (0..positions.len()).step_by(stride).collect();
-    let Some((sigma, reach)) = median_residual(positions, index, &samples, NEIGHBOURS) else {
-        return (none, 0.0);
+    let first = NoiseRound {
+        stride: n.div_ceil(MAX_SAMPLES).max(1),
+        k: NEIGHBOURS,
     };
+    let Some((sigma, reach)) = medians(residuals(first)?, first.k) else {
+        return Ok((none, 0.0));
+    };
+    let samples = n.div_ceil(first.stride);
     // Noise comparable to the neighbourhood's radius is cut off by it (a point displaced far
     // along the normal is not among the nearest): then again with neighbourhoods about
     // REACH_PER_SIGMA noise deviations across.
     let wanted = (NEIGHBOURS as f64 * (REACH_PER_SIGMA * sigma / reach).powi(2)).ceil() as usize;
     let (sigma, samples) = if wanted > NEIGHBOURS {
-        let k = wanted.min(MAX_NEIGHBOURS).min(positions.len());
-        let fewer: Vec<usize> = samples
-            .iter()
-            .copied()
-            .step_by(samples.len().div_ceil(MAX_WIDE_SAMPLES).max(1))
-            .collect();
-        let sigma = median_residual(positions, index, &fewer, k).map_or(sigma, |(s, _)| s);
-        (sigma, fewer.len())
+        let wide = NoiseRound {
+            stride: first.stride * samples.div_ceil(MAX_WIDE_SAMPLES).max(1),
+            k: wanted.min(MAX_NEIGHBOURS).min(n),
+        };
+        let sigma = medians(residuals(wide)?, wide.k).map_or(sigma, |(s, _)| s);
+        (sigma, n.div_ceil(wide.stride))
     } else {
-        (sigma, samples.len())
+        (sigma, samples)
     };
-    (NoiseEstimate { sigma, samples }, reach)
+    Ok((NoiseEstimate { sigma, samples }, reach))
 }
 
 /// Neighbourhoods at least this many estimated noise deviations across (radius).
@@ -103,14 +142,14 @@ const MAX_NEIGHBOURS: usize = 256;
 /// At most this many samples with wide neighbourhoods.
 const MAX_WIDE_SAMPLES: usize = 2048;
 
-/// The corrected median over `samples` of the per-point residual deviation of the quadric over
-/// each sample's `k` nearest points, and the median distance to the k-th (world units).
-fn median_residual(
+/// Per sample of `samples` (input indices) whose `k` nearest points have a quadric fit: its
+/// residual deviation and the distance to the k-th (world units).
+fn sample_residuals(
     positions: &[DVec3],
     index: &MortonIndex,
     samples: &[usize],
     k: usize,
-) -> Option<(f64, f64)> {
+) -> Vec<(f64, f64)> {
     // Queried in Morton order, where neighbouring queries share cache (the medians do not
     // depend on the order; a non-finite sample has no neighbours, so no fit, either way).
     let mut chosen = vec![false; positions.len()];
@@ -123,16 +162,27 @@ fn median_residual(
         .map(|&i| i as usize)
         .filter(|&i| chosen[i])
         .collect();
-    let found: Vec<(f64, f64)> = in_order
+    in_order
         .par_iter()
         .filter_map(|&i| {
             let near = index.nearest(positions[i], k);
-            let by_slot = index.points();
-            let pts: Vec<DVec3> = near.iter().map(|&(j, _)| by_slot[j as usize]).collect();
-            let reach = near.last().map_or(0.0, |n| n.1.sqrt());
-            Some((QuadricFit::of(&pts, reach)?.sigma(), reach))
+            sample_residual(index.points(), &near)
         })
-        .collect();
+        .collect()
+}
+
+/// The residual deviation of the quadric over a sample's nearest points `near` (slots of an
+/// index whose points by slot are `by_slot`, with squared distances, nearest first) and the
+/// distance to the last (world units); `None` without a fit.
+pub(crate) fn sample_residual(by_slot: &[DVec3], near: &[(u32, f64)]) -> Option<(f64, f64)> {
+    let pts: Vec<DVec3> = near.iter().map(|&(j, _)| by_slot[j as usize]).collect();
+    let reach = near.last().map_or(0.0, |n| n.1.sqrt());
+    Some((QuadricFit::of(&pts, reach)?.sigma(), reach))
+}
+
+/// The corrected median of the residual deviations `found` (fits over `k` points each) and the
+/// median distance to their k-th point; `None` when empty.
+fn medians(found: Vec<(f64, f64)>, k: usize) -> Option<(f64, f64)> {
     if found.is_empty() {
         return None;
     }

@@ -56,11 +56,13 @@ pub fn estimate_normals_with(positions: &[DVec3], monitor: &Monitor<'_>) -> Vec<
     estimate_normals_in(positions.len(), &index, level, monitor)
 }
 
-/// The level of [`estimate_normals_in`] for points with noise `sigma` whose 32 nearest lie
-/// within `reach` (medians, world units): the least L ≥ 0 at which `sigma` is at most
-/// [`NOISE_PER_RADIUS`] times the radius of the 48 nearest points among one in 4^L (radii
-/// grow as 2^L), at most [`MAX_LEVEL`].
-pub(crate) fn noise_level(sigma: f64, reach: f64) -> u32 {
+/// The coarseness level at which [`estimate_normals`] fits its planes, for points with noise
+/// `sigma` whose 32 nearest lie within `reach` (medians, world units: what
+/// [`crate::noise_by_rounds`] gives): the least L ≥ 0 at which `sigma` is at most
+/// 0.1 times the radius of the 48 nearest points among one in 4^L (radii
+/// grow as 2^L), at most 6. At level 0 every point's plane is its own
+/// neighbourhood's ([`crate::part_normals`] computes those by parts).
+pub fn noise_level(sigma: f64, reach: f64) -> u32 {
     // The radius of the k nearest on a surface grows as √k.
     let largest = SIZES[SIZES.len() - 1];
     let radius = reach * (largest as f64 / NEIGHBOURS as f64).sqrt();

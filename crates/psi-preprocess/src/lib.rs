@@ -12,7 +12,8 @@
 //! * [`orient_normals`] (propagation over a neighbour graph, after Hoppe et al. 1992) and
 //!   [`orient_toward`] (a range scan's sensor position) give normals a consistent side;
 //!   [`part_orientation_edges`] and [`orient_by_parts`] give `orient_normals`' sides bitwise
-//!   from parts of the points (tiles with a halo), [`part_normals`] the level-0 estimate;
+//!   from parts of the points (tiles with a halo), [`part_normals`] the level-0 estimate
+//!   ([`noise_level`]), [`part_noise_samples`] with [`noise_by_rounds`] the noise estimate;
 //!   [`check_normal_consistency`] counts the neighbours whose normals oppose;
 //! * [`estimate_noise`]: the noise level of the positions, from quadric fits, and
 //!   [`error_threshold_for_noise`], the MPU error threshold it suggests; [`denoise`] takes it
@@ -47,6 +48,7 @@ mod inward_normals;
 mod local_fit;
 mod median;
 mod neighbour_graph;
+mod noise_by_parts;
 mod normals_by_parts;
 mod orient_by_parts;
 mod orient_from_level;
@@ -59,11 +61,12 @@ mod spatial_order;
 pub use denoise::{DenoiseReport, denoise, denoise_with};
 pub use densify_mesh::{MeshCoarseness, densify_mesh, densify_mesh_with_sources, mesh_coarseness};
 pub use drop_strays::OutlierReport;
-pub use estimate_noise::{NoiseEstimate, estimate_noise};
-pub use estimate_normals::{estimate_normals, estimate_normals_with};
+pub use estimate_noise::{NoiseEstimate, NoiseRound, estimate_noise, noise_by_rounds};
+pub use estimate_normals::{estimate_normals, estimate_normals_with, noise_level};
 pub use find_clumps::{CLUMP_GAP, CLUMP_POINTS, Clumps, find_clumps, find_clumps_with};
 pub use find_outliers::{Outliers, find_outliers, find_outliers_with};
 pub use inward_normals::{InwardVotes, inward_votes};
+pub use noise_by_parts::part_noise_samples;
 pub use normals_by_parts::part_normals;
 pub use orient_by_parts::{
     IncompletePart, OrientEdge, PartEdges, orient_by_parts, orientation_flips,

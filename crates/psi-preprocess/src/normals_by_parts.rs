@@ -11,14 +11,14 @@ use glam::DVec3;
 use psi_octree::MortonIndex;
 
 use crate::estimate_normals::{NEIGHBOURHOOD, plane_normal};
-use crate::orient_by_parts::IncompletePart;
+use crate::orient_by_parts::{IncompletePart, certified};
 
 /// The level-0 normals (unit, each sign arbitrary; zero where no plane) of a part's own points:
 /// `positions` (shape: M, world units) its own points and its halo, `ids` (shape: M) their
 /// global indices, ascending, `own` (shape: M) which are its own; `complete(x, r)` tells whether
 /// every point of the whole set within `r` of `x` is among `positions`. Shape of the result: the
 /// own points, in the part's order. Bitwise what [`crate::estimate_normals`] gives those points
-/// at level 0, or the first own point whose neighbours the part cannot certify.
+/// at level 0, or the uncertain own point whose neighbours reach farthest.
 ///
 /// # Panics
 ///
@@ -53,8 +53,8 @@ pub fn part_normals(
         Ok(plane_normal(by_slot, s, near))
     });
     let mut normals = vec![DVec3::ZERO; positions.len()];
-    for (s, n) in by_slot_normals.into_iter().enumerate() {
-        normals[slot_ids[s] as usize] = n?;
+    for (s, n) in certified(by_slot_normals)?.into_iter().enumerate() {
+        normals[slot_ids[s] as usize] = n;
     }
     Ok(normals
         .into_iter()

@@ -96,8 +96,8 @@ pub struct IncompletePart {
 /// either sign) the part's own points and its halo, `ids` (shape: M) their global indices,
 /// ascending, `own` (shape: M) which are the part's own (every point is exactly one part's own);
 /// `complete(x, r)` tells whether every point of the whole set within `r` of `x` is among
-/// `points`. Each own point's K nearest are certified by `complete`, else the first uncertain
-/// point is returned. Deterministic, whatever the thread count.
+/// `points`. Each own point's K nearest are certified by `complete`, else the uncertain point
+/// whose neighbours reach farthest is returned. Deterministic, whatever the thread count.
 ///
 /// # Panics
 ///
@@ -143,12 +143,13 @@ pub fn part_orientation_edges(
             })
             .collect())
     });
+    let rows = certified(rows)?;
     // Directed pairs (local ends), then each undirected pair once, same-sheet from either end.
     let mut inner: Vec<(u32, u32, bool)> = Vec::new();
     let mut across: Vec<OrientEdge> = Vec::new();
     for (s, row) in rows.into_iter().enumerate() {
         let a = slot_ids[s];
-        for (b, same) in row? {
+        for (b, same) in row {
             if own[b as usize] {
                 inner.push((a.min(b), a.max(b), same));
             } else {
@@ -193,6 +194,19 @@ pub fn part_orientation_edges(
     across.par_sort_unstable_by_key(|e| (e.lo, e.hi));
     part.across = across;
     Ok(part)
+}
+
+/// The rows when every own point was certified, else the uncertain point whose neighbours
+/// reach farthest (a halo grown to its reach certifies them all in one more try).
+pub(crate) fn certified<T>(rows: Vec<Result<T, IncompletePart>>) -> Result<Vec<T>, IncompletePart> {
+    let worst = rows
+        .iter()
+        .filter_map(|r| r.as_ref().err())
+        .max_by(|a, b| a.reach.total_cmp(&b.reach).then(b.id.cmp(&a.id)));
+    match worst {
+        Some(&e) => Err(e),
+        None => Ok(rows.into_iter().map(|r| r.expect("certified")).collect()),
+    }
 }
 
 /// Union-find with parities: each member's side relative to its set's root (union by the

@@ -155,10 +155,34 @@ fn a_box_has_orthogonal_pairs_in_its_forest() {
 }
 
 #[test]
-fn a_halo_too_thin_is_refused() {
-    let truth = AnalyticShape::Sphere { radius: 1.0 }.sample(3000, 1);
-    let err = parts_of(&truth, 2, 0.01).unwrap_err();
-    assert!(err.reach > 0.01 && err.reach < 1.0, "{err}");
+fn a_halo_too_thin_is_refused_with_the_reach_that_certifies_the_part() {
+    // Each refusal names the farthest reach among a part's points: a halo grown to it
+    // certifies that part, so the halo grows at most once per part.
+    let truth = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.35,
+    }
+    .sample(4000, 2);
+    let start = scrambled(&truth, 5);
+    let mut halo = 0.01;
+    let mut grown = 0;
+    let parts = loop {
+        match parts_of(&start, 2, halo) {
+            Ok(parts) => break parts,
+            Err(e) => {
+                assert!(e.reach > halo && e.reach < 1.0, "{e}");
+                halo = e.reach;
+                grown += 1;
+                assert!(grown <= 8, "grown {grown} times");
+            }
+        }
+    };
+    assert!(grown > 0);
+    let mut whole = start.clone();
+    orient_normals(&mut whole);
+    let mut by_parts = start;
+    orient_by_parts(&mut by_parts, &parts);
+    assert!(by_parts == whole);
 }
 
 #[test]
