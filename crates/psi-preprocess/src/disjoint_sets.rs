@@ -10,6 +10,11 @@ impl Sets {
         Self((0..n as u32).collect())
     }
 
+    /// Members.
+    pub(crate) fn len(&self) -> usize {
+        self.0.len()
+    }
+
     /// The root of `i`'s set: its smallest member.
     pub(crate) fn root(&mut self, mut i: u32) -> u32 {
         while self.0[i as usize] != i {

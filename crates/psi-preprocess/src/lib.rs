@@ -69,8 +69,8 @@ pub use inward_normals::{InwardVotes, inward_votes};
 pub use noise_by_parts::part_noise_samples;
 pub use normals_by_parts::part_normals;
 pub use orient_by_parts::{
-    IncompletePart, OrientEdge, PartEdges, orient_by_parts, orientation_flips,
-    part_orientation_edges,
+    IncompletePart, OrientEdge, OrientationJoin, PartEdges, merge_across, orient_by_parts,
+    orientation_flips, part_orientation_edges,
 };
 pub use orient_normals::{
     NormalConsistency, check_normal_consistency, orient_normals, orient_normals_with, orient_toward,

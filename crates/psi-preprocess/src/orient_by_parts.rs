@@ -54,8 +54,9 @@ impl OrientEdge {
         self.dot.abs() + if self.same { 1.0 } else { 0.0 }
     }
 
-    /// Kruskal's order: heavier first, ties to the lower ends' indices (lower, then higher).
-    fn key(&self) -> (u64, u64) {
+    /// Kruskal's order, ascending: heavier first, ties to the lower ends' indices (lower, then
+    /// higher). The order [`OrientationJoin::offer`] takes edges in.
+    pub fn kruskal_key(&self) -> (u64, u64) {
         (
             !self.weight().to_bits(),
             u64::from(self.lo) << 32 | u64::from(self.hi),
@@ -179,7 +180,7 @@ pub fn part_orientation_edges(
             )),
         }
     }
-    edges.par_sort_unstable_by_key(|e| e.2.key());
+    edges.par_sort_unstable_by_key(|e| e.2.kruskal_key());
     let n = points.len();
     let (mut trees, mut sheets) = (Sets::new(n), Sets::new(n));
     let mut part = PartEdges::default();
@@ -256,116 +257,177 @@ impl SidedSets {
     }
 }
 
+/// The edges across parts (`halves`: every part's [`PartEdges::across`]) with each pair once,
+/// on one sheet when either end found it so, sorted by their ends.
+pub fn merge_across(mut halves: Vec<OrientEdge>) -> Vec<OrientEdge> {
+    halves.par_sort_unstable_by_key(|e| (e.lo, e.hi));
+    let mut joined: Vec<OrientEdge> = Vec::with_capacity(halves.len());
+    for e in halves {
+        match joined.last_mut() {
+            Some(last) if (last.lo, last.hi) == (e.lo, e.hi) => last.same |= e.same,
+            _ => joined.push(e),
+        }
+    }
+    joined
+}
+
+/// The join of the parts' contributions over N points (global indices below N), fed one edge
+/// at a time in Kruskal's order, so that the edges need not be held (a caller merges the
+/// parts' sorted forests from files): the trees, each point's side within the pieces of its
+/// tree that no n·n = 0 edge cuts, those edges, and the same-sheet islands. Memory: about 26
+/// bytes a point.
+pub struct OrientationJoin {
+    trees: Sets,
+    sides: SidedSets,
+    sheets: Sets,
+    cuts: Vec<OrientEdge>,
+    last: Option<(u64, u64)>,
+}
+
+impl OrientationJoin {
+    /// The join of `n` points, nothing joined yet.
+    pub fn new(n: usize) -> Self {
+        Self {
+            trees: Sets::new(n),
+            sides: SidedSets::new(n),
+            sheets: Sets::new(n),
+            cuts: Vec::new(),
+            last: None,
+        }
+    }
+
+    /// Puts points `a` and `b` in one same-sheet island (a part's [`PartEdges::same_links`],
+    /// or an edge across that is on one sheet); any order.
+    pub fn link_same(&mut self, a: u32, b: u32) {
+        self.sheets.join(a, b);
+    }
+
+    /// Kruskal's step for the next edge (a part's forest edge or an edge across, each pair
+    /// once: [`merge_across`]).
+    ///
+    /// # Panics
+    ///
+    /// When `e` comes before an edge offered earlier in [`OrientEdge::kruskal_key`]'s order.
+    pub fn offer(&mut self, e: OrientEdge) {
+        let key = e.kruskal_key();
+        assert!(
+            self.last.is_none_or(|last| last <= key),
+            "edges offered out of Kruskal's order"
+        );
+        self.last = Some(key);
+        if self.trees.join(e.lo, e.hi) {
+            if e.dot == 0.0 {
+                self.cuts.push(e);
+            } else {
+                self.sides.join(e.lo, e.hi, e.dot < 0.0);
+            }
+        }
+    }
+
+    /// Per point, whether `orient_normals` flips its normal, once every edge was offered and
+    /// every same-sheet link made: `x(i)` is point i's x coordinate and `x_negative(i)` whether
+    /// its normal's x is negative (the seeds' rule).
+    pub fn flips(
+        mut self,
+        x: &(dyn Fn(u32) -> f64 + Sync),
+        x_negative: &(dyn Fn(u32) -> bool + Sync),
+    ) -> Vec<bool> {
+        let n = self.sheets.len();
+        let (trees, sides, sheets) = (&mut self.trees, &mut self.sides, &mut self.sheets);
+        // The seeds: the first point of each tree in the order largest x first (ties to the
+        // lower index); the tree of the largest same-sheet island starts at that island's
+        // first point.
+        let order_key = |i: u32| (Reverse(total_order_key(x(i))), i);
+        let mut island_size = vec![0u32; n];
+        for i in 0..n as u32 {
+            island_size[sheets.root(i) as usize] += 1;
+        }
+        let largest = island_size.iter().copied().max().unwrap_or(0);
+        let mut seed: Vec<u32> = vec![u32::MAX; n];
+        let mut first: Option<u32> = None;
+        for i in 0..n as u32 {
+            let t = trees.root(i) as usize;
+            if seed[t] == u32::MAX || order_key(i) < order_key(seed[t]) {
+                seed[t] = i;
+            }
+            if island_size[sheets.root(i) as usize] == largest
+                && first.is_none_or(|f| order_key(i) < order_key(f))
+            {
+                first = Some(i);
+            }
+        }
+        if let Some(f) = first {
+            seed[trees.root(f) as usize] = f;
+        }
+        // Each piece's root side: from its tree's seed, then across the cuts outward (the point
+        // a cut reaches keeps its normal's side).
+        let mut piece_flip: Vec<Option<bool>> = vec![None; n];
+        for &s in seed.iter().filter(|&&s| s != u32::MAX) {
+            let (r, f) = sides.root(s);
+            piece_flip[r as usize] = Some(x_negative(s) ^ f);
+        }
+        let mut pending = std::mem::take(&mut self.cuts);
+        while !pending.is_empty() {
+            let before = pending.len();
+            pending.retain(|e| {
+                let ((ra, fa), (rb, fb)) = (sides.root(e.lo), sides.root(e.hi));
+                match (piece_flip[ra as usize], piece_flip[rb as usize]) {
+                    // lo's piece set: hi is reached from lo and keeps its side.
+                    (Some(_), None) => {
+                        piece_flip[rb as usize] = Some(fb);
+                        false
+                    }
+                    (None, Some(_)) => {
+                        piece_flip[ra as usize] = Some(fa);
+                        false
+                    }
+                    (Some(_), Some(_)) => false,
+                    (None, None) => true,
+                }
+            });
+            assert!(
+                pending.len() < before,
+                "every piece hangs from its tree's seed"
+            );
+        }
+        (0..n as u32)
+            .map(|i| {
+                let (r, f) = sides.root(i);
+                piece_flip[r as usize].expect("every piece has a side") ^ f
+            })
+            .collect()
+    }
+}
+
 /// The sides of the `n` points whose parts gave `parts` ([`part_orientation_edges`], every
-/// part of one partition): per point, whether `orient_normals` flips its normal. `x(i)` is point
-/// i's x coordinate and `x_negative(i)` whether its normal's x is negative (the seeds' rule).
-/// Memory: a few words per point (the forest is not held).
+/// part of one partition), all held at once: per point, whether `orient_normals` flips its
+/// normal. `x(i)` is point i's x coordinate and `x_negative(i)` whether its normal's x is
+/// negative (the seeds' rule). [`OrientationJoin`] does the same from edges streamed in order.
 pub fn orientation_flips(
     n: usize,
     parts: &[PartEdges],
     x: &(dyn Fn(u32) -> f64 + Sync),
     x_negative: &(dyn Fn(u32) -> bool + Sync),
 ) -> Vec<bool> {
-    // The edges between parts, each pair once, same-sheet from either end.
-    let mut across: Vec<OrientEdge> = parts
-        .iter()
-        .flat_map(|p| p.across.iter().copied())
-        .collect();
-    across.par_sort_unstable_by_key(|e| (e.lo, e.hi));
-    let mut joined: Vec<OrientEdge> = Vec::with_capacity(across.len());
-    for e in across {
-        match joined.last_mut() {
-            Some(last) if (last.lo, last.hi) == (e.lo, e.hi) => last.same |= e.same,
-            _ => joined.push(e),
-        }
+    let mut join = OrientationJoin::new(n);
+    let mut edges = merge_across(
+        parts
+            .iter()
+            .flat_map(|p| p.across.iter().copied())
+            .collect(),
+    );
+    for e in edges.iter().filter(|e| e.same) {
+        join.link_same(e.lo, e.hi);
     }
-    let mut sheets = Sets::new(n);
     for &(a, b) in parts.iter().flat_map(|p| &p.same_links) {
-        sheets.join(a, b);
+        join.link_same(a, b);
     }
-    for e in joined.iter().filter(|e| e.same) {
-        sheets.join(e.lo, e.hi);
+    edges.extend(parts.iter().flat_map(|p| p.forest.iter().copied()));
+    edges.par_sort_unstable_by_key(|e| e.kruskal_key());
+    for e in edges {
+        join.offer(e);
     }
-    joined.extend(parts.iter().flat_map(|p| p.forest.iter().copied()));
-    joined.par_sort_unstable_by_key(|e| e.key());
-    // Kruskal: the trees, the sides within the pieces of each tree that no d = 0 edge cuts,
-    // and those edges.
-    let (mut trees, mut sides) = (Sets::new(n), SidedSets::new(n));
-    let mut cuts: Vec<OrientEdge> = Vec::new();
-    for e in joined {
-        if trees.join(e.lo, e.hi) {
-            if e.dot == 0.0 {
-                cuts.push(e);
-            } else {
-                sides.join(e.lo, e.hi, e.dot < 0.0);
-            }
-        }
-    }
-    // The seeds: the first point of each tree in the order largest x first (ties to the lower
-    // index); the tree of the largest same-sheet island starts at that island's first point.
-    let order_key = |i: u32| (Reverse(total_order_key(x(i))), i);
-    let mut island_size = vec![0u32; n];
-    let island: Vec<u32> = (0..n as u32).map(|i| sheets.root(i)).collect();
-    for &r in &island {
-        island_size[r as usize] += 1;
-    }
-    let largest = island_size.iter().copied().max().unwrap_or(0);
-    let mut seed: Vec<u32> = vec![u32::MAX; n];
-    let mut first: Option<u32> = None;
-    for i in 0..n as u32 {
-        let t = trees.root(i) as usize;
-        if seed[t] == u32::MAX || order_key(i) < order_key(seed[t]) {
-            seed[t] = i;
-        }
-        if island_size[island[i as usize] as usize] == largest
-            && first.is_none_or(|f| order_key(i) < order_key(f))
-        {
-            first = Some(i);
-        }
-    }
-    if let Some(f) = first {
-        seed[trees.root(f) as usize] = f;
-    }
-    // Each piece's root side: from its tree's seed, then across the cuts outward (the point a
-    // cut reaches keeps its normal's side).
-    let mut piece_flip: Vec<Option<bool>> = vec![None; n];
-    for t in 0..n {
-        let s = seed[t];
-        if s != u32::MAX {
-            let (r, f) = sides.root(s);
-            piece_flip[r as usize] = Some(x_negative(s) ^ f);
-        }
-    }
-    let mut pending = cuts;
-    while !pending.is_empty() {
-        let before = pending.len();
-        pending.retain(|e| {
-            let ((ra, fa), (rb, fb)) = (sides.root(e.lo), sides.root(e.hi));
-            match (piece_flip[ra as usize], piece_flip[rb as usize]) {
-                // lo's piece set: hi is reached from lo and keeps its side.
-                (Some(_), None) => {
-                    piece_flip[rb as usize] = Some(fb);
-                    false
-                }
-                (None, Some(_)) => {
-                    piece_flip[ra as usize] = Some(fa);
-                    false
-                }
-                (Some(_), Some(_)) => false,
-                (None, None) => true,
-            }
-        });
-        assert!(
-            pending.len() < before,
-            "every piece hangs from its tree's seed"
-        );
-    }
-    (0..n as u32)
-        .map(|i| {
-            let (r, f) = sides.root(i);
-            piece_flip[r as usize].expect("every piece has a side") ^ f
-        })
-        .collect()
+    join.flips(x, x_negative)
 }
 
 /// Orients `points` (shape: N, unit normals of either sign) as [`crate::orient_normals`] does,

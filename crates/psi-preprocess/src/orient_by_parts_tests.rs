@@ -206,3 +206,17 @@ fn sided_sets_keep_parities_against_brute_force() {
         assert_eq!(fa ^ fb, opposed, "edge {a}-{b}");
     }
 }
+
+#[test]
+#[should_panic(expected = "out of Kruskal's order")]
+fn the_join_refuses_edges_out_of_order() {
+    let edge = |lo, hi, dot| OrientEdge {
+        lo,
+        hi,
+        dot,
+        same: true,
+    };
+    let mut join = OrientationJoin::new(4);
+    join.offer(edge(0, 1, 0.9));
+    join.offer(edge(1, 2, 0.99));
+}
