@@ -34,6 +34,7 @@ mod read_ahead;
 mod read_file;
 pub mod render;
 pub mod report;
+mod tile_normals;
 
 pub use psi_io as io;
 pub use psi_mpu as mpu;

@@ -4,9 +4,10 @@
 //! ([`psi_tiles::seed_store_octant`]) and relaxed at once ([`psi_tiles::sample_tiled_from`]). The CLI's `--max-memory` and Python's `sample_files` both
 //! run this.
 //!
-//! The preprocessing steps that read the whole input (the outlier search, the noise estimate,
-//! the inward-normals check) are not done tile by tile yet: a run out of core takes oriented
-//! points as they are, and says so up front when asked for those steps.
+//! Points without normals get them estimated and oriented tile by tile (`tile_normals.rs`),
+//! bitwise the in-core estimate. The other preprocessing steps (the outlier search, the noise
+//! threshold, denoising, the inward-normals check) are not done tile by tile yet: a run out of
+//! core otherwise takes the points as they are, and says so up front.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -22,7 +23,8 @@ use psi_tiles::{
 
 use crate::PsiError;
 use crate::budget::OutOfCore;
-use crate::partition::{failure, partition_files};
+use crate::partition::{failure, has_normals, partition_files};
+use crate::tile_normals::partition_estimating_normals;
 
 /// What a run out of core made.
 #[derive(Clone, Debug)]
@@ -41,6 +43,8 @@ pub struct OutOfCoreRun {
     pub sampling: TileSampleReport,
     /// Whether the tile files of an earlier run were used as they were.
     pub resumed: bool,
+    /// Whether the input had no normals and they were estimated and oriented tile by tile.
+    pub normals_estimated: bool,
     /// Seconds: reading and partitioning, deciding the cells, sampling.
     pub seconds: [f64; 3],
 }
@@ -56,7 +60,7 @@ pub struct OutOfCoreRun {
 /// # Errors
 ///
 /// [`PsiError::Open`] / [`PsiError::Read`] for the input; [`PsiError::OutOfCore`] when it has
-/// no normals, the budget is too small, an exact count or uniform mode is asked for, or a
+/// no normals and its noise asks for them among a coarser subset, the budget is too small, an exact count or uniform mode is asked for, or a
 /// scratch file fails (named).
 pub fn sample_files_out_of_core(
     paths: &[PathBuf],
@@ -67,7 +71,16 @@ pub fn sample_files_out_of_core(
     monitor: &Monitor<'_>,
 ) -> Result<OutOfCoreRun, PsiError> {
     let t0 = Instant::now();
-    let part = partition_files(paths, format, mpu_params, options, monitor)?;
+    let first = paths.first().ok_or_else(|| PsiError::OutOfCore {
+        path: PathBuf::new(),
+        reason: "no input files given".into(),
+    })?;
+    let normals_estimated = !has_normals(first, format)?;
+    let part = if !normals_estimated {
+        partition_files(paths, format, mpu_params, options, monitor)?
+    } else {
+        partition_estimating_normals(paths, format, mpu_params, options, monitor)?
+    };
     let read_seconds = t0.elapsed().as_secs_f64();
     let fail = failure(&paths[0]);
     let t1 = Instant::now();
@@ -109,6 +122,7 @@ pub fn sample_files_out_of_core(
         tiles: decisions.report,
         sampling: sampled.report,
         resumed: part.resumed,
+        normals_estimated,
         seconds: [read_seconds, decide_seconds, t2.elapsed().as_secs_f64()],
     })
 }
@@ -227,7 +241,11 @@ pub fn out_of_core_json(
                 "relax": run.sampling.relax_seconds,
             },
             "sampling": run.sampling,
-            "preprocessing": "none (points used as given)",
+            "preprocessing": if run.normals_estimated {
+                "normals estimated and oriented tile by tile; points otherwise used as given"
+            } else {
+                "none (points used as given)"
+            },
         },
         "peak_memory_bytes": crate::report::peak_memory_bytes(),
     })

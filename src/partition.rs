@@ -11,6 +11,7 @@ use std::io::BufReader;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
+use glam::DVec3;
 use psi_io::{Format, PointStream, ReadOptions, chunk_oriented_points};
 use psi_mpu::{MpuFrame, MpuParams};
 use psi_octree::{Aabb, Monitor, OrientedPoint};
@@ -28,21 +29,88 @@ const CHUNK: usize = 1 << 18;
 const READ_AHEAD_BUDGET: u64 =
     16 * (AHEAD as u64 + 1) * (CHUNK * std::mem::size_of::<OrientedPoint>()) as u64;
 
+/// Where the normals of a partition's points come from.
+#[derive(Clone, Copy)]
+pub(crate) enum Normals<'a> {
+    /// The input's own; an input without normals is refused.
+    Given,
+    /// None: every point with a zero normal (the store the normals are estimated from).
+    Zero,
+    /// Per point of the input, by its index in the whole input (all files, every point):
+    /// `normals[i]`, turned over where `flips` (by index among the points kept) says; points
+    /// with a zero normal are left out.
+    Estimated {
+        /// A point's normal by its index in the whole input (or why it cannot be read).
+        normals: &'a (dyn Fn(u64) -> Result<DVec3, String> + Sync),
+        /// Whether to turn the k-th kept point's normal over.
+        flips: Option<&'a [bool]>,
+    },
+}
+
+impl Normals<'_> {
+    /// What the store's source records of this mode (a run finds its own store by it).
+    fn tag(&self) -> &'static str {
+        match self {
+            Normals::Given => "",
+            Normals::Zero => "positions of ",
+            Normals::Estimated { flips: None, .. } => "estimated normals of ",
+            Normals::Estimated { flips: Some(_), .. } => "oriented normals of ",
+        }
+    }
+}
+
 /// Calls `visit` with the oriented points of the file at `path`, chunk by chunk in file
 /// order: the scanner formats, XYZ and PLY point clouds streamed, PLY meshes and OBJ read
-/// whole first. Returns the
+/// whole first; their normals as `normals` says (`first` the index in the whole input of the
+/// file's first point, `kept` the points kept before it). Returns the points read and the
 /// points dropped for a zero normal.
 fn for_each_points(
     path: &Path,
     format: Option<Format>,
+    normals: Normals<'_>,
+    (first, kept): (u64, u64),
     mut visit: impl FnMut(&[OrientedPoint]) -> Result<(), PsiError>,
-) -> Result<u64, PsiError> {
+) -> Result<(u64, u64), PsiError> {
     check_not_dir(path)?;
     let no_normals = || PsiError::OutOfCore {
         path: path.to_path_buf(),
-        reason: "has no normals: a run out of core takes oriented points (estimating normals \
-                 tile by tile is not done yet); run without --max-memory to estimate them"
+        reason: "has no normals: a run out of core on a cluster takes oriented points \
+                 (normals are estimated tile by tile on one machine, `psi sample --max-memory` \
+                 or `psi.sample_files`)"
             .into(),
+    };
+    // The points at `positions` (input indices from `at`) with the normals the mode gives
+    // (not `Given`), and how many were dropped.
+    let mut kept_so_far = kept;
+    let mut with_normals = |positions: &[DVec3], at: u64| -> Result<_, PsiError> {
+        let out: Vec<OrientedPoint> = match normals {
+            Normals::Given => unreachable!("given normals are the input's"),
+            Normals::Zero => positions
+                .iter()
+                .map(|&p| OrientedPoint { p, n: DVec3::ZERO })
+                .collect(),
+            Normals::Estimated { normals, flips } => {
+                let mut out = Vec::with_capacity(positions.len());
+                for (i, &p) in positions.iter().enumerate() {
+                    let n = normals(at + i as u64).map_err(|reason| PsiError::OutOfCore {
+                        path: path.to_path_buf(),
+                        reason,
+                    })?;
+                    if n == DVec3::ZERO {
+                        continue;
+                    }
+                    let turn = flips.is_some_and(|f| f.get(kept_so_far as usize) == Some(&true));
+                    kept_so_far += 1;
+                    out.push(OrientedPoint {
+                        p,
+                        n: if turn { -n } else { n },
+                    });
+                }
+                out
+            }
+        };
+        let dropped = positions.len() - out.len();
+        Ok((out, dropped as u64))
     };
     let format = format.or_else(|| extension_format(path));
     // A PLY point cloud streams; a PLY mesh (its faces need every vertex) is read whole.
@@ -59,19 +127,25 @@ fn for_each_points(
             let file = fs::File::open(path).map_err(|e| open_error(path, e))?;
             let stream =
                 PointStream::open(BufReader::new(file), format).map_err(read_error(path))?;
-            let (mut first, mut dropped) = (0u64, 0u64);
+            let (mut read, mut dropped) = (0u64, 0u64);
             let mut failure = None;
             stream
                 .for_each_chunk(CHUNK, |chunk| {
-                    let result = match chunk_oriented_points(&chunk, first) {
-                        None => Err(no_normals()),
-                        Some(Err(e)) => Err(read_error(path)(e)),
-                        Some(Ok((points, d))) => {
+                    let result = match (normals, chunk_oriented_points(&chunk, read)) {
+                        (Normals::Given, None) => Err(no_normals()),
+                        (Normals::Given, Some(Err(e))) => Err(read_error(path)(e)),
+                        (Normals::Given, Some(Ok((points, d)))) => {
                             dropped += d as u64;
                             visit(&points)
                         }
+                        _ => {
+                            with_normals(&chunk.positions, first + read).and_then(|(points, d)| {
+                                dropped += d;
+                                visit(&points)
+                            })
+                        }
                     };
-                    first += chunk.len() as u64;
+                    read += chunk.len() as u64;
                     match result {
                         Ok(()) => ControlFlow::Continue(()),
                         Err(e) => {
@@ -81,19 +155,55 @@ fn for_each_points(
                     }
                 })
                 .map_err(read_error(path))?;
-            failure.map_or(Ok(dropped), Err)
+            failure.map_or(Ok((read, dropped)), Err)
         }
         _ => {
             let file = crate::load_points_as(path, format, &ReadOptions::paper())?;
-            if file.normals == psi_io::NormalSource::Missing {
-                return Err(no_normals());
+            let missing = file.normals == psi_io::NormalSource::Missing;
+            let read = (file.points.len() + file.dropped_points) as u64;
+            if matches!(normals, Normals::Given) {
+                if missing {
+                    return Err(no_normals());
+                }
+                for chunk in file.points.chunks(CHUNK) {
+                    visit(chunk)?;
+                }
+                return Ok((read, file.dropped_points as u64));
             }
-            for chunk in file.points.chunks(CHUNK) {
-                visit(chunk)?;
+            let positions: Vec<DVec3> = file.points.iter().map(|p| p.p).collect();
+            let mut dropped = 0;
+            for (c, chunk) in positions.chunks(CHUNK).enumerate() {
+                let (points, d) = with_normals(chunk, first + (c * CHUNK) as u64)?;
+                dropped += d;
+                visit(&points)?;
             }
-            Ok(file.dropped_points as u64)
+            Ok((read, dropped))
         }
     }
+}
+
+/// Whether the file at `path` (read as `format`, or as its extension says) has normals: its
+/// first chunk's, for a streamed file; a file read whole is read.
+pub(crate) fn has_normals(path: &Path, format: Option<Format>) -> Result<bool, PsiError> {
+    check_not_dir(path)?;
+    let format = format.or_else(|| extension_format(path));
+    if let Some(format) = format {
+        let file = fs::File::open(path).map_err(|e| open_error(path, e))?;
+        if let Ok(stream) = PointStream::open(BufReader::new(file), format)
+            && (format == Format::Ply || format.is_streamed() || format == Format::Xyz)
+        {
+            let mut normals = None;
+            stream
+                .for_each_chunk(1024, |chunk| {
+                    normals = Some(chunk.normals.is_some());
+                    ControlFlow::Break(())
+                })
+                .map_err(read_error(path))?;
+            return Ok(normals.unwrap_or(true));
+        }
+    }
+    let file = crate::load_points_as(path, format, &ReadOptions::paper())?;
+    Ok(file.normals != psi_io::NormalSource::Missing)
 }
 
 /// The input's points in tile files: what [`partition_files`] made or found.
@@ -166,27 +276,59 @@ pub fn partition_start(
     options: &OutOfCore,
     monitor: &Monitor<'_>,
 ) -> Result<PartitionStart, PsiError> {
-    let fail = failure_of(paths)?;
-    let source = sources_of(paths)?;
     let dir = store_dir(options);
-    // An earlier run's store is used when it holds the same files, tiled as this budget
-    // tiles them (the particles depend on the tiling).
-    if let Ok(store) = TileStore::open(&dir)
-        && store.manifest().source == source
-        && options.tile_depth_for(store.manifest().population) == Ok(store.manifest().depth)
-    {
-        let points = store.manifest().population;
-        return Ok(PartitionStart::Found(Box::new(Partition {
+    start_in(
+        paths,
+        format,
+        mpu_params,
+        options,
+        (&dir, Normals::Given),
+        monitor,
+    )
+}
+
+/// The finished store in `dir` of an earlier run on the same files with normals as `normals`
+/// gives them (compared by kind only), tiled as this budget tiles them; `None` without one.
+pub(crate) fn found(
+    paths: &[PathBuf],
+    options: &OutOfCore,
+    dir: &Path,
+    normals: Normals<'_>,
+) -> Result<Option<Partition>, PsiError> {
+    let source = format!("{}{}", normals.tag(), sources_of(paths)?);
+    Ok(TileStore::open(dir).ok().and_then(|store| {
+        let m = store.manifest();
+        let same = m.source == source && options.tile_depth_for(m.population) == Ok(m.depth);
+        let points = m.population;
+        same.then_some(Partition {
             store,
             points,
             dropped: 0,
             resumed: true,
-        })));
+        })
+    }))
+}
+
+/// [`partition_start`] of the store in `dir` whose normals come from `normals`.
+fn start_in(
+    paths: &[PathBuf],
+    format: Option<Format>,
+    mpu_params: &MpuParams,
+    options: &OutOfCore,
+    (dir, normals): (&Path, Normals<'_>),
+    monitor: &Monitor<'_>,
+) -> Result<PartitionStart, PsiError> {
+    let fail = failure_of(paths)?;
+    let source = format!("{}{}", normals.tag(), sources_of(paths)?);
+    // An earlier run's store is used when it holds the same files, tiled as this budget
+    // tiles them (the particles depend on the tiling).
+    if let Some(partition) = found(paths, options, dir, normals)? {
+        return Ok(PartitionStart::Found(Box::new(partition)));
     }
     let mut bounds: Option<Aabb> = None;
     let mut count = 0u64;
     monitor.report("read", 0, 2);
-    for_each_input(paths, format, |chunk| {
+    for_each_input(paths, format, normals, |chunk| {
         count += chunk.len() as u64;
         let b = Aabb::from_points(chunk.iter().map(|p| p.p));
         bounds = match (bounds, b) {
@@ -203,7 +345,7 @@ pub fn partition_start(
         .map_err(|e| fail(e.to_string()))?;
     let depth = options.tile_depth_for(count).map_err(&fail)?;
     let plan = StorePlan::new(&source, &frame, depth);
-    plan.start(&dir).map_err(|e| fail(e.to_string()))?;
+    plan.start(dir).map_err(|e| fail(e.to_string()))?;
     Ok(PartitionStart::Planned { points: count })
 }
 
@@ -224,22 +366,43 @@ pub fn partition_part(
     options: &OutOfCore,
     monitor: &Monitor<'_>,
 ) -> Result<u64, PsiError> {
-    let fail = failure_of(paths)?;
     let dir = store_dir(options);
-    let plan = StorePlan::read(&dir).map_err(|e| fail(e.to_string()))?;
+    part_in(
+        paths,
+        format,
+        part,
+        options,
+        (&dir, Normals::Given),
+        monitor,
+    )
+}
+
+/// [`partition_part`] of the store in `dir` whose normals come from `normals`.
+fn part_in(
+    paths: &[PathBuf],
+    format: Option<Format>,
+    part: StorePart,
+    options: &OutOfCore,
+    (dir, normals): (&Path, Normals<'_>),
+    monitor: &Monitor<'_>,
+) -> Result<u64, PsiError> {
+    let fail = failure_of(paths)?;
+    let plan = StorePlan::read(dir).map_err(|e| fail(e.to_string()))?;
     let changed = || fail(CHANGED.into());
-    if sources_of(paths)? != plan.source {
+    let source =
+        || -> Result<String, PsiError> { Ok(format!("{}{}", normals.tag(), sources_of(paths)?)) };
+    if source()? != plan.source {
         return Err(changed());
     }
     monitor.report("read", 1, 2);
     let buffer = (options.max_memory / 4 / 56).max(1 << 16) as usize;
     let mut writer =
-        TileWriter::create_part(&dir, &plan, part, buffer).map_err(|e| fail(e.to_string()))?;
+        TileWriter::create_part(dir, &plan, part, buffer).map_err(|e| fail(e.to_string()))?;
     // Decoding the input (on a thread of its own when the pool has two and the budget has
     // room for the chunks ahead) overlaps with writing the tiles.
     let dropped = read_ahead(
         options.max_memory >= READ_AHEAD_BUDGET,
-        |visit| for_each_input(paths, format, visit),
+        |visit| for_each_input(paths, format, normals, visit),
         |chunk| {
             writer.push(chunk).map_err(|e| fail(e.to_string()))?;
             monitor.check().map_err(|_| fail("interrupted".into()))
@@ -248,7 +411,7 @@ pub fn partition_part(
     )?;
     writer.finish_part().map_err(|e| fail(e.to_string()))?;
     // The files must not have changed between the two passes.
-    if sources_of(paths)? != plan.source {
+    if source()? != plan.source {
         return Err(changed());
     }
     Ok(dropped)
@@ -267,8 +430,18 @@ pub fn partition_assemble(
     points: Option<u64>,
     options: &OutOfCore,
 ) -> Result<Partition, PsiError> {
+    assemble_in(paths, parts, points, &store_dir(options))
+}
+
+/// [`partition_assemble`] of the store in `dir`.
+fn assemble_in(
+    paths: &[PathBuf],
+    parts: u32,
+    points: Option<u64>,
+    dir: &Path,
+) -> Result<Partition, PsiError> {
     let fail = failure_of(paths)?;
-    let store = TileStore::assemble(&store_dir(options), parts).map_err(|e| fail(e.to_string()))?;
+    let store = TileStore::assemble(dir, parts).map_err(|e| fail(e.to_string()))?;
     let population = store.manifest().population;
     if points.is_some_and(|n| n != population) {
         return Err(fail(CHANGED.into()));
@@ -295,12 +468,33 @@ pub fn partition_files(
     options: &OutOfCore,
     monitor: &Monitor<'_>,
 ) -> Result<Partition, PsiError> {
-    let points = match partition_start(paths, format, mpu_params, options, monitor)? {
+    let dir = store_dir(options);
+    partition_with(
+        paths,
+        format,
+        mpu_params,
+        options,
+        (&dir, Normals::Given),
+        monitor,
+    )
+}
+
+/// [`partition_files`] into the store in `dir` whose points have the normals `normals` gives.
+pub(crate) fn partition_with(
+    paths: &[PathBuf],
+    format: Option<Format>,
+    mpu_params: &MpuParams,
+    options: &OutOfCore,
+    (dir, normals): (&Path, Normals<'_>),
+    monitor: &Monitor<'_>,
+) -> Result<Partition, PsiError> {
+    let at = (dir, normals);
+    let points = match start_in(paths, format, mpu_params, options, at, monitor)? {
         PartitionStart::Found(found) => return Ok(*found),
         PartitionStart::Planned { points } => points,
     };
-    let dropped = partition_part(paths, format, StorePart::WHOLE, options, monitor)?;
-    let partition = partition_assemble(paths, 1, Some(points), options)?;
+    let dropped = part_in(paths, format, StorePart::WHOLE, options, at, monitor)?;
+    let partition = assemble_in(paths, 1, Some(points), dir)?;
     monitor.report("read", 2, 2);
     Ok(Partition {
         dropped,
@@ -312,11 +506,14 @@ pub fn partition_files(
 fn for_each_input(
     paths: &[PathBuf],
     format: Option<Format>,
+    normals: Normals<'_>,
     mut visit: impl FnMut(&[OrientedPoint]) -> Result<(), PsiError>,
 ) -> Result<u64, PsiError> {
-    let mut dropped = 0;
+    let (mut read, mut dropped) = (0, 0);
     for path in paths {
-        dropped += for_each_points(path, format, &mut visit)?;
+        let (r, d) = for_each_points(path, format, normals, (read, read - dropped), &mut visit)?;
+        read += r;
+        dropped += d;
     }
     Ok(dropped)
 }

@@ -62,8 +62,9 @@ fn threads_arg(threads: Option<i128>) -> PyResult<Option<usize>> {
 /// Samples `inputs` (a path, or a list of paths read as one input in that order) out of core
 /// within `max_memory` (bytes, or a size such as "4GiB"), writing the particles to `output`
 /// and the tile files to `scratch` (default: beside `output`). The same run as `psi sample
-/// INPUT --max-memory SIZE`: bitwise its particles. The points are used as given (with their
-/// normals; no outlier search, noise estimate or ceiling on spacing out of core yet). Returns the run's report
+/// INPUT --max-memory SIZE`: bitwise its particles. The points are used as given (normals
+/// estimated and oriented tile by tile where they have none; no outlier search, noise
+/// threshold, denoising or ceiling on spacing out of core yet). Returns the run's report
 /// (the CLI's `--json`). A rerun with the same scratch resumes from its tile files.
 #[pyfunction]
 #[pyo3(signature = (inputs, output, *, max_memory, scratch=None, k=1, iterations=20,

@@ -109,6 +109,17 @@ print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
     not (sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc"),
     reason="the allocator tuning is for glibc",
 )
+def test_positions_alone_are_refused_on_a_cluster_with_the_reason(client, tmp_path):
+    # Normals are estimated tile by tile on one machine (``psi.sample_files``) only, yet.
+    plain = tmp_path / "plain.xyz"
+    pts = psi.builtin_model(2_000).points
+    plain.write_text("".join(f"{p[0]!r} {p[1]!r} {p[2]!r}\n" for p in pts))
+    with pytest.raises(ValueError, match="on a cluster takes oriented points"):
+        psi.distributed.sample_files(plain, tmp_path / "x.ply", client=client,
+                                     max_memory="64MiB")
+    assert not (tmp_path / "x.ply").exists()
+
+
 def test_tasks_undo_the_mmap_threshold_dasks_worker_environment_fixes():
     # Dask's nanny sets MALLOC_TRIM_THRESHOLD_; glibc then maps every block above 128 KiB
     # afresh, so 100 blocks of 4 MiB fault in about 100 × 1024 pages. A tuned process reuses

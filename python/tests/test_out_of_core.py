@@ -1,6 +1,6 @@
 """``psi.sample_files``: out of core as ``psi sample --max-memory``, bit for bit; a list of
-files read as one input; resuming from the scratch files; bad sizes and points without normals
-refused with the CLI's messages."""
+files read as one input; positions alone given normals tile by tile; resuming from the scratch
+files; bad sizes and too few points refused with the CLI's messages."""
 
 import numpy as np
 import pytest
@@ -46,7 +46,30 @@ def test_a_list_of_files_is_one_input_in_order(tmp_path):
     assert (tmp_path / "one.ply").read_bytes() == (tmp_path / "two.ply").read_bytes()
 
 
-def test_bad_sizes_and_missing_normals_are_refused_as_the_cli_refuses_them(cli, tmp_path):
+def write_positions(path, points):
+    with open(path, "w") as f:
+        for p in points:
+            f.write(" ".join(repr(float(v)) for v in p) + "\n")
+
+
+def test_positions_alone_get_their_normals_tile_by_tile_as_the_cli_does(cli, tmp_path):
+    # Two files read as one input: the normals file is indexed across both.
+    pts = np.asarray(psi.builtin_model(20_000).points)
+    whole, a, b = tmp_path / "whole.xyz", tmp_path / "a.xyz", tmp_path / "b.xyz"
+    write_positions(whole, pts)
+    write_positions(a, pts[:7000])
+    write_positions(b, pts[7000:])
+    one = psi.sample_files(whole, tmp_path / "one.ply", max_memory="64MiB")
+    two = psi.sample_files([a, b], tmp_path / "two.ply", max_memory="64MiB")
+    run_cli(cli, "sample", whole, "--max-memory", "64MiB", "-o", tmp_path / "cli.ply",
+            "--scratch", tmp_path / "s")
+    assert one["tiles"]["preprocessing"].startswith("normals estimated")
+    assert one["input"]["points"] == two["input"]["points"]
+    assert (tmp_path / "one.ply").read_bytes() == (tmp_path / "two.ply").read_bytes()
+    assert (tmp_path / "one.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
+
+
+def test_bad_sizes_and_too_few_points_are_refused_as_the_cli_refuses_them(cli, tmp_path):
     plain = tmp_path / "plain.xyz"
     plain.write_text("0 0 0\n1 0 0\n0 1 0\n0 0 1\n")
     with pytest.raises(ValueError, match="unknown unit"):

@@ -41,6 +41,7 @@ mod store_plan;
 mod sub_cells;
 mod thinned_data;
 mod tile_buckets;
+mod tile_halo;
 mod tile_params;
 mod tile_records;
 mod tile_report;
@@ -62,6 +63,7 @@ pub use sample_tiles::{
 pub use seed_store::seed_store_octant;
 pub use store_plan::{StorePart, StorePlan, WrittenPart};
 pub use thinned_data::ThinnedData;
+pub use tile_halo::TileWithHalo;
 pub use tile_params::TileParams;
 pub use tile_report::TileReport;
 pub use tile_store::{StoreManifest, StoredTile, TileStore};

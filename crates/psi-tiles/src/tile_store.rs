@@ -227,7 +227,7 @@ impl TileStore {
         fine: ([u32; 3], [u32; 3]),
         ball: Option<(DVec3, f64)>,
         keep: &dyn Fn(DVec3) -> bool,
-    ) -> Result<Vec<OrientedPoint>, TileError> {
+    ) -> Result<Vec<(u64, OrientedPoint)>, TileError> {
         let mut found: Vec<(u64, OrientedPoint)> = Vec::new();
         let cells = (SUB * SUB * SUB) as usize;
         for (&key, &i) in self.by_key.range(lo..=hi) {
@@ -255,7 +255,7 @@ impl TileStore {
         }
         // (Each run of records is in input order: a stable sort merges them.)
         found.sort_by_key(|(i, _)| *i);
-        Ok(found.into_iter().map(|(_, p)| p).collect())
+        Ok(found)
     }
 
     /// The points within ∞-distance `halo` of the cube with local centre `center` and
@@ -268,6 +268,18 @@ impl TileStore {
         halo: f64,
         keep: &dyn Fn(DVec3) -> bool,
     ) -> Result<Vec<OrientedPoint>, TileError> {
+        let found = self.gather_box_indexed(center, half, halo, keep)?;
+        Ok(found.into_iter().map(|(_, p)| p).collect())
+    }
+
+    /// [`TileStore::gather_box_where`] with each point's index in the whole input.
+    pub fn gather_box_indexed(
+        &self,
+        center: DVec3,
+        half: f64,
+        halo: f64,
+        keep: &dyn Fn(DVec3) -> bool,
+    ) -> Result<Vec<(u64, OrientedPoint)>, TileError> {
         let frame = self.manifest.frame;
         let reach = half + halo;
         let (lo, hi, fine) = self.keys_around(center + frame.origin, reach);
@@ -298,9 +310,10 @@ impl TileStore {
     /// increasing input index order.
     pub fn gather_ball(&self, center: DVec3, radius: f64) -> Result<Vec<OrientedPoint>, TileError> {
         let (lo, hi, fine) = self.keys_around(center, radius);
-        self.gather_keys(lo, hi, fine, Some((center, radius)), &|p| {
+        let found = self.gather_keys(lo, hi, fine, Some((center, radius)), &|p| {
             (p - center).length() <= radius
-        })
+        })?;
+        Ok(found.into_iter().map(|(_, p)| p).collect())
     }
 }
 

@@ -59,7 +59,8 @@ pub(crate) struct SampleArgs {
     evaluation_floor: bool,
     /// Work out of core within this much memory (e.g. 4GiB, 512MiB): the input streamed into
     /// tile files, the MPU and the particles made tile by tile. The points are used as given
-    /// (with their normals; no outlier search, noise estimate or ceiling on spacing yet).
+    /// (normals estimated and oriented tile by tile where they have none; no outlier search,
+    /// noise threshold, denoising or ceiling on spacing yet).
     #[arg(long, value_parser = psi::parse_memory_size,
         conflicts_with_all = ["count", "uniform", "png", "points_out", "evaluation_floor",
             "per_vertex", "orient_normals", "viewpoint"])]

@@ -41,9 +41,10 @@ pub(crate) struct Request<'a> {
 pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
     let scratch = scratch_dir(req.scratch, req.output)?;
     ui.notice(
-        "--max-memory: the points are used as given: the outlier search, the noise estimate \
-         and the inward-normals check read the whole input and are not done out of core yet; \
-         nor is the ceiling on spacing (--max-spacing) applied",
+        "--max-memory: the points are used as given (points without normals get them \
+         estimated and oriented tile by tile): the outlier search, the noise threshold, \
+         denoising and the inward-normals check are not done out of core yet; nor is the \
+         ceiling on spacing (--max-spacing) applied",
     );
     let options = OutOfCore {
         max_memory: req.max_memory,

@@ -1,0 +1,66 @@
+//! A tile's own points and the points within a halo around it, with their input indices:
+//! what a step that reads each point's nearest neighbours takes per tile (the normals and
+//! their orientation by parts, `psi_preprocess::part_normals`), and whether a ball lies in
+//! what it holds.
+
+use glam::DVec3;
+use psi_octree::OrientedPoint;
+
+use crate::TileError;
+use crate::tile_records::tile_key;
+use crate::tile_store::TileStore;
+
+/// The points of a tile and of its halo, in increasing input index order.
+#[derive(Clone, Debug)]
+pub struct TileWithHalo {
+    /// Input indices (shape: M, ascending).
+    pub ids: Vec<u64>,
+    /// The points (shape: M, world units).
+    pub points: Vec<OrientedPoint>,
+    /// Which are the tile's own (shape: M): every point is one tile's own.
+    pub own: Vec<bool>,
+    /// The held cube: centre (world units) and half-edge (the tile's plus the halo).
+    center: DVec3,
+    reach: f64,
+    /// The held cube covers the root cube: every point of the store is held.
+    all: bool,
+}
+
+impl TileWithHalo {
+    /// Whether every input point within `r` of world position `x` is held (the ball lies in
+    /// the held cube, with a margin for rounding, or the cube holds every point).
+    pub fn holds_ball(&self, x: DVec3, r: f64) -> bool {
+        self.all || (x - self.center).abs().max_element() + r <= self.reach * (1.0 - 1e-12)
+    }
+}
+
+impl TileStore {
+    /// The keys of the store's tiles (files), ascending.
+    pub fn tile_keys(&self) -> Vec<[u32; 3]> {
+        self.manifest().tiles.iter().map(|t| t.key).collect()
+    }
+
+    /// Tile `key`'s points and every point within ∞-distance `halo` (world units) of its cube.
+    pub fn tile_with_halo(&self, key: [u32; 3], halo: f64) -> Result<TileWithHalo, TileError> {
+        let manifest = self.manifest();
+        let (frame, depth) = (manifest.frame, manifest.depth);
+        let half = frame.root_half / f64::from(1u32 << depth);
+        let low = frame.root_center - DVec3::splat(frame.root_half);
+        let k = DVec3::new(f64::from(key[0]), f64::from(key[1]), f64::from(key[2]));
+        let center = low + (2.0 * k + 1.0) * half;
+        let found = self.gather_box_indexed(center, half, halo, &|_| true)?;
+        let own = found
+            .iter()
+            .map(|(_, p)| tile_key(&frame, depth, p.p) == key)
+            .collect();
+        let (ids, points) = found.into_iter().unzip();
+        Ok(TileWithHalo {
+            ids,
+            points,
+            own,
+            center: center + frame.origin,
+            reach: half + halo,
+            all: halo >= 2.0 * frame.root_half,
+        })
+    }
+}
