@@ -257,54 +257,41 @@ fn out_of_core_estimates_missing_normals_bitwise_as_in_core() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// A dense noisy cloud, whose normals are fitted among a coarser subset of its points in core,
-/// is refused out of core with the reason (not yet done there), the output untouched.
+/// Refused without touching the output: four points (too few for an MPU, their normals
+/// estimated first), a dense noisy cloud (its normals are fitted among a coarser subset of its
+/// points in core: not done out of core yet, and said so), sizes that are no sizes.
 #[test]
-fn out_of_core_refuses_positions_whose_noise_asks_for_a_coarser_level() {
+fn out_of_core_refuses_too_few_points_dense_noisy_positions_and_bad_sizes() {
     use psi::shapes::{AnalyticShape, gaussian_vector};
     use rand::SeedableRng;
-    let dir = common::scratch("out-of-core-level");
+    let dir = common::scratch("out-of-core-bad");
+    let xyz = dir.join("plain.xyz");
+    std::fs::write(&xyz, "0 0 0\n1 0 0\n0 1 0\n0 0 1\n").unwrap();
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
-    let positions: Vec<psi::DVec3> = AnalyticShape::Sphere { radius: 1.0 }
+    let noisy: Vec<psi::DVec3> = AnalyticShape::Sphere { radius: 1.0 }
         .sample(20_000, 2)
         .iter()
         .map(|p| p.p + 0.03 * gaussian_vector(&mut rng))
         .collect();
-    let xyz = dir.join("noisy.xyz");
-    write_positions(&xyz, &positions);
+    let noisy_xyz = dir.join("noisy.xyz");
+    write_positions(&noisy_xyz, &noisy);
     let kept = dir.join("kept.ply");
     std::fs::write(&kept, "precious").unwrap();
-    let out = common::psi(&[
-        "sample",
-        xyz.to_str().unwrap(),
-        "--max-memory",
-        "64MiB",
-        "-o",
-        kept.to_str().unwrap(),
-    ]);
-    common::assert_rejected(&out, "noisy.xyz", &kept, "coarser level");
-    assert!(String::from_utf8_lossy(&out.stderr).contains("does not do yet"));
-    std::fs::remove_dir_all(&dir).unwrap();
-}
-
-#[test]
-fn out_of_core_refuses_points_without_normals_and_bad_sizes() {
-    let dir = common::scratch("out-of-core-bad");
-    let xyz = dir.join("plain.xyz");
-    std::fs::write(&xyz, "0 0 0\n1 0 0\n0 1 0\n0 0 1\n").unwrap();
-    let kept = dir.join("kept.ply");
-    std::fs::write(&kept, "precious").unwrap();
-    let out = common::psi(&[
-        "sample",
-        xyz.to_str().unwrap(),
-        "--max-memory",
-        "1GiB",
-        "-o",
-        kept.to_str().unwrap(),
-    ]);
-    // (Positions alone get normals estimated; four points are too few for an MPU.)
-    common::assert_rejected(&out, "plain.xyz", &kept, "too few");
-    assert!(String::from_utf8_lossy(&out.stderr).contains("too few"));
+    for (input, name, why) in [
+        (&xyz, "plain.xyz", "too few"),
+        (&noisy_xyz, "noisy.xyz", "does not do yet"),
+    ] {
+        let out = common::psi(&[
+            "sample",
+            input.to_str().unwrap(),
+            "--max-memory",
+            "64MiB",
+            "-o",
+            kept.to_str().unwrap(),
+        ]);
+        common::assert_rejected(&out, name, &kept, why);
+        assert!(String::from_utf8_lossy(&out.stderr).contains(why), "{name}");
+    }
     for size in ["12XB", "lots", "1MiB"] {
         let out = common::psi(&[
             "sample",

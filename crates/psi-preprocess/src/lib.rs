@@ -44,6 +44,8 @@ mod estimate_noise;
 mod estimate_normals;
 mod find_clumps;
 mod find_outliers;
+#[cfg(test)]
+mod grid_parts;
 mod inward_normals;
 mod local_fit;
 mod median;

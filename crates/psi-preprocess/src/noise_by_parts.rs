@@ -63,6 +63,7 @@ pub fn part_noise_samples(
 mod tests {
     use super::*;
     use crate::estimate_noise::{NoiseEstimate, estimate_noise, noise_by_rounds};
+    use crate::grid_parts::grid_parts;
     use psi_shapes::AnalyticShape;
 
     /// Noisy tori (one with noise that asks for the wide round, one without) on 27 parts:
@@ -83,40 +84,19 @@ mod tests {
                 .map(|p| p.p + relative * spacing * psi_shapes::gaussian_vector(&mut rng))
                 .collect();
             let whole = estimate_noise(&positions);
-            let (lo, hi) = positions
-                .iter()
-                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), &p| {
-                    (l.min(p), h.max(p))
-                });
-            let g = 3;
-            let edge = (hi - lo) / g as f64;
-            let halo = 0.3;
+            let parts = grid_parts(&positions, 3, 0.3);
             let mut rounds = 0;
             let by_parts: Result<(NoiseEstimate, f64), IncompletePart> =
                 noise_by_rounds(positions.len(), |round| {
                     rounds += 1;
                     let mut found = Vec::new();
-                    for c in 0..g * g * g {
-                        let at = DVec3::new((c % g) as f64, (c / g % g) as f64, (c / g / g) as f64);
-                        let (box_lo, box_hi) =
-                            (lo + at * edge - halo, lo + (at + 1.0) * edge + halo);
-                        let ids: Vec<u32> = (0..positions.len() as u32)
-                            .filter(|&i| {
-                                let p = positions[i as usize];
-                                p.cmpge(box_lo).all() && p.cmple(box_hi).all()
-                            })
-                            .collect();
-                        let held: Vec<DVec3> = ids.iter().map(|&i| positions[i as usize]).collect();
-                        let cell = |p: DVec3| {
-                            ((p - lo) / edge)
-                                .floor()
-                                .clamp(DVec3::ZERO, DVec3::splat(2.0))
-                        };
-                        let own: Vec<bool> = held.iter().map(|&p| cell(p) == at).collect();
-                        let complete = |x: DVec3, r: f64| {
-                            (x - r).cmpge(box_lo).all() && (x + r).cmple(box_hi).all()
-                        };
-                        found.extend(part_noise_samples(&held, &ids, &own, &complete, round)?);
+                    for part in &parts {
+                        let held: Vec<DVec3> =
+                            part.ids.iter().map(|&i| positions[i as usize]).collect();
+                        let holds = |x: DVec3, r: f64| part.holds_ball(x, r);
+                        found.extend(part_noise_samples(
+                            &held, &part.ids, &part.own, &holds, round,
+                        )?);
                     }
                     Ok(found)
                 });

@@ -67,6 +67,7 @@ pub fn part_normals(
 mod tests {
     use super::*;
     use crate::estimate_normals::estimate_normals_in;
+    use crate::grid_parts::grid_parts;
     use psi_octree::Monitor;
     use psi_shapes::AnalyticShape;
 
@@ -85,37 +86,20 @@ mod tests {
         .collect();
         let index = MortonIndex::new(&positions);
         let whole = estimate_normals_in(positions.len(), &index, 0, &Monitor::silent());
-        let (lo, hi) = positions
-            .iter()
-            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), &p| {
-                (l.min(p), h.max(p))
-            });
-        let g = 3;
-        let edge = (hi - lo) / g as f64;
-        let cell = |p: DVec3| {
-            ((p - lo) / edge)
-                .floor()
-                .clamp(DVec3::ZERO, DVec3::splat(2.0))
-        };
         for halo in [0.4, 0.02] {
             let mut seen = 0;
             let mut refused = 0;
-            for c in 0..g * g * g {
-                let at = DVec3::new((c % g) as f64, (c / g % g) as f64, (c / g / g) as f64);
-                let (box_lo, box_hi) = (lo + at * edge - halo, lo + (at + 1.0) * edge + halo);
-                let ids: Vec<u32> = (0..positions.len() as u32)
-                    .filter(|&i| {
-                        let p = positions[i as usize];
-                        p.cmpge(box_lo).all() && p.cmple(box_hi).all()
-                    })
-                    .collect();
-                let held: Vec<DVec3> = ids.iter().map(|&i| positions[i as usize]).collect();
-                let own: Vec<bool> = held.iter().map(|&p| cell(p) == at).collect();
-                let complete =
-                    |x: DVec3, r: f64| (x - r).cmpge(box_lo).all() && (x + r).cmple(box_hi).all();
-                match part_normals(&held, &ids, &own, &complete) {
+            for part in grid_parts(&positions, 3, halo) {
+                let held: Vec<DVec3> = part.ids.iter().map(|&i| positions[i as usize]).collect();
+                let holds = |x: DVec3, r: f64| part.holds_ball(x, r);
+                match part_normals(&held, &part.ids, &part.own, &holds) {
                     Ok(normals) => {
-                        let mine = ids.iter().zip(&own).filter(|p| *p.1).map(|p| *p.0);
+                        let mine = part
+                            .ids
+                            .iter()
+                            .zip(&part.own)
+                            .filter(|p| *p.1)
+                            .map(|p| *p.0);
                         for (i, n) in mine.zip(normals) {
                             assert!(
                                 n == whole[i as usize],

@@ -2,6 +2,7 @@
 //! orthogonal pairs, several trees and a second sheet, split into 8 and 27 parts.
 
 use super::*;
+use crate::grid_parts::grid_parts;
 use crate::orient_normals;
 use psi_shapes::AnalyticShape;
 use rand::{RngExt, SeedableRng};
@@ -14,40 +15,14 @@ fn parts_of(
     g: usize,
     halo: f64,
 ) -> Result<Vec<PartEdges>, IncompletePart> {
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for p in points {
-        (lo, hi) = (lo.min(p.p), hi.max(p.p));
-    }
-    let edge = (hi - lo) / g as f64;
-    let cell_of = |p: DVec3| {
-        let c = ((p - lo) / edge).floor();
-        let at = |v: f64| (v.max(0.0) as usize).min(g - 1);
-        (at(c.x), at(c.y), at(c.z))
-    };
-    let mut parts = Vec::new();
-    for cz in 0..g {
-        for cy in 0..g {
-            for cx in 0..g {
-                let low = lo + edge * DVec3::new(cx as f64, cy as f64, cz as f64);
-                let (box_lo, box_hi) = (low - DVec3::splat(halo), low + edge + DVec3::splat(halo));
-                let inside = |p: DVec3| p.cmpge(box_lo).all() && p.cmple(box_hi).all();
-                let ids: Vec<u32> = (0..points.len() as u32)
-                    .filter(|&i| inside(points[i as usize].p))
-                    .collect();
-                let own: Vec<bool> = ids
-                    .iter()
-                    .map(|&i| cell_of(points[i as usize].p) == (cx, cy, cz))
-                    .collect();
-                let held: Vec<OrientedPoint> = ids.iter().map(|&i| points[i as usize]).collect();
-                let complete = |x: DVec3, r: f64| {
-                    (x - DVec3::splat(r)).cmpge(box_lo).all()
-                        && (x + DVec3::splat(r)).cmple(box_hi).all()
-                };
-                parts.push(part_orientation_edges(&held, &ids, &own, &complete)?);
-            }
-        }
-    }
-    Ok(parts)
+    let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+    grid_parts(&positions, g, halo)
+        .iter()
+        .map(|part| {
+            let held: Vec<OrientedPoint> = part.ids.iter().map(|&i| points[i as usize]).collect();
+            part_orientation_edges(&held, &part.ids, &part.own, &|x, r| part.holds_ball(x, r))
+        })
+        .collect()
 }
 
 /// `truth` with every normal's side drawn at random (seeded).
