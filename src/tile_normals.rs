@@ -11,6 +11,7 @@
 //! Not yet: inputs whose noise asks for normals fitted among a coarser subset of the points
 //! (refused, with the reason), and the same stages as a cluster's tasks.
 
+use std::collections::BTreeMap;
 use std::fs::{self, File};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -79,11 +80,15 @@ pub(crate) fn partition_estimating_normals(
         .filter(|&n| n < u32::MAX as usize)
         .ok_or_else(|| fail("too many points for 32-bit indices".into()))?;
     // The level the noise asks for: only level 0 (every point's own neighbourhood) is done.
-    let mut halo = first_halo(store);
+    // Each tile's halo, grown as its points need (a stray point's far neighbours grow its own
+    // tile's only), kept for the next stage over the same tiles.
+    let mut halos: BTreeMap<[u32; 3], f64> = BTreeMap::new();
+    let first = first_halo(store);
     let (noise, reach) = noise_by_rounds(n, |round: NoiseRound| {
         let mut found = Vec::new();
         for key in store.tile_keys() {
-            let (tile, fits) = by_tile(store, key, &mut halo, |t, ids, holds| {
+            let halo = halos.entry(key).or_insert(first);
+            let (tile, fits) = by_tile(store, key, halo, |t, ids, holds| {
                 let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
                 part_noise_samples(&positions, ids, &t.own, holds, round)
             })
@@ -113,7 +118,8 @@ pub(crate) fn partition_estimating_normals(
         file.set_len(n as u64 * NORMAL_BYTES)
             .map_err(|e| fail(io_reason(&partial, &e)))?;
         for key in store.tile_keys() {
-            let (tile, normals) = by_tile(store, key, &mut halo, |t, ids, holds| {
+            let halo = halos.entry(key).or_insert(first);
+            let (tile, normals) = by_tile(store, key, halo, |t, ids, holds| {
                 let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
                 part_normals(&positions, ids, &t.own, holds)
             })
@@ -160,7 +166,9 @@ pub(crate) fn partition_estimating_normals(
     let kept = estimated.points as usize;
     let mut parts: Vec<PartEdges> = Vec::new();
     let (mut x, mut x_negative) = (vec![0.0; kept], vec![false; kept]);
+    let first = first_halo(&estimated.store);
     for key in estimated.store.tile_keys() {
+        let mut halo = first;
         let (tile, edges) = by_tile(&estimated.store, key, &mut halo, |t, ids, holds| {
             part_orientation_edges(&t.points, ids, &t.own, holds)
         })
@@ -219,8 +227,8 @@ fn at_stage<T>(
     Ok(out)
 }
 
-/// A first halo for the stores' tiles: an eighth of a tile's edge (world units); it grows to
-/// what a tile's points need.
+/// A first halo for the stores' tiles: an eighth of a tile's edge (world units); each tile's
+/// grows to what its points need.
 fn first_halo(store: &TileStore) -> f64 {
     let m = store.manifest();
     m.frame.root_half / f64::from(1u32 << m.depth) / 4.0

@@ -113,7 +113,7 @@ def test_positions_alone_are_refused_on_a_cluster_with_the_reason(client, tmp_pa
     # Normals are estimated tile by tile on one machine (``psi.sample_files``) only, yet.
     plain = tmp_path / "plain.xyz"
     pts = psi.builtin_model(2_000).points
-    plain.write_text("".join(f"{p[0]!r} {p[1]!r} {p[2]!r}\n" for p in pts))
+    plain.write_text("".join(" ".join(repr(float(v)) for v in p) + "\n" for p in pts))
     with pytest.raises(ValueError, match="on a cluster takes oriented points"):
         psi.distributed.sample_files(plain, tmp_path / "x.ply", client=client,
                                      max_memory="64MiB")
