@@ -60,7 +60,8 @@ pub use out_of_core::{
     sample_files_out_of_core,
 };
 pub use partition::{
-    Partition, PartitionStart, partition_assemble, partition_files, partition_part, partition_start,
+    Partition, PartitionStart, has_normals, partition_assemble, partition_files, partition_part,
+    partition_start,
 };
 pub use prepare::{
     ERROR_RANK_POINTS, PreparedInput, RANKED_NOISE, builtin_file, builtin_file_with, prepare_input,
@@ -76,3 +77,4 @@ pub use psi_particles::{
 };
 pub use psi_shapes::{AnalyticShape, builtin_model};
 pub use render::{render_particles_png, save_png};
+pub use tile_normals::partition_estimating_normals;

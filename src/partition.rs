@@ -74,9 +74,8 @@ fn for_each_points(
     check_not_dir(path)?;
     let no_normals = || PsiError::OutOfCore {
         path: path.to_path_buf(),
-        reason: "has no normals: a run out of core on a cluster takes oriented points \
-                 (normals are estimated tile by tile on one machine, `psi sample --max-memory` \
-                 or `psi.sample_files`)"
+        reason: "has no normals, where the input's first file has them: the files of one \
+                 input have normals or none"
             .into(),
     };
     // The points at `positions` (input indices from `at`) with the normals the mode gives
@@ -184,7 +183,11 @@ fn for_each_points(
 
 /// Whether the file at `path` (read as `format`, or as its extension says) has normals: its
 /// first chunk's, for a streamed file; a file read whole is read.
-pub(crate) fn has_normals(path: &Path, format: Option<Format>) -> Result<bool, PsiError> {
+///
+/// # Errors
+///
+/// [`PsiError::Open`] / [`PsiError::Read`] for the file.
+pub fn has_normals(path: &Path, format: Option<Format>) -> Result<bool, PsiError> {
     check_not_dir(path)?;
     let format = format.or_else(|| extension_format(path));
     if let Some(format) = format {

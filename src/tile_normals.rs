@@ -9,7 +9,8 @@
 //! removed once it is written. Notes: `docs/notes/2026-12-03-orientation-by-parts.md`.
 //!
 //! Not yet: inputs whose noise asks for normals fitted among a coarser subset of the points
-//! (refused, with the reason), and the same stages as a cluster's tasks.
+//! (refused, with the reason), and the stages as a cluster's tasks per tile (a cluster runs
+//! them as one task).
 
 use std::collections::BTreeMap;
 use std::fs::{self, File};
@@ -37,14 +38,17 @@ const NORMAL_BYTES: u64 = 24;
 /// in input order).
 const WINDOW: u64 = 1 << 16;
 
-/// The store of `paths`' points with normals estimated and oriented tile by tile, in
-/// `options.scratch/tiles` (found there when an earlier run wrote it for the same files).
+/// The store of `paths`' points (files without normals, read as `format` or as their
+/// extensions say) with normals estimated and oriented tile by tile, in `options.scratch/tiles`
+/// (found there when an earlier run wrote it for the same files), where the decisions of
+/// [`crate::sample_files_out_of_core`] read it; on a cluster, one task
+/// (`psi.distributed.sample_files`).
 ///
 /// # Errors
 ///
 /// [`PsiError::OutOfCore`] naming the first file: a scratch file fails, the input's noise asks
 /// for a coarser level, or its points are too many for 32-bit indices; the partition's errors.
-pub(crate) fn partition_estimating_normals(
+pub fn partition_estimating_normals(
     paths: &[PathBuf],
     format: Option<Format>,
     mpu_params: &MpuParams,

@@ -286,6 +286,36 @@ fn partition_task<T: Send>(
         .map_err(|e| psi_error(py, e, Some("sampling out of core")))
 }
 
+/// Task of `psi.distributed.sample_files` (not API): for inputs without normals (the first
+/// file's tell), the store with normals estimated and oriented tile by tile, written in
+/// `scratch` as `psi sample --max-memory` writes it (the whole stage in this task, on its
+/// threads), or found there; returns whether it did (the partition's tasks are then skipped).
+#[pyfunction]
+#[pyo3(signature = (inputs, max_memory, scratch, mpu_error=None, threads=None))]
+pub(crate) fn _ooc_estimate_normals(
+    py: Python<'_>,
+    inputs: &Bound<'_, PyAny>,
+    max_memory: &Bound<'_, PyAny>,
+    scratch: PathBuf,
+    mpu_error: Option<f64>,
+    threads: Option<i128>,
+) -> PyResult<bool> {
+    let inputs = inputs_arg(inputs)?;
+    let options = partition_options(max_memory, scratch)?;
+    let params = mpu_params(mpu_error)?;
+    partition_task(py, threads, move || {
+        let Some(first) = inputs.first() else {
+            return Ok(false);
+        };
+        if psi::has_normals(first, None)? {
+            return Ok(false);
+        }
+        let silent = psi::octree::Monitor::silent();
+        psi::partition_estimating_normals(&inputs, None, &params, &options, &silent)?;
+        Ok(true)
+    })
+}
+
 /// Task of `psi.distributed.sample_files` (not API): the first pass over the inputs, the
 /// store's plan written in `scratch`; returns the point count, or `None` when the store of an
 /// earlier run on the same inputs was found there (nothing to write).

@@ -109,15 +109,18 @@ print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
     not (sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc"),
     reason="the allocator tuning is for glibc",
 )
-def test_positions_alone_are_refused_on_a_cluster_with_the_reason(client, tmp_path):
-    # Normals are estimated tile by tile on one machine (``psi.sample_files``) only, yet.
+def test_positions_alone_get_the_clis_normals_and_particles_on_the_cluster(cli, client,
+                                                                          tmp_path):
+    # Normals estimated and oriented tile by tile (one task), then the tasks as ever.
     plain = tmp_path / "plain.xyz"
-    pts = psi.builtin_model(2_000).points
+    pts = psi.builtin_model(20_000).points
     plain.write_text("".join(" ".join(repr(float(v)) for v in p) + "\n" for p in pts))
-    with pytest.raises(ValueError, match="on a cluster takes oriented points"):
-        psi.distributed.sample_files(plain, tmp_path / "x.ply", client=client,
-                                     max_memory="64MiB")
-    assert not (tmp_path / "x.ply").exists()
+    report = psi.distributed.sample_files(plain, tmp_path / "dask.ply", client=client,
+                                          max_memory="64MiB", scratch=tmp_path / "s1")
+    run_cli(cli, "sample", plain, "--max-memory", "64MiB", "-o", tmp_path / "cli.ply",
+            "--scratch", tmp_path / "s2")
+    assert report["tiles"]["preprocessing"].startswith("normals estimated")
+    assert (tmp_path / "dask.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
 
 
 def test_tasks_undo_the_mmap_threshold_dasks_worker_environment_fixes():

@@ -116,7 +116,12 @@ def sample_files(
         # The partition: a first pass (the frame and the count), then the tile files written
         # in parts side by side, each streaming the whole input and keeping its own tiles (the
         # files' bytes do not depend on the number of parts), then the manifest.
-        points = submit(
+        # Inputs without normals: their normals estimated and oriented tile by tile, the whole
+        # stage one task (the store it writes is the partition's), else the partition's tasks.
+        estimated = submit(
+            _psi._ooc_estimate_normals, paths, max_memory, scratch_dir, mpu_error, threads
+        ).result()
+        points = None if estimated else submit(
             _psi._ooc_partition_start, paths, max_memory, scratch_dir, mpu_error, threads
         ).result()
         if points is not None:
