@@ -34,6 +34,11 @@ use crate::partition::{Normals, Partition, failure, partition_with};
 /// Bytes of a normal in `normals.bin` (three little-endian f64).
 const NORMAL_BYTES: u64 = 24;
 
+/// Bytes a point the orientation's join holds at once (all points together): its sets (the
+/// trees, the sides and their parities, the islands, their sizes, the seeds, the pieces: 23),
+/// x and the side of n.x (9), the flips (1), the parts' forests and same-sheet links (up to 32).
+const JOIN_BYTES: u64 = 65;
+
 /// Normals read from `normals.bin` in windows of this many points (the partition reads them
 /// in input order).
 const WINDOW: u64 = 1 << 16;
@@ -83,6 +88,18 @@ pub fn partition_estimating_normals(
         .ok()
         .filter(|&n| n < u32::MAX as usize)
         .ok_or_else(|| fail("too many points for 32-bit indices".into()))?;
+    // The join holds every point at once: refused up front when that does not fit.
+    let join = bare.points.saturating_mul(JOIN_BYTES);
+    if join > options.max_memory {
+        return Err(fail(format!(
+            "its {} points have no normals, and orienting the normals joins them all at once: \
+             about {} MiB, more than the {} MiB of --max-memory; give more, or give the points \
+             with normals",
+            bare.points,
+            join.div_ceil(1 << 20),
+            options.max_memory >> 20
+        )));
+    }
     // The level the noise asks for: only level 0 (every point's own neighbourhood) is done.
     // Each tile's halo, grown as its points need (a stray point's far neighbours grow its own
     // tile's only), kept for the next stage over the same tiles.

@@ -23,6 +23,7 @@
 //! the largest x of that island.
 
 use std::cmp::Reverse;
+use std::collections::BinaryHeap;
 
 use glam::DVec3;
 use psi_octree::{MortonIndex, OrientedPoint};
@@ -69,7 +70,7 @@ impl OrientEdge {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PartEdges {
     /// The part's own maximum spanning forest: the edges between two of its own points that its
-    /// Kruskal kept.
+    /// Kruskal kept, in the order it kept them (Kruskal's, [`OrientEdge::kruskal_key`]).
     pub forest: Vec<OrientEdge>,
     /// Edges from its own points to points of other parts, as seen from this part's end (the
     /// other part sees the same pair from its end when the pair is among its nearest too).
@@ -422,10 +423,23 @@ pub fn orientation_flips(
     for &(a, b) in parts.iter().flat_map(|p| &p.same_links) {
         join.link_same(a, b);
     }
-    edges.extend(parts.iter().flat_map(|p| p.forest.iter().copied()));
     edges.par_sort_unstable_by_key(|e| e.kruskal_key());
-    for e in edges {
-        join.offer(e);
+    // Each part's forest is in Kruskal's order already (kept as its Kruskal met them): merged
+    // with the edges across, none copied.
+    let mut runs: Vec<&[OrientEdge]> = parts.iter().map(|p| p.forest.as_slice()).collect();
+    runs.push(&edges);
+    let mut heads: BinaryHeap<Reverse<((u64, u64), usize)>> = runs
+        .iter()
+        .enumerate()
+        .filter_map(|(r, run)| run.first().map(|e| Reverse((e.kruskal_key(), r))))
+        .collect();
+    let mut at = vec![0usize; runs.len()];
+    while let Some(Reverse((_, r))) = heads.pop() {
+        join.offer(runs[r][at[r]]);
+        at[r] += 1;
+        if let Some(e) = runs[r].get(at[r]) {
+            heads.push(Reverse((e.kruskal_key(), r)));
+        }
     }
     join.flips(x, x_negative)
 }
