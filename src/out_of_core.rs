@@ -76,6 +76,20 @@ pub fn sample_files_out_of_core(
         reason: "no input files given".into(),
     })?;
     let normals_estimated = !has_normals(first, format)?;
+    // The files of one input have normals or none.
+    for path in &paths[1..] {
+        if has_normals(path, format)? == normals_estimated {
+            return Err(PsiError::OutOfCore {
+                path: path.clone(),
+                reason: format!(
+                    "has {}normals where the input's first file has {}: the files of one input \
+                     have normals or none",
+                    if normals_estimated { "" } else { "no " },
+                    if normals_estimated { "none" } else { "them" }
+                ),
+            });
+        }
+    }
     let part = if !normals_estimated {
         partition_files(paths, format, mpu_params, options, monitor)?
     } else {

@@ -169,6 +169,9 @@ fn for_each_points(
                 }
                 return Ok((read, file.dropped_points as u64));
             }
+            // (The points the reader kept: an input's files have normals or none, so a file
+            // read here has none and dropped nothing.)
+            let read = file.points.len() as u64;
             let positions: Vec<DVec3> = file.points.iter().map(|p| p.p).collect();
             let mut dropped = 0;
             for (c, chunk) in positions.chunks(CHUNK).enumerate() {

@@ -68,11 +68,27 @@ pub fn partition_estimating_normals(
         normals: &no_normals,
         flips: Some(&[]),
     };
+    let positions_dir = scratch.join("positions");
+    let estimated_dir = scratch.join("estimated");
+    let normals_path = scratch.join("normals.bin");
+    // The stages' files, once the final store is whole (also those a run stopped between the
+    // two left).
+    let clean_up = || -> Result<(), PsiError> {
+        for dir in [&positions_dir, &estimated_dir] {
+            if dir.exists() {
+                fs::remove_dir_all(dir).map_err(|e| fail(io_reason(dir, &e)))?;
+            }
+        }
+        if normals_path.exists() {
+            fs::remove_file(&normals_path).map_err(|e| fail(io_reason(&normals_path, &e)))?;
+        }
+        Ok(())
+    };
     if let Some(found) = crate::partition::found(paths, options, &final_dir, placeholder)? {
+        clean_up()?;
         return Ok(found);
     }
     // The positions, every point with a zero normal.
-    let positions_dir = scratch.join("positions");
     let bare = at_stage(monitor, "positions", || {
         partition_with(
             paths,
@@ -84,6 +100,11 @@ pub fn partition_estimating_normals(
         )
     })?;
     let store = &bare.store;
+    // Normals of another input (an earlier run's, left in this scratch directory) never serve:
+    // a positions store written afresh writes them afresh.
+    if !bare.resumed && normals_path.exists() {
+        fs::remove_file(&normals_path).map_err(|e| fail(io_reason(&normals_path, &e)))?;
+    }
     let n = usize::try_from(bare.points)
         .ok()
         .filter(|&n| n < u32::MAX as usize)
@@ -132,7 +153,6 @@ pub fn partition_estimating_normals(
         )));
     }
     // The normals by input index.
-    let normals_path = scratch.join("normals.bin");
     if fs::metadata(&normals_path).map(|m| m.len()).ok() != Some(n as u64 * NORMAL_BYTES) {
         let partial = scratch.join("normals.bin.partial");
         let file = File::create(&partial).map_err(|e| fail(io_reason(&partial, &e)))?;
@@ -169,7 +189,6 @@ pub fn partition_estimating_normals(
     let read = |i: u64| reader.get(i);
     // The points with their estimated normals (none dropped where no plane was found), then
     // their sides from the parts' edges.
-    let estimated_dir = scratch.join("estimated");
     let estimated = at_stage(monitor, "normals", || {
         let normals = Normals::Estimated {
             normals: &read,
@@ -226,10 +245,7 @@ pub fn partition_estimating_normals(
         )
     })?;
     drop(reader);
-    for dir in [&positions_dir, &estimated_dir] {
-        fs::remove_dir_all(dir).map_err(|e| fail(io_reason(dir, &e)))?;
-    }
-    fs::remove_file(&normals_path).map_err(|e| fail(io_reason(&normals_path, &e)))?;
+    clean_up()?;
     Ok(Partition {
         dropped: estimated.dropped,
         ..oriented
@@ -257,7 +273,7 @@ fn first_halo(store: &TileStore) -> f64 {
 
 /// `f` on tile `key` of `store` with its halo (its input indices as 32 bits, and whether a ball
 /// lies in what it holds), the halo grown and the tile gathered again while `f` cannot certify
-/// its points; the tile and `f`'s result.
+/// its points; the tile and `f`'s result, or why the store could not be read.
 fn by_tile<T>(
     store: &TileStore,
     key: [u32; 3],
@@ -272,15 +288,12 @@ fn by_tile<T>(
         let holds = |x: DVec3, r: f64| tile.holds_ball(x, r);
         match f(&tile, &ids, &holds) {
             Ok(out) => return Ok((tile, out)),
-            // Fewer points held than a point's neighbours: twice the halo, up to all points.
+            // Fewer points held than a point's neighbours: twice the halo. Else the reach the
+            // refused point needs (or half as much again, should rounding on the held cube's
+            // face refuse it at that reach). The halo grows geometrically until the held cube
+            // holds every point, which certifies any part: the loop ends.
             Err(e) if e.reach.is_infinite() => *halo *= 2.0,
-            Err(e) if e.reach > *halo => *halo = 1.01 * e.reach,
-            Err(e) => {
-                return Err(format!(
-                    "tile {key:?}: point {}'s {} nearest reach {} within a halo of {}",
-                    e.id, e.neighbours, e.reach, *halo
-                ));
-            }
+            Err(e) => *halo = (1.01 * e.reach).max(1.5 * *halo),
         }
     }
 }

@@ -277,6 +277,19 @@ fn out_of_core_refuses_too_few_points_dense_noisy_positions_and_bad_sizes() {
     write_positions(&noisy_xyz, &noisy);
     let kept = dir.join("kept.ply");
     std::fs::write(&kept, "precious").unwrap();
+    // Estimating normals out of core cannot be turned off (the in-core flag would refuse
+    // positions alone): the parser says so.
+    let out = common::psi(&[
+        "sample",
+        noisy_xyz.to_str().unwrap(),
+        "--max-memory",
+        "64MiB",
+        "--no-normal-estimation",
+        "-o",
+        kept.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot be used with"));
     for (input, name, why) in [
         (&xyz, "plain.xyz", "too few"),
         (&noisy_xyz, "noisy.xyz", "does not do yet"),

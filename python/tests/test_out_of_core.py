@@ -67,6 +67,13 @@ def test_positions_alone_get_their_normals_tile_by_tile_as_the_cli_does(cli, tmp
     assert one["input"]["points"] == two["input"]["points"]
     assert (tmp_path / "one.ply").read_bytes() == (tmp_path / "two.ply").read_bytes()
     assert (tmp_path / "one.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
+    # Files with normals and without, as one input: refused, naming the odd file.
+    ps = psi.builtin_model(2_000)
+    oriented = tmp_path / "oriented.xyz"
+    write_xyz(oriented, np.asarray(ps.points), np.asarray(ps.normals))
+    with pytest.raises(ValueError, match="oriented.xyz: has normals where the input's first"):
+        psi.sample_files([a, oriented], tmp_path / "mixed.ply", max_memory="64MiB")
+    assert not (tmp_path / "mixed.ply").exists()
 
 
 def test_bad_sizes_and_too_few_points_are_refused_as_the_cli_refuses_them(cli, tmp_path):

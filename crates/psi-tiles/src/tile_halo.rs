@@ -19,18 +19,24 @@ pub struct TileWithHalo {
     pub points: Vec<OrientedPoint>,
     /// Which are the tile's own (shape: M): every point is one tile's own.
     pub own: Vec<bool>,
-    /// The held cube: centre (world units) and half-edge (the tile's plus the halo).
+    /// The held cube: the frame's origin and the cube's centre in the local frame, its
+    /// half-edge (the tile's plus the halo), and a slack for rounding (world units).
+    origin: DVec3,
     center: DVec3,
     reach: f64,
+    slack: f64,
     /// The held cube covers the root cube: every point of the store is held.
     all: bool,
 }
 
 impl TileWithHalo {
     /// Whether every input point within `r` of world position `x` is held (the ball lies in
-    /// the held cube, with a margin for rounding, or the cube holds every point).
+    /// the held cube, with a slack for rounding, or the cube holds every point).
     pub fn holds_ball(&self, x: DVec3, r: f64) -> bool {
-        self.all || (x - self.center).abs().max_element() + r <= self.reach * (1.0 - 1e-12)
+        // As the gather measures a point against the cube (local frame), with a slack for the
+        // rounding of both (large coordinates far from the origin included).
+        self.all
+            || (x - self.origin - self.center).abs().max_element() + r + self.slack <= self.reach
     }
 }
 
@@ -54,12 +60,16 @@ impl TileStore {
             .map(|(_, p)| tile_key(&frame, depth, p.p) == key)
             .collect();
         let (ids, points) = found.into_iter().unzip();
+        let reach = half + halo;
+        let scale = frame.origin.abs().max_element() + center.abs().max_element() + reach;
         Ok(TileWithHalo {
             ids,
             points,
             own,
-            center: center + frame.origin,
-            reach: half + halo,
+            origin: frame.origin,
+            center,
+            reach,
+            slack: 1e-12 * reach + 16.0 * f64::EPSILON * scale,
             all: halo >= 2.0 * frame.root_half,
         })
     }

@@ -63,7 +63,7 @@ pub(crate) struct SampleArgs {
     /// noise threshold, denoising or ceiling on spacing yet).
     #[arg(long, value_parser = psi::parse_memory_size,
         conflicts_with_all = ["count", "uniform", "png", "points_out", "evaluation_floor",
-            "per_vertex", "orient_normals", "viewpoint"])]
+            "per_vertex", "orient_normals", "viewpoint", "no_normal_estimation"])]
     max_memory: Option<u64>,
     /// Where the tile files of --max-memory go (default: `<output>.psi-scratch` beside the
     /// output); a run finds the files of an earlier run on the same input there and resumes.
