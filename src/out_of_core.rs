@@ -55,7 +55,8 @@ pub struct OutOfCoreRun {
 /// points, and particles with `particle_params` (k per leaf: the in-core seeds and count;
 /// seeded tile by tile, then relaxed at once). Tile files go to `options.scratch`; a run that finds
 /// the files of an earlier run on the same file there resumes from them. Progress: stages
-/// `"read"`, `"tiles"`, `"sample tiles"`.
+/// `"read"`, `"tiles"`, `"sample tiles"` (and, for points without normals, first the stages of
+/// `tile_normals.rs`).
 ///
 /// # Errors
 ///

@@ -6,7 +6,9 @@
 //! run on the same input: the positions (`positions/`), the estimated normals by input index
 //! (`normals.bin`, renamed into place once whole), the points with their unoriented normals
 //! (`estimated/`), and the final store (`tiles/`, the normals oriented); the first three are
-//! removed once it is written. Notes: `docs/notes/2026-12-03-orientation-by-parts.md`.
+//! removed once it is written. Progress: stages `"positions"`, `"noise"`, `"planes"`,
+//! `"normals"`, `"sides"`, `"orient"` (tiles done of tiles, where by tile). Notes:
+//! `docs/notes/2026-12-03-orientation-by-parts.md`.
 //!
 //! Not yet: inputs whose noise asks for normals fitted among a coarser subset of the points
 //! (refused, with the reason), and the stages as a cluster's tasks per tile (a cluster runs
@@ -126,9 +128,11 @@ pub fn partition_estimating_normals(
     // tile's only), kept for the next stage over the same tiles.
     let mut halos: BTreeMap<[u32; 3], f64> = BTreeMap::new();
     let first = first_halo(store);
+    let keys = store.tile_keys();
     let (noise, reach) = noise_by_rounds(n, |round: NoiseRound| {
         let mut found = Vec::new();
-        for key in store.tile_keys() {
+        for (done, &key) in keys.iter().enumerate() {
+            monitor.report("noise", done as u64, keys.len() as u64);
             let halo = halos.entry(key).or_insert(first);
             let (tile, fits) = by_tile(store, key, halo, |t, ids, holds| {
                 let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
@@ -158,7 +162,8 @@ pub fn partition_estimating_normals(
         let file = File::create(&partial).map_err(|e| fail(io_reason(&partial, &e)))?;
         file.set_len(n as u64 * NORMAL_BYTES)
             .map_err(|e| fail(io_reason(&partial, &e)))?;
-        for key in store.tile_keys() {
+        for (done, &key) in keys.iter().enumerate() {
+            monitor.report("planes", done as u64, keys.len() as u64);
             let halo = halos.entry(key).or_insert(first);
             let (tile, normals) = by_tile(store, key, halo, |t, ids, holds| {
                 let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
@@ -207,7 +212,9 @@ pub fn partition_estimating_normals(
     let mut parts: Vec<PartEdges> = Vec::new();
     let (mut x, mut x_negative) = (vec![0.0; kept], vec![false; kept]);
     let first = first_halo(&estimated.store);
-    for key in estimated.store.tile_keys() {
+    let keys = estimated.store.tile_keys();
+    for (done, &key) in keys.iter().enumerate() {
+        monitor.report("sides", done as u64, keys.len() as u64);
         let mut halo = first;
         let (tile, edges) = by_tile(&estimated.store, key, &mut halo, |t, ids, holds| {
             part_orientation_edges(&t.points, ids, &t.own, holds)

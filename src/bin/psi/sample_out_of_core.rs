@@ -84,7 +84,7 @@ pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
         psi::save_json(path, &report)?;
     }
     ui.summary(&format!(
-        "{}: {} points in {} tiles (depth {}): {} cells, {} particles; read {:.2} s, MPU {:.2} s, particles {:.2} s{}",
+        "{}: {} points in {} tiles (depth {}): {} cells, {} particles; read {:.2} s{}, MPU {:.2} s, particles {:.2} s{}",
         req.input.display(),
         run.points,
         run.tiles.count,
@@ -92,6 +92,11 @@ pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
         run.tiles.cells,
         run.particles.len(),
         run.seconds[0],
+        if run.normals_estimated {
+            " (normals estimated and oriented tile by tile)"
+        } else {
+            ""
+        },
         run.seconds[1],
         run.seconds[2],
         req.output
