@@ -116,11 +116,13 @@ pub fn part_orientation_edges(
     // Ties among neighbours go to the lower local index, which is the lower global index.
     let index = MortonIndex::new(&positions);
     let slot_ids = index.ids();
-    // Per own point (by slot): its pairs as (local other, same from its end), or its reach.
-    let rows: Vec<Result<Vec<(u32, bool)>, IncompletePart>> = index.map_nearest(K, |s, near| {
+    // Per own point (by slot): up to K pairs (local others, `u32::MAX` past the last) and which
+    // are on its sheet from its end (bits), or its reach; fixed arrays, no allocation a point.
+    let rows: Vec<Result<([u32; K], u8), IncompletePart>> = index.map_nearest(K, |s, near| {
+        let (mut to, mut same) = ([u32::MAX; K], 0u8);
         let i = slot_ids[s] as usize;
         if !own[i] {
-            return Ok(Vec::new());
+            return Ok((to, same));
         }
         let p = &points[i];
         let reach = if near.len() < K {
@@ -135,23 +137,23 @@ pub fn part_orientation_edges(
                 reach,
             });
         }
-        Ok(near
-            .iter()
-            .filter(|n| n.1 > 0.0)
-            .map(|&(t, d2)| {
-                let q = &points[slot_ids[t as usize] as usize];
-                let same = p.n.dot(q.p - p.p).abs() <= 0.5 * d2.sqrt();
-                (slot_ids[t as usize], same)
-            })
-            .collect())
+        for (k, &(t, d2)) in near.iter().filter(|n| n.1 > 0.0).enumerate() {
+            let q = &points[slot_ids[t as usize] as usize];
+            to[k] = slot_ids[t as usize];
+            if p.n.dot(q.p - p.p).abs() <= 0.5 * d2.sqrt() {
+                same |= 1 << k;
+            }
+        }
+        Ok((to, same))
     });
     let rows = certified(rows)?;
     // Directed pairs (local ends), then each undirected pair once, same-sheet from either end.
     let mut inner: Vec<(u32, u32, bool)> = Vec::new();
     let mut across: Vec<OrientEdge> = Vec::new();
-    for (s, row) in rows.into_iter().enumerate() {
+    for (s, (to, same_bits)) in rows.into_iter().enumerate() {
         let a = slot_ids[s];
-        for (b, same) in row {
+        for (k, &b) in to.iter().enumerate().take_while(|(_, b)| **b != u32::MAX) {
+            let same = same_bits >> k & 1 == 1;
             if own[b as usize] {
                 inner.push((a.min(b), a.max(b), same));
             } else {
@@ -212,7 +214,7 @@ pub(crate) fn certified<T>(rows: Vec<Result<T, IncompletePart>>) -> Result<Vec<T
 }
 
 /// Union-find with parities: each member's side relative to its set's root (union by the
-/// smaller root, path halving keeps the parities).
+/// smaller root; a lookup points the path at the root, each member with its parity to it).
 struct SidedSets {
     parent: Vec<u32>,
     /// Whether the member's side is the opposite of its parent's.
@@ -229,21 +231,23 @@ impl SidedSets {
 
     /// The root of `i` and whether `i`'s side is the opposite of the root's.
     fn root(&mut self, i: u32) -> (u32, bool) {
-        // Parities along the path, then the path pointed at the root.
-        let mut path = Vec::new();
-        let mut at = i;
+        // The root and i's parity to it, then each member of the path pointed at the root with
+        // its own parity (i's, less the flips passed).
+        let (mut at, mut parity) = (i, false);
         while self.parent[at as usize] != at {
-            path.push(at);
+            parity ^= self.flip[at as usize];
             at = self.parent[at as usize];
         }
         let root = at;
-        let mut above = false;
-        for &m in path.iter().rev() {
-            above ^= self.flip[m as usize];
-            self.flip[m as usize] = above;
-            self.parent[m as usize] = root;
+        let (mut at, mut own) = (i, parity);
+        while at != root {
+            let (next, step) = (self.parent[at as usize], self.flip[at as usize]);
+            self.parent[at as usize] = root;
+            self.flip[at as usize] = own;
+            own ^= step;
+            at = next;
         }
-        (root, self.flip[i as usize] && i != root)
+        (root, parity)
     }
 
     /// Joins the sets of `a` and `b` so that b's side is a's, or its opposite when `opposed`.
