@@ -47,15 +47,62 @@ pub(crate) enum Normals<'a> {
     },
 }
 
+/// The kind of store a partition writes, by where its normals come from: a store's source
+/// records it beside the input's files, so a run finds its own store.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum StoreKind {
+    /// The input's own normals.
+    Given,
+    /// Positions alone ([`Normals::Zero`]).
+    Positions,
+    /// Estimated normals, unoriented.
+    Estimated,
+    /// Estimated normals, oriented.
+    Oriented,
+}
+
 impl Normals<'_> {
-    /// What the store's source records of this mode (a run finds its own store by it).
-    fn tag(&self) -> &'static str {
+    /// The kind of store these normals make.
+    fn kind(&self) -> StoreKind {
         match self {
-            Normals::Given => "",
-            Normals::Zero => "positions of ",
-            Normals::Estimated { flips: None, .. } => "estimated normals of ",
-            Normals::Estimated { flips: Some(_), .. } => "oriented normals of ",
+            Normals::Given => StoreKind::Given,
+            Normals::Zero => StoreKind::Positions,
+            Normals::Estimated { flips: None, .. } => StoreKind::Estimated,
+            Normals::Estimated { flips: Some(_), .. } => StoreKind::Oriented,
         }
+    }
+}
+
+/// What a store of kind `kind` of the files at `paths` records as its source.
+fn store_source(paths: &[PathBuf], kind: StoreKind) -> Result<String, PsiError> {
+    let tag = match kind {
+        StoreKind::Given => "",
+        StoreKind::Positions => "positions of ",
+        StoreKind::Estimated => "estimated normals of ",
+        StoreKind::Oriented => "oriented normals of ",
+    };
+    Ok(format!("{tag}{}", sources_of(paths)?))
+}
+
+/// The file at `path` (read as `format`, or as its extension says) as a stream of points when
+/// it streams (the scanner formats, XYZ, a PLY point cloud); `None` for a file read whole (a
+/// PLY mesh, whose faces need every vertex; OBJ; an unknown format).
+fn stream_of(
+    path: &Path,
+    format: Option<Format>,
+) -> Result<Option<PointStream<BufReader<fs::File>>>, PsiError> {
+    check_not_dir(path)?;
+    let Some(format) = format.or_else(|| extension_format(path)) else {
+        return Ok(None);
+    };
+    if format != Format::Ply && !format.is_streamed() && format != Format::Xyz {
+        return Ok(None);
+    }
+    let file = fs::File::open(path).map_err(|e| open_error(path, e))?;
+    match PointStream::open(BufReader::new(file), format) {
+        Ok(stream) => Ok(Some(stream)),
+        Err(_) if format == Format::Ply => Ok(None),
+        Err(e) => Err(read_error(path)(e)),
     }
 }
 
@@ -71,7 +118,6 @@ fn for_each_points(
     (first, kept): (u64, u64),
     mut visit: impl FnMut(&[OrientedPoint]) -> Result<(), PsiError>,
 ) -> Result<(u64, u64), PsiError> {
-    check_not_dir(path)?;
     let no_normals = || PsiError::OutOfCore {
         path: path.to_path_buf(),
         reason: "has no normals, where the input's first file has them: the files of one \
@@ -111,21 +157,8 @@ fn for_each_points(
         let dropped = positions.len() - out.len();
         Ok((out, dropped as u64))
     };
-    let format = format.or_else(|| extension_format(path));
-    // A PLY point cloud streams; a PLY mesh (its faces need every vertex) is read whole.
-    let streams = match format {
-        Some(Format::Ply) => {
-            let file = fs::File::open(path).map_err(|e| open_error(path, e))?;
-            PointStream::open(BufReader::new(file), Format::Ply).is_ok()
-        }
-        Some(f) => f.is_streamed() || f == Format::Xyz,
-        None => false,
-    };
-    match format {
-        Some(format) if streams => {
-            let file = fs::File::open(path).map_err(|e| open_error(path, e))?;
-            let stream =
-                PointStream::open(BufReader::new(file), format).map_err(read_error(path))?;
+    match stream_of(path, format)? {
+        Some(stream) => {
             let (mut read, mut dropped) = (0u64, 0u64);
             let mut failure = None;
             stream
@@ -156,18 +189,17 @@ fn for_each_points(
                 .map_err(read_error(path))?;
             failure.map_or(Ok((read, dropped)), Err)
         }
-        _ => {
+        None => {
             let file = crate::load_points_as(path, format, &ReadOptions::paper())?;
-            let missing = file.normals == psi_io::NormalSource::Missing;
-            let read = (file.points.len() + file.dropped_points) as u64;
             if matches!(normals, Normals::Given) {
-                if missing {
+                if file.normals == psi_io::NormalSource::Missing {
                     return Err(no_normals());
                 }
                 for chunk in file.points.chunks(CHUNK) {
                     visit(chunk)?;
                 }
-                return Ok((read, file.dropped_points as u64));
+                let dropped = file.dropped_points as u64;
+                return Ok((file.points.len() as u64 + dropped, dropped));
             }
             // (The points the reader kept: an input's files have normals or none, so a file
             // read here has none and dropped nothing.)
@@ -191,22 +223,15 @@ fn for_each_points(
 ///
 /// [`PsiError::Open`] / [`PsiError::Read`] for the file.
 pub fn has_normals(path: &Path, format: Option<Format>) -> Result<bool, PsiError> {
-    check_not_dir(path)?;
-    let format = format.or_else(|| extension_format(path));
-    if let Some(format) = format {
-        let file = fs::File::open(path).map_err(|e| open_error(path, e))?;
-        if let Ok(stream) = PointStream::open(BufReader::new(file), format)
-            && (format == Format::Ply || format.is_streamed() || format == Format::Xyz)
-        {
-            let mut normals = None;
-            stream
-                .for_each_chunk(1024, |chunk| {
-                    normals = Some(chunk.normals.is_some());
-                    ControlFlow::Break(())
-                })
-                .map_err(read_error(path))?;
-            return Ok(normals.unwrap_or(true));
-        }
+    if let Some(stream) = stream_of(path, format)? {
+        let mut normals = None;
+        stream
+            .for_each_chunk(1024, |chunk| {
+                normals = Some(chunk.normals.is_some());
+                ControlFlow::Break(())
+            })
+            .map_err(read_error(path))?;
+        return Ok(normals.unwrap_or(true));
     }
     let file = crate::load_points_as(path, format, &ReadOptions::paper())?;
     Ok(file.normals != psi_io::NormalSource::Missing)
@@ -293,15 +318,15 @@ pub fn partition_start(
     )
 }
 
-/// The finished store in `dir` of an earlier run on the same files with normals as `normals`
-/// gives them (compared by kind only), tiled as this budget tiles them; `None` without one.
+/// The finished store of kind `kind` in `dir` that an earlier run on the same files wrote,
+/// tiled as this budget tiles them; `None` without one.
 pub(crate) fn found(
     paths: &[PathBuf],
     options: &OutOfCore,
     dir: &Path,
-    normals: Normals<'_>,
+    kind: StoreKind,
 ) -> Result<Option<Partition>, PsiError> {
-    let source = format!("{}{}", normals.tag(), sources_of(paths)?);
+    let source = store_source(paths, kind)?;
     Ok(TileStore::open(dir).ok().and_then(|store| {
         let m = store.manifest();
         let same = m.source == source && options.tile_depth_for(m.population) == Ok(m.depth);
@@ -325,10 +350,10 @@ fn start_in(
     monitor: &Monitor<'_>,
 ) -> Result<PartitionStart, PsiError> {
     let fail = failure_of(paths)?;
-    let source = format!("{}{}", normals.tag(), sources_of(paths)?);
+    let source = store_source(paths, normals.kind())?;
     // An earlier run's store is used when it holds the same files, tiled as this budget
     // tiles them (the particles depend on the tiling).
-    if let Some(partition) = found(paths, options, dir, normals)? {
+    if let Some(partition) = found(paths, options, dir, normals.kind())? {
         return Ok(PartitionStart::Found(Box::new(partition)));
     }
     let mut bounds: Option<Aabb> = None;
@@ -395,8 +420,7 @@ fn part_in(
     let fail = failure_of(paths)?;
     let plan = StorePlan::read(dir).map_err(|e| fail(e.to_string()))?;
     let changed = || fail(CHANGED.into());
-    let source =
-        || -> Result<String, PsiError> { Ok(format!("{}{}", normals.tag(), sources_of(paths)?)) };
+    let source = || store_source(paths, normals.kind());
     if source()? != plan.source {
         return Err(changed());
     }

@@ -31,7 +31,7 @@ use psi_tiles::{TileStore, TileWithHalo};
 
 use crate::PsiError;
 use crate::budget::OutOfCore;
-use crate::partition::{Normals, Partition, failure, partition_with};
+use crate::partition::{Normals, Partition, StoreKind, failure, found, partition_with};
 
 /// Bytes of a normal in `normals.bin` (three little-endian f64).
 const NORMAL_BYTES: u64 = 24;
@@ -65,11 +65,6 @@ pub fn partition_estimating_normals(
     let fail = failure(&paths[0]);
     let scratch = &options.scratch;
     let final_dir = scratch.join("tiles");
-    let no_normals = |_: u64| -> Result<DVec3, String> { Err("not read".into()) };
-    let placeholder = Normals::Estimated {
-        normals: &no_normals,
-        flips: Some(&[]),
-    };
     let positions_dir = scratch.join("positions");
     let estimated_dir = scratch.join("estimated");
     let normals_path = scratch.join("normals.bin");
@@ -86,7 +81,7 @@ pub fn partition_estimating_normals(
         }
         Ok(())
     };
-    if let Some(found) = crate::partition::found(paths, options, &final_dir, placeholder)? {
+    if let Some(found) = found(paths, options, &final_dir, StoreKind::Oriented)? {
         clean_up()?;
         return Ok(found);
     }
@@ -170,13 +165,7 @@ pub fn partition_estimating_normals(
                 part_normals(&positions, ids, &t.own, holds)
             })
             .map_err(&fail)?;
-            let own = tile
-                .ids
-                .iter()
-                .zip(&tile.own)
-                .filter(|p| *p.1)
-                .map(|p| *p.0);
-            for (i, normal) in own.zip(normals) {
+            for ((i, _), normal) in tile.own_points().zip(normals) {
                 let bytes: Vec<u8> = normal
                     .to_array()
                     .iter()
@@ -220,13 +209,7 @@ pub fn partition_estimating_normals(
             part_orientation_edges(&t.points, ids, &t.own, holds)
         })
         .map_err(&fail)?;
-        for ((&i, p), _) in tile
-            .ids
-            .iter()
-            .zip(&tile.points)
-            .zip(&tile.own)
-            .filter(|q| *q.1)
-        {
+        for (i, p) in tile.own_points() {
             x[i as usize] = p.p.x;
             x_negative[i as usize] = p.n.x < 0.0;
         }

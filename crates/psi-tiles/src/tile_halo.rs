@@ -30,6 +30,16 @@ pub struct TileWithHalo {
 }
 
 impl TileWithHalo {
+    /// The tile's own points with their input indices, in increasing index order.
+    pub fn own_points(&self) -> impl Iterator<Item = (u64, &OrientedPoint)> {
+        self.ids
+            .iter()
+            .zip(&self.points)
+            .zip(&self.own)
+            .filter(|(_, own)| **own)
+            .map(|((&i, p), _)| (i, p))
+    }
+
     /// Whether every input point within `r` of world position `x` is held (the ball lies in
     /// the held cube, with a slack for rounding, or the cube holds every point).
     pub fn holds_ball(&self, x: DVec3, r: f64) -> bool {
