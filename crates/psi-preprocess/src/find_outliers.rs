@@ -16,7 +16,7 @@ use crate::local_fit::QuadricFit;
 use crate::median::median;
 
 /// Neighbours per point (itself excluded).
-const NEIGHBOURS: usize = 16;
+pub(crate) const NEIGHBOURS: usize = 16;
 
 /// A core point's 16th-neighbour distance is at most this multiple of the median of its
 /// neighbours' …
@@ -95,7 +95,7 @@ impl Outliers {
 
 /// A point's standing after the first stage.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Status {
+pub(crate) enum Status {
     /// Clearly on a surface: the second stage judges the others against these.
     Core,
     /// On a surface its neighbours describe, if sparser than they are.
@@ -226,6 +226,140 @@ pub(crate) fn find_outliers_in(
     }
 }
 
+/// Whether point `i`'s given normal lies along the normals of at least a quarter of `near`
+/// (either sign: orientation is repaired later), as a point of a surface's does; `true`
+/// without normals. Indices as `normal_of` takes them.
+pub(crate) fn normal_fits(
+    normal_of: Option<&NormalOf<'_>>,
+    i: usize,
+    near: &mut dyn Iterator<Item = usize>,
+) -> bool {
+    let Some(normal_of) = normal_of else {
+        return true;
+    };
+    let n_i = normal_of(i);
+    let (mut agree, mut count) = (0, 0);
+    for j in near {
+        count += 1;
+        agree += usize::from(n_i.dot(normal_of(j)).abs() >= NORMAL_AGREEMENT);
+    }
+    4 * agree >= count
+}
+
+/// A point's 16 nearest other points (slots, nearest first, ties to the lower index) and the
+/// distance to the 16th (world units).
+pub(crate) type Nearest = ([u32; NEIGHBOURS], f64);
+
+/// Each point's [`Nearest`] in `index`, by slot; `None` once `monitor`'s flag is set.
+pub(crate) fn nearest_of(index: &MortonIndex, monitor: &Monitor<'_>) -> Option<Vec<Nearest>> {
+    index
+        .map_nearest_with(NEIGHBOURS, monitor, |_, near| {
+            let mut slots = [0u32; NEIGHBOURS];
+            for (slot, &(j, _)) in slots.iter_mut().zip(near) {
+                *slot = j;
+            }
+            (slots, near.last().map_or(0.0, |l| l.1.sqrt()))
+        })
+        .ok()
+}
+
+/// The first stage's standing of the point at slot `i` of `positions` (shape: N, by slot):
+/// from its [`Nearest`] and its neighbours' reaches in `nearest` (shape: N), `typical` the
+/// median reach over all points, `normal_of` by slot.
+pub(crate) fn status_of(
+    i: usize,
+    positions: &[DVec3],
+    nearest: &[Nearest],
+    typical: f64,
+    normal_of: Option<&NormalOf<'_>>,
+) -> Status {
+    let reach_i = nearest[i].1;
+    let near = &nearest[i].0;
+    let mut around = near.map(|j| nearest[j as usize].1);
+    let local = median(&mut around);
+    let pts = near.map(|j| positions[j as usize]);
+    // Most points of a surface sit among their neighbours, within a fraction of a
+    // spacing of their centroid: no fit can find them off it.
+    // A point far from its nearest neighbour is neither core nor a sparse part.
+    if (positions[near[0] as usize] - positions[i]).length() > ISOLATED * reach_i {
+        return Status::Unsure;
+    }
+    let centroid = pts.iter().sum::<DVec3>() / NEIGHBOURS as f64;
+    if reach_i <= LOCAL_DENSITY * local
+        && reach_i <= GLOBAL_DENSITY * typical
+        && (positions[i] - centroid).length() <= LIFTED_SPACINGS * spacing_of(local)
+    {
+        return Status::Core;
+    }
+    // (Trimmed: a stray neighbour must not bend the surface towards the point.)
+    let Some(fit) = QuadricFit::of_trimmed(&pts, reach_i, spacing_of(local)) else {
+        return Status::Unsure;
+    };
+    let surface_like = fit.sigma() <= SURFACE_LIKE * reach_i;
+    let on_it = !outside_band(&fit, positions[i], spacing_of(local), &pts);
+    let dense = reach_i <= LOCAL_DENSITY * local;
+    let sparse_cloud = reach_i > GLOBAL_DENSITY * typical && !surface_like;
+    // Sparser than its neighbours but on the thin surface they describe: a sparsely
+    // sampled part of it (large triangles beside small ones, a scan's border).
+    let sparse_part = reach_i <= SPARSE_PART * local
+        && fit.sigma() <= spacing_of(local)
+        && fit.tangential_offset(positions[i]) <= BESIDE * reach_i;
+    // A normal across the surface counts against a point a little off it.
+    let lifted = fit.height(positions[i]).abs() > LIFTED_SPACINGS * spacing_of(local);
+    let across = lifted && !normal_fits(normal_of, i, &mut near.iter().map(|&j| j as usize));
+    match (dense, on_it && !across, sparse_cloud) {
+        (true, true, false) => Status::Core,
+        (false, true, false) if sparse_part => Status::Inlier,
+        _ => Status::Unsure,
+    }
+}
+
+/// The second stage's verdict on an unsure point (slot `i`, at `x`) given `near`, its 16
+/// nearest core points as `core_index.nearest` finds them: 0 inlier, 1 far, 2 off the
+/// surface. `core_slots` (shape: C) maps a core point to its slot, whose reach is
+/// `reach(slot)`; `normal_of` by slot.
+pub(crate) fn verdict_of(
+    (i, x): (usize, DVec3),
+    near: &[(u32, f64)],
+    (core_index, core_slots): (&MortonIndex, &[u32]),
+    reach: &dyn Fn(usize) -> f64,
+    normal_of: Option<&NormalOf<'_>>,
+) -> u8 {
+    if near.len() < NEIGHBOURS {
+        // Hardly any surface at all: nothing to judge against.
+        return 0;
+    }
+    let mut reaches: Vec<f64> = near
+        .iter()
+        .map(|&(k, _)| reach(core_slots[k as usize] as usize))
+        .collect();
+    let spacing = spacing_of(median(&mut reaches));
+    if near[0].1.sqrt() > FAR_SPACINGS * spacing {
+        return 1;
+    }
+    let core_positions = core_index.points();
+    let pts: Vec<DVec3> = near
+        .iter()
+        .map(|&(k, _)| core_positions[k as usize])
+        .collect();
+    let fit_reach = near.last().map_or(0.0, |l| l.1.sqrt());
+    let Some(fit) = QuadricFit::of(&pts, fit_reach) else {
+        return 0;
+    };
+    let lifted = fit.height(x).abs() > LIFTED_SPACINGS * spacing;
+    let across = lifted
+        && !normal_fits(
+            normal_of,
+            i,
+            &mut near.iter().map(|&(k, _)| core_slots[k as usize] as usize),
+        );
+    if off_surface(&fit, x, spacing) || across {
+        2
+    } else {
+        0
+    }
+}
+
 /// [`find_outliers`] on the points of `index`, by slot (`normal_of` by slot too).
 fn outliers_in_order(
     index: &MortonIndex,
@@ -234,35 +368,14 @@ fn outliers_in_order(
 ) -> Outliers {
     let positions = index.points();
     let n = positions.len();
-    // Whether a point's given normal lies along the normals of at least a quarter of `near`
-    // (either sign: orientation is repaired later), as a point of a surface's does.
-    let normal_fits = |i: usize, near: &mut dyn Iterator<Item = usize>| {
-        let Some(normal_of) = normal_of else {
-            return true;
-        };
-        let n_i = normal_of(i);
-        let (mut agree, mut count) = (0, 0);
-        for j in near {
-            count += 1;
-            agree += usize::from(n_i.dot(normal_of(j)).abs() >= NORMAL_AGREEMENT);
-        }
-        4 * agree >= count
-    };
     if n <= NEIGHBOURS {
         return Outliers::none(n);
     }
     // Each point's neighbours, itself excluded (a coincident twin counts as a neighbour), and
     // its 16th-neighbour distance.
-    let Ok(nearest) = index.map_nearest_with(NEIGHBOURS, monitor, |_, near| {
-        let mut slots = [0u32; NEIGHBOURS];
-        for (slot, &(j, _)) in slots.iter_mut().zip(near) {
-            *slot = j;
-        }
-        (slots, near.last().map_or(0.0, |l| l.1.sqrt()))
-    }) else {
+    let Some(nearest) = nearest_of(index, monitor) else {
         return Outliers::none(n);
     };
-    // (Read in place: no second copy of the neighbour lists.)
     let reach: Vec<f64> = nearest.par_iter().map(|n| n.1).collect();
     let typical = median(&mut reach.clone());
     let status: Vec<Status> = (0..n)
@@ -271,57 +384,20 @@ fn outliers_in_order(
             if monitor.stopped() {
                 return Status::Core;
             }
-            let near = &nearest[i].0;
-            let mut around = near.map(|j| reach[j as usize]);
-            let local = median(&mut around);
-            let pts = near.map(|j| positions[j as usize]);
-            // Most points of a surface sit among their neighbours, within a fraction of a
-            // spacing of their centroid: no fit can find them off it.
-            // A point far from its nearest neighbour is neither core nor a sparse part.
-            if (positions[near[0] as usize] - positions[i]).length() > ISOLATED * reach[i] {
-                return Status::Unsure;
-            }
-            let centroid = pts.iter().sum::<DVec3>() / NEIGHBOURS as f64;
-            if reach[i] <= LOCAL_DENSITY * local
-                && reach[i] <= GLOBAL_DENSITY * typical
-                && (positions[i] - centroid).length() <= LIFTED_SPACINGS * spacing_of(local)
-            {
-                return Status::Core;
-            }
-            // (Trimmed: a stray neighbour must not bend the surface towards the point.)
-            let Some(fit) = QuadricFit::of_trimmed(&pts, reach[i], spacing_of(local)) else {
-                return Status::Unsure;
-            };
-            let surface_like = fit.sigma() <= SURFACE_LIKE * reach[i];
-            let on_it = !outside_band(&fit, positions[i], spacing_of(local), &pts);
-            let dense = reach[i] <= LOCAL_DENSITY * local;
-            let sparse_cloud = reach[i] > GLOBAL_DENSITY * typical && !surface_like;
-            // Sparser than its neighbours but on the thin surface they describe: a sparsely
-            // sampled part of it (large triangles beside small ones, a scan's border).
-            let sparse_part = reach[i] <= SPARSE_PART * local
-                && fit.sigma() <= spacing_of(local)
-                && fit.tangential_offset(positions[i]) <= BESIDE * reach[i];
-            // A normal across the surface counts against a point a little off it.
-            let lifted = fit.height(positions[i]).abs() > LIFTED_SPACINGS * spacing_of(local);
-            let across = lifted && !normal_fits(i, &mut near.iter().map(|&j| j as usize));
-            match (dense, on_it && !across, sparse_cloud) {
-                (true, true, false) => Status::Core,
-                (false, true, false) if sparse_part => Status::Inlier,
-                _ => Status::Unsure,
-            }
+            status_of(i, positions, &nearest, typical, normal_of)
         })
         .collect();
+    // (The neighbour lists are not needed again: freed before the second stage's index.)
     drop(nearest);
     if monitor.stopped() || !status.contains(&Status::Unsure) {
         return Outliers::none(n);
     }
     // The other points, judged against the core points near them.
-    let core_ids: Vec<u32> = (0..n as u32)
+    let core_slots: Vec<u32> = (0..n as u32)
         .filter(|&i| status[i as usize] == Status::Core)
         .collect();
     let core_index = index.subset(|s| status[s] == Status::Core);
-    let core_positions = core_index.points();
-    // 0: inlier, 1: far, 2: off the surface.
+    let reach = |s: usize| reach[s];
     let verdicts: Vec<u8> = (0..n)
         .into_par_iter()
         .map(|i| {
@@ -329,37 +405,8 @@ fn outliers_in_order(
                 return 0;
             }
             let near = core_index.nearest(positions[i], NEIGHBOURS);
-            if near.len() < NEIGHBOURS {
-                // Hardly any surface at all: nothing to judge against.
-                return 0;
-            }
-            let mut reaches: Vec<f64> = near
-                .iter()
-                .map(|&(k, _)| reach[core_ids[k as usize] as usize])
-                .collect();
-            let spacing = spacing_of(median(&mut reaches));
-            if near[0].1.sqrt() > FAR_SPACINGS * spacing {
-                return 1;
-            }
-            let pts: Vec<DVec3> = near
-                .iter()
-                .map(|&(k, _)| core_positions[k as usize])
-                .collect();
-            let fit_reach = near.last().map_or(0.0, |l| l.1.sqrt());
-            let Some(fit) = QuadricFit::of(&pts, fit_reach) else {
-                return 0;
-            };
-            let lifted = fit.height(positions[i]).abs() > LIFTED_SPACINGS * spacing;
-            let across = lifted
-                && !normal_fits(
-                    i,
-                    &mut near.iter().map(|&(k, _)| core_ids[k as usize] as usize),
-                );
-            if off_surface(&fit, positions[i], spacing) || across {
-                2
-            } else {
-                0
-            }
+            let core = (&core_index, core_slots.as_slice());
+            verdict_of((i, positions[i]), &near, core, &reach, normal_of)
         })
         .collect();
     Outliers {

@@ -6,7 +6,8 @@
 //! * [`mesh_coarseness`], [`densify_mesh`]: whether a mesh's triangles are large against the
 //!   implicit's tolerance, and more points on them when they are;
 //! * [`find_outliers`]: stray points that no surface supports; [`find_clumps`]: small groups
-//!   of them lying apart, off the surface (which support themselves);
+//!   of them lying apart, off the surface (which support themselves); [`part_outliers`] with
+//!   [`part_outlier_reaches`] and [`median_of_passes`] the outlier step from parts of the points;
 //! * [`estimate_normals`]: normals for a cloud of positions only, from plane fits over an
 //!   adaptive neighbourhood;
 //! * [`orient_normals`] (propagation over a neighbour graph, after Hoppe et al. 1992) and
@@ -55,6 +56,7 @@ mod normals_by_parts;
 mod orient_by_parts;
 mod orient_from_level;
 mod orient_normals;
+mod outliers_by_parts;
 mod point_spread;
 mod preprocess;
 mod spanning_forest;
@@ -68,6 +70,7 @@ pub use estimate_normals::{estimate_normals, estimate_normals_with, noise_level}
 pub use find_clumps::{CLUMP_GAP, CLUMP_POINTS, Clumps, find_clumps, find_clumps_with};
 pub use find_outliers::{Outliers, find_outliers, find_outliers_with};
 pub use inward_normals::{InwardVotes, inward_votes};
+pub use median::median_of_passes;
 pub use noise_by_parts::part_noise_samples;
 pub use normals_by_parts::part_normals;
 pub use orient_by_parts::{
@@ -77,6 +80,7 @@ pub use orient_by_parts::{
 pub use orient_normals::{
     NormalConsistency, check_normal_consistency, orient_normals, orient_normals_with, orient_toward,
 };
+pub use outliers_by_parts::{OutlierStats, StrayVerdict, part_outlier_reaches, part_outliers};
 pub use point_spread::{Spread, point_spread};
 pub use preprocess::{
     ErrorThreshold, INCONSISTENT_NORMALS, MeshRef, MeshReport, NOISE_ERROR_FACTOR, NormalTreatment,

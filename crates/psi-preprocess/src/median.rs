@@ -1,5 +1,5 @@
 //! The median of a sample, the statistic the preprocessing steps use for typical spacings,
-//! residuals and areas (robust to the stray values they look for).
+//! residuals and areas (robust to the stray values they look for), held or streamed.
 
 /// The median of `v` (the upper one of an even count; `v` reordered); 0 for an empty slice.
 pub(crate) fn median(v: &mut [f64]) -> f64 {
@@ -8,6 +8,72 @@ pub(crate) fn median(v: &mut [f64]) -> f64 {
     }
     let mid = v.len() / 2;
     *v.select_nth_unstable_by_key(mid, |&x| total_order_key(x)).1
+}
+
+/// The median of values that are streamed rather than held (the upper middle one of an even
+/// count, as [`median`] takes it; 0 for none): `pass(visit)` calls `visit` with every value,
+/// in any order, each time it is called (four times: the value's 64 bits of
+/// [`total_order_key`] are found 16 at a time, each pass counting the values that agree with the
+/// bits found so far in 65 536 bins). Memory: the bins alone; bitwise [`median`] of the values.
+///
+/// # Errors
+///
+/// The first error of `pass`, which stops the search.
+///
+/// ```
+/// let values = [3.0, -1.0, 7.5, 2.0];
+/// let median = psi_preprocess::median_of_passes(|visit: &mut dyn FnMut(f64)| {
+///     values.iter().for_each(|&v| visit(v));
+///     Ok::<(), ()>(())
+/// });
+/// assert_eq!(median, Ok(3.0));
+/// ```
+pub fn median_of_passes<E>(
+    mut pass: impl FnMut(&mut dyn FnMut(f64)) -> Result<(), E>,
+) -> Result<f64, E> {
+    // Keys as unsigned integers, ordered as the floats by `total_cmp`.
+    let key = |x: f64| (total_order_key(x) as u64) ^ (1 << 63);
+    let (mut prefix, mut rank, mut count) = (0u64, None::<u64>, 0u64);
+    for round in 0..4u32 {
+        let shift = 48 - 16 * round;
+        let mut bins = vec![0u64; 1 << 16];
+        pass(&mut |x| {
+            let k = key(x);
+            // Only the values whose higher bits are those found so far.
+            if round == 0 || k >> (shift + 16) == prefix >> (shift + 16) {
+                bins[((k >> shift) & 0xffff) as usize] += 1;
+            }
+        })?;
+        let mut left = match rank {
+            Some(r) => r,
+            None => {
+                count = bins.iter().sum();
+                if count == 0 {
+                    return Ok(0.0);
+                }
+                count / 2
+            }
+        };
+        let bin = bins
+            .iter()
+            .position(|&b| {
+                if left < b {
+                    true
+                } else {
+                    left -= b;
+                    false
+                }
+            })
+            .expect("the rank lies within the count");
+        prefix |= (bin as u64) << shift;
+        rank = Some(left);
+    }
+    debug_assert!(count > 0);
+    // Back from the key to the float (the key's map is its own inverse on the signed bits).
+    let bits = (prefix ^ (1 << 63)) as i64;
+    Ok(f64::from_bits(
+        total_order_key(f64::from_bits(bits as u64)) as u64
+    ))
 }
 
 /// `x` as an integer that orders as [`f64::total_cmp`] orders the floats (its own definition:
@@ -72,6 +138,37 @@ mod tests {
                 b.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
             );
         }
+    }
+
+    /// Streamed in passes, the median is bitwise the held one, for any count, signs, zeros of
+    /// either sign, repeated values and values sharing their higher bits.
+    #[test]
+    fn the_streamed_median_is_the_median() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(9);
+        for n in [0usize, 1, 2, 3, 10, 101, 4000] {
+            for spread in [1e-9, 1.0, 1e300] {
+                let v: Vec<f64> = (0..n)
+                    .map(|i| match i % 11 {
+                        0 => 0.0,
+                        1 => -0.0,
+                        2 => 1.0,
+                        _ => spread * (rng.random::<f64>() - 0.4),
+                    })
+                    .collect();
+                let mut passes = 0;
+                let streamed = super::median_of_passes(|visit: &mut dyn FnMut(f64)| {
+                    passes += 1;
+                    v.iter().rev().for_each(|&x| visit(x));
+                    Ok::<(), ()>(())
+                });
+                let held = median(&mut v.clone());
+                assert_eq!(streamed.map(f64::to_bits), Ok(held.to_bits()), "n {n}");
+                assert!(passes <= 4);
+            }
+        }
+        let failing = super::median_of_passes(|_: &mut dyn FnMut(f64)| Err("unreadable"));
+        assert_eq!(failing, Err("unreadable"));
     }
 
     #[test]
