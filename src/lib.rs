@@ -29,12 +29,16 @@ mod files;
 mod memory_estimate;
 mod out_of_core;
 mod partition;
+mod partition_preprocessed;
 mod prepare;
 mod read_ahead;
 mod read_file;
 pub mod render;
 pub mod report;
+mod tile_level_normals;
 mod tile_normals;
+mod tile_outliers;
+mod tile_parts;
 
 pub use psi_io as io;
 pub use psi_mpu as mpu;
@@ -56,12 +60,15 @@ pub use memory_estimate::{
     available_memory_bytes, check_fits_in_memory, estimate_in_core_bytes, estimate_points,
 };
 pub use out_of_core::{
-    OutOfCoreRun, out_of_core_json, out_of_core_tiles, parse_memory_size, sample_file_out_of_core,
-    sample_files_out_of_core,
+    NOT_DONE_OUT_OF_CORE, OutOfCoreRun, out_of_core_json, out_of_core_tiles, parse_memory_size,
+    sample_file_out_of_core, sample_files_out_of_core,
 };
 pub use partition::{
     Partition, PartitionStart, has_normals, partition_assemble, partition_files, partition_part,
     partition_start,
+};
+pub use partition_preprocessed::{
+    PreprocessedPartition, partition_preprocessed, preprocesses_out_of_core,
 };
 pub use prepare::{
     ERROR_RANK_POINTS, PreparedInput, RANKED_NOISE, builtin_file, builtin_file_with, prepare_input,
@@ -77,4 +84,4 @@ pub use psi_particles::{
 };
 pub use psi_shapes::{AnalyticShape, builtin_model};
 pub use render::{render_particles_png, save_png};
-pub use tile_normals::partition_estimating_normals;
+pub use tile_outliers::StrayTally;

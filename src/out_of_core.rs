@@ -4,10 +4,11 @@
 //! ([`psi_tiles::seed_store_octant`]) and relaxed at once ([`psi_tiles::sample_tiled_from`]). The CLI's `--max-memory` and Python's `sample_files` both
 //! run this.
 //!
-//! Points without normals get them estimated and oriented tile by tile (`tile_normals.rs`),
-//! bitwise the in-core estimate. The other preprocessing steps (the outlier search, the noise
-//! threshold, denoising, the inward-normals check) are not done tile by tile yet: a run out of
-//! core otherwise takes the points as they are, and says so up front.
+//! The preprocessing done tile by tile, bitwise the in-core steps: repeated points and the
+//! outlier search's strays left out (`tile_outliers.rs`), and points without normals given
+//! them, estimated and oriented (`tile_normals.rs`). Not yet: the stray-clump search, the
+//! noise threshold, denoising, the inward-normals check (a run out of core takes the points as
+//! those steps find them, and says so up front).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -16,6 +17,7 @@ use psi_io::Format;
 use psi_mpu::MpuParams;
 use psi_octree::Monitor;
 use psi_particles::{ParticleParams, Particles, Quality};
+use psi_preprocess::PreprocessParams;
 use psi_tiles::{
     TileParams, TileReport, TileSampleReport, TileStore, decide_store, sample_tiled_from,
     seed_store_octant,
@@ -23,8 +25,18 @@ use psi_tiles::{
 
 use crate::PsiError;
 use crate::budget::OutOfCore;
-use crate::partition::{failure, has_normals, partition_files};
-use crate::tile_normals::partition_estimating_normals;
+use crate::partition::failure;
+use crate::partition_preprocessed::{PreprocessedPartition, partition_preprocessed};
+use crate::tile_outliers::StrayTally;
+
+/// The in-core preprocessing steps a run out of core does not do yet (its JSON report lists
+/// them; the CLI says so up front).
+pub const NOT_DONE_OUT_OF_CORE: [&str; 4] = [
+    "stray clumps",
+    "noise threshold",
+    "denoising",
+    "inward normals check",
+];
 
 /// What a run out of core made.
 #[derive(Clone, Debug)]
@@ -45,14 +57,20 @@ pub struct OutOfCoreRun {
     pub resumed: bool,
     /// Whether the input had no normals and they were estimated and oriented tile by tile.
     pub normals_estimated: bool,
+    /// What the outlier step left out (`None` when it did not run).
+    pub strays: Option<StrayTally>,
+    /// The level the estimated normals' planes were fitted at (one point in 4^level; `None`
+    /// when given, or found in the store of an earlier run).
+    pub normals_level: Option<u32>,
     /// Seconds: reading and partitioning, deciding the cells, sampling.
     pub seconds: [f64; 3],
 }
 
 /// Samples the files at `paths` (one input, their points in this order, as a survey's tiles
 /// come; each read as `format`, or as its extension says) out of core:
-/// the MPU with `mpu_params` decided tile by tile, bitwise the in-core build of the same
-/// points, and particles with `particle_params` (k per leaf: the in-core seeds and count;
+/// the preprocessing steps of `preprocess` that run out of core (the outlier step, normals
+/// estimated where there are none), the MPU with `mpu_params` decided tile by tile, bitwise the
+/// in-core build of the same points, and particles with `particle_params` (k per leaf: the in-core seeds and count;
 /// seeded tile by tile, then relaxed at once). Tile files go to `options.scratch`; a run that finds
 /// the files of an earlier run on the same file there resumes from them. Progress: stages
 /// `"read"`, `"tiles"`, `"sample tiles"` (and, for points without normals, first the stages of
@@ -66,36 +84,19 @@ pub struct OutOfCoreRun {
 pub fn sample_files_out_of_core(
     paths: &[PathBuf],
     format: Option<Format>,
+    preprocess: &PreprocessParams,
     mpu_params: &MpuParams,
     particle_params: &ParticleParams,
     options: &OutOfCore,
     monitor: &Monitor<'_>,
 ) -> Result<OutOfCoreRun, PsiError> {
     let t0 = Instant::now();
-    let first = paths.first().ok_or_else(|| PsiError::OutOfCore {
-        path: PathBuf::new(),
-        reason: "no input files given".into(),
-    })?;
-    let normals_estimated = !has_normals(first, format)?;
-    // The files of one input have normals or none.
-    for path in &paths[1..] {
-        if has_normals(path, format)? == normals_estimated {
-            return Err(PsiError::OutOfCore {
-                path: path.clone(),
-                reason: format!(
-                    "has {}normals where the input's first file has {}: the files of one input \
-                     have normals or none",
-                    if normals_estimated { "" } else { "no " },
-                    if normals_estimated { "none" } else { "them" }
-                ),
-            });
-        }
-    }
-    let part = if !normals_estimated {
-        partition_files(paths, format, mpu_params, options, monitor)?
-    } else {
-        partition_estimating_normals(paths, format, mpu_params, options, monitor)?
-    };
+    let PreprocessedPartition {
+        partition: part,
+        strays,
+        normals_estimated,
+        normals_level,
+    } = partition_preprocessed(paths, format, preprocess, mpu_params, options, monitor)?;
     let read_seconds = t0.elapsed().as_secs_f64();
     let fail = failure(&paths[0]);
     let t1 = Instant::now();
@@ -138,6 +139,8 @@ pub fn sample_files_out_of_core(
         sampling: sampled.report,
         resumed: part.resumed,
         normals_estimated,
+        strays,
+        normals_level,
         seconds: [read_seconds, decide_seconds, t2.elapsed().as_secs_f64()],
     })
 }
@@ -155,6 +158,7 @@ pub fn out_of_core_tiles(store: &TileStore) -> TileParams {
 pub fn sample_file_out_of_core(
     path: &Path,
     format: Option<Format>,
+    preprocess: &PreprocessParams,
     mpu_params: &MpuParams,
     particle_params: &ParticleParams,
     options: &OutOfCore,
@@ -164,6 +168,7 @@ pub fn sample_file_out_of_core(
     sample_files_out_of_core(
         &paths,
         format,
+        preprocess,
         mpu_params,
         particle_params,
         options,
@@ -256,10 +261,20 @@ pub fn out_of_core_json(
                 "relax": run.sampling.relax_seconds,
             },
             "sampling": run.sampling,
-            "preprocessing": if run.normals_estimated {
-                "normals estimated and oriented tile by tile; points otherwise used as given"
-            } else {
-                "none (points used as given)"
+            "preprocessing": {
+                "normals": if run.normals_estimated {
+                    "estimated and oriented tile by tile"
+                } else {
+                    "given"
+                },
+                "normals_level": run.normals_level,
+                "outliers": run.strays.map(|t| serde_json::json!({
+                    "removed": t.removed(),
+                    "repeated": t.repeated,
+                    "far": t.far,
+                    "off_surface": t.off_surface,
+                })),
+                "not_done": NOT_DONE_OUT_OF_CORE,
             },
         },
         "peak_memory_bytes": crate::report::peak_memory_bytes(),

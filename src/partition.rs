@@ -36,21 +36,57 @@ pub(crate) enum Normals<'a> {
     Given,
     /// None: every point with a zero normal (the store the normals are estimated from).
     Zero,
-    /// Per point of the input, by its index in the whole input (all files, every point):
-    /// `normals[i]`, turned over where `flips` (by index among the points kept) says; points
-    /// with a zero normal are left out.
+    /// Per point of the input, by its index among the points [`Points::keep`] keeps (without
+    /// a test: its index in the whole input, all files, every point): `normals[i]`, turned
+    /// over where `flips` (by index among the points stored) says; points with a zero normal
+    /// are left out.
     Estimated {
         /// A point's normal by its index in the whole input (or why it cannot be read).
         normals: &'a (dyn Fn(u64) -> Result<DVec3, String> + Sync),
         /// Whether to turn the k-th kept point's normal over.
         flips: Option<&'a [bool]>,
     },
+    /// Per point, from its position (world units): oriented normals; points with a zero
+    /// normal are left out.
+    Located(&'a (dyn Fn(DVec3) -> Result<DVec3, String> + Sync)),
 }
 
-/// The kind of store a partition writes, by where its normals come from: a store's source
-/// records it beside the input's files, so a run finds its own store.
+/// Whether to keep a point, by its index among the points its store would hold without the
+/// test (every point of the input; those with a normal, where the normals are given); or why
+/// that cannot be read.
+pub(crate) type Keep<'a> = &'a (dyn Fn(u64) -> Result<bool, String> + Sync);
+
+/// What a partition stores: the points' normals, and which points it keeps (all, without a
+/// test).
+#[derive(Clone, Copy)]
+pub(crate) struct Points<'a> {
+    /// Where the normals come from.
+    pub(crate) normals: Normals<'a>,
+    /// Which points are kept (the outlier step's verdicts).
+    pub(crate) keep: Option<Keep<'a>>,
+}
+
+impl<'a> Points<'a> {
+    /// All points, with the normals `normals` gives.
+    pub(crate) fn all(normals: Normals<'a>) -> Self {
+        Self {
+            normals,
+            keep: None,
+        }
+    }
+
+    /// The kind of store these points make.
+    fn kind(&self) -> StoreKind {
+        StoreKind {
+            normals: self.normals.kind(),
+            strays_left_out: self.keep.is_some(),
+        }
+    }
+}
+
+/// The normals of a kind of store, by where they come from.
 #[derive(Clone, Copy, PartialEq, Eq)]
-pub(crate) enum StoreKind {
+pub(crate) enum NormalsKind {
     /// The input's own normals.
     Given,
     /// Positions alone ([`Normals::Zero`]).
@@ -61,27 +97,45 @@ pub(crate) enum StoreKind {
     Oriented,
 }
 
+/// The kind of store a partition writes, by where its normals come from and whether the
+/// outlier step's strays were left out: a store's source records it beside the input's
+/// files, so a run finds its own store.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) struct StoreKind {
+    /// Where its normals come from.
+    pub(crate) normals: NormalsKind,
+    /// Whether the outlier step's strays were left out.
+    pub(crate) strays_left_out: bool,
+}
+
 impl Normals<'_> {
-    /// The kind of store these normals make.
-    fn kind(&self) -> StoreKind {
+    /// The kind of normals these make.
+    fn kind(&self) -> NormalsKind {
         match self {
-            Normals::Given => StoreKind::Given,
-            Normals::Zero => StoreKind::Positions,
-            Normals::Estimated { flips: None, .. } => StoreKind::Estimated,
-            Normals::Estimated { flips: Some(_), .. } => StoreKind::Oriented,
+            Normals::Given => NormalsKind::Given,
+            Normals::Zero => NormalsKind::Positions,
+            Normals::Estimated { flips: None, .. } => NormalsKind::Estimated,
+            Normals::Estimated { flips: Some(_), .. } | Normals::Located(_) => {
+                NormalsKind::Oriented
+            }
         }
     }
 }
 
 /// What a store of kind `kind` of the files at `paths` records as its source.
 fn store_source(paths: &[PathBuf], kind: StoreKind) -> Result<String, PsiError> {
-    let tag = match kind {
-        StoreKind::Given => "",
-        StoreKind::Positions => "positions of ",
-        StoreKind::Estimated => "estimated normals of ",
-        StoreKind::Oriented => "oriented normals of ",
+    let tag = match kind.normals {
+        NormalsKind::Given => "",
+        NormalsKind::Positions => "positions of ",
+        NormalsKind::Estimated => "estimated normals of ",
+        NormalsKind::Oriented => "oriented normals of ",
     };
-    Ok(format!("{tag}{}", sources_of(paths)?))
+    let strays = if kind.strays_left_out {
+        "strays left out of "
+    } else {
+        ""
+    };
+    Ok(format!("{tag}{strays}{}", sources_of(paths)?))
 }
 
 /// The file at `path` (read as `format`, or as its extension says) as a stream of points when
@@ -106,78 +160,116 @@ fn stream_of(
     }
 }
 
+/// Where a partition's pass has got to, over the files of one input: points read (the input
+/// index of the next one), ranked (past the drop of zero given normals: the index
+/// [`Points::keep`] takes), kept by that test (the index [`Normals::Estimated`] takes), and
+/// stored (its flips' index).
+#[derive(Clone, Copy, Debug, Default)]
+struct Counts {
+    read: u64,
+    ranked: u64,
+    kept: u64,
+    stored: u64,
+}
+
 /// Calls `visit` with the oriented points of the file at `path`, chunk by chunk in file
 /// order: the scanner formats, XYZ and PLY point clouds streamed, PLY meshes and OBJ read
-/// whole first; their normals as `normals` says (`first` the index in the whole input of the
-/// file's first point, `kept` the points kept before it). Returns the points read and the
-/// points dropped for a zero normal.
+/// whole first; their normals and which are kept as `points` says, `counts` where the pass
+/// over the input's earlier files got to (advanced past this file). Returns the points
+/// dropped for a zero normal.
 fn for_each_points(
     path: &Path,
     format: Option<Format>,
-    normals: Normals<'_>,
-    (first, kept): (u64, u64),
+    points: Points<'_>,
+    counts: &mut Counts,
     mut visit: impl FnMut(&[OrientedPoint]) -> Result<(), PsiError>,
-) -> Result<(u64, u64), PsiError> {
+) -> Result<u64, PsiError> {
     let no_normals = || PsiError::OutOfCore {
         path: path.to_path_buf(),
         reason: "has no normals, where the input's first file has them: the files of one \
                  input have normals or none"
             .into(),
     };
-    // The points at `positions` (input indices from `at`) with the normals the mode gives
-    // (not `Given`), and how many were dropped.
-    let mut kept_so_far = kept;
-    let mut with_normals = |positions: &[DVec3], at: u64| -> Result<_, PsiError> {
-        let out: Vec<OrientedPoint> = match normals {
-            Normals::Given => unreachable!("given normals are the input's"),
-            Normals::Zero => positions
-                .iter()
-                .map(|&p| OrientedPoint { p, n: DVec3::ZERO })
-                .collect(),
-            Normals::Estimated { normals, flips } => {
-                let mut out = Vec::with_capacity(positions.len());
-                for (i, &p) in positions.iter().enumerate() {
-                    let n = normals(at + i as u64).map_err(|reason| PsiError::OutOfCore {
-                        path: path.to_path_buf(),
-                        reason,
-                    })?;
+    let fail = |reason| PsiError::OutOfCore {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let keep = |rank: u64| points.keep.map_or(Ok(true), |k| k(rank)).map_err(fail);
+    // The given points (their normals unit, the zero ones dropped) that the test keeps.
+    let kept_given = |given: Vec<OrientedPoint>, counts: &mut Counts| {
+        if points.keep.is_none() {
+            counts.ranked += given.len() as u64;
+            return Ok(given);
+        }
+        let mut out = Vec::with_capacity(given.len());
+        for p in given {
+            if keep(counts.ranked)? {
+                out.push(p);
+            }
+            counts.ranked += 1;
+        }
+        Ok::<_, PsiError>(out)
+    };
+    // The points at `positions` (the next of the input) that the test keeps, with the normals
+    // the mode gives (not `Given`), and how many were dropped for a zero normal.
+    let with_normals = |positions: &[DVec3], counts: &mut Counts| -> Result<_, PsiError> {
+        let mut out = Vec::with_capacity(positions.len());
+        let mut dropped = 0;
+        for &p in positions {
+            let rank = counts.ranked;
+            counts.ranked += 1;
+            if !keep(rank)? {
+                continue;
+            }
+            let at = counts.kept;
+            counts.kept += 1;
+            let n = match points.normals {
+                Normals::Given => unreachable!("given normals are the input's"),
+                Normals::Zero => DVec3::ZERO,
+                Normals::Estimated { normals, flips } => {
+                    let n = normals(at).map_err(fail)?;
                     if n == DVec3::ZERO {
+                        dropped += 1;
                         continue;
                     }
-                    let turn = flips.is_some_and(|f| f.get(kept_so_far as usize) == Some(&true));
-                    kept_so_far += 1;
-                    out.push(OrientedPoint {
-                        p,
-                        n: if turn { -n } else { n },
-                    });
+                    let turn = flips.is_some_and(|f| f.get(counts.stored as usize) == Some(&true));
+                    if turn { -n } else { n }
                 }
-                out
-            }
-        };
-        let dropped = positions.len() - out.len();
-        Ok((out, dropped as u64))
+                Normals::Located(normal_at) => {
+                    let n = normal_at(p).map_err(fail)?;
+                    if n == DVec3::ZERO {
+                        dropped += 1;
+                        continue;
+                    }
+                    n
+                }
+            };
+            counts.stored += 1;
+            out.push(OrientedPoint { p, n });
+        }
+        Ok((out, dropped))
     };
+    let given = matches!(points.normals, Normals::Given);
     match stream_of(path, format)? {
         Some(stream) => {
-            let (mut read, mut dropped) = (0u64, 0u64);
+            let (first, mut dropped) = (counts.read, 0u64);
             let mut failure = None;
             stream
                 .for_each_chunk(CHUNK, |chunk| {
-                    let result = match (normals, chunk_oriented_points(&chunk, read)) {
-                        (Normals::Given, None) => Err(no_normals()),
-                        (Normals::Given, Some(Err(e))) => Err(read_error(path)(e)),
-                        (Normals::Given, Some(Ok((points, d)))) => {
+                    let read = counts.read - first;
+                    let result = match (given, chunk_oriented_points(&chunk, read)) {
+                        (true, None) => Err(no_normals()),
+                        (true, Some(Err(e))) => Err(read_error(path)(e)),
+                        (true, Some(Ok((found, d)))) => {
                             dropped += d as u64;
-                            visit(&points)
+                            kept_given(found, counts).and_then(|p| visit(&p))
                         }
-                        _ => {
-                            with_normals(&chunk.positions, first + read).and_then(|(points, d)| {
-                                dropped += d;
-                                visit(&points)
-                            })
-                        }
+                        (false, _) => with_normals(&chunk.positions, counts).and_then(|(p, d)| {
+                            dropped += d;
+                            visit(&p)
+                        }),
                     };
-                    read += chunk.len() as u64;
+                    counts.read += chunk.len() as u64;
                     match result {
                         Ok(()) => ControlFlow::Continue(()),
                         Err(e) => {
@@ -187,31 +279,32 @@ fn for_each_points(
                     }
                 })
                 .map_err(read_error(path))?;
-            failure.map_or(Ok((read, dropped)), Err)
+            failure.map_or(Ok(dropped), Err)
         }
         None => {
             let file = crate::load_points_as(path, format, &ReadOptions::paper())?;
-            if matches!(normals, Normals::Given) {
+            if given {
                 if file.normals == psi_io::NormalSource::Missing {
                     return Err(no_normals());
                 }
-                for chunk in file.points.chunks(CHUNK) {
-                    visit(chunk)?;
-                }
                 let dropped = file.dropped_points as u64;
-                return Ok((file.points.len() as u64 + dropped, dropped));
+                counts.read += file.points.len() as u64 + dropped;
+                for chunk in file.points.chunks(CHUNK) {
+                    visit(&kept_given(chunk.to_vec(), counts)?)?;
+                }
+                return Ok(dropped);
             }
             // (The points the reader kept: an input's files have normals or none, so a file
             // read here has none and dropped nothing.)
-            let read = file.points.len() as u64;
+            counts.read += file.points.len() as u64;
             let positions: Vec<DVec3> = file.points.iter().map(|p| p.p).collect();
             let mut dropped = 0;
-            for (c, chunk) in positions.chunks(CHUNK).enumerate() {
-                let (points, d) = with_normals(chunk, first + (c * CHUNK) as u64)?;
+            for chunk in positions.chunks(CHUNK) {
+                let (points, d) = with_normals(chunk, counts)?;
                 dropped += d;
                 visit(&points)?;
             }
-            Ok((read, dropped))
+            Ok(dropped)
         }
     }
 }
@@ -235,6 +328,21 @@ pub fn has_normals(path: &Path, format: Option<Format>) -> Result<bool, PsiError
     }
     let file = crate::load_points_as(path, format, &ReadOptions::paper())?;
     Ok(file.normals != psi_io::NormalSource::Missing)
+}
+
+/// Whether the file at `path` (read as `format`, or as its extension says) is a triangle mesh:
+/// a file read whole that has faces (its points are the triangles', which the in-core
+/// preprocessing does not search for outliers).
+///
+/// # Errors
+///
+/// [`PsiError::Open`] / [`PsiError::Read`] for the file.
+pub(crate) fn is_mesh(path: &Path, format: Option<Format>) -> Result<bool, PsiError> {
+    if stream_of(path, format)?.is_some() {
+        return Ok(false);
+    }
+    let file = crate::load_points_as(path, format, &ReadOptions::paper())?;
+    Ok(file.mesh.is_some())
 }
 
 /// The input's points in tile files: what [`partition_files`] made or found.
@@ -313,7 +421,7 @@ pub fn partition_start(
         format,
         mpu_params,
         options,
-        (&dir, Normals::Given),
+        (&dir, Points::all(Normals::Given)),
         monitor,
     )
 }
@@ -340,26 +448,26 @@ pub(crate) fn found(
     }))
 }
 
-/// [`partition_start`] of the store in `dir` whose normals come from `normals`.
+/// [`partition_start`] of the store in `dir` of the points `points` gives.
 fn start_in(
     paths: &[PathBuf],
     format: Option<Format>,
     mpu_params: &MpuParams,
     options: &OutOfCore,
-    (dir, normals): (&Path, Normals<'_>),
+    (dir, points): (&Path, Points<'_>),
     monitor: &Monitor<'_>,
 ) -> Result<PartitionStart, PsiError> {
     let fail = failure_of(paths)?;
-    let source = store_source(paths, normals.kind())?;
+    let source = store_source(paths, points.kind())?;
     // An earlier run's store is used when it holds the same files, tiled as this budget
     // tiles them (the particles depend on the tiling).
-    if let Some(partition) = found(paths, options, dir, normals.kind())? {
+    if let Some(partition) = found(paths, options, dir, points.kind())? {
         return Ok(PartitionStart::Found(Box::new(partition)));
     }
     let mut bounds: Option<Aabb> = None;
     let mut count = 0u64;
     monitor.report("read", 0, 2);
-    for_each_input(paths, format, normals, |chunk| {
+    for_each_input(paths, format, points, |chunk| {
         count += chunk.len() as u64;
         let b = Aabb::from_points(chunk.iter().map(|p| p.p));
         bounds = match (bounds, b) {
@@ -403,24 +511,24 @@ pub fn partition_part(
         format,
         part,
         options,
-        (&dir, Normals::Given),
+        (&dir, Points::all(Normals::Given)),
         monitor,
     )
 }
 
-/// [`partition_part`] of the store in `dir` whose normals come from `normals`.
+/// [`partition_part`] of the store in `dir` of the points `points` gives.
 fn part_in(
     paths: &[PathBuf],
     format: Option<Format>,
     part: StorePart,
     options: &OutOfCore,
-    (dir, normals): (&Path, Normals<'_>),
+    (dir, points): (&Path, Points<'_>),
     monitor: &Monitor<'_>,
 ) -> Result<u64, PsiError> {
     let fail = failure_of(paths)?;
     let plan = StorePlan::read(dir).map_err(|e| fail(e.to_string()))?;
     let changed = || fail(CHANGED.into());
-    let source = || store_source(paths, normals.kind());
+    let source = || store_source(paths, points.kind());
     if source()? != plan.source {
         return Err(changed());
     }
@@ -432,7 +540,7 @@ fn part_in(
     // room for the chunks ahead) overlaps with writing the tiles.
     let dropped = read_ahead(
         options.max_memory >= READ_AHEAD_BUDGET,
-        |visit| for_each_input(paths, format, normals, visit),
+        |visit| for_each_input(paths, format, points, visit),
         |chunk| {
             writer.push(chunk).map_err(|e| fail(e.to_string()))?;
             monitor.check().map_err(|_| fail("interrupted".into()))
@@ -504,21 +612,21 @@ pub fn partition_files(
         format,
         mpu_params,
         options,
-        (&dir, Normals::Given),
+        (&dir, Points::all(Normals::Given)),
         monitor,
     )
 }
 
-/// [`partition_files`] into the store in `dir` whose points have the normals `normals` gives.
+/// [`partition_files`] into the store in `dir` of the points `points` gives.
 pub(crate) fn partition_with(
     paths: &[PathBuf],
     format: Option<Format>,
     mpu_params: &MpuParams,
     options: &OutOfCore,
-    (dir, normals): (&Path, Normals<'_>),
+    (dir, points): (&Path, Points<'_>),
     monitor: &Monitor<'_>,
 ) -> Result<Partition, PsiError> {
-    let at = (dir, normals);
+    let at = (dir, points);
     let points = match start_in(paths, format, mpu_params, options, at, monitor)? {
         PartitionStart::Found(found) => return Ok(*found),
         PartitionStart::Planned { points } => points,
@@ -536,14 +644,13 @@ pub(crate) fn partition_with(
 fn for_each_input(
     paths: &[PathBuf],
     format: Option<Format>,
-    normals: Normals<'_>,
+    points: Points<'_>,
     mut visit: impl FnMut(&[OrientedPoint]) -> Result<(), PsiError>,
 ) -> Result<u64, PsiError> {
-    let (mut read, mut dropped) = (0, 0);
+    let mut counts = Counts::default();
+    let mut dropped = 0;
     for path in paths {
-        let (r, d) = for_each_points(path, format, normals, (read, read - dropped), &mut visit)?;
-        read += r;
-        dropped += d;
+        dropped += for_each_points(path, format, points, &mut counts, &mut visit)?;
     }
     Ok(dropped)
 }

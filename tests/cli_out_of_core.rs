@@ -168,49 +168,116 @@ fn write_positions(path: &Path, points: &[psi::DVec3]) {
     std::fs::write(path, text).unwrap();
 }
 
-/// Positions alone (a torus and a box, x y z): the normals estimated and oriented tile by tile
-/// give the in-core run's particles byte for byte (its other preprocessing off, as out of core);
-/// a second run resumes from the final tiles, and only they are left in the scratch directory.
+/// A torus with what a scan's outlier step leaves out: 150 points scattered through its box,
+/// 40 lifted 3 to 10 spacings off, 25 repeats of earlier points (random normals on the
+/// scattered ones).
+fn torus_with_strays() -> Vec<psi::OrientedPoint> {
+    use psi::shapes::AnalyticShape;
+    use rand::{RngExt, SeedableRng};
+    let torus = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.35,
+    };
+    let mut points = torus.sample(20_000, 7);
+    let spacing = (torus.area() / 20_000.0).sqrt();
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
+    let mut within = |half: psi::DVec3| {
+        half * psi::DVec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        )
+    };
+    let mut scattered = Vec::new();
+    for _ in 0..150 {
+        let p = within(psi::DVec3::new(1.4, 1.4, 0.5));
+        let n = within(psi::DVec3::ONE).normalize_or(psi::DVec3::Z);
+        scattered.push(psi::OrientedPoint { p, n });
+    }
+    for k in 0..40 {
+        let q = points[k * 487];
+        let lift = (3.0 + 0.17 * k as f64) * spacing;
+        scattered.push(psi::OrientedPoint {
+            p: q.p + lift * q.n,
+            n: q.n,
+        });
+    }
+    for k in 0..25 {
+        scattered.push(points[k * 701]);
+    }
+    points.extend(scattered);
+    points
+}
+
+/// The outlier step and missing normals out of core: a torus with strays (positions alone, and
+/// with normals), a box (positions alone: many ties among its neighbours) and a dense noisy
+/// sphere (positions alone, planes among a coarser level of its points), tile by tile, give
+/// the in-core run's particles byte for byte (the steps not done out of core off in both) and
+/// leave out what it leaves out; a second run resumes from the final tiles, and only they and
+/// the verdicts are left in the scratch directory.
 #[test]
-fn out_of_core_estimates_missing_normals_bitwise_as_in_core() {
+fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
     use psi::shapes::AnalyticShape;
     let dir = common::scratch("out-of-core-normals");
-    let shapes = [
-        (
-            "torus",
-            AnalyticShape::Torus {
-                major: 1.0,
-                minor: 0.35,
-            }
-            .sample(20_000, 7),
-        ),
-        (
-            "box",
-            AnalyticShape::Box {
-                half: psi::DVec3::new(0.5, 0.4, 0.3),
-            }
-            .sample(20_000, 8),
-        ),
+    let torus = torus_with_strays();
+    let boxed = AnalyticShape::Box {
+        half: psi::DVec3::new(0.5, 0.4, 0.3),
+    }
+    .sample(20_000, 8);
+    let positions =
+        |points: &[psi::OrientedPoint]| -> Vec<psi::DVec3> { points.iter().map(|p| p.p).collect() };
+    // A dense noisy sphere: its planes are fitted among one point in 16 (level 2).
+    let mut rng = <rand_pcg::Pcg64Mcg as rand::SeedableRng>::seed_from_u64(3);
+    let noisy: Vec<psi::OrientedPoint> = AnalyticShape::Sphere { radius: 1.0 }
+        .sample(20_000, 2)
+        .iter()
+        .map(|p| psi::OrientedPoint {
+            p: p.p + 0.03 * psi::shapes::gaussian_vector(&mut rng),
+            n: psi::DVec3::ZERO,
+        })
+        .collect();
+    let cases = [
+        ("torus", torus.clone(), false, 0),
+        ("torus-normals", torus, true, -1),
+        ("box", boxed, false, 0),
+        ("noisy-sphere", noisy, false, 2),
     ];
-    for (name, points) in shapes {
-        let xyz = dir.join(format!("{name}.xyz"));
-        let positions: Vec<psi::DVec3> = points.iter().map(|p| p.p).collect();
-        write_positions(&xyz, &positions);
-        let x = xyz.to_str().unwrap();
-        let core = dir.join(format!("{name}-core.ply"));
+    for (name, points, with_normals, level) in cases {
+        let input = if with_normals {
+            let ply = dir.join(format!("{name}.ply"));
+            psi::save_points(&ply, &points).unwrap();
+            ply
+        } else {
+            let xyz = dir.join(format!("{name}.xyz"));
+            write_positions(&xyz, &positions(&points));
+            xyz
+        };
+        let x = input.to_str().unwrap();
+        let (core, core_json) = (
+            dir.join(format!("{name}-core.ply")),
+            dir.join(format!("{name}-core.json")),
+        );
         let out = common::psi(&[
             "sample",
             x,
-            "--keep-outliers",
             "--no-noise-estimate",
             "--no-denoise",
+            "--keep-inward-normals",
             "--max-spacing",
             "inf",
             "-q",
             "-o",
             core.to_str().unwrap(),
+            "--json",
+            core_json.to_str().unwrap(),
         ]);
         common::assert_success(&out);
+        let core_report = json(&core_json);
+        let outliers = &core_report["input"]["outliers"];
+        // (No stray clumps: that search is not done out of core yet.)
+        assert_eq!(outliers["clumps"], 0, "{name}: {outliers}");
+        let removed = outliers["removed"].as_u64().unwrap()
+            + core_report["input"]["repeated_points"].as_u64().unwrap();
         let scratch = dir.join(format!("{name}-scratch"));
         let tiled = |tag: &str| {
             let (o, j) = (
@@ -239,49 +306,50 @@ fn out_of_core_estimates_missing_normals_bitwise_as_in_core() {
             "{name}: particles differ from in core"
         );
         assert!(report["tiles"]["count"].as_u64().unwrap() >= 8, "{report}");
-        assert!(
-            report["tiles"]["preprocessing"]
-                .as_str()
-                .unwrap()
-                .starts_with("normals estimated")
-        );
-        let left: Vec<String> = std::fs::read_dir(&scratch)
+        let pre = &report["tiles"]["preprocessing"];
+        let normals = if with_normals {
+            "given"
+        } else {
+            "estimated and oriented tile by tile"
+        };
+        assert_eq!(pre["normals"], normals);
+        assert_eq!(pre["normals_level"].as_i64().unwrap_or(-1), level, "{name}");
+        assert_eq!(pre["outliers"]["removed"].as_u64(), Some(removed), "{name}");
+        if name.starts_with("torus") {
+            assert_eq!(pre["outliers"]["repeated"], 25);
+            assert!(removed >= 25 + 150, "{name}: {removed} left out");
+        }
+        let mut left: Vec<String> = std::fs::read_dir(&scratch)
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
-        assert_eq!(left, ["tiles"], "{name}");
+        left.sort();
+        assert_eq!(left, ["strays.bin", "tiles"], "{name}");
         let (again, report) = tiled("b");
         assert_eq!(report["tiles"]["resumed"], true);
+        assert_eq!(
+            report["tiles"]["preprocessing"]["outliers"],
+            pre["outliers"]
+        );
         assert!(again == first, "{name}: the resumed run differs");
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// Refused without touching the output: four points (too few for an MPU, their normals
-/// estimated first), a dense noisy cloud (its normals are fitted among a coarser subset of its
-/// points in core: not done out of core yet, and said so), sizes that are no sizes.
+/// estimated first), sizes that are no sizes; normal estimation cannot be turned off.
 #[test]
-fn out_of_core_refuses_too_few_points_dense_noisy_positions_and_bad_sizes() {
-    use psi::shapes::{AnalyticShape, gaussian_vector};
-    use rand::SeedableRng;
+fn out_of_core_refuses_too_few_points_and_bad_sizes() {
     let dir = common::scratch("out-of-core-bad");
     let xyz = dir.join("plain.xyz");
     std::fs::write(&xyz, "0 0 0\n1 0 0\n0 1 0\n0 0 1\n").unwrap();
-    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
-    let noisy: Vec<psi::DVec3> = AnalyticShape::Sphere { radius: 1.0 }
-        .sample(20_000, 2)
-        .iter()
-        .map(|p| p.p + 0.03 * gaussian_vector(&mut rng))
-        .collect();
-    let noisy_xyz = dir.join("noisy.xyz");
-    write_positions(&noisy_xyz, &noisy);
     let kept = dir.join("kept.ply");
     std::fs::write(&kept, "precious").unwrap();
     // Estimating normals out of core cannot be turned off (the in-core flag would refuse
     // positions alone): the parser says so.
     let out = common::psi(&[
         "sample",
-        noisy_xyz.to_str().unwrap(),
+        xyz.to_str().unwrap(),
         "--max-memory",
         "64MiB",
         "--no-normal-estimation",
@@ -290,21 +358,16 @@ fn out_of_core_refuses_too_few_points_dense_noisy_positions_and_bad_sizes() {
     ]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("cannot be used with"));
-    for (input, name, why) in [
-        (&xyz, "plain.xyz", "too few"),
-        (&noisy_xyz, "noisy.xyz", "does not do yet"),
-    ] {
-        let out = common::psi(&[
-            "sample",
-            input.to_str().unwrap(),
-            "--max-memory",
-            "64MiB",
-            "-o",
-            kept.to_str().unwrap(),
-        ]);
-        common::assert_rejected(&out, name, &kept, why);
-        assert!(String::from_utf8_lossy(&out.stderr).contains(why), "{name}");
-    }
+    let out = common::psi(&[
+        "sample",
+        xyz.to_str().unwrap(),
+        "--max-memory",
+        "64MiB",
+        "-o",
+        kept.to_str().unwrap(),
+    ]);
+    common::assert_rejected(&out, "plain.xyz", &kept, "too few");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("too few"));
     for size in ["12XB", "lots", "1MiB"] {
         let out = common::psi(&[
             "sample",

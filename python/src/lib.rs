@@ -37,7 +37,7 @@ fn psi_python(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sample::save_particles, m)?)?;
     m.add_function(wrap_pyfunction!(sample::load_particles, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::sample_files, m)?)?;
-    m.add_function(wrap_pyfunction!(out_of_core::_ooc_estimate_normals, m)?)?;
+    m.add_function(wrap_pyfunction!(out_of_core::_ooc_preprocess, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_partition_start, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_partition_part, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_partition_assemble, m)?)?;

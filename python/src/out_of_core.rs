@@ -62,13 +62,14 @@ fn threads_arg(threads: Option<i128>) -> PyResult<Option<usize>> {
 /// Samples `inputs` (a path, or a list of paths read as one input in that order) out of core
 /// within `max_memory` (bytes, or a size such as "4GiB"), writing the particles to `output`
 /// and the tile files to `scratch` (default: beside `output`). The same run as `psi sample
-/// INPUT --max-memory SIZE`: bitwise its particles. The points are used as given (normals
-/// estimated and oriented tile by tile where they have none; no outlier search, noise
-/// threshold, denoising or ceiling on spacing out of core yet). Returns the run's report
-/// (the CLI's `--json`). A rerun with the same scratch resumes from its tile files.
+/// INPUT --max-memory SIZE`: bitwise its particles. Preprocessing tile by tile: repeated
+/// points and outliers left out (unless `keep_outliers`), normals estimated and oriented where
+/// there are none; not yet the stray-clump search, noise threshold, denoising or ceiling on
+/// spacing. Returns the run's report (the CLI's `--json`). A rerun with the same scratch
+/// resumes from its tile files.
 #[pyfunction]
 #[pyo3(signature = (inputs, output, *, max_memory, scratch=None, k=1, iterations=20,
-    seed=2007, mpu_error=None, progress=None))]
+    seed=2007, mpu_error=None, keep_outliers=false, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn sample_files<'py>(
     py: Python<'py>,
@@ -80,11 +81,21 @@ pub(crate) fn sample_files<'py>(
     iterations: i128,
     seed: i128,
     mpu_error: Option<f64>,
+    keep_outliers: bool,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let run = (preprocess_params(keep_outliers), progress, None);
     run_sample_files(
-        py, inputs, output, max_memory, scratch, k, iterations, seed, mpu_error, progress, None,
+        py, inputs, output, max_memory, scratch, k, iterations, seed, mpu_error, run,
     )
+}
+
+/// The preprocessing of a run out of core: the in-core defaults, outliers kept when asked.
+fn preprocess_params(keep_outliers: bool) -> psi::preprocess::PreprocessParams {
+    psi::preprocess::PreprocessParams {
+        remove_outliers: !keep_outliers,
+        ..psi::preprocess::PreprocessParams::scan()
+    }
 }
 
 /// Task of `psi.distributed.sample_files` (not API): the seeds of one octant of the root
@@ -136,7 +147,7 @@ pub(crate) fn _ooc_seed(
 /// Task of `psi.distributed.sample_files` (not API): [`sample_files`] on a pool of `threads`.
 #[pyfunction]
 #[pyo3(signature = (inputs, output, *, max_memory, scratch=None, k=1, iterations=20,
-    seed=2007, mpu_error=None, threads=None))]
+    seed=2007, mpu_error=None, keep_outliers=false, threads=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn _ooc_sample<'py>(
     py: Python<'py>,
@@ -148,15 +159,21 @@ pub(crate) fn _ooc_sample<'py>(
     iterations: i128,
     seed: i128,
     mpu_error: Option<f64>,
+    keep_outliers: bool,
     threads: Option<i128>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let threads = threads_arg(threads)?;
+    let run = (
+        preprocess_params(keep_outliers),
+        None,
+        threads_arg(threads)?,
+    );
     run_sample_files(
-        py, inputs, output, max_memory, scratch, k, iterations, seed, mpu_error, None, threads,
+        py, inputs, output, max_memory, scratch, k, iterations, seed, mpu_error, run,
     )
 }
 
-/// [`sample_files`], on a pool of `threads` ([`on_threads`]).
+/// [`sample_files`] with `preprocess`, reporting to `progress`, on a pool of `threads`
+/// ([`on_threads`]).
 #[allow(clippy::too_many_arguments)]
 fn run_sample_files<'py>(
     py: Python<'py>,
@@ -168,8 +185,11 @@ fn run_sample_files<'py>(
     iterations: i128,
     seed: i128,
     mpu_error: Option<f64>,
-    progress: Option<&Bound<'py, PyAny>>,
-    threads: Option<usize>,
+    (preprocess, progress, threads): (
+        psi::preprocess::PreprocessParams,
+        Option<&Bound<'py, PyAny>>,
+        Option<usize>,
+    ),
 ) -> PyResult<Bound<'py, PyAny>> {
     let inputs = inputs_arg(inputs)?;
     let max_memory = memory_arg(max_memory)?;
@@ -189,6 +209,7 @@ fn run_sample_files<'py>(
             psi::sample_files_out_of_core(
                 &work_inputs,
                 None,
+                &preprocess,
                 &mpu_params,
                 &particle_params,
                 &work_options,
@@ -286,32 +307,33 @@ fn partition_task<T: Send>(
         .map_err(|e| psi_error(py, e, Some("sampling out of core")))
 }
 
-/// Task of `psi.distributed.sample_files` (not API): for inputs without normals (the first
-/// file's tell), the store with normals estimated and oriented tile by tile, written in
-/// `scratch` as `psi sample --max-memory` writes it (the whole stage in this task, on its
-/// threads), or found there; returns whether it did (the partition's tasks are then skipped).
+/// Task of `psi.distributed.sample_files` (not API): the store of the preprocessed points,
+/// written in `scratch` as `psi sample --max-memory` writes it (the whole stage in this task,
+/// on its threads), or found there, when there is preprocessing to do: the outlier step
+/// (unless `keep_outliers`), normals for inputs without them (the first file's tell). Returns
+/// whether it did (the partition's tasks are then skipped).
 #[pyfunction]
-#[pyo3(signature = (inputs, max_memory, scratch, mpu_error=None, threads=None))]
-pub(crate) fn _ooc_estimate_normals(
+#[pyo3(signature = (inputs, max_memory, scratch, mpu_error=None, keep_outliers=false,
+    threads=None))]
+pub(crate) fn _ooc_preprocess(
     py: Python<'_>,
     inputs: &Bound<'_, PyAny>,
     max_memory: &Bound<'_, PyAny>,
     scratch: PathBuf,
     mpu_error: Option<f64>,
+    keep_outliers: bool,
     threads: Option<i128>,
 ) -> PyResult<bool> {
     let inputs = inputs_arg(inputs)?;
     let options = partition_options(max_memory, scratch)?;
     let params = mpu_params(mpu_error)?;
     partition_task(py, threads, move || {
-        let Some(first) = inputs.first() else {
-            return Ok(false);
-        };
-        if psi::has_normals(first, None)? {
+        let preprocess = preprocess_params(keep_outliers);
+        if !psi::preprocesses_out_of_core(&inputs, None, &preprocess)? {
             return Ok(false);
         }
         let silent = psi::octree::Monitor::silent();
-        psi::partition_estimating_normals(&inputs, None, &params, &options, &silent)?;
+        psi::partition_preprocessed(&inputs, None, &preprocess, &params, &options, &silent)?;
         Ok(true)
     })
 }

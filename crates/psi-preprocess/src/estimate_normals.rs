@@ -85,7 +85,7 @@ const MAX_LEVEL: u32 = 6;
 const AROUND: usize = 4;
 
 /// Levels above 0 keep at least this many points, else level 0 is used.
-pub(crate) const LEVEL_POINTS: usize = 4 * SIZES[SIZES.len() - 1];
+pub const LEVEL_POINTS: usize = 4 * SIZES[SIZES.len() - 1];
 
 /// [`estimate_normals_with`] of the `n` points that `index` indexes (ids 0..n; a point left
 /// out of it gets no normal), at coarseness `level` ([`noise_level`]): above 0, the normals
@@ -99,13 +99,19 @@ pub(crate) fn estimate_normals_in(
 ) -> Vec<DVec3> {
     let by_slot = index.points();
     // The level's points, indexed alone: the order below is theirs, whatever `index`'s frame.
+    // They are taken in input order, so that ties among their neighbours go to the lower input
+    // index, as a part of the points sees them (`level_by_parts.rs`).
     let coarse = (level > 0)
         .then(|| {
-            let points: Vec<DVec3> = by_slot
+            let mut chosen: Vec<(u32, DVec3)> = index
+                .ids()
                 .par_iter()
-                .copied()
-                .filter(|&p| in_level(p, level))
+                .zip(by_slot)
+                .filter(|(_, p)| in_level(**p, level))
+                .map(|(&i, &p)| (i, p))
                 .collect();
+            chosen.par_sort_unstable_by_key(|c| c.0);
+            let points: Vec<DVec3> = chosen.into_iter().map(|c| c.1).collect();
             MortonIndex::new(&points)
         })
         .filter(|sub| sub.len() >= LEVEL_POINTS);
@@ -146,10 +152,10 @@ pub(crate) fn nearest_in_level(level: &MortonIndex, p: DVec3) -> Option<usize> {
         .min_by(|&x, &y| d2(x).total_cmp(&d2(y)))
 }
 
-/// Whether a point at `p` belongs to coarseness `level`: one point in 4^level, nested (a
-/// point of a level belongs to every finer one), by a hash of its coordinates' bits, so the
-/// levels depend on the positions alone, not on their order.
-pub(crate) fn in_level(p: DVec3, level: u32) -> bool {
+/// Whether a point at `p` (world units) belongs to coarseness `level`: one point in 4^level,
+/// nested (a point of a level belongs to every finer one), by a hash of its coordinates' bits,
+/// so the levels depend on the positions alone, not on their order.
+pub fn in_level(p: DVec3, level: u32) -> bool {
     let mut h = 0x9E37_79B9_7F4A_7C15u64;
     for c in [p.x, p.y, p.z] {
         h = mix(h ^ c.to_bits());

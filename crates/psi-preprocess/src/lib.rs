@@ -48,6 +48,7 @@ mod find_outliers;
 #[cfg(test)]
 mod grid_parts;
 mod inward_normals;
+mod level_by_parts;
 mod local_fit;
 mod median;
 mod neighbour_graph;
@@ -66,10 +67,13 @@ pub use denoise::{DenoiseReport, denoise, denoise_with};
 pub use densify_mesh::{MeshCoarseness, densify_mesh, densify_mesh_with_sources, mesh_coarseness};
 pub use drop_strays::OutlierReport;
 pub use estimate_noise::{NoiseEstimate, NoiseRound, estimate_noise, noise_by_rounds};
-pub use estimate_normals::{estimate_normals, estimate_normals_with, noise_level};
+pub use estimate_normals::{
+    LEVEL_POINTS, estimate_normals, estimate_normals_with, in_level, noise_level,
+};
 pub use find_clumps::{CLUMP_GAP, CLUMP_POINTS, Clumps, find_clumps, find_clumps_with};
 pub use find_outliers::{Outliers, find_outliers, find_outliers_with};
 pub use inward_normals::{InwardVotes, inward_votes};
+pub use level_by_parts::LevelIndex;
 pub use median::median_of_passes;
 pub use noise_by_parts::part_noise_samples;
 pub use normals_by_parts::part_normals;

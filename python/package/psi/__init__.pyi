@@ -347,18 +347,19 @@ def sample_files(
     iterations: int = 20,
     seed: int = 2007,
     mpu_error: Optional[float] = None,
+    keep_outliers: bool = False,
     progress: _Progress = None,
 ) -> Dict[str, Any]:
     """Samples ``inputs`` (a path, or a list of paths read as one input in that order) out of
     core within ``max_memory`` (bytes, or a size such as ``"4GiB"``; at least 64 MiB): the
     points streamed into tile files in ``scratch`` (default ``<output>.psi-scratch``), the MPU
     and the particles made tile by tile, the particles written to ``output`` (PLY, or LAS/LAZ by
-    extension). As ``psi sample INPUT --max-memory SIZE``: bitwise its particles. The points are
-    used as given (they need normals; no outlier search, noise estimate or ceiling on spacing out
-    of core yet). A rerun with the same scratch resumes from its files. Returns the CLI's
+    extension). As ``psi sample INPUT --max-memory SIZE``: bitwise its particles. Preprocessing
+    tile by tile: repeated points and outliers left out (unless ``keep_outliers``), normals
+    estimated and oriented where there are none; not yet the stray-clump search, noise
+    threshold, denoising or ceiling on spacing. A rerun with the same scratch resumes from its files. Returns the CLI's
     ``--json`` report (``tiles``: count, depth, points per tile, halos, seconds, ...). Stages ``"read"``,
-    ``"tiles"``, ``"sample tiles"``. ``ValueError`` for inputs without normals, a bad size, a
-    budget too small (naming what is needed); ``OSError`` when a file cannot be read."""
+    ``"tiles"``, ``"sample tiles"``. ``ValueError`` for a bad size, a budget too small (naming what is needed); ``OSError`` when a file cannot be read."""
 
 def load_particles(path: _Path) -> Particles:
     """Reads particles from a PLY (as ``save_particles`` and ``psi sample -o`` write it,

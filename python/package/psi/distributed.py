@@ -87,12 +87,14 @@ def sample_files(
     iterations: int = 20,
     seed: int = 2007,
     mpu_error: Optional[float] = None,
+    keep_outliers: bool = False,
     threads: int = 1,
 ) -> Dict[str, Any]:
     """``psi.sample_files`` as Dask tasks on ``client`` (a ``LocalCluster`` of worker
     processes when ``None``, closed afterwards). The tiling is a function of the inputs and
     ``max_memory`` alone, so the particles written to ``output`` are bitwise those of
-    ``psi sample INPUT --max-memory SIZE`` and of ``psi.sample_files``; ``max_memory`` bounds
+    ``psi sample INPUT --max-memory SIZE`` and of ``psi.sample_files`` (``keep_outliers`` as
+    there); ``max_memory`` bounds
     what psi allocates in a task, not the worker's own baseline. Each task runs psi on
     ``threads`` threads of its own (Dask's convention is one task per worker thread, so one;
     give more for workers started with fewer threads than their cores); the particles do not
@@ -116,12 +118,14 @@ def sample_files(
         # The partition: a first pass (the frame and the count), then the tile files written
         # in parts side by side, each streaming the whole input and keeping its own tiles (the
         # files' bytes do not depend on the number of parts), then the manifest.
-        # Inputs without normals: their normals estimated and oriented tile by tile, the whole
-        # stage one task (the store it writes is the partition's), else the partition's tasks.
-        estimated = submit(
-            _psi._ooc_estimate_normals, paths, max_memory, scratch_dir, mpu_error, threads
+        # With preprocessing to do (the outlier step, normals for inputs without them), the
+        # whole stage is one task (the store it writes is the partition's), else the
+        # partition's tasks.
+        prepared = submit(
+            _psi._ooc_preprocess, paths, max_memory, scratch_dir, mpu_error, keep_outliers,
+            threads
         ).result()
-        points = None if estimated else submit(
+        points = None if prepared else submit(
             _psi._ooc_partition_start, paths, max_memory, scratch_dir, mpu_error, threads
         ).result()
         if points is not None:
@@ -171,6 +175,7 @@ def sample_files(
             iterations=iterations,
             seed=seed,
             mpu_error=mpu_error,
+            keep_outliers=keep_outliers,
             threads=threads,
         ).result()
         return report

@@ -44,7 +44,7 @@ pub(crate) fn check_output(input: Option<&Path>, output: &Path, flag: &str) -> R
 }
 
 /// The preprocessing steps the flags ask for.
-fn preprocess_params(args: &InputArgs) -> PreprocessParams {
+pub(crate) fn preprocess_params(args: &InputArgs) -> PreprocessParams {
     PreprocessParams {
         remove_outliers: !args.keep_outliers,
         estimate_normals: !args.no_normal_estimation,

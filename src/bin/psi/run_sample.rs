@@ -58,9 +58,10 @@ pub(crate) struct SampleArgs {
     #[arg(long)]
     evaluation_floor: bool,
     /// Work out of core within this much memory (e.g. 4GiB, 512MiB): the input streamed into
-    /// tile files, the MPU and the particles made tile by tile. The points are used as given
-    /// (normals estimated and oriented tile by tile where they have none; no outlier search,
-    /// noise threshold, denoising or ceiling on spacing yet).
+    /// tile files, the MPU and the particles made tile by tile. Preprocessing tile by tile:
+    /// repeated points and outliers left out (unless --keep-outliers), normals estimated and
+    /// oriented where there are none; not yet the stray-clump search, noise threshold,
+    /// denoising or ceiling on spacing.
     #[arg(long, value_parser = psi::parse_memory_size,
         conflicts_with_all = ["count", "uniform", "png", "points_out", "evaluation_floor",
             "per_vertex", "orient_normals", "viewpoint", "no_normal_estimation"])]
@@ -204,6 +205,7 @@ fn run_out_of_core(args: &SampleArgs, max_memory: u64, ui: crate::ui::Ui) -> Res
     let request = crate::sample_out_of_core::Request {
         input,
         format: args.input.format,
+        preprocess: crate::input::preprocess_params(&args.input),
         mpu: args.mpu.params(relative),
         particles: ParticleParams {
             k: args.k,

@@ -30,6 +30,7 @@ fn scratch_dir(scratch: Option<&Path>, output: Option<&Path>) -> Result<PathBuf,
 pub(crate) struct Request<'a> {
     pub(crate) input: &'a Path,
     pub(crate) format: Option<psi::io::Format>,
+    pub(crate) preprocess: psi::preprocess::PreprocessParams,
     pub(crate) mpu: MpuParams,
     pub(crate) particles: ParticleParams,
     pub(crate) max_memory: u64,
@@ -40,12 +41,11 @@ pub(crate) struct Request<'a> {
 
 pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
     let scratch = scratch_dir(req.scratch, req.output)?;
-    ui.notice(
-        "--max-memory: the points are used as given (points without normals get them \
-         estimated and oriented tile by tile): the outlier search, the noise threshold, \
-         denoising and the inward-normals check are not done out of core yet; nor is the \
-         ceiling on spacing (--max-spacing) applied",
-    );
+    ui.notice(&format!(
+        "--max-memory: not done out of core yet: {}; nor is the ceiling on spacing \
+         (--max-spacing) applied",
+        psi::NOT_DONE_OUT_OF_CORE.join(", ")
+    ));
     let options = OutOfCore {
         max_memory: req.max_memory,
         scratch,
@@ -68,6 +68,7 @@ pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
     let run = psi::sample_file_out_of_core(
         req.input,
         req.format,
+        &req.preprocess,
         &req.mpu,
         &req.particles,
         &options,
@@ -84,9 +85,13 @@ pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
         psi::save_json(path, &report)?;
     }
     ui.summary(&format!(
-        "{}: {} points in {} tiles (depth {}): {} cells, {} particles; read {:.2} s{}, MPU {:.2} s, particles {:.2} s{}",
+        "{}: {} points{} in {} tiles (depth {}): {} cells, {} particles; read {:.2} s{}, MPU {:.2} s, particles {:.2} s{}",
         req.input.display(),
         run.points,
+        run.strays
+            .map(|t| format!(" ({} left out: {} repeated, {} far, {} off the surface)",
+                t.removed(), t.repeated, t.far, t.off_surface))
+            .unwrap_or_default(),
         run.tiles.count,
         run.tiles.depth,
         run.tiles.cells,

@@ -1,0 +1,136 @@
+//! The partition of a run out of core with the preprocessing that runs tile by tile: the
+//! outlier step (`tile_outliers.rs`; not for a mesh's points, which the in-core preprocessing
+//! does not search either) and normals for points without them (`tile_normals.rs`), else the
+//! plain partition (`partition.rs`). The CLI's `--max-memory` and Python's `sample_files` run it
+//! within [`crate::sample_files_out_of_core`]; `psi.distributed.sample_files` as one task
+//! when [`preprocesses_out_of_core`] says there is preprocessing to do, else as the
+//! partition's own tasks.
+
+use std::path::{Path, PathBuf};
+
+use psi_io::Format;
+use psi_mpu::MpuParams;
+use psi_octree::Monitor;
+use psi_preprocess::PreprocessParams;
+
+use crate::PsiError;
+use crate::budget::OutOfCore;
+use crate::partition::{Partition, has_normals, is_mesh, partition_files};
+use crate::tile_normals::partition_estimating_normals;
+use crate::tile_outliers::{StrayTally, partition_removing_outliers};
+
+/// The store of the preprocessed points and what the preprocessing did.
+#[derive(Clone, Debug)]
+pub struct PreprocessedPartition {
+    /// The store (in `<scratch>/tiles`).
+    pub partition: Partition,
+    /// What the outlier step left out (`None` when it did not run).
+    pub strays: Option<StrayTally>,
+    /// Whether the input had no normals and they were estimated and oriented tile by tile.
+    pub normals_estimated: bool,
+    /// The level their planes were fitted at (one point in 4^level; `None` when the store
+    /// of an earlier run was found, or the normals were given).
+    pub normals_level: Option<u32>,
+}
+
+/// What the preprocessing of `paths` (read as `format`) does out of core: whether the points
+/// get normals, and whether the outlier step runs. Checks that the files have normals or none.
+fn steps(
+    paths: &[PathBuf],
+    format: Option<Format>,
+    preprocess: &PreprocessParams,
+) -> Result<(bool, bool), PsiError> {
+    let first = paths.first().ok_or_else(|| PsiError::OutOfCore {
+        path: PathBuf::new(),
+        reason: "no input files given".into(),
+    })?;
+    let estimate = !has_normals(first, format)?;
+    for path in &paths[1..] {
+        if has_normals(path, format)? == estimate {
+            return Err(mixed(path, estimate));
+        }
+    }
+    if estimate && !preprocess.estimate_normals {
+        return Err(PsiError::OutOfCore {
+            path: first.clone(),
+            reason: "has no normals, and normal estimation is off".into(),
+        });
+    }
+    // A mesh's triangles are the surface: in core its points are not searched for outliers.
+    let remove = preprocess.remove_outliers && !is_mesh(first, format)?;
+    Ok((estimate, remove))
+}
+
+/// The error for a file of an input whose first file has normals (`estimate` false) or none.
+fn mixed(path: &Path, estimate: bool) -> PsiError {
+    PsiError::OutOfCore {
+        path: path.to_path_buf(),
+        reason: format!(
+            "has {}normals where the input's first file has {}: the files of one input have \
+             normals or none",
+            if estimate { "" } else { "no " },
+            if estimate { "none" } else { "them" }
+        ),
+    }
+}
+
+/// Whether a run out of core on `paths` (read as `format`) with `preprocess` has preprocessing
+/// to do tile by tile (else its store is the plain partition's).
+///
+/// # Errors
+///
+/// As [`partition_preprocessed`]'s checks: the files cannot be read, have normals in some and
+/// none in others, or have none while normal estimation is off.
+pub fn preprocesses_out_of_core(
+    paths: &[PathBuf],
+    format: Option<Format>,
+    preprocess: &PreprocessParams,
+) -> Result<bool, PsiError> {
+    let (estimate, remove) = steps(paths, format, preprocess)?;
+    Ok(estimate || remove)
+}
+
+/// The store of `paths`' points (one input, in this order; each read as `format` or as its
+/// extension says) in `options.scratch/tiles`, preprocessed as `preprocess` asks of the steps
+/// that run out of core, bitwise the in-core steps: repeated points and outliers left out
+/// (`remove_outliers`, not for a mesh's points), normals estimated and oriented where there
+/// are none (`estimate_normals`, else such an input is refused). Found there when an earlier
+/// run wrote it for the same files and steps. Progress: the stages of the steps that run, then
+/// the partition's.
+///
+/// # Errors
+///
+/// [`PsiError::Open`] / [`PsiError::Read`] for the input; [`PsiError::OutOfCore`] naming the
+/// file when the files have normals in some and none in others, none while normal estimation
+/// is off, a scratch file fails, or a step refuses (its reason).
+pub fn partition_preprocessed(
+    paths: &[PathBuf],
+    format: Option<Format>,
+    preprocess: &PreprocessParams,
+    mpu_params: &MpuParams,
+    options: &OutOfCore,
+    monitor: &Monitor<'_>,
+) -> Result<PreprocessedPartition, PsiError> {
+    let (estimate, remove) = steps(paths, format, preprocess)?;
+    let (partition, strays, normals_level) = match (estimate, remove) {
+        (true, _) => {
+            partition_estimating_normals(paths, format, mpu_params, options, remove, monitor)?
+        }
+        (false, true) => {
+            let (partition, tally) =
+                partition_removing_outliers(paths, format, mpu_params, options, monitor)?;
+            (partition, Some(tally), None)
+        }
+        (false, false) => (
+            partition_files(paths, format, mpu_params, options, monitor)?,
+            None,
+            None,
+        ),
+    };
+    Ok(PreprocessedPartition {
+        partition,
+        strays,
+        normals_estimated: estimate,
+        normals_level,
+    })
+}

@@ -1,0 +1,155 @@
+//! What the preprocessing stages out of core share (`tile_normals.rs`, `tile_outliers.rs`): a
+//! store's tile with a halo as a part for psi-preprocess's by-parts functions, its halo grown
+//! while they cannot certify its points, and scratch files of one fixed-size record a point by
+//! the store's index, written at their offsets by tile and read back in input order.
+
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use glam::DVec3;
+use psi_octree::Monitor;
+use psi_preprocess::IncompletePart;
+use psi_tiles::{TileStore, TileWithHalo};
+
+use crate::PsiError;
+
+/// Records read from a record file in windows of this many (a pass reads them in input
+/// order).
+const WINDOW: u64 = 1 << 16;
+
+/// `f` between the monitor's reports of stage `name` (started, done).
+pub(crate) fn at_stage<T>(
+    monitor: &Monitor<'_>,
+    name: &str,
+    f: impl FnOnce() -> Result<T, PsiError>,
+) -> Result<T, PsiError> {
+    monitor.report(name, 0, 1);
+    let out = f()?;
+    monitor.report(name, 1, 1);
+    Ok(out)
+}
+
+/// A first halo for the stores' tiles: an eighth of a tile's edge (world units); each tile's
+/// grows to what its points need.
+pub(crate) fn first_halo(store: &TileStore) -> f64 {
+    let m = store.manifest();
+    m.frame.root_half / f64::from(1u32 << m.depth) / 4.0
+}
+
+/// `f` on tile `key` of `store` with its halo (its input indices as 32 bits, and whether a ball
+/// lies in what it holds), the halo grown and the tile gathered again while `f` cannot certify
+/// its points; the tile and `f`'s result, or why the store could not be read.
+pub(crate) fn by_tile<T>(
+    store: &TileStore,
+    key: [u32; 3],
+    halo: &mut f64,
+    f: impl Fn(&TileWithHalo, &[u32], &(dyn Fn(DVec3, f64) -> bool + Sync)) -> Result<T, IncompletePart>,
+) -> Result<(TileWithHalo, T), String> {
+    loop {
+        let tile = store
+            .tile_with_halo(key, *halo)
+            .map_err(|e| e.to_string())?;
+        let ids: Vec<u32> = tile.ids.iter().map(|&i| i as u32).collect();
+        let holds = |x: DVec3, r: f64| tile.holds_ball(x, r);
+        match f(&tile, &ids, &holds) {
+            Ok(out) => return Ok((tile, out)),
+            // Fewer points held than a point's neighbours: twice the halo. Else the reach the
+            // refused point needs (or half as much again, should rounding on the held cube's
+            // face refuse it at that reach). The halo grows geometrically until the held cube
+            // holds every point, which certifies any part: the loop ends.
+            Err(e) if e.reach.is_infinite() => *halo *= 2.0,
+            Err(e) => *halo = (1.01 * e.reach).max(1.5 * *halo),
+        }
+    }
+}
+
+/// A scratch file of one `B`-byte record a point, by index, read a window at a time.
+pub(crate) struct RecordFile<const B: usize> {
+    path: PathBuf,
+    file: File,
+    len: u64,
+    window: Mutex<(u64, Vec<u8>)>,
+}
+
+impl<const B: usize> RecordFile<B> {
+    /// The file at `path`, whole (its length a multiple of `B`).
+    pub(crate) fn open(path: &Path) -> Result<Self, String> {
+        let file = File::open(path).map_err(|e| io_reason(path, &e))?;
+        let len = file.metadata().map_err(|e| io_reason(path, &e))?.len() / B as u64;
+        Ok(Self {
+            path: path.to_path_buf(),
+            file,
+            len,
+            window: Mutex::new((0, Vec::new())),
+        })
+    }
+
+    /// The record of point `i`.
+    pub(crate) fn get(&self, i: u64) -> Result<[u8; B], String> {
+        let mut window = self.window.lock().expect("not poisoned");
+        let (start, bytes) = &mut *window;
+        let held = bytes.len() as u64 / B as u64;
+        if i < *start || i >= *start + held {
+            if i >= self.len {
+                return Err(format!("{}: no record for point {i}", self.path.display()));
+            }
+            let count = WINDOW.min(self.len - i);
+            bytes.resize((count * B as u64) as usize, 0);
+            read_at(&self.file, bytes, i * B as u64).map_err(|e| io_reason(&self.path, &e))?;
+            *start = i;
+        }
+        let at = ((i - *start) * B as u64) as usize;
+        Ok(bytes[at..at + B].try_into().expect("B bytes"))
+    }
+}
+
+/// A normal as the 24 bytes of its record (three little-endian f64).
+pub(crate) fn normal_bytes(n: DVec3) -> [u8; 24] {
+    let mut out = [0u8; 24];
+    for (k, v) in n.to_array().iter().enumerate() {
+        out[8 * k..8 * k + 8].copy_from_slice(&v.to_le_bytes());
+    }
+    out
+}
+
+/// The normal of a 24-byte record.
+pub(crate) fn normal_of_bytes(c: [u8; 24]) -> DVec3 {
+    let f = |k: usize| f64::from_le_bytes(c[8 * k..8 * k + 8].try_into().expect("8"));
+    DVec3::new(f(0), f(1), f(2))
+}
+
+/// A file's path and what went wrong with it.
+pub(crate) fn io_reason(path: &Path, e: &std::io::Error) -> String {
+    format!("{}: {e}", path.display())
+}
+
+/// Writes `bytes` at `offset` of `file`.
+#[cfg(unix)]
+pub(crate) fn write_at(file: &File, bytes: &[u8], offset: u64) -> std::io::Result<()> {
+    std::os::unix::fs::FileExt::write_all_at(file, bytes, offset)
+}
+
+/// Reads `bytes.len()` bytes at `offset` of `file`.
+#[cfg(unix)]
+fn read_at(file: &File, bytes: &mut [u8], offset: u64) -> std::io::Result<()> {
+    std::os::unix::fs::FileExt::read_exact_at(file, bytes, offset)
+}
+
+/// Writes `bytes` at `offset` of `file`.
+#[cfg(not(unix))]
+pub(crate) fn write_at(file: &File, bytes: &[u8], offset: u64) -> std::io::Result<()> {
+    use std::io::{Seek, SeekFrom, Write};
+    let mut f = file;
+    f.seek(SeekFrom::Start(offset))?;
+    f.write_all(bytes)
+}
+
+/// Reads `bytes.len()` bytes at `offset` of `file`.
+#[cfg(not(unix))]
+fn read_at(file: &File, bytes: &mut [u8], offset: u64) -> std::io::Result<()> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut f = file;
+    f.seek(SeekFrom::Start(offset))?;
+    f.read_exact(bytes)
+}
