@@ -119,7 +119,7 @@ def test_positions_alone_get_the_clis_normals_and_particles_on_the_cluster(cli, 
                                           max_memory="64MiB", scratch=tmp_path / "s1")
     run_cli(cli, "sample", plain, "--max-memory", "64MiB", "-o", tmp_path / "cli.ply",
             "--scratch", tmp_path / "s2")
-    assert report["tiles"]["preprocessing"].startswith("normals estimated")
+    assert report["tiles"]["preprocessing"]["normals"] == "estimated and oriented tile by tile"
     assert (tmp_path / "dask.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
 
 

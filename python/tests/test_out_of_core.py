@@ -63,7 +63,7 @@ def test_positions_alone_get_their_normals_tile_by_tile_as_the_cli_does(cli, tmp
     two = psi.sample_files([a, b], tmp_path / "two.ply", max_memory="64MiB")
     run_cli(cli, "sample", whole, "--max-memory", "64MiB", "-o", tmp_path / "cli.ply",
             "--scratch", tmp_path / "s")
-    assert one["tiles"]["preprocessing"].startswith("normals estimated")
+    assert one["tiles"]["preprocessing"]["normals"] == "estimated and oriented tile by tile"
     assert one["input"]["points"] == two["input"]["points"]
     assert (tmp_path / "one.ply").read_bytes() == (tmp_path / "two.ply").read_bytes()
     assert (tmp_path / "one.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
@@ -74,6 +74,32 @@ def test_positions_alone_get_their_normals_tile_by_tile_as_the_cli_does(cli, tmp
     with pytest.raises(ValueError, match="oriented.xyz: has normals where the input's first"):
         psi.sample_files([a, oriented], tmp_path / "mixed.ply", max_memory="64MiB")
     assert not (tmp_path / "mixed.ply").exists()
+
+
+def test_outliers_are_left_out_tile_by_tile_unless_kept(cli, tmp_path):
+    # The builtin model with 60 points scattered through its box (seeded) and 5 repeats.
+    ps = psi.builtin_model(20_000)
+    pts, nrm = np.asarray(ps.points), np.asarray(ps.normals)
+    rng = np.random.default_rng(4)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    stray = lo + (hi - lo) * rng.random((60, 3))
+    pts = np.vstack([pts, stray, pts[:5]])
+    nrm = np.vstack([nrm, np.tile([0.0, 0.0, 1.0], (60, 1)), nrm[:5]])
+    src = tmp_path / "strays.xyz"
+    write_xyz(src, pts, nrm)
+    left = psi.sample_files(src, tmp_path / "left.ply", max_memory="64MiB")
+    kept = psi.sample_files(src, tmp_path / "kept.ply", max_memory="64MiB", keep_outliers=True)
+    out = left["tiles"]["preprocessing"]["outliers"]
+    assert out["repeated"] == 5 and out["removed"] >= 5 + 50, out
+    assert left["input"]["points"] == len(pts) - out["removed"]
+    assert kept["tiles"]["preprocessing"]["outliers"] is None
+    assert kept["input"]["points"] == len(pts)
+    # The CLI's run with and without --keep-outliers: the same bytes.
+    for name, flags in (("left", []), ("kept", ["--keep-outliers"])):
+        cli_out = tmp_path / f"cli-{name}.ply"
+        run_cli(cli, "sample", src, "--max-memory", "64MiB", "-o", cli_out,
+                "--scratch", tmp_path / f"s-{name}", *flags)
+        assert cli_out.read_bytes() == (tmp_path / f"{name}.ply").read_bytes(), name
 
 
 def test_bad_sizes_and_too_few_points_are_refused_as_the_cli_refuses_them(cli, tmp_path):
