@@ -26,6 +26,7 @@
 mod budget;
 mod error;
 mod files;
+mod input_points;
 mod memory_estimate;
 mod out_of_core;
 mod partition;

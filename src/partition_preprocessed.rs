@@ -15,7 +15,7 @@ use psi_preprocess::PreprocessParams;
 
 use crate::PsiError;
 use crate::budget::OutOfCore;
-use crate::partition::{Partition, has_normals, is_mesh, partition_files};
+use crate::partition::{Input, Partition, has_normals, is_mesh, partition_files};
 use crate::tile_normals::partition_estimating_normals;
 use crate::tile_outliers::{StrayTally, partition_removing_outliers};
 
@@ -112,13 +112,16 @@ pub fn partition_preprocessed(
     monitor: &Monitor<'_>,
 ) -> Result<PreprocessedPartition, PsiError> {
     let (estimate, remove) = steps(paths, format, preprocess)?;
+    let input = Input {
+        paths,
+        format,
+        mpu_params,
+        options,
+    };
     let (partition, strays, normals_level) = match (estimate, remove) {
-        (true, _) => {
-            partition_estimating_normals(paths, format, mpu_params, options, remove, monitor)?
-        }
+        (true, _) => partition_estimating_normals(input, remove, monitor)?,
         (false, true) => {
-            let (partition, tally) =
-                partition_removing_outliers(paths, format, mpu_params, options, monitor)?;
+            let (partition, tally) = partition_removing_outliers(input, monitor)?;
             (partition, Some(tally), None)
         }
         (false, false) => (

@@ -10,11 +10,9 @@
 //! `"level"`, `"level planes"`, `"level sides"` (tiles done of tiles).
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::DVec3;
-use psi_io::Format;
-use psi_mpu::MpuParams;
 use psi_octree::{Monitor, OrientedPoint};
 use psi_preprocess::{
     LEVEL_POINTS, LevelIndex, PartEdges, in_level, orientation_flips, part_normals,
@@ -23,9 +21,8 @@ use psi_preprocess::{
 use psi_tiles::{TileStore, TileWithHalo};
 
 use crate::PsiError;
-use crate::budget::OutOfCore;
-use crate::partition::{Keep, Normals, Partition, Points, failure, partition_with};
-use crate::tile_parts::{at_stage, by_tile, first_halo};
+use crate::partition::{Input, Keep, Normals, Partition, Points, failure};
+use crate::tile_parts::{by_tile, first_halo};
 
 /// Bytes a level point takes while the final store is written: its position and input index
 /// (28), its plane and oriented normal (48), the lookup's index (about 40), the orientation's
@@ -64,7 +61,7 @@ impl Level {
     }
 }
 
-/// The final store (in `final_dir`) of the points of `store` (the kept positions of `paths`,
+/// The final store (in `final_dir`) of the points of `store` (the kept positions of `input`,
 /// which `keep` keeps) with normals estimated at `level` > 0, bitwise the in-core estimate
 /// and orientation; `None` when the level holds fewer than [`LEVEL_POINTS`] points (the
 /// in-core estimate then works at level 0). `halos` holds each tile's halo so far.
@@ -73,18 +70,14 @@ impl Level {
 ///
 /// [`PsiError::OutOfCore`] naming the first file: the level does not fit in `--max-memory`, a
 /// store cannot be read, or the partition's errors.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn partition_from_level(
-    paths: &[PathBuf],
-    format: Option<Format>,
-    mpu_params: &MpuParams,
-    options: &OutOfCore,
+    input: Input<'_>,
     (store, keep, level): (&TileStore, Option<Keep<'_>>, u32),
     halos: &mut BTreeMap<[u32; 3], f64>,
     final_dir: &Path,
     monitor: &Monitor<'_>,
 ) -> Result<Option<Partition>, PsiError> {
-    let fail = failure(&paths[0]);
+    let (fail, options) = (failure(&input.paths[0]), input.options);
     let interrupted = || fail("interrupted".into());
     let keys = store.tile_keys();
     // The level's points, from each tile's own.
@@ -230,19 +223,12 @@ pub(crate) fn partition_from_level(
         let turn = o.is_some_and(|o| n.dot(sides[o as usize]) < 0.0);
         Ok(if turn { -n } else { n })
     };
-    let partition = at_stage(monitor, "orient", || {
+    let partition = {
         let points = Points {
             normals: Normals::Located(&normal_at),
             keep,
         };
-        partition_with(
-            paths,
-            format,
-            mpu_params,
-            options,
-            (final_dir, points),
-            monitor,
-        )
-    })?;
+        input.stage("orient", final_dir, points, monitor)?
+    };
     Ok(Some(partition))
 }

@@ -17,11 +17,8 @@
 
 use std::collections::BTreeMap;
 use std::fs::{self, File};
-use std::path::PathBuf;
 
 use glam::DVec3;
-use psi_io::Format;
-use psi_mpu::MpuParams;
 use psi_octree::Monitor;
 use psi_preprocess::{
     NoiseRound, PartEdges, noise_by_rounds, noise_level, orientation_flips, part_noise_samples,
@@ -29,14 +26,13 @@ use psi_preprocess::{
 };
 
 use crate::PsiError;
-use crate::budget::OutOfCore;
 use crate::partition::{
-    Keep, Normals, NormalsKind, Partition, Points, StoreKind, failure, found, partition_with,
+    Input, Keep, Normals, NormalsKind, Partition, Points, StoreKind, failure, found,
 };
 use crate::tile_level_normals::partition_from_level;
 use crate::tile_outliers::{STRAYS_FILE, StrayTally, stray_verdicts, tally_of};
 use crate::tile_parts::{
-    RecordFile, at_stage, by_tile, first_halo, io_reason, normal_bytes, normal_of_bytes, write_at,
+    RecordFile, by_tile, first_halo, io_reason, normal_bytes, normal_of_bytes, write_at,
 };
 
 /// Bytes of a normal in `normals.bin` (three little-endian f64).
@@ -47,8 +43,7 @@ const NORMAL_BYTES: u64 = 24;
 /// x and the side of n.x (9), the flips (1), the parts' forests and same-sheet links (up to 32).
 const JOIN_BYTES: u64 = 65;
 
-/// The store of `paths`' points (files without normals, read as `format` or as their
-/// extensions say) with normals estimated and oriented tile by tile, in `options.scratch/tiles`
+/// The store of `input`'s points (files without normals) with normals estimated and oriented tile by tile, in `options.scratch/tiles`
 /// (found there when an earlier run wrote it for the same files), where the decisions of
 /// [`crate::sample_files_out_of_core`] read it; on a cluster, one task
 /// (`psi.distributed.sample_files`). With `remove_outliers`, the outlier step's strays are left
@@ -62,13 +57,11 @@ const JOIN_BYTES: u64 = 65;
 /// coarser level do not fit in `--max-memory`, or they are too many for 32-bit indices; the
 /// partition's errors.
 pub(crate) fn partition_estimating_normals(
-    paths: &[PathBuf],
-    format: Option<Format>,
-    mpu_params: &MpuParams,
-    options: &OutOfCore,
+    input: Input<'_>,
     remove_outliers: bool,
     monitor: &Monitor<'_>,
 ) -> Result<(Partition, Option<StrayTally>, Option<u32>), PsiError> {
+    let (paths, options) = (input.paths, input.options);
     let fail = failure(&paths[0]);
     let scratch = &options.scratch;
     let final_dir = scratch.join("tiles");
@@ -102,17 +95,10 @@ pub(crate) fn partition_estimating_normals(
         }
     }
     // The positions, every point with a zero normal.
-    let all = at_stage(monitor, "positions", || {
+    let all = {
         let points = Points::all(Normals::Zero);
-        partition_with(
-            paths,
-            format,
-            mpu_params,
-            options,
-            (&positions_dir, points),
-            monitor,
-        )
-    })?;
+        input.stage("positions", &positions_dir, points, monitor)?
+    };
     // The outlier step's verdicts, and the positions it keeps.
     let mut tally = None;
     let verdicts = if remove_outliers {
@@ -131,20 +117,13 @@ pub(crate) fn partition_estimating_normals(
     };
     let keep: Option<Keep<'_>> = verdicts.is_some().then_some(&keep_strays);
     let bare = if remove_outliers {
-        at_stage(monitor, "kept", || {
+        {
             let points = Points {
                 normals: Normals::Zero,
                 keep,
             };
-            partition_with(
-                paths,
-                format,
-                mpu_params,
-                options,
-                (&kept_dir, points),
-                monitor,
-            )
-        })?
+            input.stage("kept", &kept_dir, points, monitor)?
+        }
     } else {
         all
     };
@@ -183,9 +162,7 @@ pub(crate) fn partition_estimating_normals(
     if level > 0 {
         // The planes among the level's points (none when it holds too few: level 0 then).
         let at = (store, keep, level);
-        let found = partition_from_level(
-            paths, format, mpu_params, options, at, &mut halos, &final_dir, monitor,
-        )?;
+        let found = partition_from_level(input, at, &mut halos, &final_dir, monitor)?;
         if let Some(partition) = found {
             clean_up()?;
             return Ok((partition, tally, Some(level)));
@@ -230,21 +207,14 @@ pub(crate) fn partition_estimating_normals(
     let read = |i: u64| reader.get(i).map(normal_of_bytes);
     // The points with their estimated normals (none dropped where no plane was found), then
     // their sides from the parts' edges.
-    let estimated = at_stage(monitor, "normals", || {
+    let estimated = {
         let normals = Normals::Estimated {
             normals: &read,
             flips: None,
         };
         let points = Points { normals, keep };
-        partition_with(
-            paths,
-            format,
-            mpu_params,
-            options,
-            (&estimated_dir, points),
-            monitor,
-        )
-    })?;
+        input.stage("normals", &estimated_dir, points, monitor)?
+    };
     let kept = estimated.points as usize;
     let mut parts: Vec<PartEdges> = Vec::new();
     let (mut x, mut x_negative) = (vec![0.0; kept], vec![false; kept]);
@@ -268,21 +238,14 @@ pub(crate) fn partition_estimating_normals(
         x_negative[i as usize]
     });
     drop(parts);
-    let oriented = at_stage(monitor, "orient", || {
+    let oriented = {
         let normals = Normals::Estimated {
             normals: &read,
             flips: Some(&flips),
         };
         let points = Points { normals, keep };
-        partition_with(
-            paths,
-            format,
-            mpu_params,
-            options,
-            (&final_dir, points),
-            monitor,
-        )
-    })?;
+        input.stage("orient", &final_dir, points, monitor)?
+    };
     drop(reader);
     clean_up()?;
     let partition = Partition {

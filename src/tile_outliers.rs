@@ -10,11 +10,9 @@
 use std::collections::BTreeMap;
 use std::fs::{self, File};
 use std::io::{BufReader, BufWriter, Read, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::DVec3;
-use psi_io::Format;
-use psi_mpu::MpuParams;
 use psi_octree::Monitor;
 use psi_preprocess::{
     OutlierStats, StrayVerdict, median_of_passes, part_outlier_reaches, part_outliers,
@@ -23,11 +21,8 @@ use psi_tiles::TileStore;
 use serde::{Deserialize, Serialize};
 
 use crate::PsiError;
-use crate::budget::OutOfCore;
-use crate::partition::{
-    Normals, NormalsKind, Partition, Points, StoreKind, failure, found, partition_with,
-};
-use crate::tile_parts::{RecordFile, at_stage, by_tile, first_halo, io_reason};
+use crate::partition::{Input, Normals, NormalsKind, Partition, Points, StoreKind, failure, found};
+use crate::tile_parts::{RecordFile, by_tile, first_halo, io_reason};
 
 /// The verdicts' file in the scratch directory.
 pub(crate) const STRAYS_FILE: &str = "strays.bin";
@@ -165,8 +160,7 @@ pub(crate) fn stray_verdicts(
     tally_of(path)
 }
 
-/// The store of `paths`' points (files with normals, read as `format` or as their extensions
-/// say) without the outlier step's strays, in `options.scratch/tiles` (found there when an
+/// The store of `input`'s points (files with normals) without the outlier step's strays, in `options.scratch/tiles` (found there when an
 /// earlier run wrote it for the same files), with what was left out: all points first stored
 /// in `options.scratch/all` (removed once the kept points are stored), their verdicts
 /// ([`stray_verdicts`]), then the kept points stored. On a cluster, one task
@@ -176,12 +170,10 @@ pub(crate) fn stray_verdicts(
 ///
 /// [`PsiError::OutOfCore`] naming the first file: a scratch file fails; the partition's errors.
 pub(crate) fn partition_removing_outliers(
-    paths: &[PathBuf],
-    format: Option<Format>,
-    mpu_params: &MpuParams,
-    options: &OutOfCore,
+    input: Input<'_>,
     monitor: &Monitor<'_>,
 ) -> Result<(Partition, StrayTally), PsiError> {
+    let (paths, options) = (input.paths, input.options);
     let fail = failure(&paths[0]);
     let scratch = &options.scratch;
     let (all_dir, final_dir) = (scratch.join("all"), scratch.join("tiles"));
@@ -202,38 +194,24 @@ pub(crate) fn partition_removing_outliers(
         clean_up()?;
         return Ok((found, tally));
     }
-    let all = at_stage(monitor, "all points", || {
+    let all = {
         let points = Points::all(Normals::Given);
-        partition_with(
-            paths,
-            format,
-            mpu_params,
-            options,
-            (&all_dir, points),
-            monitor,
-        )
-    })?;
+        input.stage("all points", &all_dir, points, monitor)?
+    };
     if !all.resumed && strays_path.exists() {
         // Another input's verdicts (an earlier run's, left in this scratch directory).
         fs::remove_file(&strays_path).map_err(|e| fail(io_reason(&strays_path, &e)))?;
     }
     let tally = stray_verdicts(&all.store, &strays_path, true, monitor).map_err(&fail)?;
-    let kept = at_stage(monitor, "kept points", || {
+    let kept = {
         let verdicts = RecordFile::<1>::open(&strays_path).map_err(&fail)?;
         let keep = |i: u64| verdicts.get(i).map(|v| v[0] == 0);
         let points = Points {
             normals: Normals::Given,
             keep: Some(&keep),
         };
-        partition_with(
-            paths,
-            format,
-            mpu_params,
-            options,
-            (&final_dir, points),
-            monitor,
-        )
-    })?;
+        input.stage("kept points", &final_dir, points, monitor)?
+    };
     clean_up()?;
     Ok((
         Partition {

@@ -8,27 +8,12 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use glam::DVec3;
-use psi_octree::Monitor;
 use psi_preprocess::IncompletePart;
 use psi_tiles::{TileStore, TileWithHalo};
-
-use crate::PsiError;
 
 /// Records read from a record file in windows of this many (a pass reads them in input
 /// order).
 const WINDOW: u64 = 1 << 16;
-
-/// `f` between the monitor's reports of stage `name` (started, done).
-pub(crate) fn at_stage<T>(
-    monitor: &Monitor<'_>,
-    name: &str,
-    f: impl FnOnce() -> Result<T, PsiError>,
-) -> Result<T, PsiError> {
-    monitor.report(name, 0, 1);
-    let out = f()?;
-    monitor.report(name, 1, 1);
-    Ok(out)
-}
 
 /// A first halo for the stores' tiles: an eighth of a tile's edge (world units); each tile's
 /// grows to what its points need.

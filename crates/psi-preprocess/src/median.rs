@@ -11,10 +11,11 @@ pub(crate) fn median(v: &mut [f64]) -> f64 {
 }
 
 /// The median of values that are streamed rather than held (the upper middle one of an even
-/// count, as [`median`] takes it; 0 for none): `pass(visit)` calls `visit` with every value,
-/// in any order, each time it is called (four times: the value's 64 bits of
-/// [`total_order_key`] are found 16 at a time, each pass counting the values that agree with the
-/// bits found so far in 65 536 bins). Memory: the bins alone; bitwise [`median`] of the values.
+/// count, as the held median takes it; 0 for none): `pass(visit)` calls `visit` with every
+/// value, in any order, each time it is called (four times: the 64 bits of the value's key,
+/// which orders as `f64::total_cmp`, are found 16 at a time, each pass counting the values that
+/// agree with the bits found so far in 65 536 bins). Memory: the bins alone; bitwise the held
+/// median of the values.
 ///
 /// # Errors
 ///
