@@ -114,12 +114,11 @@ pub(crate) fn partition_from_level(
         positions: chosen.into_iter().map(|c| c.1).collect(),
     };
     let m = level_points.ids.len();
-    let first = first_halo(store);
     // The planes among the level's points.
     let mut planes = vec![DVec3::ZERO; m];
     for (done, &key) in keys.iter().enumerate() {
         monitor.report("level planes", done as u64, keys.len() as u64);
-        let halo = halos.entry(key).or_insert(first);
+        let halo = halos.entry(key).or_insert_with(|| first_halo(store, key));
         let (_, found) = by_tile(store, key, halo, |t, ids, holds| {
             let (at, ranks) = level_points.in_part(t, ids, level, |_| true);
             let positions: Vec<DVec3> = at.iter().map(|&k| t.points[k].p).collect();
@@ -157,7 +156,7 @@ pub(crate) fn partition_from_level(
     let mut x_negative = vec![false; with_plane.len()];
     for (done, &key) in keys.iter().enumerate() {
         monitor.report("level sides", done as u64, keys.len() as u64);
-        let halo = halos.entry(key).or_insert(first);
+        let halo = halos.entry(key).or_insert_with(|| first_halo(store, key));
         let (_, (edges, mine)) = by_tile(store, key, halo, |t, ids, holds| {
             let has_plane = |r: usize| oriented_rank[r] != u32::MAX;
             let (at, ranks) = level_points.in_part(t, ids, level, has_plane);

@@ -140,13 +140,12 @@ pub(crate) fn partition_estimating_normals(
     // The level the noise asks for. Each tile's halo, grown as its points need (a stray point's far neighbours grow its own
     // tile's only), kept for the next stage over the same tiles.
     let mut halos: BTreeMap<[u32; 3], f64> = BTreeMap::new();
-    let first = first_halo(store);
     let keys = store.tile_keys();
     let (noise, reach) = noise_by_rounds(n, |round: NoiseRound| {
         let mut found = Vec::new();
         for (done, &key) in keys.iter().enumerate() {
             monitor.report("noise", done as u64, keys.len() as u64);
-            let halo = halos.entry(key).or_insert(first);
+            let halo = halos.entry(key).or_insert_with(|| first_halo(store, key));
             let (tile, fits) = by_tile(store, key, halo, |t, ids, holds| {
                 let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
                 part_noise_samples(&positions, ids, &t.own, holds, round)
@@ -188,7 +187,7 @@ pub(crate) fn partition_estimating_normals(
             .map_err(|e| fail(io_reason(&partial, &e)))?;
         for (done, &key) in keys.iter().enumerate() {
             monitor.report("planes", done as u64, keys.len() as u64);
-            let halo = halos.entry(key).or_insert(first);
+            let halo = halos.entry(key).or_insert_with(|| first_halo(store, key));
             let (tile, normals) = by_tile(store, key, halo, |t, ids, holds| {
                 let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
                 part_normals(&positions, ids, &t.own, holds)
@@ -218,11 +217,10 @@ pub(crate) fn partition_estimating_normals(
     let kept = estimated.points as usize;
     let mut parts: Vec<PartEdges> = Vec::new();
     let (mut x, mut x_negative) = (vec![0.0; kept], vec![false; kept]);
-    let first = first_halo(&estimated.store);
     let keys = estimated.store.tile_keys();
     for (done, &key) in keys.iter().enumerate() {
         monitor.report("sides", done as u64, keys.len() as u64);
-        let mut halo = first;
+        let mut halo = first_halo(&estimated.store, key);
         let (tile, edges) = by_tile(&estimated.store, key, &mut halo, |t, ids, holds| {
             part_orientation_edges(&t.points, ids, &t.own, holds)
         })

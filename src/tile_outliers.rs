@@ -93,14 +93,13 @@ pub(crate) fn stray_verdicts(
     let interrupted = || "interrupted".to_string();
     let keys = store.tile_keys();
     let mut halos: BTreeMap<[u32; 3], f64> = BTreeMap::new();
-    let first = first_halo(store);
     let reaches_path = path.with_extension("reaches");
     let mut reaches =
         BufWriter::new(File::create(&reaches_path).map_err(|e| io_reason(&reaches_path, &e))?);
     let mut count = 0u64;
     for (done, &key) in keys.iter().enumerate() {
         monitor.report("reaches", done as u64, keys.len() as u64);
-        let halo = halos.entry(key).or_insert(first);
+        let halo = halos.entry(key).or_insert_with(|| first_halo(store, key));
         let (_, found) = by_tile(store, key, halo, |t, ids, holds| {
             let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
             part_outlier_reaches(&positions, ids, &t.own, holds)
@@ -139,7 +138,7 @@ pub(crate) fn stray_verdicts(
     let mut verdicts = vec![0u8; n as usize];
     for (done, &key) in keys.iter().enumerate() {
         monitor.report("strays", done as u64, keys.len() as u64);
-        let halo = halos.entry(key).or_insert(first);
+        let halo = halos.entry(key).or_insert_with(|| first_halo(store, key));
         let (tile, found) = by_tile(store, key, halo, |t, ids, holds| {
             let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
             let normals: Option<Vec<DVec3>> =

@@ -15,11 +15,23 @@ use psi_tiles::{TileStore, TileWithHalo};
 /// order).
 const WINDOW: u64 = 1 << 16;
 
-/// A first halo for the stores' tiles: an eighth of a tile's edge (world units); each tile's
-/// grows to what its points need.
-pub(crate) fn first_halo(store: &TileStore) -> f64 {
+/// Sample spacings a first halo spans: the neighbourhoods the by-parts functions read reach
+/// about 4 (the 47 nearest of a plane, a point's 16 nearest and theirs), so most tiles need
+/// no second try (measured: `docs/notes/2026-12-03-outliers-by-parts.md`).
+const FIRST_HALO_SPACINGS: f64 = 6.0;
+
+/// A first halo for tile `key` of `store` (world units): six sample spacings, the spacing
+/// taken as a surface's through the tile (its edge over the square root of its points), at
+/// most an eighth of its edge; each tile's grows to what its points need.
+pub(crate) fn first_halo(store: &TileStore, key: [u32; 3]) -> f64 {
     let m = store.manifest();
-    m.frame.root_half / f64::from(1u32 << m.depth) / 4.0
+    let edge = 2.0 * m.frame.root_half / f64::from(1u32 << m.depth);
+    let points = m
+        .tiles
+        .iter()
+        .find(|t| t.key == key)
+        .map_or(1, |t| t.points);
+    (FIRST_HALO_SPACINGS * edge / (points.max(1) as f64).sqrt()).min(edge / 8.0)
 }
 
 /// `f` on tile `key` of `store` with its halo (its input indices as 32 bits, and whether a ball
