@@ -22,6 +22,7 @@ pub(crate) use crate::input_points::{
     CHUNK, Keep, Normals, NormalsKind, Points, StoreKind, for_each_input, is_mesh,
 };
 use crate::read_ahead::{AHEAD, read_ahead};
+use crate::tile_outliers::{GivenStage, with_given_stage};
 
 /// The least budget whose partition decodes the input ahead ([`read_ahead`]): 16 × the chunks
 /// held ahead (576 MiB), so that they stay a small share of it.
@@ -84,11 +85,6 @@ fn failure_of(paths: &[PathBuf]) -> Result<impl Fn(String) -> PsiError + '_, Psi
     Ok(failure(first))
 }
 
-/// The store directory of `options`.
-fn store_dir(options: &OutOfCore) -> PathBuf {
-    options.scratch.join("tiles")
-}
-
 /// What identifies the input `paths`: each file's path, size and modification time.
 fn sources_of(paths: &[PathBuf]) -> Result<String, PsiError> {
     Ok(paths
@@ -112,17 +108,12 @@ pub fn partition_start(
     format: Option<Format>,
     mpu_params: &MpuParams,
     options: &OutOfCore,
+    stage: GivenStage,
     monitor: &Monitor<'_>,
 ) -> Result<PartitionStart, PsiError> {
-    let dir = store_dir(options);
-    start_in(
-        paths,
-        format,
-        mpu_params,
-        options,
-        (&dir, Points::all(Normals::Given)),
-        monitor,
-    )
+    with_given_stage(options, stage, |dir, points| {
+        start_in(paths, format, mpu_params, options, (dir, points), monitor)
+    })
 }
 
 /// The finished store of kind `kind` in `dir` that an earlier run on the same files wrote,
@@ -202,17 +193,12 @@ pub fn partition_part(
     format: Option<Format>,
     part: StorePart,
     options: &OutOfCore,
+    stage: GivenStage,
     monitor: &Monitor<'_>,
 ) -> Result<u64, PsiError> {
-    let dir = store_dir(options);
-    part_in(
-        paths,
-        format,
-        part,
-        options,
-        (&dir, Points::all(Normals::Given)),
-        monitor,
-    )
+    with_given_stage(options, stage, |dir, points| {
+        part_in(paths, format, part, options, (dir, points), monitor)
+    })
 }
 
 /// [`partition_part`] of the store in `dir` of the points `points` gives.
@@ -266,8 +252,11 @@ pub fn partition_assemble(
     parts: u32,
     points: Option<u64>,
     options: &OutOfCore,
+    stage: GivenStage,
 ) -> Result<Partition, PsiError> {
-    assemble_in(paths, parts, points, &store_dir(options))
+    with_given_stage(options, stage, |dir, _| {
+        assemble_in(paths, parts, points, dir)
+    })
 }
 
 /// [`partition_assemble`] of the store in `dir`.
@@ -305,15 +294,9 @@ pub fn partition_files(
     options: &OutOfCore,
     monitor: &Monitor<'_>,
 ) -> Result<Partition, PsiError> {
-    let dir = store_dir(options);
-    partition_with(
-        paths,
-        format,
-        mpu_params,
-        options,
-        (&dir, Points::all(Normals::Given)),
-        monitor,
-    )
+    with_given_stage(options, GivenStage::Plain, |dir, points| {
+        partition_with(paths, format, mpu_params, options, (dir, points), monitor)
+    })
 }
 
 /// What every store of a run is made from: the input's files (one input, in this order; read as

@@ -106,7 +106,7 @@ pub(crate) fn partition_estimating_normals(
             // Another input's verdicts (an earlier run's, left in this scratch directory).
             fs::remove_file(&strays_path).map_err(|e| fail(io_reason(&strays_path, &e)))?;
         }
-        tally = Some(stray_verdicts(&all.store, &strays_path, false, monitor).map_err(&fail)?);
+        tally = Some(stray_verdicts(&all.store, scratch, false, monitor).map_err(&fail)?);
         Some(RecordFile::<1>::open(&strays_path).map_err(&fail)?)
     } else {
         None

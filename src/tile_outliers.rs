@@ -7,10 +7,9 @@
 //! `"reaches"` and `"strays"` (tiles done of tiles). Notes:
 //! `docs/notes/2026-12-03-outliers-by-parts.md`.
 
-use std::collections::BTreeMap;
 use std::fs::{self, File};
-use std::io::{BufReader, BufWriter, Read, Write};
-use std::path::Path;
+use std::io::{BufReader, Read, Write};
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use psi_octree::Monitor;
@@ -21,6 +20,7 @@ use psi_tiles::TileStore;
 use serde::{Deserialize, Serialize};
 
 use crate::PsiError;
+use crate::budget::OutOfCore;
 use crate::partition::{Input, Normals, NormalsKind, Partition, Points, StoreKind, failure, found};
 use crate::tile_parts::{RecordFile, by_tile, first_halo, io_reason};
 
@@ -42,6 +42,47 @@ impl StrayTally {
     /// Points left out.
     pub fn removed(&self) -> u64 {
         self.repeated + self.far + self.off_surface
+    }
+}
+
+/// Which store of a run whose points have normals a partition writes ([`crate::partition_start`],
+/// [`crate::partition_part`], [`crate::partition_assemble`]): the points as given (`tiles/`,
+/// with `--keep-outliers`), or for the outlier step all points first (`all/`), then the points
+/// its verdicts keep (`tiles/`, reading `strays.bin`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GivenStage {
+    /// Every point, into the final store.
+    Plain,
+    /// Every point, into the outlier step's store.
+    All,
+    /// The points the outlier step keeps, into the final store.
+    Kept,
+}
+
+/// `f` with the directory and the points of `stage` of the run in `options.scratch` (for
+/// [`GivenStage::Kept`], `strays.bin` open while `f` runs).
+pub(crate) fn with_given_stage<T>(
+    options: &OutOfCore,
+    stage: GivenStage,
+    f: impl FnOnce(&Path, Points<'_>) -> Result<T, PsiError>,
+) -> Result<T, PsiError> {
+    let scratch = &options.scratch;
+    match stage {
+        GivenStage::Plain => f(&scratch.join("tiles"), Points::all(Normals::Given)),
+        GivenStage::All => f(&scratch.join("all"), Points::all(Normals::Given)),
+        GivenStage::Kept => {
+            let path = scratch.join(STRAYS_FILE);
+            let verdicts = RecordFile::<1>::open(&path).map_err(|reason| PsiError::OutOfCore {
+                path: path.clone(),
+                reason,
+            })?;
+            let keep = |i: u64| verdicts.get(i).map(|v| v[0] == 0);
+            let points = Points {
+                normals: Normals::Given,
+                keep: Some(&keep),
+            };
+            f(&scratch.join("tiles"), points)
+        }
     }
 }
 
@@ -75,88 +116,183 @@ pub(crate) fn tally_of(path: &Path) -> Result<StrayTally, String> {
     })
 }
 
-/// The outlier step's verdicts on the points of `store` (all the input's points; their normals
-/// read when `normals_given`) into the file at `path`, one byte a point by the store's index
-/// (kept: 0), unless that file is there whole; their tally. First each point's 16th-neighbour
-/// distance, tile by tile, into a file beside it, whose median (streamed) the search reads;
-/// then the verdicts, each tile's halo starting where the first pass left it.
-pub(crate) fn stray_verdicts(
-    store: &TileStore,
-    path: &Path,
-    normals_given: bool,
-    monitor: &Monitor<'_>,
-) -> Result<StrayTally, String> {
-    let n = store.manifest().population;
-    if fs::metadata(path).map(|m| m.len()).ok() == Some(n) {
-        return tally_of(path);
-    }
-    let interrupted = || "interrupted".to_string();
+/// The tiles of batch `batch` of `batches` of `store` (its keys in that many contiguous runs,
+/// as a cluster's tasks take them).
+fn batch_keys(store: &TileStore, (batch, batches): (u32, u32)) -> Vec<[u32; 3]> {
     let keys = store.tile_keys();
-    let mut halos: BTreeMap<[u32; 3], f64> = BTreeMap::new();
-    let reaches_path = path.with_extension("reaches");
-    let mut reaches =
-        BufWriter::new(File::create(&reaches_path).map_err(|e| io_reason(&reaches_path, &e))?);
-    let mut count = 0u64;
+    let per = keys.len().div_ceil(batches.max(1) as usize).max(1);
+    keys.chunks(per)
+        .nth(batch as usize)
+        .map(<[_]>::to_vec)
+        .unwrap_or_default()
+}
+
+/// A batch's file in the scratch directory `scratch`.
+fn batch_file(scratch: &Path, what: &str, batch: u32) -> PathBuf {
+    scratch.join(format!("strays-{what}-{batch}.bin"))
+}
+
+/// Writes `bytes` to `path` whole or not at all (a temporary file renamed).
+fn write_whole(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    let partial = path.with_extension("partial");
+    let mut file = File::create(&partial).map_err(|e| io_reason(&partial, &e))?;
+    file.write_all(bytes)
+        .and_then(|()| file.sync_all())
+        .map_err(|e| io_reason(&partial, &e))?;
+    fs::rename(&partial, path).map_err(|e| io_reason(path, &e))
+}
+
+/// The outlier step's first pass over batch `batch` of `batches` of the tiles of `store` (all
+/// the input's points): each own point's 16th-neighbour distance (world units) that the search
+/// reads, written to a file of the batch in `scratch`; how many. A cluster's task each
+/// (`psi.distributed.sample_files`); run again, it writes the same file.
+///
+/// # Errors
+///
+/// The store or the file cannot be read or written (named), or `monitor` stopped the work.
+pub fn stray_reaches(
+    store: &TileStore,
+    scratch: &Path,
+    batch: (u32, u32),
+    monitor: &Monitor<'_>,
+) -> Result<u64, String> {
+    let keys = batch_keys(store, batch);
+    let mut bytes = Vec::new();
     for (done, &key) in keys.iter().enumerate() {
         monitor.report("reaches", done as u64, keys.len() as u64);
-        let halo = halos.entry(key).or_insert_with(|| first_halo(store, key));
-        let (_, found) = by_tile(store, key, halo, |t, ids, holds| {
+        let mut halo = first_halo(store, key);
+        let (_, found) = by_tile(store, key, &mut halo, |t, ids, holds| {
             let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
             part_outlier_reaches(&positions, ids, &t.own, holds)
         })?;
-        for r in &found {
-            reaches
-                .write_all(&r.to_le_bytes())
-                .map_err(|e| io_reason(&reaches_path, &e))?;
-        }
-        count += found.len() as u64;
-        monitor.check().map_err(|_| interrupted())?;
+        bytes.extend(found.iter().flat_map(|r| r.to_le_bytes()));
+        monitor.check().map_err(|_| "interrupted".to_string())?;
     }
-    reaches
-        .into_inner()
-        .map_err(|e| io_reason(&reaches_path, e.error()))?
-        .sync_all()
-        .map_err(|e| io_reason(&reaches_path, &e))?;
+    write_whole(&batch_file(scratch, "reaches", batch.0), &bytes)?;
+    Ok(bytes.len() as u64 / 8)
+}
+
+/// The statistics the outlier search reads, from the `batches` files of [`stray_reaches`] in
+/// `scratch`: their count and their median (streamed, exact).
+///
+/// # Errors
+///
+/// A file cannot be read (named).
+pub fn stray_stats(scratch: &Path, batches: u32) -> Result<OutlierStats, String> {
+    let files: Vec<PathBuf> = (0..batches)
+        .map(|b| batch_file(scratch, "reaches", b))
+        .collect();
+    let mut points = 0u64;
+    for f in &files {
+        points += fs::metadata(f).map_err(|e| io_reason(f, &e))?.len() / 8;
+    }
     let typical = median_of_passes(|visit: &mut dyn FnMut(f64)| {
-        let file = File::open(&reaches_path).map_err(|e| io_reason(&reaches_path, &e))?;
-        let mut reader = BufReader::with_capacity(1 << 20, file);
-        let mut record = [0u8; 8];
-        for _ in 0..count {
-            reader
-                .read_exact(&mut record)
-                .map_err(|e| io_reason(&reaches_path, &e))?;
-            visit(f64::from_le_bytes(record));
+        for f in &files {
+            let file = File::open(f).map_err(|e| io_reason(f, &e))?;
+            let mut reader = BufReader::with_capacity(1 << 20, file);
+            let mut record = [0u8; 8];
+            loop {
+                match reader.read_exact(&mut record) {
+                    Ok(()) => visit(f64::from_le_bytes(record)),
+                    Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => break,
+                    Err(e) => return Err(io_reason(f, &e)),
+                }
+            }
         }
         Ok::<(), String>(())
     })?;
-    fs::remove_file(&reaches_path).map_err(|e| io_reason(&reaches_path, &e))?;
-    let stats = OutlierStats {
-        typical,
-        points: count,
-    };
-    // The verdicts, a byte a point, held until whole.
-    let mut verdicts = vec![0u8; n as usize];
+    Ok(OutlierStats { typical, points })
+}
+
+/// The outlier step's verdicts on batch `batch` of `batches` of the tiles of `store` (all the
+/// input's points; their normals read when `normals_given`) with the whole input's `stats`,
+/// written to a file of the batch in `scratch` (each own point's index and verdict). A
+/// cluster's task each; run again, it writes the same file.
+///
+/// # Errors
+///
+/// As [`stray_reaches`].
+pub fn stray_verdicts_of_batch(
+    store: &TileStore,
+    scratch: &Path,
+    batch: (u32, u32),
+    (normals_given, stats): (bool, OutlierStats),
+    monitor: &Monitor<'_>,
+) -> Result<(), String> {
+    let keys = batch_keys(store, batch);
+    let mut bytes = Vec::new();
     for (done, &key) in keys.iter().enumerate() {
         monitor.report("strays", done as u64, keys.len() as u64);
-        let halo = halos.entry(key).or_insert_with(|| first_halo(store, key));
-        let (tile, found) = by_tile(store, key, halo, |t, ids, holds| {
+        let mut halo = first_halo(store, key);
+        let (tile, found) = by_tile(store, key, &mut halo, |t, ids, holds| {
             let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
             let normals: Option<Vec<DVec3>> =
                 normals_given.then(|| t.points.iter().map(|p| p.n).collect());
             part_outliers(&positions, ids, &t.own, normals.as_deref(), holds, stats)
         })?;
         for ((i, _), v) in tile.own_points().zip(found) {
-            verdicts[i as usize] = code(v);
+            bytes.extend(i.to_le_bytes());
+            bytes.push(code(v));
         }
-        monitor.check().map_err(|_| interrupted())?;
+        monitor.check().map_err(|_| "interrupted".to_string())?;
     }
-    let partial = path.with_extension("bin.partial");
-    let mut file = File::create(&partial).map_err(|e| io_reason(&partial, &e))?;
-    file.write_all(&verdicts)
-        .and_then(|()| file.sync_all())
-        .map_err(|e| io_reason(&partial, &e))?;
-    fs::rename(&partial, path).map_err(|e| io_reason(path, &e))?;
-    tally_of(path)
+    write_whole(&batch_file(scratch, "verdicts", batch.0), &bytes)
+}
+
+/// `strays.bin` in `scratch` (one byte a point of the `n` of the store of all points) from the
+/// `batches` files of [`stray_verdicts_of_batch`], which are removed with those of
+/// [`stray_reaches`]; the tally.
+///
+/// # Errors
+///
+/// A file cannot be read or written (named), or a point has no verdict.
+pub fn stray_join(scratch: &Path, n: u64, batches: u32) -> Result<StrayTally, String> {
+    const UNSET: u8 = u8::MAX;
+    let mut verdicts = vec![UNSET; n as usize];
+    for b in 0..batches {
+        let f = batch_file(scratch, "verdicts", b);
+        let bytes = fs::read(&f).map_err(|e| io_reason(&f, &e))?;
+        for record in bytes.chunks_exact(9) {
+            let i = u64::from_le_bytes(record[..8].try_into().expect("8 bytes"));
+            let slot = verdicts
+                .get_mut(i as usize)
+                .ok_or_else(|| format!("{}: point {i} of {n}", f.display()))?;
+            *slot = record[8];
+        }
+    }
+    if let Some(i) = verdicts.iter().position(|&v| v == UNSET) {
+        return Err(format!("{}: no verdict for point {i}", scratch.display()));
+    }
+    let path = scratch.join(STRAYS_FILE);
+    write_whole(&path, &verdicts)?;
+    for b in 0..batches {
+        for what in ["reaches", "verdicts"] {
+            let f = batch_file(scratch, what, b);
+            fs::remove_file(&f).map_err(|e| io_reason(&f, &e))?;
+        }
+    }
+    tally_of(&path)
+}
+
+/// The outlier step's verdicts on the points of `store` (all the input's points; their
+/// normals read when `normals_given`) into `strays.bin` in `scratch`, unless that file is there
+/// whole; their tally. On this machine, one batch of [`stray_reaches`], [`stray_stats`],
+/// [`stray_verdicts_of_batch`] and [`stray_join`].
+pub(crate) fn stray_verdicts(
+    store: &TileStore,
+    scratch: &Path,
+    normals_given: bool,
+    monitor: &Monitor<'_>,
+) -> Result<StrayTally, String> {
+    let n = store.manifest().population;
+    let path = scratch.join(STRAYS_FILE);
+    if fs::metadata(&path).map(|m| m.len()).ok() == Some(n) {
+        return tally_of(&path);
+    }
+    stray_reaches(store, scratch, (0, 1), monitor)?;
+    let stats = stray_stats(scratch, 1)?;
+    stray_verdicts_of_batch(store, scratch, (0, 1), (normals_given, stats), monitor)?;
+    stray_join(scratch, n, 1)
 }
 
 /// The store of `input`'s points (files with normals) without the outlier step's strays, in `options.scratch/tiles` (found there when an
@@ -193,24 +329,17 @@ pub(crate) fn partition_removing_outliers(
         clean_up()?;
         return Ok((found, tally));
     }
-    let all = {
-        let points = Points::all(Normals::Given);
-        input.stage("all points", &all_dir, points, monitor)?
-    };
+    let all = with_given_stage(options, GivenStage::All, |dir, points| {
+        input.stage("all points", dir, points, monitor)
+    })?;
     if !all.resumed && strays_path.exists() {
         // Another input's verdicts (an earlier run's, left in this scratch directory).
         fs::remove_file(&strays_path).map_err(|e| fail(io_reason(&strays_path, &e)))?;
     }
-    let tally = stray_verdicts(&all.store, &strays_path, true, monitor).map_err(&fail)?;
-    let kept = {
-        let verdicts = RecordFile::<1>::open(&strays_path).map_err(&fail)?;
-        let keep = |i: u64| verdicts.get(i).map(|v| v[0] == 0);
-        let points = Points {
-            normals: Normals::Given,
-            keep: Some(&keep),
-        };
-        input.stage("kept points", &final_dir, points, monitor)?
-    };
+    let tally = stray_verdicts(&all.store, scratch, true, monitor).map_err(&fail)?;
+    let kept = with_given_stage(options, GivenStage::Kept, |dir, points| {
+        input.stage("kept points", dir, points, monitor)
+    })?;
     clean_up()?;
     Ok((
         Partition {

@@ -285,6 +285,19 @@ fn store_task<T: Send>(
     .map_err(|e| value_error(e.to_string()))
 }
 
+/// A partition task's store: `"tiles"` (the points as given), `"all"` (every point, for the
+/// outlier step) or `"kept"` (the points it keeps).
+fn stage_arg(stage: &str) -> PyResult<psi::GivenStage> {
+    match stage {
+        "tiles" => Ok(psi::GivenStage::Plain),
+        "all" => Ok(psi::GivenStage::All),
+        "kept" => Ok(psi::GivenStage::Kept),
+        other => Err(value_error(format!(
+            "stage: {other:?} is not \"tiles\", \"all\" or \"kept\""
+        ))),
+    }
+}
+
 /// The options of a partition task: the budget and the scratch directory.
 fn partition_options(max_memory: &Bound<'_, PyAny>, scratch: PathBuf) -> PyResult<psi::OutOfCore> {
     Ok(psi::OutOfCore {
@@ -342,7 +355,7 @@ pub(crate) fn _ooc_preprocess(
 /// store's plan written in `scratch`; returns the point count, or `None` when the store of an
 /// earlier run on the same inputs was found there (nothing to write).
 #[pyfunction]
-#[pyo3(signature = (inputs, max_memory, scratch, mpu_error=None, threads=None))]
+#[pyo3(signature = (inputs, max_memory, scratch, mpu_error=None, threads=None, stage="tiles"))]
 pub(crate) fn _ooc_partition_start(
     py: Python<'_>,
     inputs: &Bound<'_, PyAny>,
@@ -350,18 +363,15 @@ pub(crate) fn _ooc_partition_start(
     scratch: PathBuf,
     mpu_error: Option<f64>,
     threads: Option<i128>,
+    stage: &str,
 ) -> PyResult<Option<u64>> {
     let inputs = inputs_arg(inputs)?;
     let options = partition_options(max_memory, scratch)?;
     let params = mpu_params(mpu_error)?;
+    let stage = stage_arg(stage)?;
     let start = partition_task(py, threads, move || {
-        psi::partition_start(
-            &inputs,
-            None,
-            &params,
-            &options,
-            &psi::octree::Monitor::silent(),
-        )
+        let silent = psi::octree::Monitor::silent();
+        psi::partition_start(&inputs, None, &params, &options, stage, &silent)
     })?;
     Ok(match start {
         psi::PartitionStart::Found(_) => None,
@@ -372,7 +382,8 @@ pub(crate) fn _ooc_partition_start(
 /// Task of `psi.distributed.sample_files` (not API): part `index` of `count` of the tile files
 /// written (the whole input streamed, this part's tiles kept); returns the points dropped.
 #[pyfunction]
-#[pyo3(signature = (inputs, max_memory, scratch, index, count, threads=None))]
+#[pyo3(signature = (inputs, max_memory, scratch, index, count, threads=None, stage="tiles"))]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn _ooc_partition_part(
     py: Python<'_>,
     inputs: &Bound<'_, PyAny>,
@@ -381,25 +392,22 @@ pub(crate) fn _ooc_partition_part(
     index: u32,
     count: u32,
     threads: Option<i128>,
+    stage: &str,
 ) -> PyResult<u64> {
     let inputs = inputs_arg(inputs)?;
     let options = partition_options(max_memory, scratch)?;
     let part = psi::tiles::StorePart::new(index, count).map_err(|e| value_error(e.to_string()))?;
+    let stage = stage_arg(stage)?;
     partition_task(py, threads, move || {
-        psi::partition_part(
-            &inputs,
-            None,
-            part,
-            &options,
-            &psi::octree::Monitor::silent(),
-        )
+        let silent = psi::octree::Monitor::silent();
+        psi::partition_part(&inputs, None, part, &options, stage, &silent)
     })
 }
 
 /// Task of `psi.distributed.sample_files` (not API): the store's manifest from its `count`
 /// parts; `points` (the first pass's count) must be what they counted. Returns the count.
 #[pyfunction]
-#[pyo3(signature = (inputs, max_memory, scratch, count, points))]
+#[pyo3(signature = (inputs, max_memory, scratch, count, points, stage="tiles"))]
 pub(crate) fn _ooc_partition_assemble(
     py: Python<'_>,
     inputs: &Bound<'_, PyAny>,
@@ -407,13 +415,121 @@ pub(crate) fn _ooc_partition_assemble(
     scratch: PathBuf,
     count: u32,
     points: u64,
+    stage: &str,
 ) -> PyResult<u64> {
     let inputs = inputs_arg(inputs)?;
     let options = partition_options(max_memory, scratch)?;
+    let stage = stage_arg(stage)?;
     let part = partition_task(py, None, move || {
-        psi::partition_assemble(&inputs, count, Some(points), &options)
+        psi::partition_assemble(&inputs, count, Some(points), &options, stage)
     })?;
     Ok(part.points)
+}
+
+/// Task of `psi.distributed.sample_files` (not API): which preprocessing a run out of core on
+/// `inputs` does tile by tile: `"normals"` (points without normals: one task,
+/// [`_ooc_preprocess`]), `"outliers"` (the outlier step's tasks) or `"none"`.
+#[pyfunction]
+#[pyo3(signature = (inputs, keep_outliers=false))]
+pub(crate) fn _ooc_preprocessing(
+    py: Python<'_>,
+    inputs: &Bound<'_, PyAny>,
+    keep_outliers: bool,
+) -> PyResult<&'static str> {
+    let inputs = inputs_arg(inputs)?;
+    partition_task(py, None, move || {
+        let Some(first) = inputs.first() else {
+            return Ok("none");
+        };
+        let preprocess = preprocess_params(keep_outliers);
+        if !psi::preprocesses_out_of_core(&inputs, None, &preprocess)? {
+            Ok("none")
+        } else if psi::has_normals(first, None)? {
+            Ok("outliers")
+        } else {
+            Ok("normals")
+        }
+    })
+}
+
+/// Runs an outlier-step task on the store of all points in `scratch` on a pool of `threads`;
+/// its error as a `ValueError`.
+fn strays_task<T: Send>(
+    py: Python<'_>,
+    scratch: &std::path::Path,
+    threads: Option<i128>,
+    work: impl FnOnce(&psi::tiles::TileStore) -> Result<T, String> + Send,
+) -> PyResult<T> {
+    let threads = threads_arg(threads)?;
+    let store = psi::tiles::TileStore::open(&scratch.join("all"))
+        .map_err(|e| value_error(e.to_string()))?;
+    crate::errors::detached(py, move || on_threads(threads, || work(&store)))?
+        .map_err(value_error)?
+        .map_err(value_error)
+}
+
+/// Task of `psi.distributed.sample_files` (not API): the outlier step's first pass over batch
+/// `batch` of `batches` of the tiles of the store of all points; returns how many distances.
+#[pyfunction]
+#[pyo3(signature = (scratch, batch, batches, threads=None))]
+pub(crate) fn _ooc_stray_reaches(
+    py: Python<'_>,
+    scratch: PathBuf,
+    batch: u32,
+    batches: u32,
+    threads: Option<i128>,
+) -> PyResult<u64> {
+    let dir = scratch.clone();
+    strays_task(py, &scratch, threads, move |store| {
+        psi::stray_reaches(
+            store,
+            &dir,
+            (batch, batches),
+            &psi::octree::Monitor::silent(),
+        )
+    })
+}
+
+/// Task of `psi.distributed.sample_files` (not API): the outlier search's statistics from the
+/// first pass's `batches` files: (the median 16th-neighbour distance, the points searched).
+#[pyfunction]
+pub(crate) fn _ooc_stray_stats(scratch: PathBuf, batches: u32) -> PyResult<(f64, u64)> {
+    let stats = psi::stray_stats(&scratch, batches).map_err(value_error)?;
+    Ok((stats.typical, stats.points))
+}
+
+/// Task of `psi.distributed.sample_files` (not API): the outlier step's verdicts on batch
+/// `batch` of `batches` of the tiles, with the statistics of [`_ooc_stray_stats`].
+#[pyfunction]
+#[pyo3(signature = (scratch, batch, batches, stats, threads=None))]
+pub(crate) fn _ooc_stray_verdicts(
+    py: Python<'_>,
+    scratch: PathBuf,
+    batch: u32,
+    batches: u32,
+    stats: (f64, u64),
+    threads: Option<i128>,
+) -> PyResult<()> {
+    let dir = scratch.clone();
+    let stats = psi::preprocess::OutlierStats {
+        typical: stats.0,
+        points: stats.1,
+    };
+    strays_task(py, &scratch, threads, move |store| {
+        let silent = psi::octree::Monitor::silent();
+        psi::stray_verdicts_of_batch(store, &dir, (batch, batches), (true, stats), &silent)
+    })
+}
+
+/// Task of `psi.distributed.sample_files` (not API): `strays.bin` from the `batches` verdict
+/// files; returns the points left out.
+#[pyfunction]
+pub(crate) fn _ooc_stray_join(py: Python<'_>, scratch: PathBuf, batches: u32) -> PyResult<u64> {
+    let dir = scratch.clone();
+    strays_task(py, &scratch, None, move |store| {
+        let n = store.manifest().population;
+        psi::stray_join(&dir, n, batches).map(|t| t.removed())
+    })
 }
 
 /// Task of `psi.distributed.sample_files` (not API): the levels above the groups of the pass

@@ -39,6 +39,10 @@ MAX_PARTS = 8
 #: own cost per task on the scheduler and the worker (docs/notes/2026-11-27-tile-batches.md).
 TILES_PER_TASK = 8
 
+#: Batches of tiles per partition part in each pass of the outlier step (a task each): a few
+#: per worker thread, so that a slow batch leaves the others work to do.
+STRAY_BATCHES_PER_PART = 4
+
 
 #: glibc's ``mallopt`` parameters (``malloc.h``).
 _M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
@@ -118,28 +122,53 @@ def sample_files(
         # The partition: a first pass (the frame and the count), then the tile files written
         # in parts side by side, each streaming the whole input and keeping its own tiles (the
         # files' bytes do not depend on the number of parts), then the manifest.
-        # With preprocessing to do (the outlier step, normals for inputs without them), the
-        # whole stage is one task (the store it writes is the partition's), else the
-        # partition's tasks.
-        prepared = submit(
-            _psi._ooc_preprocess, paths, max_memory, scratch_dir, mpu_error, keep_outliers,
-            threads
-        ).result()
-        points = None if prepared else submit(
-            _psi._ooc_partition_start, paths, max_memory, scratch_dir, mpu_error, threads
-        ).result()
-        if points is not None:
-            parts = min(MAX_PARTS, max(1, sum(client.nthreads().values())))
+        parts = min(MAX_PARTS, max(1, sum(client.nthreads().values())))
+
+        def partition(stage: str) -> None:
+            points = submit(
+                _psi._ooc_partition_start, paths, max_memory, scratch_dir, mpu_error, threads,
+                stage=stage
+            ).result()
+            if points is None:
+                return
             client.gather(
                 [
                     submit(_psi._ooc_partition_part, paths, max_memory, scratch_dir, i, parts,
-                           threads)
+                           threads, stage=stage)
                     for i in range(parts)
                 ]
             )
             submit(
-                _psi._ooc_partition_assemble, paths, max_memory, scratch_dir, parts, points
+                _psi._ooc_partition_assemble, paths, max_memory, scratch_dir, parts, points,
+                stage=stage
             ).result()
+
+        preprocessing = submit(_psi._ooc_preprocessing, paths, keep_outliers).result()
+        if preprocessing == "normals":
+            # Normals estimated and oriented tile by tile: the whole stage one task (the store
+            # it writes is the partition's).
+            submit(
+                _psi._ooc_preprocess, paths, max_memory, scratch_dir, mpu_error, keep_outliers,
+                threads
+            ).result()
+        elif preprocessing == "outliers":
+            # All points stored, the outlier step's two passes over batches of their tiles
+            # (the exact median between them), its verdicts joined, the kept points stored.
+            partition("all")
+            batches = parts * STRAY_BATCHES_PER_PART
+            client.gather(
+                [submit(_psi._ooc_stray_reaches, scratch_dir, b, batches, threads)
+                 for b in range(batches)]
+            )
+            stats = submit(_psi._ooc_stray_stats, scratch_dir, batches).result()
+            client.gather(
+                [submit(_psi._ooc_stray_verdicts, scratch_dir, b, batches, stats, threads)
+                 for b in range(batches)]
+            )
+            submit(_psi._ooc_stray_join, scratch_dir, batches).result()
+            partition("kept")
+        else:
+            partition("tiles")
         groups = submit(_psi._ooc_top_upper, scratch_dir, mpu_error, threads).result()
         client.gather(
             [submit(_psi._ooc_top_group, scratch_dir, g, mpu_error, threads) for g in groups]
