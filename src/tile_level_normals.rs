@@ -9,7 +9,6 @@
 //! point's normal from its position. Bitwise the in-core preprocessing. Progress: stages
 //! `"level"`, `"level planes"`, `"level sides"` (tiles done of tiles).
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
 use glam::DVec3;
@@ -22,7 +21,7 @@ use psi_tiles::{TileStore, TileWithHalo};
 
 use crate::PsiError;
 use crate::partition::{Input, Keep, Normals, Partition, Points, failure};
-use crate::tile_parts::{by_tile, first_halo};
+use crate::tile_parts::{Halos, by_tile, each_tile, first_halo};
 
 /// Bytes a level point takes while the final store is written: its position and input index
 /// (28), its plane and oriented normal (48), the lookup's index (about 40), the orientation's
@@ -73,7 +72,7 @@ impl Level {
 pub(crate) fn partition_from_level(
     input: Input<'_>,
     (store, keep, level): (&TileStore, Option<Keep<'_>>, u32),
-    halos: &mut BTreeMap<[u32; 3], f64>,
+    halos: &mut Halos,
     final_dir: &Path,
     monitor: &Monitor<'_>,
 ) -> Result<Option<Partition>, PsiError> {
@@ -116,26 +115,30 @@ pub(crate) fn partition_from_level(
     let m = level_points.ids.len();
     // The planes among the level's points.
     let mut planes = vec![DVec3::ZERO; m];
-    for (done, &key) in keys.iter().enumerate() {
-        monitor.report("level planes", done as u64, keys.len() as u64);
-        let halo = halos.entry(key).or_insert_with(|| first_halo(store, key));
-        let (_, found) = by_tile(store, key, halo, |t, ids, holds| {
-            let (at, ranks) = level_points.in_part(t, ids, level, |_| true);
-            let positions: Vec<DVec3> = at.iter().map(|&k| t.points[k].p).collect();
-            let own: Vec<bool> = at.iter().map(|&k| t.own[k]).collect();
-            let ranks32: Vec<u32> = ranks.iter().map(|&r| r as u32).collect();
-            let normals = part_normals(&positions, &ranks32, &own, holds)?;
-            let mine = ranks
-                .into_iter()
-                .zip(own)
-                .filter_map(|(r, o)| o.then_some(r));
-            Ok(mine.zip(normals).collect::<Vec<_>>())
-        })
-        .map_err(&fail)?;
-        for (r, n) in found {
-            planes[r] = n;
-        }
-        monitor.check().map_err(|_| interrupted())?;
+    let first = |key| first_halo(store, key);
+    let found = each_tile(
+        &keys,
+        (halos, &first),
+        ("level planes", monitor),
+        &|key, halo| {
+            let (_, found) = by_tile(store, key, halo, |t, ids, holds| {
+                let (at, ranks) = level_points.in_part(t, ids, level, |_| true);
+                let positions: Vec<DVec3> = at.iter().map(|&k| t.points[k].p).collect();
+                let own: Vec<bool> = at.iter().map(|&k| t.own[k]).collect();
+                let ranks32: Vec<u32> = ranks.iter().map(|&r| r as u32).collect();
+                let normals = part_normals(&positions, &ranks32, &own, holds)?;
+                let mine = ranks
+                    .into_iter()
+                    .zip(own)
+                    .filter_map(|(r, o)| o.then_some(r));
+                Ok(mine.zip(normals).collect::<Vec<_>>())
+            })?;
+            Ok(found)
+        },
+    )
+    .map_err(&fail)?;
+    for (r, n) in found.into_iter().flatten() {
+        planes[r] = n;
     }
     // The level's points with a plane are oriented among themselves (numbered among those).
     let with_plane: Vec<usize> = (0..m).filter(|&r| planes[r] != DVec3::ZERO).collect();
@@ -154,38 +157,43 @@ pub(crate) fn partition_from_level(
     let mut parts: Vec<PartEdges> = Vec::new();
     let mut x = vec![0.0; with_plane.len()];
     let mut x_negative = vec![false; with_plane.len()];
-    for (done, &key) in keys.iter().enumerate() {
-        monitor.report("level sides", done as u64, keys.len() as u64);
-        let halo = halos.entry(key).or_insert_with(|| first_halo(store, key));
-        let (_, (edges, mine)) = by_tile(store, key, halo, |t, ids, holds| {
-            let has_plane = |r: usize| oriented_rank[r] != u32::MAX;
-            let (at, ranks) = level_points.in_part(t, ids, level, has_plane);
-            let points: Vec<OrientedPoint> = at
-                .iter()
-                .zip(&ranks)
-                .map(|(&k, &r)| OrientedPoint {
-                    p: t.points[k].p,
-                    n: planes[r],
-                })
-                .collect();
-            let own: Vec<bool> = at.iter().map(|&k| t.own[k]).collect();
-            let numbers: Vec<u32> = ranks.iter().map(|&r| oriented_rank[r]).collect();
-            let edges = part_orientation_edges(&points, &numbers, &own, holds)?;
-            let mine: Vec<(u32, OrientedPoint)> = numbers
-                .into_iter()
-                .zip(points)
-                .zip(own)
-                .filter_map(|(p, o)| o.then_some(p))
-                .collect();
-            Ok((edges, mine))
-        })
-        .map_err(&fail)?;
+    let found = each_tile(
+        &keys,
+        (halos, &first),
+        ("level sides", monitor),
+        &|key, halo| {
+            let (_, found) = by_tile(store, key, halo, |t, ids, holds| {
+                let has_plane = |r: usize| oriented_rank[r] != u32::MAX;
+                let (at, ranks) = level_points.in_part(t, ids, level, has_plane);
+                let points: Vec<OrientedPoint> = at
+                    .iter()
+                    .zip(&ranks)
+                    .map(|(&k, &r)| OrientedPoint {
+                        p: t.points[k].p,
+                        n: planes[r],
+                    })
+                    .collect();
+                let own: Vec<bool> = at.iter().map(|&k| t.own[k]).collect();
+                let numbers: Vec<u32> = ranks.iter().map(|&r| oriented_rank[r]).collect();
+                let edges = part_orientation_edges(&points, &numbers, &own, holds)?;
+                let mine: Vec<(u32, OrientedPoint)> = numbers
+                    .into_iter()
+                    .zip(points)
+                    .zip(own)
+                    .filter_map(|(p, o)| o.then_some(p))
+                    .collect();
+                Ok((edges, mine))
+            })?;
+            Ok(found)
+        },
+    )
+    .map_err(&fail)?;
+    for (edges, mine) in found {
         for (o, p) in mine {
             x[o as usize] = p.p.x;
             x_negative[o as usize] = p.n.x < 0.0;
         }
         parts.push(edges);
-        monitor.check().map_err(|_| interrupted())?;
     }
     let flips = orientation_flips(with_plane.len(), &parts, &|i| x[i as usize], &|i| {
         x_negative[i as usize]

@@ -15,7 +15,6 @@
 //!
 //! Not yet: the stages as a cluster's tasks per tile (a cluster runs them as one task).
 
-use std::collections::BTreeMap;
 use std::fs::{self, File};
 
 use glam::DVec3;
@@ -32,7 +31,8 @@ use crate::partition::{
 use crate::tile_level_normals::partition_from_level;
 use crate::tile_outliers::{STRAYS_FILE, StrayTally, stray_verdicts, tally_of};
 use crate::tile_parts::{
-    RecordFile, by_tile, first_halo, io_reason, normal_bytes, normal_of_bytes, write_at,
+    Halos, RecordFile, by_tile, each_tile, first_halo, io_reason, normal_bytes, normal_of_bytes,
+    write_at,
 };
 
 /// Bytes of a normal in `normals.bin` (three little-endian f64).
@@ -139,23 +139,24 @@ pub(crate) fn partition_estimating_normals(
         .ok_or_else(|| fail("too many points for 32-bit indices".into()))?;
     // The level the noise asks for. Each tile's halo, grown as its points need (a stray point's far neighbours grow its own
     // tile's only), kept for the next stage over the same tiles.
-    let mut halos: BTreeMap<[u32; 3], f64> = BTreeMap::new();
+    let mut halos = Halos::new();
     let keys = store.tile_keys();
+    let first = |key| first_halo(store, key);
     let (noise, reach) = noise_by_rounds(n, |round: NoiseRound| {
-        let mut found = Vec::new();
-        for (done, &key) in keys.iter().enumerate() {
-            monitor.report("noise", done as u64, keys.len() as u64);
-            let halo = halos.entry(key).or_insert_with(|| first_halo(store, key));
-            let (tile, fits) = by_tile(store, key, halo, |t, ids, holds| {
-                let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
-                part_noise_samples(&positions, ids, &t.own, holds, round)
-            })
-            .map_err(&fail)?;
-            drop(tile);
-            found.extend(fits);
-            monitor.check().map_err(|_| fail("interrupted".into()))?;
-        }
-        Ok::<_, PsiError>(found)
+        let found = each_tile(
+            &keys,
+            (&mut halos, &first),
+            ("noise", monitor),
+            &|key, halo| {
+                let (_, fits) = by_tile(store, key, halo, |t, ids, holds| {
+                    let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
+                    part_noise_samples(&positions, ids, &t.own, holds, round)
+                })?;
+                Ok(fits)
+            },
+        )
+        .map_err(&fail)?;
+        Ok::<_, PsiError>(found.concat())
     })?;
     let level = noise_level(noise.sigma, reach);
     if level > 0 {
@@ -185,19 +186,26 @@ pub(crate) fn partition_estimating_normals(
         let file = File::create(&partial).map_err(|e| fail(io_reason(&partial, &e)))?;
         file.set_len(n as u64 * NORMAL_BYTES)
             .map_err(|e| fail(io_reason(&partial, &e)))?;
-        for (done, &key) in keys.iter().enumerate() {
-            monitor.report("planes", done as u64, keys.len() as u64);
-            let halo = halos.entry(key).or_insert_with(|| first_halo(store, key));
-            let (tile, normals) = by_tile(store, key, halo, |t, ids, holds| {
-                let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
-                part_normals(&positions, ids, &t.own, holds)
-            })
-            .map_err(&fail)?;
-            for ((i, _), normal) in tile.own_points().zip(normals) {
-                write_at(&file, &normal_bytes(normal), i * NORMAL_BYTES)
-                    .map_err(|e| fail(io_reason(&partial, &e)))?;
-            }
-            monitor.check().map_err(|_| fail("interrupted".into()))?;
+        let found = each_tile(
+            &keys,
+            (&mut halos, &first),
+            ("planes", monitor),
+            &|key, halo| {
+                let (tile, normals) = by_tile(store, key, halo, |t, ids, holds| {
+                    let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
+                    part_normals(&positions, ids, &t.own, holds)
+                })?;
+                Ok(tile
+                    .own_points()
+                    .map(|(i, _)| i)
+                    .zip(normals)
+                    .collect::<Vec<_>>())
+            },
+        )
+        .map_err(&fail)?;
+        for (i, normal) in found.into_iter().flatten() {
+            write_at(&file, &normal_bytes(normal), i * NORMAL_BYTES)
+                .map_err(|e| fail(io_reason(&partial, &e)))?;
         }
         file.sync_all().map_err(|e| fail(io_reason(&partial, &e)))?;
         fs::rename(&partial, &normals_path).map_err(|e| fail(io_reason(&normals_path, &e)))?;
@@ -218,19 +226,29 @@ pub(crate) fn partition_estimating_normals(
     let mut parts: Vec<PartEdges> = Vec::new();
     let (mut x, mut x_negative) = (vec![0.0; kept], vec![false; kept]);
     let keys = estimated.store.tile_keys();
-    for (done, &key) in keys.iter().enumerate() {
-        monitor.report("sides", done as u64, keys.len() as u64);
-        let mut halo = first_halo(&estimated.store, key);
-        let (tile, edges) = by_tile(&estimated.store, key, &mut halo, |t, ids, holds| {
-            part_orientation_edges(&t.points, ids, &t.own, holds)
-        })
-        .map_err(&fail)?;
-        for (i, p) in tile.own_points() {
-            x[i as usize] = p.p.x;
-            x_negative[i as usize] = p.n.x < 0.0;
+    let first_estimated = |key| first_halo(&estimated.store, key);
+    let found = each_tile(
+        &keys,
+        (&mut Halos::new(), &first_estimated),
+        ("sides", monitor),
+        &|key, halo| {
+            let (tile, edges) = by_tile(&estimated.store, key, halo, |t, ids, holds| {
+                part_orientation_edges(&t.points, ids, &t.own, holds)
+            })?;
+            let mine: Vec<(u64, f64, bool)> = tile
+                .own_points()
+                .map(|(i, p)| (i, p.p.x, p.n.x < 0.0))
+                .collect();
+            Ok((edges, mine))
+        },
+    )
+    .map_err(&fail)?;
+    for (edges, mine) in found {
+        for (i, px, negative) in mine {
+            x[i as usize] = px;
+            x_negative[i as usize] = negative;
         }
         parts.push(edges);
-        monitor.check().map_err(|_| fail("interrupted".into()))?;
     }
     let flips = orientation_flips(kept, &parts, &|i| x[i as usize], &|i| {
         x_negative[i as usize]

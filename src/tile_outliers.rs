@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 use crate::PsiError;
 use crate::budget::OutOfCore;
 use crate::partition::{Input, Normals, NormalsKind, Partition, Points, StoreKind, failure, found};
-use crate::tile_parts::{RecordFile, by_tile, first_halo, io_reason};
+use crate::tile_parts::{Halos, RecordFile, by_tile, each_tile, first_halo, io_reason};
 
 /// The verdicts' file in the scratch directory.
 pub(crate) const STRAYS_FILE: &str = "strays.bin";
@@ -157,17 +157,24 @@ pub fn stray_reaches(
     monitor: &Monitor<'_>,
 ) -> Result<u64, String> {
     let keys = batch_keys(store, batch);
-    let mut bytes = Vec::new();
-    for (done, &key) in keys.iter().enumerate() {
-        monitor.report("reaches", done as u64, keys.len() as u64);
-        let mut halo = first_halo(store, key);
-        let (_, found) = by_tile(store, key, &mut halo, |t, ids, holds| {
-            let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
-            part_outlier_reaches(&positions, ids, &t.own, holds)
-        })?;
-        bytes.extend(found.iter().flat_map(|r| r.to_le_bytes()));
-        monitor.check().map_err(|_| "interrupted".to_string())?;
-    }
+    let first = |key| first_halo(store, key);
+    let found = each_tile(
+        &keys,
+        (&mut Halos::new(), &first),
+        ("reaches", monitor),
+        &|key, halo| {
+            let (_, found) = by_tile(store, key, halo, |t, ids, holds| {
+                let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
+                part_outlier_reaches(&positions, ids, &t.own, holds)
+            })?;
+            Ok(found)
+        },
+    )?;
+    let bytes: Vec<u8> = found
+        .iter()
+        .flatten()
+        .flat_map(|r| r.to_le_bytes())
+        .collect();
     write_whole(&batch_file(scratch, "reaches", batch.0), &bytes)?;
     Ok(bytes.len() as u64 / 8)
 }
@@ -220,22 +227,27 @@ pub fn stray_verdicts_of_batch(
     monitor: &Monitor<'_>,
 ) -> Result<(), String> {
     let keys = batch_keys(store, batch);
-    let mut bytes = Vec::new();
-    for (done, &key) in keys.iter().enumerate() {
-        monitor.report("strays", done as u64, keys.len() as u64);
-        let mut halo = first_halo(store, key);
-        let (tile, found) = by_tile(store, key, &mut halo, |t, ids, holds| {
-            let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
-            let normals: Option<Vec<DVec3>> =
-                normals_given.then(|| t.points.iter().map(|p| p.n).collect());
-            part_outliers(&positions, ids, &t.own, normals.as_deref(), holds, stats)
-        })?;
-        for ((i, _), v) in tile.own_points().zip(found) {
-            bytes.extend(i.to_le_bytes());
-            bytes.push(code(v));
-        }
-        monitor.check().map_err(|_| "interrupted".to_string())?;
-    }
+    let first = |key| first_halo(store, key);
+    let found = each_tile(
+        &keys,
+        (&mut Halos::new(), &first),
+        ("strays", monitor),
+        &|key, halo| {
+            let (tile, found) = by_tile(store, key, halo, |t, ids, holds| {
+                let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
+                let normals: Option<Vec<DVec3>> =
+                    normals_given.then(|| t.points.iter().map(|p| p.n).collect());
+                part_outliers(&positions, ids, &t.own, normals.as_deref(), holds, stats)
+            })?;
+            let mut bytes = Vec::with_capacity(9 * found.len());
+            for ((i, _), v) in tile.own_points().zip(found) {
+                bytes.extend(i.to_le_bytes());
+                bytes.push(code(v));
+            }
+            Ok(bytes)
+        },
+    )?;
+    let bytes = found.concat();
     write_whole(&batch_file(scratch, "verdicts", batch.0), &bytes)
 }
 

@@ -3,11 +3,13 @@
 //! while they cannot certify its points, and scratch files of one fixed-size record a point by
 //! the store's index, written at their offsets by tile and read back in input order.
 
+use std::collections::BTreeMap;
 use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use glam::DVec3;
+use psi_octree::Monitor;
 use psi_preprocess::IncompletePart;
 use psi_tiles::{TileStore, TileWithHalo};
 
@@ -32,6 +34,54 @@ pub(crate) fn first_halo(store: &TileStore, key: [u32; 3]) -> f64 {
         .find(|t| t.key == key)
         .map_or(1, |t| t.points);
     (FIRST_HALO_SPACINGS * edge / (points.max(1) as f64).sqrt()).min(edge / 8.0)
+}
+
+/// Each tile's halo so far (world units), by key.
+pub(crate) type Halos = BTreeMap<[u32; 3], f64>;
+
+/// A tile's first halo (world units), by key.
+pub(crate) type FirstHalo<'a> = dyn Fn([u32; 3]) -> f64 + Sync + 'a;
+
+/// A stage's work on one tile (its key, its halo, grown as needed).
+pub(crate) type TileWork<'a, T> = dyn Fn([u32; 3], &mut f64) -> Result<T, String> + Sync + 'a;
+
+/// `work` on each tile of `keys` with its halo (from `halos`, else `first(key)`; grown as the
+/// work needs, and kept in `halos`), two tiles at a time (the budget's tiling allows two built
+/// at once; rayon's join runs the second on the other thread while the first's own parallel
+/// work waits), the results in the order of `keys`. Reports stage `stage` to `monitor` (tiles
+/// done of tiles) and stops between pairs once its flag is set.
+pub(crate) fn each_tile<T: Send>(
+    keys: &[[u32; 3]],
+    (halos, first): (&mut Halos, &FirstHalo<'_>),
+    (stage, monitor): (&str, &Monitor<'_>),
+    work: &TileWork<'_, T>,
+) -> Result<Vec<T>, String> {
+    let mut out = Vec::with_capacity(keys.len());
+    for (p, pair) in keys.chunks(2).enumerate() {
+        monitor.report(stage, (2 * p) as u64, keys.len() as u64);
+        let mut h: Vec<f64> = pair
+            .iter()
+            .map(|k| halos.get(k).copied().unwrap_or_else(|| first(*k)))
+            .collect();
+        let (a, b) = match (pair, h.as_mut_slice()) {
+            ([k], [h0]) => (work(*k, h0), None),
+            ([k0, k1], [h0, h1]) => {
+                let (a, b) = rayon::join(|| work(*k0, h0), || work(*k1, h1));
+                (a, Some(b))
+            }
+            _ => unreachable!("pairs"),
+        };
+        for (k, h) in pair.iter().zip(&h) {
+            halos.insert(*k, *h);
+        }
+        out.push(a?);
+        if let Some(b) = b {
+            out.push(b?);
+        }
+        monitor.check().map_err(|_| "interrupted".to_string())?;
+    }
+    monitor.report(stage, keys.len() as u64, keys.len() as u64);
+    Ok(out)
 }
 
 /// `f` on tile `key` of `store` with its halo (its input indices as 32 bits, and whether a ball
