@@ -1,12 +1,13 @@
-//! Normals by parts on the real multi-view scan (`../shared/scans/dragon_stand_scan.xyz`,
+//! Preprocessing by parts on the real multi-view scan (`../shared/scans/dragon_stand_scan.xyz`,
 //! skipped without): the level-0 estimate and the orientation computed from 8 tiles with a halo
-//! are bitwise those of the whole cloud.
+//! are bitwise those of the whole cloud, and so are the outlier step's verdicts.
 
 use std::path::Path;
 
 use psi::preprocess::{
-    PartEdges, estimate_normals, orient_by_parts, orient_normals, part_normals,
-    part_orientation_edges,
+    IncompletePart, OutlierStats, PartEdges, StrayVerdict, estimate_normals, find_outliers,
+    median_of_passes, orient_by_parts, orient_normals, part_normals, part_orientation_edges,
+    part_outlier_reaches, part_outliers,
 };
 use psi::{DVec3, OrientedPoint};
 
@@ -118,4 +119,94 @@ fn the_real_scan_by_tiles_is_the_whole_scan_bitwise() {
         points.len()
     );
     assert!(across > 1000);
+}
+
+/// The scan's positions, or `None` (skipped, with a message) without the file.
+fn scan_positions() -> Option<Vec<DVec3>> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scans/dragon_stand_scan.xyz");
+    if !path.is_file() {
+        eprintln!("skipped: {} is absent", path.display());
+        return None;
+    }
+    let cloud = psi::load_points(&path, &psi::ReadOptions::paper()).unwrap();
+    Some(cloud.points.iter().map(|p| p.p).collect())
+}
+
+/// `f` on each of the 8 tiles of `positions`, the tile's halo grown from `halo` (world units)
+/// while `f` refuses it; the results in tile order and how many tiles grew.
+fn by_tiles<T>(
+    positions: &[DVec3],
+    halo: f64,
+    f: impl Fn(
+        &[DVec3],
+        &[u32],
+        &[bool],
+        &(dyn Fn(DVec3, f64) -> bool + Sync),
+    ) -> Result<T, IncompletePart>,
+) -> (Vec<T>, usize) {
+    let mut grown = 0;
+    let out = (0..8)
+        .map(|t| {
+            let mut h = halo;
+            loop {
+                let (ids, own, (lo, hi)) = tiles(positions, h).swap_remove(t);
+                let held: Vec<DVec3> = ids.iter().map(|&i| positions[i as usize]).collect();
+                let inside = |x: DVec3, r: f64| (x - r).cmpge(lo).all() && (x + r).cmple(hi).all();
+                match f(&held, &ids, &own, &inside) {
+                    Ok(found) => return found,
+                    Err(e) => {
+                        grown += usize::from(h == halo);
+                        h = if e.reach.is_finite() {
+                            (1.01 * e.reach).max(1.5 * h)
+                        } else {
+                            2.0 * h
+                        };
+                    }
+                }
+            }
+        })
+        .collect();
+    (out, grown)
+}
+
+/// The outlier step on the scan by 8 tiles (its halos grown where its stray points reach far):
+/// the statistic it reads and every verdict are the whole step's (`find_outliers`; the scan
+/// has no repeated points).
+#[test]
+fn the_real_scan_loses_the_same_outliers_by_tiles() {
+    let Some(positions) = scan_positions() else {
+        return;
+    };
+    let whole = find_outliers(&positions, None);
+    let (reaches, _) = by_tiles(&positions, 0.005, |held, ids, own, inside| {
+        part_outlier_reaches(held, ids, own, inside)
+    });
+    let reaches: Vec<f64> = reaches.into_iter().flatten().collect();
+    assert_eq!(reaches.len(), positions.len());
+    let typical = median_of_passes(|visit: &mut dyn FnMut(f64)| {
+        reaches.iter().for_each(|&r| visit(r));
+        Ok::<(), ()>(())
+    })
+    .unwrap();
+    let stats = OutlierStats {
+        typical,
+        points: reaches.len() as u64,
+    };
+    let (found, grown) = by_tiles(&positions, 0.005, |held, ids, own, inside| {
+        let verdicts = part_outliers(held, ids, own, None, inside, stats)?;
+        let mine = ids.iter().zip(own).filter(|p| *p.1).map(|p| *p.0);
+        Ok(mine.zip(verdicts).collect::<Vec<_>>())
+    });
+    let mut by_parts = vec![None; positions.len()];
+    for (i, v) in found.into_iter().flatten() {
+        by_parts[i as usize] = Some(v);
+    }
+    let count = |k| by_parts.iter().filter(|v| **v == Some(k)).count();
+    assert_eq!(count(StrayVerdict::Far), whole.far);
+    assert_eq!(count(StrayVerdict::OffSurface), whole.off_surface);
+    for (i, (v, &m)) in by_parts.iter().zip(&whole.mask).enumerate() {
+        assert_eq!(*v != Some(StrayVerdict::Kept), m, "point {i}: {v:?}");
+    }
+    eprintln!("{} outliers, {grown} tiles grew their halos", whole.count());
+    assert!(whole.count() > 50 && grown > 0);
 }
