@@ -1,6 +1,8 @@
 """The same tiles on a Dask cluster: ``sample_files`` runs a run out of core (``psi sample
 --max-memory``) as Dask tasks on a ``dask.distributed.Client`` — the partition of the inputs
-into tile files (a first pass, then the files in parts, a task per worker thread), the cells
+into tile files (a first pass, then the files in parts, a task per worker thread; with the
+outlier step, all points so, its passes as a task per batch of tiles, then the kept points so;
+normals estimated where there are none as one task), the cells
 above the tiles (one task per octant of the root), the tiles (a task per batch of neighbours),
 the seeds (one task per octant), then the relaxation and the writing — and writes bitwise the
 particles the command line writes.
