@@ -26,6 +26,7 @@
 mod budget;
 mod error;
 mod files;
+mod given_stages;
 mod input_points;
 mod memory_estimate;
 mod out_of_core;
@@ -56,6 +57,7 @@ pub use files::{
     ParticleColumns, load_mesh, load_particles, load_points, load_points_as, same_file, save_json,
     save_mesh, save_particle_columns, save_particles, save_points, write_atomically,
 };
+pub use given_stages::GivenStage;
 pub use glam::DVec3;
 pub use memory_estimate::{
     available_memory_bytes, check_fits_in_memory, estimate_in_core_bytes, estimate_points,
@@ -86,5 +88,5 @@ pub use psi_particles::{
 pub use psi_shapes::{AnalyticShape, builtin_model};
 pub use render::{render_particles_png, save_png};
 pub use tile_outliers::{
-    GivenStage, StrayTally, stray_join, stray_reaches, stray_stats, stray_verdicts_of_batch,
+    StrayTally, stray_join, stray_reaches, stray_stats, stray_verdicts_of_batch,
 };

@@ -17,12 +17,12 @@ use psi_tiles::{StorePart, StorePlan, TileStore, TileWriter};
 use crate::PsiError;
 use crate::budget::OutOfCore;
 use crate::files::open_error;
+use crate::given_stages::{GivenStage, with_given_stage};
 pub use crate::input_points::has_normals;
 pub(crate) use crate::input_points::{
     CHUNK, Keep, Normals, NormalsKind, Points, StoreKind, for_each_input, is_mesh,
 };
 use crate::read_ahead::{AHEAD, read_ahead};
-use crate::tile_outliers::{GivenStage, with_given_stage};
 
 /// The least budget whose partition decodes the input ahead ([`read_ahead`]): 16 × the chunks
 /// held ahead (576 MiB), so that they stay a small share of it.

@@ -25,11 +25,12 @@ use psi_preprocess::{
 };
 
 use crate::PsiError;
+use crate::given_stages::STRAYS_FILE;
 use crate::partition::{
     Input, Keep, Normals, NormalsKind, Partition, Points, StoreKind, failure, found,
 };
 use crate::tile_level_normals::partition_from_level;
-use crate::tile_outliers::{STRAYS_FILE, StrayTally, stray_verdicts, tally_of};
+use crate::tile_outliers::{StrayTally, stray_verdicts, tally_of};
 use crate::tile_parts::{
     Halos, RecordFile, by_tile, each_tile, first_halo, io_reason, normal_bytes, normal_of_bytes,
     write_at,

@@ -20,12 +20,9 @@ use psi_tiles::TileStore;
 use serde::{Deserialize, Serialize};
 
 use crate::PsiError;
-use crate::budget::OutOfCore;
-use crate::partition::{Input, Normals, NormalsKind, Partition, Points, StoreKind, failure, found};
-use crate::tile_parts::{Halos, RecordFile, by_tile, each_tile, first_halo, io_reason};
-
-/// The verdicts' file in the scratch directory.
-pub(crate) const STRAYS_FILE: &str = "strays.bin";
+use crate::given_stages::{GivenStage, STRAYS_FILE, with_given_stage};
+use crate::partition::{Input, NormalsKind, Partition, StoreKind, failure, found};
+use crate::tile_parts::{Halos, by_tile, each_tile, first_halo, io_reason};
 
 /// What the outlier step left out of a run out of core.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -42,47 +39,6 @@ impl StrayTally {
     /// Points left out.
     pub fn removed(&self) -> u64 {
         self.repeated + self.far + self.off_surface
-    }
-}
-
-/// Which store of a run whose points have normals a partition writes ([`crate::partition_start`],
-/// [`crate::partition_part`], [`crate::partition_assemble`]): the points as given (`tiles/`,
-/// with `--keep-outliers`), or for the outlier step all points first (`all/`), then the points
-/// its verdicts keep (`tiles/`, reading `strays.bin`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum GivenStage {
-    /// Every point, into the final store.
-    Plain,
-    /// Every point, into the outlier step's store.
-    All,
-    /// The points the outlier step keeps, into the final store.
-    Kept,
-}
-
-/// `f` with the directory and the points of `stage` of the run in `options.scratch` (for
-/// [`GivenStage::Kept`], `strays.bin` open while `f` runs).
-pub(crate) fn with_given_stage<T>(
-    options: &OutOfCore,
-    stage: GivenStage,
-    f: impl FnOnce(&Path, Points<'_>) -> Result<T, PsiError>,
-) -> Result<T, PsiError> {
-    let scratch = &options.scratch;
-    match stage {
-        GivenStage::Plain => f(&scratch.join("tiles"), Points::all(Normals::Given)),
-        GivenStage::All => f(&scratch.join("all"), Points::all(Normals::Given)),
-        GivenStage::Kept => {
-            let path = scratch.join(STRAYS_FILE);
-            let verdicts = RecordFile::<1>::open(&path).map_err(|reason| PsiError::OutOfCore {
-                path: path.clone(),
-                reason,
-            })?;
-            let keep = |i: u64| verdicts.get(i).map(|v| v[0] == 0);
-            let points = Points {
-                normals: Normals::Given,
-                keep: Some(&keep),
-            };
-            f(&scratch.join("tiles"), points)
-        }
     }
 }
 

@@ -21,6 +21,7 @@ mod points;
 mod render;
 mod sample;
 mod scene;
+mod stray_tasks;
 
 /// Point-set implicits: an MPU surface from oriented points, and adaptive particles on it.
 #[pymodule]
@@ -39,10 +40,10 @@ fn psi_python(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(out_of_core::sample_files, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_preprocess, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_preprocessing, m)?)?;
-    m.add_function(wrap_pyfunction!(out_of_core::_ooc_stray_reaches, m)?)?;
-    m.add_function(wrap_pyfunction!(out_of_core::_ooc_stray_stats, m)?)?;
-    m.add_function(wrap_pyfunction!(out_of_core::_ooc_stray_verdicts, m)?)?;
-    m.add_function(wrap_pyfunction!(out_of_core::_ooc_stray_join, m)?)?;
+    m.add_function(wrap_pyfunction!(stray_tasks::_ooc_stray_reaches, m)?)?;
+    m.add_function(wrap_pyfunction!(stray_tasks::_ooc_stray_stats, m)?)?;
+    m.add_function(wrap_pyfunction!(stray_tasks::_ooc_stray_verdicts, m)?)?;
+    m.add_function(wrap_pyfunction!(stray_tasks::_ooc_stray_join, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_partition_start, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_partition_part, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_partition_assemble, m)?)?;

@@ -37,7 +37,7 @@ fn inputs_arg(value: &Bound<'_, PyAny>) -> PyResult<Vec<PathBuf>> {
 /// Runs `work` on a rayon pool of `threads` threads of its own, or on the global pool
 /// (`None`); `Err` tells why the pool could not start. A Dask worker runs one task per
 /// thread, so its tasks ask for one each.
-fn on_threads<T: Send>(
+pub(crate) fn on_threads<T: Send>(
     threads: Option<usize>,
     work: impl FnOnce() -> T + Send,
 ) -> Result<T, String> {
@@ -53,7 +53,7 @@ fn on_threads<T: Send>(
 }
 
 /// `threads` as a pool size: `None`, or a whole number from 1 on.
-fn threads_arg(threads: Option<i128>) -> PyResult<Option<usize>> {
+pub(crate) fn threads_arg(threads: Option<i128>) -> PyResult<Option<usize>> {
     threads
         .map(|n| bounded::<u32>("threads", n, 1, 4096).map(|n| n as usize))
         .transpose()
@@ -449,86 +449,6 @@ pub(crate) fn _ooc_preprocessing(
         } else {
             Ok("normals")
         }
-    })
-}
-
-/// Runs an outlier-step task on the store of all points in `scratch` on a pool of `threads`;
-/// its error as a `ValueError`.
-fn strays_task<T: Send>(
-    py: Python<'_>,
-    scratch: &std::path::Path,
-    threads: Option<i128>,
-    work: impl FnOnce(&psi::tiles::TileStore) -> Result<T, String> + Send,
-) -> PyResult<T> {
-    let threads = threads_arg(threads)?;
-    let store = psi::tiles::TileStore::open(&scratch.join("all"))
-        .map_err(|e| value_error(e.to_string()))?;
-    crate::errors::detached(py, move || on_threads(threads, || work(&store)))?
-        .map_err(value_error)?
-        .map_err(value_error)
-}
-
-/// Task of `psi.distributed.sample_files` (not API): the outlier step's first pass over batch
-/// `batch` of `batches` of the tiles of the store of all points; returns how many distances.
-#[pyfunction]
-#[pyo3(signature = (scratch, batch, batches, threads=None))]
-pub(crate) fn _ooc_stray_reaches(
-    py: Python<'_>,
-    scratch: PathBuf,
-    batch: u32,
-    batches: u32,
-    threads: Option<i128>,
-) -> PyResult<u64> {
-    let dir = scratch.clone();
-    strays_task(py, &scratch, threads, move |store| {
-        psi::stray_reaches(
-            store,
-            &dir,
-            (batch, batches),
-            &psi::octree::Monitor::silent(),
-        )
-    })
-}
-
-/// Task of `psi.distributed.sample_files` (not API): the outlier search's statistics from the
-/// first pass's `batches` files: (the median 16th-neighbour distance, the points searched).
-#[pyfunction]
-pub(crate) fn _ooc_stray_stats(scratch: PathBuf, batches: u32) -> PyResult<(f64, u64)> {
-    let stats = psi::stray_stats(&scratch, batches).map_err(value_error)?;
-    Ok((stats.typical, stats.points))
-}
-
-/// Task of `psi.distributed.sample_files` (not API): the outlier step's verdicts on batch
-/// `batch` of `batches` of the tiles, with the statistics of [`_ooc_stray_stats`].
-#[pyfunction]
-#[pyo3(signature = (scratch, batch, batches, stats, threads=None))]
-pub(crate) fn _ooc_stray_verdicts(
-    py: Python<'_>,
-    scratch: PathBuf,
-    batch: u32,
-    batches: u32,
-    stats: (f64, u64),
-    threads: Option<i128>,
-) -> PyResult<()> {
-    let dir = scratch.clone();
-    let stats = psi::preprocess::OutlierStats {
-        typical: stats.0,
-        points: stats.1,
-    };
-    strays_task(py, &scratch, threads, move |store| {
-        let silent = psi::octree::Monitor::silent();
-        psi::stray_verdicts_of_batch(store, &dir, (batch, batches), (true, stats), &silent)
-    })
-}
-
-/// Task of `psi.distributed.sample_files` (not API): `strays.bin` from the `batches` verdict
-/// files; returns the points left out.
-#[pyfunction]
-pub(crate) fn _ooc_stray_join(py: Python<'_>, scratch: PathBuf, batches: u32) -> PyResult<u64> {
-    let dir = scratch.clone();
-    strays_task(py, &scratch, None, move |store| {
-        let n = store.manifest().population;
-        psi::stray_join(&dir, n, batches).map(|t| t.removed())
     })
 }
 
