@@ -30,7 +30,7 @@ const READ_AHEAD_BUDGET: u64 =
     16 * (AHEAD as u64 + 1) * (CHUNK * std::mem::size_of::<OrientedPoint>()) as u64;
 
 /// What a store of kind `kind` of the files at `paths` records as its source.
-fn store_source(paths: &[PathBuf], kind: StoreKind) -> Result<String, PsiError> {
+pub(crate) fn store_source(paths: &[PathBuf], kind: StoreKind) -> Result<String, PsiError> {
     let tag = match kind.normals {
         NormalsKind::Given => "",
         NormalsKind::Positions => "positions of ",

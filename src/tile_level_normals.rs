@@ -79,12 +79,13 @@ pub(crate) fn partition_from_level(
     let (fail, options) = (failure(&input.paths[0]), input.options);
     let interrupted = || fail("interrupted".into());
     let keys = store.tile_keys();
-    // The level's points, from each tile's own.
+    // The level's points, from each tile's own (gathered with a halo: a point on a face of
+    // its tile's cube, as the cube's rounded centre places it, is still gathered).
     let mut chosen: Vec<(u32, DVec3)> = Vec::new();
     for (done, &key) in keys.iter().enumerate() {
         monitor.report("level", done as u64, keys.len() as u64);
         let tile = store
-            .tile_with_halo(key, 0.0)
+            .tile_with_halo(key, first_halo(store, key))
             .map_err(|e| fail(e.to_string()))?;
         chosen.extend(
             tile.own_points()

@@ -27,10 +27,10 @@ use psi_preprocess::{
 use crate::PsiError;
 use crate::given_stages::STRAYS_FILE;
 use crate::partition::{
-    Input, Keep, Normals, NormalsKind, Partition, Points, StoreKind, failure, found,
+    Input, Keep, Normals, NormalsKind, Partition, Points, StoreKind, failure, found, store_source,
 };
 use crate::tile_level_normals::partition_from_level;
-use crate::tile_outliers::{StrayTally, stray_verdicts, tally_of};
+use crate::tile_outliers::{StrayTally, stray_verdicts, strays_of};
 use crate::tile_parts::{
     Halos, RecordFile, by_tile, each_tile, first_halo, io_reason, normal_bytes, normal_of_bytes,
     write_at,
@@ -88,11 +88,17 @@ pub(crate) fn partition_estimating_normals(
         normals: NormalsKind::Oriented,
         strays_left_out: remove_outliers,
     };
+    // The final store of an earlier run, with the verdicts it was made from (for the report).
+    let positions_kind = StoreKind {
+        normals: NormalsKind::Positions,
+        strays_left_out: false,
+    };
     if let Some(found) = found(paths, options, &final_dir, kind)? {
-        let tally = remove_outliers.then(|| tally_of(&strays_path)).transpose();
-        if let Ok(tally) = tally {
+        let source = store_source(paths, positions_kind)?;
+        let tally = remove_outliers.then(|| strays_of(scratch, &source, None));
+        if tally.is_none() || tally.is_some_and(|t| t.is_some()) {
             clean_up()?;
-            return Ok((found, tally, None));
+            return Ok((found, tally.flatten(), None));
         }
     }
     // The positions, every point with a zero normal.
@@ -103,10 +109,6 @@ pub(crate) fn partition_estimating_normals(
     // The outlier step's verdicts, and the positions it keeps.
     let mut tally = None;
     let verdicts = if remove_outliers {
-        if !all.resumed && strays_path.exists() {
-            // Another input's verdicts (an earlier run's, left in this scratch directory).
-            fs::remove_file(&strays_path).map_err(|e| fail(io_reason(&strays_path, &e)))?;
-        }
         tally = Some(stray_verdicts(&all.store, scratch, false, monitor).map_err(&fail)?);
         Some(RecordFile::<1>::open(&strays_path).map_err(&fail)?)
     } else {

@@ -8,7 +8,7 @@
 //! `docs/notes/2026-12-03-outliers-by-parts.md`.
 
 use std::fs::{self, File};
-use std::io::{BufReader, Read, Write};
+use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
@@ -21,8 +21,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::PsiError;
 use crate::given_stages::{GivenStage, STRAYS_FILE, with_given_stage};
-use crate::partition::{Input, NormalsKind, Partition, StoreKind, failure, found};
-use crate::tile_parts::{Halos, by_tile, each_tile, first_halo, io_reason};
+use crate::partition::{Input, NormalsKind, Partition, StoreKind, failure, found, store_source};
+use crate::tile_parts::{Halos, WholeFile, by_tile, each_tile_into, first_halo, io_reason};
 
 /// What the outlier step left out of a run out of core.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -88,16 +88,6 @@ fn batch_file(scratch: &Path, what: &str, batch: u32) -> PathBuf {
     scratch.join(format!("strays-{what}-{batch}.bin"))
 }
 
-/// Writes `bytes` to `path` whole or not at all (a temporary file renamed).
-fn write_whole(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    let partial = path.with_extension("partial");
-    let mut file = File::create(&partial).map_err(|e| io_reason(&partial, &e))?;
-    file.write_all(bytes)
-        .and_then(|()| file.sync_all())
-        .map_err(|e| io_reason(&partial, &e))?;
-    fs::rename(&partial, path).map_err(|e| io_reason(path, &e))
-}
-
 /// The outlier step's first pass over batch `batch` of `batches` of the tiles of `store` (all
 /// the input's points): each own point's 16th-neighbour distance (world units) that the search
 /// reads, written to a file of the batch in `scratch`; how many. A cluster's task each
@@ -114,7 +104,9 @@ pub fn stray_reaches(
 ) -> Result<u64, String> {
     let keys = batch_keys(store, batch);
     let first = |key| first_halo(store, key);
-    let found = each_tile(
+    let mut file = WholeFile::create(&batch_file(scratch, "reaches", batch.0))?;
+    let mut count = 0u64;
+    each_tile_into(
         &keys,
         (&mut Halos::new(), &first),
         ("reaches", monitor),
@@ -125,14 +117,14 @@ pub fn stray_reaches(
             })?;
             Ok(found)
         },
+        &mut |found| {
+            count += found.len() as u64;
+            let bytes: Vec<u8> = found.iter().flat_map(|r| r.to_le_bytes()).collect();
+            file.write(&bytes)
+        },
     )?;
-    let bytes: Vec<u8> = found
-        .iter()
-        .flatten()
-        .flat_map(|r| r.to_le_bytes())
-        .collect();
-    write_whole(&batch_file(scratch, "reaches", batch.0), &bytes)?;
-    Ok(bytes.len() as u64 / 8)
+    file.finish()?;
+    Ok(count)
 }
 
 /// The statistics the outlier search reads, from the `batches` files of [`stray_reaches`] in
@@ -163,7 +155,8 @@ pub fn stray_stats(scratch: &Path, batches: u32) -> Result<OutlierStats, String>
             }
         }
         Ok::<(), String>(())
-    })?;
+    })?
+    .ok_or_else(|| format!("{}: the distances changed while read", scratch.display()))?;
     Ok(OutlierStats { typical, points })
 }
 
@@ -184,7 +177,8 @@ pub fn stray_verdicts_of_batch(
 ) -> Result<(), String> {
     let keys = batch_keys(store, batch);
     let first = |key| first_halo(store, key);
-    let found = each_tile(
+    let mut file = WholeFile::create(&batch_file(scratch, "verdicts", batch.0))?;
+    each_tile_into(
         &keys,
         (&mut Halos::new(), &first),
         ("strays", monitor),
@@ -202,25 +196,52 @@ pub fn stray_verdicts_of_batch(
             }
             Ok(bytes)
         },
+        &mut |bytes| file.write(&bytes),
     )?;
-    let bytes = found.concat();
-    write_whole(&batch_file(scratch, "verdicts", batch.0), &bytes)
+    file.finish()
 }
 
-/// `strays.bin` in `scratch` (one byte a point of the `n` of the store of all points) from the
-/// `batches` files of [`stray_verdicts_of_batch`], which are removed with those of
-/// [`stray_reaches`]; the tally.
+/// Where `strays.bin`'s source is recorded: the source of the store its verdicts are of.
+fn strays_source(scratch: &Path) -> PathBuf {
+    scratch.join("strays.source")
+}
+
+/// The tally of `strays.bin` in `scratch` when it is whole and holds the verdicts of the store
+/// whose source is `source` (an earlier run's, on the same input and store); `None` otherwise.
+pub(crate) fn strays_of(scratch: &Path, source: &str, n: Option<u64>) -> Option<StrayTally> {
+    let path = scratch.join(STRAYS_FILE);
+    let same = fs::read_to_string(strays_source(scratch)).is_ok_and(|s| s == source);
+    let whole = n.is_none_or(|n| fs::metadata(&path).is_ok_and(|m| m.len() == n));
+    (same && whole).then(|| tally_of(&path).ok()).flatten()
+}
+
+/// `strays.bin` in `scratch` (one byte a point of `store`, the store of all points, by its
+/// index) from the `batches` files of [`stray_verdicts_of_batch`], which are removed with those
+/// of [`stray_reaches`]; the tally. The store's source is recorded beside it (after it: a
+/// rerun trusts only verdicts of its own store).
 ///
 /// # Errors
 ///
 /// A file cannot be read or written (named), or a point has no verdict.
-pub fn stray_join(scratch: &Path, n: u64, batches: u32) -> Result<StrayTally, String> {
+pub fn stray_join(store: &TileStore, scratch: &Path, batches: u32) -> Result<StrayTally, String> {
     const UNSET: u8 = u8::MAX;
+    let source_path = strays_source(scratch);
+    if source_path.exists() {
+        fs::remove_file(&source_path).map_err(|e| io_reason(&source_path, &e))?;
+    }
+    let n = store.manifest().population;
     let mut verdicts = vec![UNSET; n as usize];
     for b in 0..batches {
         let f = batch_file(scratch, "verdicts", b);
-        let bytes = fs::read(&f).map_err(|e| io_reason(&f, &e))?;
-        for record in bytes.chunks_exact(9) {
+        let file = File::open(&f).map_err(|e| io_reason(&f, &e))?;
+        let mut reader = BufReader::with_capacity(9 << 16, file);
+        let mut record = [0u8; 9];
+        loop {
+            match reader.read_exact(&mut record) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => break,
+                Err(e) => return Err(io_reason(&f, &e)),
+            }
             let i = u64::from_le_bytes(record[..8].try_into().expect("8 bytes"));
             let slot = verdicts
                 .get_mut(i as usize)
@@ -232,7 +253,10 @@ pub fn stray_join(scratch: &Path, n: u64, batches: u32) -> Result<StrayTally, St
         return Err(format!("{}: no verdict for point {i}", scratch.display()));
     }
     let path = scratch.join(STRAYS_FILE);
-    write_whole(&path, &verdicts)?;
+    let mut file = WholeFile::create(&path)?;
+    file.write(&verdicts)?;
+    file.finish()?;
+    fs::write(&source_path, &store.manifest().source).map_err(|e| io_reason(&source_path, &e))?;
     for b in 0..batches {
         for what in ["reaches", "verdicts"] {
             let f = batch_file(scratch, what, b);
@@ -243,24 +267,23 @@ pub fn stray_join(scratch: &Path, n: u64, batches: u32) -> Result<StrayTally, St
 }
 
 /// The outlier step's verdicts on the points of `store` (all the input's points; their
-/// normals read when `normals_given`) into `strays.bin` in `scratch`, unless that file is there
-/// whole; their tally. On this machine, one batch of [`stray_reaches`], [`stray_stats`],
-/// [`stray_verdicts_of_batch`] and [`stray_join`].
+/// normals read when `normals_given`) into `strays.bin` in `scratch`, unless an earlier run
+/// left them there for this store; their tally. On this machine, one batch of
+/// [`stray_reaches`], [`stray_stats`], [`stray_verdicts_of_batch`] and [`stray_join`].
 pub(crate) fn stray_verdicts(
     store: &TileStore,
     scratch: &Path,
     normals_given: bool,
     monitor: &Monitor<'_>,
 ) -> Result<StrayTally, String> {
-    let n = store.manifest().population;
-    let path = scratch.join(STRAYS_FILE);
-    if fs::metadata(&path).map(|m| m.len()).ok() == Some(n) {
-        return tally_of(&path);
+    let m = store.manifest();
+    if let Some(tally) = strays_of(scratch, &m.source, Some(m.population)) {
+        return Ok(tally);
     }
     stray_reaches(store, scratch, (0, 1), monitor)?;
     let stats = stray_stats(scratch, 1)?;
     stray_verdicts_of_batch(store, scratch, (0, 1), (normals_given, stats), monitor)?;
-    stray_join(scratch, n, 1)
+    stray_join(store, scratch, 1)
 }
 
 /// The store of `input`'s points (files with normals) without the outlier step's strays, in `options.scratch/tiles` (found there when an
@@ -280,7 +303,6 @@ pub(crate) fn partition_removing_outliers(
     let fail = failure(&paths[0]);
     let scratch = &options.scratch;
     let (all_dir, final_dir) = (scratch.join("all"), scratch.join("tiles"));
-    let strays_path = scratch.join(STRAYS_FILE);
     let kind = StoreKind {
         normals: NormalsKind::Given,
         strays_left_out: true,
@@ -291,8 +313,13 @@ pub(crate) fn partition_removing_outliers(
         }
         Ok(())
     };
+    // The final store of an earlier run, with the verdicts it was made from (for the report).
+    let all_kind = StoreKind {
+        normals: NormalsKind::Given,
+        strays_left_out: false,
+    };
     if let Some(found) = found(paths, options, &final_dir, kind)?
-        && let Ok(tally) = tally_of(&strays_path)
+        && let Some(tally) = strays_of(scratch, &store_source(paths, all_kind)?, None)
     {
         clean_up()?;
         return Ok((found, tally));
@@ -300,10 +327,6 @@ pub(crate) fn partition_removing_outliers(
     let all = with_given_stage(options, GivenStage::All, |dir, points| {
         input.stage("all points", dir, points, monitor)
     })?;
-    if !all.resumed && strays_path.exists() {
-        // Another input's verdicts (an earlier run's, left in this scratch directory).
-        fs::remove_file(&strays_path).map_err(|e| fail(io_reason(&strays_path, &e)))?;
-    }
     let tally = stray_verdicts(&all.store, scratch, true, monitor).map_err(&fail)?;
     let kept = with_given_stage(options, GivenStage::Kept, |dir, points| {
         input.stage("kept points", dir, points, monitor)

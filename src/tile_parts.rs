@@ -5,6 +5,7 @@
 
 use std::collections::BTreeMap;
 use std::fs::File;
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -48,15 +49,16 @@ pub(crate) type TileWork<'a, T> = dyn Fn([u32; 3], &mut f64) -> Result<T, String
 /// `work` on each tile of `keys` with its halo (from `halos`, else `first(key)`; grown as the
 /// work needs, and kept in `halos`), two tiles at a time (the budget's tiling allows two built
 /// at once; rayon's join runs the second on the other thread while the first's own parallel
-/// work waits), the results in the order of `keys`. Reports stage `stage` to `monitor` (tiles
-/// done of tiles) and stops between pairs once its flag is set.
-pub(crate) fn each_tile<T: Send>(
+/// work waits), each result given to `sink` in the order of `keys` as its pair is done (so no
+/// more than a pair's results are held). Reports stage `stage` to `monitor` (tiles done of
+/// tiles) and stops between pairs once its flag is set.
+pub(crate) fn each_tile_into<T: Send>(
     keys: &[[u32; 3]],
     (halos, first): (&mut Halos, &FirstHalo<'_>),
     (stage, monitor): (&str, &Monitor<'_>),
     work: &TileWork<'_, T>,
-) -> Result<Vec<T>, String> {
-    let mut out = Vec::with_capacity(keys.len());
+    sink: &mut dyn FnMut(T) -> Result<(), String>,
+) -> Result<(), String> {
     for (p, pair) in keys.chunks(2).enumerate() {
         monitor.report(stage, (2 * p) as u64, keys.len() as u64);
         let mut h: Vec<f64> = pair
@@ -74,13 +76,28 @@ pub(crate) fn each_tile<T: Send>(
         for (k, h) in pair.iter().zip(&h) {
             halos.insert(*k, *h);
         }
-        out.push(a?);
+        sink(a?)?;
         if let Some(b) = b {
-            out.push(b?);
+            sink(b?)?;
         }
         monitor.check().map_err(|_| "interrupted".to_string())?;
     }
     monitor.report(stage, keys.len() as u64, keys.len() as u64);
+    Ok(())
+}
+
+/// [`each_tile_into`], the results collected in the order of `keys`.
+pub(crate) fn each_tile<T: Send>(
+    keys: &[[u32; 3]],
+    halos: (&mut Halos, &FirstHalo<'_>),
+    stage: (&str, &Monitor<'_>),
+    work: &TileWork<'_, T>,
+) -> Result<Vec<T>, String> {
+    let mut out = Vec::with_capacity(keys.len());
+    each_tile_into(keys, halos, stage, work, &mut |t| {
+        out.push(t);
+        Ok(())
+    })?;
     Ok(out)
 }
 
@@ -97,7 +114,12 @@ pub(crate) fn by_tile<T>(
         let tile = store
             .tile_with_halo(key, *halo)
             .map_err(|e| e.to_string())?;
-        let ids: Vec<u32> = tile.ids.iter().map(|&i| i as u32).collect();
+        let ids = tile
+            .ids
+            .iter()
+            .map(|&i| u32::try_from(i).ok().filter(|&i| i < u32::MAX))
+            .collect::<Option<Vec<u32>>>()
+            .ok_or("too many points for 32-bit indices")?;
         let holds = |x: DVec3, r: f64| tile.holds_ball(x, r);
         match f(&tile, &ids, &holds) {
             Ok(out) => return Ok((tile, out)),
@@ -148,6 +170,43 @@ impl<const B: usize> RecordFile<B> {
         }
         let at = ((i - *start) * B as u64) as usize;
         Ok(bytes[at..at + B].try_into().expect("B bytes"))
+    }
+}
+
+/// A file written whole or not at all: streamed to `<path>.partial`, renamed once finished.
+pub(crate) struct WholeFile {
+    path: PathBuf,
+    partial: PathBuf,
+    writer: BufWriter<File>,
+}
+
+impl WholeFile {
+    /// Starts the file at `path`.
+    pub(crate) fn create(path: &Path) -> Result<Self, String> {
+        let partial = path.with_extension("partial");
+        let file = File::create(&partial).map_err(|e| io_reason(&partial, &e))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            writer: BufWriter::with_capacity(1 << 20, file),
+            partial,
+        })
+    }
+
+    /// Appends `bytes`.
+    pub(crate) fn write(&mut self, bytes: &[u8]) -> Result<(), String> {
+        self.writer
+            .write_all(bytes)
+            .map_err(|e| io_reason(&self.partial, &e))
+    }
+
+    /// Flushes, syncs and renames the file into place.
+    pub(crate) fn finish(self) -> Result<(), String> {
+        let file = self
+            .writer
+            .into_inner()
+            .map_err(|e| io_reason(&self.partial, e.error()))?;
+        file.sync_all().map_err(|e| io_reason(&self.partial, &e))?;
+        std::fs::rename(&self.partial, &self.path).map_err(|e| io_reason(&self.path, &e))
     }
 }
 

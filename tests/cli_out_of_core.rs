@@ -324,7 +324,7 @@ fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
         left.sort();
-        assert_eq!(left, ["strays.bin", "tiles"], "{name}");
+        assert_eq!(left, ["strays.bin", "strays.source", "tiles"], "{name}");
         let (again, report) = tiled("b");
         assert_eq!(report["tiles"]["resumed"], true);
         assert_eq!(

@@ -187,6 +187,7 @@ fn the_real_scan_loses_the_same_outliers_by_tiles() {
         reaches.iter().for_each(|&r| visit(r));
         Ok::<(), ()>(())
     })
+    .unwrap()
     .unwrap();
     let stats = OutlierStats {
         typical,

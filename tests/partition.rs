@@ -123,11 +123,23 @@ fn the_outlier_step_in_batches_is_the_step_run_whole() {
         let work = (true, stats);
         psi::stray_verdicts_of_batch(&all.store, scratch, (b, batches), work, &silent).unwrap();
     }
-    let joined = psi::stray_join(scratch, all.points, batches).unwrap();
+    let joined = psi::stray_join(&all.store, scratch, batches).unwrap();
     assert_eq!(joined, tally);
     let verdicts = |o: &OutOfCore| std::fs::read(o.scratch.join("strays.bin")).unwrap();
     assert_eq!(verdicts(&parted), verdicts(&whole));
     let kept = store_in_parts(GivenStage::Kept);
     assert_eq!(kept.store.manifest(), done.partition.store.manifest());
+
+    // Verdicts another input left (the right length, another source) are never trusted: the
+    // run redoes the step and writes its own.
+    let right = verdicts(&whole);
+    let mut wrong = right.clone();
+    wrong[7] = 2;
+    std::fs::write(whole.scratch.join("strays.bin"), &wrong).unwrap();
+    std::fs::write(whole.scratch.join("strays.source"), "another input").unwrap();
+    let again =
+        psi::partition_preprocessed(&inputs, None, &preprocess, &params, &whole, &silent).unwrap();
+    assert_eq!(again.strays, Some(tally));
+    assert_eq!(verdicts(&whole), right);
     std::fs::remove_dir_all(&dir).unwrap();
 }

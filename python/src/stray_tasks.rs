@@ -85,7 +85,6 @@ pub(crate) fn _ooc_stray_verdicts(
 pub(crate) fn _ooc_stray_join(py: Python<'_>, scratch: PathBuf, batches: u32) -> PyResult<u64> {
     let dir = scratch.clone();
     strays_task(py, &scratch, None, move |store| {
-        let n = store.manifest().population;
-        psi::stray_join(&dir, n, batches).map(|t| t.removed())
+        psi::stray_join(store, &dir, batches).map(|t| t.removed())
     })
 }

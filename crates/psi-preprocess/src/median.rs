@@ -15,7 +15,8 @@ pub(crate) fn median(v: &mut [f64]) -> f64 {
 /// value, in any order, each time it is called (four times: the 64 bits of the value's key,
 /// which orders as `f64::total_cmp`, are found 16 at a time, each pass counting the values that
 /// agree with the bits found so far in 65 536 bins). Memory: the bins alone; bitwise the held
-/// median of the values.
+/// median of the values, or `None` when the passes did not see the same values (their count
+/// or their bits changed between them).
 ///
 /// # Errors
 ///
@@ -27,11 +28,11 @@ pub(crate) fn median(v: &mut [f64]) -> f64 {
 ///     values.iter().for_each(|&v| visit(v));
 ///     Ok::<(), ()>(())
 /// });
-/// assert_eq!(median, Ok(3.0));
+/// assert_eq!(median, Ok(Some(3.0)));
 /// ```
 pub fn median_of_passes<E>(
     mut pass: impl FnMut(&mut dyn FnMut(f64)) -> Result<(), E>,
-) -> Result<f64, E> {
+) -> Result<Option<f64>, E> {
     // Keys as unsigned integers, ordered as the floats by `total_cmp`.
     let key = |x: f64| (total_order_key(x) as u64) ^ (1 << 63);
     let (mut prefix, mut rank, mut count) = (0u64, None::<u64>, 0u64);
@@ -50,31 +51,29 @@ pub fn median_of_passes<E>(
             None => {
                 count = bins.iter().sum();
                 if count == 0 {
-                    return Ok(0.0);
+                    return Ok(Some(0.0));
                 }
                 count / 2
             }
         };
-        let bin = bins
-            .iter()
-            .position(|&b| {
-                if left < b {
-                    true
-                } else {
-                    left -= b;
-                    false
-                }
-            })
-            .expect("the rank lies within the count");
+        let Some(bin) = bins.iter().position(|&b| {
+            if left < b {
+                true
+            } else {
+                left -= b;
+                false
+            }
+        }) else {
+            return Ok(None);
+        };
         prefix |= (bin as u64) << shift;
         rank = Some(left);
     }
     debug_assert!(count > 0);
     // Back from the key to the float (the key's map is its own inverse on the signed bits).
     let bits = (prefix ^ (1 << 63)) as i64;
-    Ok(f64::from_bits(
-        total_order_key(f64::from_bits(bits as u64)) as u64
-    ))
+    let value = f64::from_bits(total_order_key(f64::from_bits(bits as u64)) as u64);
+    Ok(Some(value))
 }
 
 /// `x` as an integer that orders as [`f64::total_cmp`] orders the floats (its own definition:
@@ -164,12 +163,22 @@ mod tests {
                     Ok::<(), ()>(())
                 });
                 let held = median(&mut v.clone());
-                assert_eq!(streamed.map(f64::to_bits), Ok(held.to_bits()), "n {n}");
+                assert_eq!(streamed, Ok(Some(held)), "n {n}");
+                assert_eq!(streamed.unwrap().unwrap().to_bits(), held.to_bits());
                 assert!(passes <= 4);
             }
         }
         let failing = super::median_of_passes(|_: &mut dyn FnMut(f64)| Err("unreadable"));
         assert_eq!(failing, Err("unreadable"));
+        // Values that change between the passes: no median rather than a wrong one.
+        let mut pass = 0;
+        let changing = super::median_of_passes(|visit: &mut dyn FnMut(f64)| {
+            pass += 1;
+            let v = if pass == 1 { 1.0 } else { 2.0 };
+            (0..5).for_each(|_| visit(v));
+            Ok::<(), ()>(())
+        });
+        assert_eq!(changing, Ok(None));
     }
 
     #[test]

@@ -154,6 +154,7 @@ fn by_parts(
         reaches.iter().for_each(|r| visit(r.2));
         Ok::<(), ()>(())
     })
+    .unwrap()
     .unwrap();
     let stats = OutlierStats {
         typical,
