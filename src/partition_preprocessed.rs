@@ -15,9 +15,11 @@ use psi_preprocess::PreprocessParams;
 
 use crate::PsiError;
 use crate::budget::OutOfCore;
-use crate::partition::{Input, Partition, has_normals, is_mesh, partition_files};
+use crate::partition::{
+    Input, NormalsKind, Partition, StoreKind, has_normals, is_mesh, partition_files,
+};
 use crate::tile_normals::partition_estimating_normals;
-use crate::tile_outliers::{StrayTally, partition_removing_outliers};
+use crate::tile_outliers::{StrayTally, found_with_strays, partition_removing_outliers};
 
 /// The store of the preprocessed points and what the preprocessing did.
 #[derive(Clone, Debug)]
@@ -88,6 +90,33 @@ pub fn preprocesses_out_of_core(
 ) -> Result<bool, PsiError> {
     let (estimate, remove) = steps(paths, format, preprocess)?;
     Ok(estimate || remove)
+}
+
+/// Whether an earlier run on `paths` (read as `format`) with `preprocess` and `options` left its
+/// finished store in `options.scratch` (and, with the outlier step, the verdicts it was made
+/// from): [`partition_preprocessed`] would then find it and do nothing, and a cluster skips the
+/// partition's tasks.
+///
+/// # Errors
+///
+/// As [`preprocesses_out_of_core`].
+pub fn preprocessed_store_found(
+    paths: &[PathBuf],
+    format: Option<Format>,
+    preprocess: &PreprocessParams,
+    options: &OutOfCore,
+) -> Result<bool, PsiError> {
+    let (estimate, remove) = steps(paths, format, preprocess)?;
+    let (normals, all_normals) = if estimate {
+        (NormalsKind::Oriented, NormalsKind::Positions)
+    } else {
+        (NormalsKind::Given, NormalsKind::Given)
+    };
+    let kind = StoreKind {
+        normals,
+        strays_left_out: remove,
+    };
+    Ok(found_with_strays(paths, options, kind, all_normals)?.is_some())
 }
 
 /// The store of `paths`' points (one input, in this order; each read as `format` or as its

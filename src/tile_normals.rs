@@ -26,11 +26,9 @@ use psi_preprocess::{
 
 use crate::PsiError;
 use crate::given_stages::STRAYS_FILE;
-use crate::partition::{
-    Input, Keep, Normals, NormalsKind, Partition, Points, StoreKind, failure, found, store_source,
-};
+use crate::partition::{Input, Keep, Normals, NormalsKind, Partition, Points, StoreKind, failure};
 use crate::tile_level_normals::partition_from_level;
-use crate::tile_outliers::{StrayTally, stray_verdicts, strays_of};
+use crate::tile_outliers::{StrayTally, found_with_strays, stray_verdicts};
 use crate::tile_parts::{
     Halos, RecordFile, by_tile, each_tile, first_halo, io_reason, normal_bytes, normal_of_bytes,
     write_at,
@@ -89,17 +87,9 @@ pub(crate) fn partition_estimating_normals(
         strays_left_out: remove_outliers,
     };
     // The final store of an earlier run, with the verdicts it was made from (for the report).
-    let positions_kind = StoreKind {
-        normals: NormalsKind::Positions,
-        strays_left_out: false,
-    };
-    if let Some(found) = found(paths, options, &final_dir, kind)? {
-        let source = store_source(paths, positions_kind)?;
-        let tally = remove_outliers.then(|| strays_of(scratch, &source, None));
-        if tally.is_none() || tally.is_some_and(|t| t.is_some()) {
-            clean_up()?;
-            return Ok((found, tally.flatten(), None));
-        }
+    if let Some((found, tally)) = found_with_strays(paths, options, kind, NormalsKind::Positions)? {
+        clean_up()?;
+        return Ok((found, tally, None));
     }
     // The positions, every point with a zero normal.
     let all = {

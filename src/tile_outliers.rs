@@ -20,6 +20,7 @@ use psi_tiles::TileStore;
 use serde::{Deserialize, Serialize};
 
 use crate::PsiError;
+use crate::budget::OutOfCore;
 use crate::given_stages::{GivenStage, STRAYS_FILE, with_given_stage};
 use crate::partition::{Input, NormalsKind, Partition, StoreKind, failure, found, store_source};
 use crate::tile_parts::{Halos, WholeFile, by_tile, each_tile_into, first_halo, io_reason};
@@ -215,6 +216,30 @@ pub(crate) fn strays_of(scratch: &Path, source: &str, n: Option<u64>) -> Option<
     (same && whole).then(|| tally_of(&path).ok()).flatten()
 }
 
+/// The final store (`tiles/`) of kind `kind` an earlier run on `paths` wrote in
+/// `options.scratch`, with the tally of the outlier step's verdicts it was made from when it
+/// left strays out (verdicts of the store of all points whose normals are `all_normals`); `None`
+/// when either is missing.
+pub(crate) fn found_with_strays(
+    paths: &[PathBuf],
+    options: &OutOfCore,
+    kind: StoreKind,
+    all_normals: NormalsKind,
+) -> Result<Option<(Partition, Option<StrayTally>)>, PsiError> {
+    let Some(found) = found(paths, options, &options.scratch.join("tiles"), kind)? else {
+        return Ok(None);
+    };
+    if !kind.strays_left_out {
+        return Ok(Some((found, None)));
+    }
+    let all = StoreKind {
+        normals: all_normals,
+        strays_left_out: false,
+    };
+    let tally = strays_of(&options.scratch, &store_source(paths, all)?, None);
+    Ok(tally.map(|t| (found, Some(t))))
+}
+
 /// `strays.bin` in `scratch` (one byte a point of `store`, the store of all points, by its
 /// index) from the `batches` files of [`stray_verdicts_of_batch`], which are removed with those
 /// of [`stray_reaches`]; the tally. The store's source is recorded beside it (after it: a
@@ -302,7 +327,7 @@ pub(crate) fn partition_removing_outliers(
     let (paths, options) = (input.paths, input.options);
     let fail = failure(&paths[0]);
     let scratch = &options.scratch;
-    let (all_dir, final_dir) = (scratch.join("all"), scratch.join("tiles"));
+    let all_dir = scratch.join("all");
     let kind = StoreKind {
         normals: NormalsKind::Given,
         strays_left_out: true,
@@ -314,12 +339,7 @@ pub(crate) fn partition_removing_outliers(
         Ok(())
     };
     // The final store of an earlier run, with the verdicts it was made from (for the report).
-    let all_kind = StoreKind {
-        normals: NormalsKind::Given,
-        strays_left_out: false,
-    };
-    if let Some(found) = found(paths, options, &final_dir, kind)?
-        && let Some(tally) = strays_of(scratch, &store_source(paths, all_kind)?, None)
+    if let Some((found, Some(tally))) = found_with_strays(paths, options, kind, NormalsKind::Given)?
     {
         clean_up()?;
         return Ok((found, tally));

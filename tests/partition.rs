@@ -129,6 +129,10 @@ fn the_outlier_step_in_batches_is_the_step_run_whole() {
     assert_eq!(verdicts(&parted), verdicts(&whole));
     let kept = store_in_parts(GivenStage::Kept);
     assert_eq!(kept.store.manifest(), done.partition.store.manifest());
+    // Both scratch directories now hold a finished run: a cluster would partition nothing.
+    let found = |o: &OutOfCore| psi::preprocessed_store_found(&inputs, None, &preprocess, o);
+    assert!(found(&whole).unwrap() && found(&parted).unwrap());
+    assert!(!found(&options(dir.join("fresh"))).unwrap());
 
     // Verdicts another input left (the right length, another source) are never trusted: the
     // run redoes the step and writes its own.
@@ -137,6 +141,7 @@ fn the_outlier_step_in_batches_is_the_step_run_whole() {
     wrong[7] = 2;
     std::fs::write(whole.scratch.join("strays.bin"), &wrong).unwrap();
     std::fs::write(whole.scratch.join("strays.source"), "another input").unwrap();
+    assert!(!found(&whole).unwrap());
     let again =
         psi::partition_preprocessed(&inputs, None, &preprocess, &params, &whole, &silent).unwrap();
     assert_eq!(again.strays, Some(tally));

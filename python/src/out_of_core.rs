@@ -427,22 +427,28 @@ pub(crate) fn _ooc_partition_assemble(
 }
 
 /// Task of `psi.distributed.sample_files` (not API): which preprocessing a run out of core on
-/// `inputs` does tile by tile: `"normals"` (points without normals: one task,
-/// [`_ooc_preprocess`]), `"outliers"` (the outlier step's tasks) or `"none"`.
+/// `inputs` does tile by tile: `"found"` (an earlier run's finished store is in `scratch`:
+/// nothing to partition), `"normals"` (points without normals: one task, [`_ooc_preprocess`]),
+/// `"outliers"` (the outlier step's tasks) or `"none"`.
 #[pyfunction]
-#[pyo3(signature = (inputs, keep_outliers=false))]
+#[pyo3(signature = (inputs, max_memory, scratch, keep_outliers=false))]
 pub(crate) fn _ooc_preprocessing(
     py: Python<'_>,
     inputs: &Bound<'_, PyAny>,
+    max_memory: &Bound<'_, PyAny>,
+    scratch: PathBuf,
     keep_outliers: bool,
 ) -> PyResult<&'static str> {
     let inputs = inputs_arg(inputs)?;
+    let options = partition_options(max_memory, scratch)?;
     partition_task(py, None, move || {
         let Some(first) = inputs.first() else {
             return Ok("none");
         };
         let preprocess = preprocess_params(keep_outliers);
-        if !psi::preprocesses_out_of_core(&inputs, None, &preprocess)? {
+        if psi::preprocessed_store_found(&inputs, None, &preprocess, &options)? {
+            Ok("found")
+        } else if !psi::preprocesses_out_of_core(&inputs, None, &preprocess)? {
             Ok("none")
         } else if psi::has_normals(first, None)? {
             Ok("outliers")

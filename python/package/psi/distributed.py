@@ -145,8 +145,13 @@ def sample_files(
                 stage=stage
             ).result()
 
-        preprocessing = submit(_psi._ooc_preprocessing, paths, keep_outliers).result()
-        if preprocessing == "normals":
+        preprocessing = submit(
+            _psi._ooc_preprocessing, paths, max_memory, scratch_dir, keep_outliers
+        ).result()
+        if preprocessing == "found":
+            # An earlier run's finished store (and verdicts): nothing to partition again.
+            pass
+        elif preprocessing == "normals":
             # Normals estimated and oriented tile by tile: the whole stage one task (the store
             # it writes is the partition's).
             submit(
