@@ -14,6 +14,12 @@ use crate::tile_parts::RecordFile;
 /// points, by its index (kept: 0).
 pub(crate) const STRAYS_FILE: &str = "strays.bin";
 
+/// The keep test of the outlier step's `verdicts` (`strays.bin` open): a point is kept when
+/// its verdict is 0, by its index in the store of all points.
+pub(crate) fn kept_by(verdicts: &RecordFile<1>) -> impl Fn(u64) -> Result<bool, String> + Sync {
+    |i| verdicts.get(i).map(|v| v[0] == 0)
+}
+
 /// Which store of a run whose points have normals a partition writes ([`crate::partition_start`],
 /// [`crate::partition_part`], [`crate::partition_assemble`]): the points as given (`tiles/`,
 /// with `--keep-outliers`), or for the outlier step all points first (`all/`), then the points
@@ -45,7 +51,7 @@ pub(crate) fn with_given_stage<T>(
                 path: path.clone(),
                 reason,
             })?;
-            let keep = |i: u64| verdicts.get(i).map(|v| v[0] == 0);
+            let keep = kept_by(&verdicts);
             let points = Points {
                 normals: Normals::Given,
                 keep: Some(&keep),

@@ -290,6 +290,18 @@ fn for_each_points(
 ///
 /// [`PsiError::Open`] / [`PsiError::Read`] for the file.
 pub fn has_normals(path: &Path, format: Option<Format>) -> Result<bool, PsiError> {
+    Ok(file_facts(path, format)?.0)
+}
+
+/// Whether the file at `path` (read as `format`, or as its extension says) has normals (its
+/// first chunk's, for a streamed file), and whether it is a triangle mesh (a file read whole
+/// that has faces: its points are the triangles', which the in-core preprocessing does not
+/// search for outliers); a file read whole is read once for both.
+///
+/// # Errors
+///
+/// [`PsiError::Open`] / [`PsiError::Read`] for the file.
+pub(crate) fn file_facts(path: &Path, format: Option<Format>) -> Result<(bool, bool), PsiError> {
     if let Some(stream) = stream_of(path, format)? {
         let mut normals = None;
         stream
@@ -298,25 +310,13 @@ pub fn has_normals(path: &Path, format: Option<Format>) -> Result<bool, PsiError
                 ControlFlow::Break(())
             })
             .map_err(read_error(path))?;
-        return Ok(normals.unwrap_or(true));
+        return Ok((normals.unwrap_or(true), false));
     }
     let file = crate::load_points_as(path, format, &ReadOptions::paper())?;
-    Ok(file.normals != psi_io::NormalSource::Missing)
-}
-
-/// Whether the file at `path` (read as `format`, or as its extension says) is a triangle mesh:
-/// a file read whole that has faces (its points are the triangles', which the in-core
-/// preprocessing does not search for outliers).
-///
-/// # Errors
-///
-/// [`PsiError::Open`] / [`PsiError::Read`] for the file.
-pub(crate) fn is_mesh(path: &Path, format: Option<Format>) -> Result<bool, PsiError> {
-    if stream_of(path, format)?.is_some() {
-        return Ok(false);
-    }
-    let file = crate::load_points_as(path, format, &ReadOptions::paper())?;
-    Ok(file.mesh.is_some())
+    Ok((
+        file.normals != psi_io::NormalSource::Missing,
+        file.mesh.is_some(),
+    ))
 }
 
 /// [`for_each_points`] of every file in `paths`, in order; returns the points dropped.

@@ -71,8 +71,8 @@ pub use partition::{
     partition_start,
 };
 pub use partition_preprocessed::{
-    PreprocessedPartition, partition_preprocessed, preprocessed_store_found,
-    preprocesses_out_of_core,
+    OutOfCorePreprocessing, PreprocessedPartition, out_of_core_preprocessing,
+    partition_preprocessed,
 };
 pub use prepare::{
     ERROR_RANK_POINTS, PreparedInput, RANKED_NOISE, builtin_file, builtin_file_with, prepare_input,

@@ -20,7 +20,7 @@ use crate::files::open_error;
 use crate::given_stages::{GivenStage, with_given_stage};
 pub use crate::input_points::has_normals;
 pub(crate) use crate::input_points::{
-    CHUNK, Keep, Normals, NormalsKind, Points, StoreKind, for_each_input, is_mesh,
+    CHUNK, Keep, Normals, NormalsKind, Points, StoreKind, file_facts, for_each_input,
 };
 use crate::read_ahead::{AHEAD, read_ahead};
 

@@ -2,9 +2,8 @@
 //! outlier step (`tile_outliers.rs`; not for a mesh's points, which the in-core preprocessing
 //! does not search either) and normals for points without them (`tile_normals.rs`), else the
 //! plain partition (`partition.rs`). The CLI's `--max-memory` and Python's `sample_files` run it
-//! within [`crate::sample_files_out_of_core`]; `psi.distributed.sample_files` as one task
-//! when [`preprocesses_out_of_core`] says there is preprocessing to do, else as the
-//! partition's own tasks.
+//! within [`crate::sample_files_out_of_core`]; `psi.distributed.sample_files` as its tasks,
+//! the ones [`out_of_core_preprocessing`] names.
 
 use std::path::{Path, PathBuf};
 
@@ -16,7 +15,7 @@ use psi_preprocess::PreprocessParams;
 use crate::PsiError;
 use crate::budget::OutOfCore;
 use crate::partition::{
-    Input, NormalsKind, Partition, StoreKind, has_normals, is_mesh, partition_files,
+    Input, NormalsKind, Partition, StoreKind, file_facts, has_normals, partition_files,
 };
 use crate::tile_normals::partition_estimating_normals;
 use crate::tile_outliers::{StrayTally, found_with_strays, partition_removing_outliers};
@@ -46,7 +45,8 @@ fn steps(
         path: PathBuf::new(),
         reason: "no input files given".into(),
     })?;
-    let estimate = !has_normals(first, format)?;
+    let (normals, mesh) = file_facts(first, format)?;
+    let estimate = !normals;
     for path in &paths[1..] {
         if has_normals(path, format)? == estimate {
             return Err(mixed(path, estimate));
@@ -59,7 +59,7 @@ fn steps(
         });
     }
     // A mesh's triangles are the surface: in core its points are not searched for outliers.
-    let remove = preprocess.remove_outliers && !is_mesh(first, format)?;
+    let remove = preprocess.remove_outliers && !mesh;
     Ok((estimate, remove))
 }
 
@@ -76,36 +76,33 @@ fn mixed(path: &Path, estimate: bool) -> PsiError {
     }
 }
 
-/// Whether a run out of core on `paths` (read as `format`) with `preprocess` has preprocessing
-/// to do tile by tile (else its store is the plain partition's).
+/// What the partition of a run out of core does, as a cluster's tasks need to know.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutOfCorePreprocessing {
+    /// An earlier run's finished store (and, with the outlier step, the verdicts it was made
+    /// from) is in the scratch directory: [`partition_preprocessed`] finds it, nothing to do.
+    Found,
+    /// Normals estimated and oriented tile by tile (and the outlier step first, if on).
+    Normals,
+    /// The outlier step on points with normals.
+    Outliers,
+    /// The plain partition of the points as given.
+    Plain,
+}
+
+/// What [`partition_preprocessed`] does for `paths` (read as `format`) with `preprocess` and
+/// `options`.
 ///
 /// # Errors
 ///
 /// As [`partition_preprocessed`]'s checks: the files cannot be read, have normals in some and
 /// none in others, or have none while normal estimation is off.
-pub fn preprocesses_out_of_core(
-    paths: &[PathBuf],
-    format: Option<Format>,
-    preprocess: &PreprocessParams,
-) -> Result<bool, PsiError> {
-    let (estimate, remove) = steps(paths, format, preprocess)?;
-    Ok(estimate || remove)
-}
-
-/// Whether an earlier run on `paths` (read as `format`) with `preprocess` and `options` left its
-/// finished store in `options.scratch` (and, with the outlier step, the verdicts it was made
-/// from): [`partition_preprocessed`] would then find it and do nothing, and a cluster skips the
-/// partition's tasks.
-///
-/// # Errors
-///
-/// As [`preprocesses_out_of_core`].
-pub fn preprocessed_store_found(
+pub fn out_of_core_preprocessing(
     paths: &[PathBuf],
     format: Option<Format>,
     preprocess: &PreprocessParams,
     options: &OutOfCore,
-) -> Result<bool, PsiError> {
+) -> Result<OutOfCorePreprocessing, PsiError> {
     let (estimate, remove) = steps(paths, format, preprocess)?;
     let (normals, all_normals) = if estimate {
         (NormalsKind::Oriented, NormalsKind::Positions)
@@ -116,7 +113,17 @@ pub fn preprocessed_store_found(
         normals,
         strays_left_out: remove,
     };
-    Ok(found_with_strays(paths, options, kind, all_normals)?.is_some())
+    Ok(
+        if found_with_strays(paths, options, kind, all_normals)?.is_some() {
+            OutOfCorePreprocessing::Found
+        } else if estimate {
+            OutOfCorePreprocessing::Normals
+        } else if remove {
+            OutOfCorePreprocessing::Outliers
+        } else {
+            OutOfCorePreprocessing::Plain
+        },
+    )
 }
 
 /// The store of `paths`' points (one input, in this order; each read as `format` or as its

@@ -25,7 +25,7 @@ use psi_preprocess::{
 };
 
 use crate::PsiError;
-use crate::given_stages::STRAYS_FILE;
+use crate::given_stages::{STRAYS_FILE, kept_by};
 use crate::partition::{Input, Keep, Normals, NormalsKind, Partition, Points, StoreKind, failure};
 use crate::tile_level_normals::partition_from_level;
 use crate::tile_outliers::{StrayTally, found_with_strays, stray_verdicts};
@@ -104,19 +104,14 @@ pub(crate) fn partition_estimating_normals(
     } else {
         None
     };
-    let keep_strays = |i: u64| match &verdicts {
-        Some(v) => v.get(i).map(|v| v[0] == 0),
-        None => Ok(true),
-    };
-    let keep: Option<Keep<'_>> = verdicts.is_some().then_some(&keep_strays);
+    let keep_strays = verdicts.as_ref().map(kept_by);
+    let keep: Option<Keep<'_>> = keep_strays.as_ref().map(|k| k as Keep<'_>);
     let bare = if remove_outliers {
-        {
-            let points = Points {
-                normals: Normals::Zero,
-                keep,
-            };
-            input.stage("kept", &kept_dir, points, monitor)?
-        }
+        let points = Points {
+            normals: Normals::Zero,
+            keep,
+        };
+        input.stage("kept", &kept_dir, points, monitor)?
     } else {
         all
     };
@@ -130,8 +125,8 @@ pub(crate) fn partition_estimating_normals(
         .ok()
         .filter(|&n| n < u32::MAX as usize)
         .ok_or_else(|| fail("too many points for 32-bit indices".into()))?;
-    // The level the noise asks for. Each tile's halo, grown as its points need (a stray point's far neighbours grow its own
-    // tile's only), kept for the next stage over the same tiles.
+    // The level the noise asks for. Each tile's halo, grown as its points need (a stray point's
+    // far neighbours grow its own tile's only), kept for the next stage over the same tiles.
     let mut halos = Halos::new();
     let keys = store.tile_keys();
     let first = |key| first_halo(store, key);

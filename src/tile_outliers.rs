@@ -55,17 +55,16 @@ fn code(v: StrayVerdict) -> u8 {
 
 /// The tally of the verdicts in the file at `path`.
 pub(crate) fn tally_of(path: &Path) -> Result<StrayTally, String> {
-    let file = File::open(path).map_err(|e| io_reason(path, &e))?;
+    let bytes = fs::read(path).map_err(|e| io_reason(path, &e))?;
+    tally_of_bytes(&bytes).map_err(|b| format!("{}: not a verdict: {b}", path.display()))
+}
+
+/// The tally of verdicts as `strays.bin` stores them ([`code`]), or the first byte that is none.
+fn tally_of_bytes(verdicts: &[u8]) -> Result<StrayTally, u8> {
     let mut counts = [0u64; 4];
-    let mut bytes = BufReader::new(file).bytes();
-    bytes.try_for_each(|b| {
-        let b = b.map_err(|e| io_reason(path, &e))?;
-        let slot = counts
-            .get_mut(b as usize)
-            .ok_or_else(|| format!("{}: not a verdict: {b}", path.display()))?;
-        *slot += 1;
-        Ok::<(), String>(())
-    })?;
+    for &b in verdicts {
+        *counts.get_mut(b as usize).ok_or(b)? += 1;
+    }
     Ok(StrayTally {
         repeated: counts[1],
         far: counts[2],
@@ -277,6 +276,8 @@ pub fn stray_join(store: &TileStore, scratch: &Path, batches: u32) -> Result<Str
     if let Some(i) = verdicts.iter().position(|&v| v == UNSET) {
         return Err(format!("{}: no verdict for point {i}", scratch.display()));
     }
+    let tally = tally_of_bytes(&verdicts)
+        .map_err(|b| format!("{}: not a verdict: {b}", scratch.display()))?;
     let path = scratch.join(STRAYS_FILE);
     let mut file = WholeFile::create(&path)?;
     file.write(&verdicts)?;
@@ -288,7 +289,7 @@ pub fn stray_join(store: &TileStore, scratch: &Path, batches: u32) -> Result<Str
             fs::remove_file(&f).map_err(|e| io_reason(&f, &e))?;
         }
     }
-    tally_of(&path)
+    Ok(tally)
 }
 
 /// The outlier step's verdicts on the points of `store` (all the input's points; their

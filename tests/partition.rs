@@ -130,9 +130,15 @@ fn the_outlier_step_in_batches_is_the_step_run_whole() {
     let kept = store_in_parts(GivenStage::Kept);
     assert_eq!(kept.store.manifest(), done.partition.store.manifest());
     // Both scratch directories now hold a finished run: a cluster would partition nothing.
-    let found = |o: &OutOfCore| psi::preprocessed_store_found(&inputs, None, &preprocess, o);
+    let found = |o: &OutOfCore| {
+        psi::out_of_core_preprocessing(&inputs, None, &preprocess, o)
+            .map(|p| p == psi::OutOfCorePreprocessing::Found)
+    };
     assert!(found(&whole).unwrap() && found(&parted).unwrap());
-    assert!(!found(&options(dir.join("fresh"))).unwrap());
+    let fresh = options(dir.join("fresh"));
+    assert!(!found(&fresh).unwrap());
+    let plan = psi::out_of_core_preprocessing(&inputs, None, &preprocess, &fresh).unwrap();
+    assert_eq!(plan, psi::OutOfCorePreprocessing::Outliers);
 
     // Verdicts another input left (the right length, another source) are never trusted: the
     // run redoes the step and writes its own.

@@ -320,11 +320,10 @@ fn partition_task<T: Send>(
         .map_err(|e| psi_error(py, e, Some("sampling out of core")))
 }
 
-/// Task of `psi.distributed.sample_files` (not API): the store of the preprocessed points,
-/// written in `scratch` as `psi sample --max-memory` writes it (the whole stage in this task,
-/// on its threads), or found there, when there is preprocessing to do: the outlier step
-/// (unless `keep_outliers`), normals for inputs without them (the first file's tell). Returns
-/// whether it did (the partition's tasks are then skipped).
+/// Task of `psi.distributed.sample_files` (not API) for inputs without normals: the store of
+/// the preprocessed points (the outlier step unless `keep_outliers`, then the normals), written
+/// in `scratch` as `psi sample --max-memory` writes it (the whole stage in this task, on its
+/// threads), or found there.
 #[pyfunction]
 #[pyo3(signature = (inputs, max_memory, scratch, mpu_error=None, keep_outliers=false,
     threads=None))]
@@ -336,18 +335,15 @@ pub(crate) fn _ooc_preprocess(
     mpu_error: Option<f64>,
     keep_outliers: bool,
     threads: Option<i128>,
-) -> PyResult<bool> {
+) -> PyResult<()> {
     let inputs = inputs_arg(inputs)?;
     let options = partition_options(max_memory, scratch)?;
     let params = mpu_params(mpu_error)?;
     partition_task(py, threads, move || {
         let preprocess = preprocess_params(keep_outliers);
-        if !psi::preprocesses_out_of_core(&inputs, None, &preprocess)? {
-            return Ok(false);
-        }
         let silent = psi::octree::Monitor::silent();
         psi::partition_preprocessed(&inputs, None, &preprocess, &params, &options, &silent)?;
-        Ok(true)
+        Ok(())
     })
 }
 
@@ -427,9 +423,9 @@ pub(crate) fn _ooc_partition_assemble(
 }
 
 /// Task of `psi.distributed.sample_files` (not API): which preprocessing a run out of core on
-/// `inputs` does tile by tile: `"found"` (an earlier run's finished store is in `scratch`:
-/// nothing to partition), `"normals"` (points without normals: one task, [`_ooc_preprocess`]),
-/// `"outliers"` (the outlier step's tasks) or `"none"`.
+/// `inputs` does ([`psi::out_of_core_preprocessing`]): `"found"` (an earlier run's finished
+/// store is in `scratch`: nothing to partition), `"normals"` (points without normals: one task,
+/// [`_ooc_preprocess`]), `"outliers"` (the outlier step's tasks) or `"none"`.
 #[pyfunction]
 #[pyo3(signature = (inputs, max_memory, scratch, keep_outliers=false))]
 pub(crate) fn _ooc_preprocessing(
@@ -442,19 +438,16 @@ pub(crate) fn _ooc_preprocessing(
     let inputs = inputs_arg(inputs)?;
     let options = partition_options(max_memory, scratch)?;
     partition_task(py, None, move || {
-        let Some(first) = inputs.first() else {
-            return Ok("none");
-        };
         let preprocess = preprocess_params(keep_outliers);
-        if psi::preprocessed_store_found(&inputs, None, &preprocess, &options)? {
-            Ok("found")
-        } else if !psi::preprocesses_out_of_core(&inputs, None, &preprocess)? {
-            Ok("none")
-        } else if psi::has_normals(first, None)? {
-            Ok("outliers")
-        } else {
-            Ok("normals")
-        }
+        use psi::OutOfCorePreprocessing as P;
+        Ok(
+            match psi::out_of_core_preprocessing(&inputs, None, &preprocess, &options)? {
+                P::Found => "found",
+                P::Normals => "normals",
+                P::Outliers => "outliers",
+                P::Plain => "none",
+            },
+        )
     })
 }
 

@@ -75,19 +75,28 @@ impl Neighbourhoods {
         drop(all);
         let part_of: Vec<usize> = index.ids().iter().map(|&k| kept[k as usize]).collect();
         let nearest = nearest_of(&index, &psi_octree::Monitor::silent()).expect("a silent monitor");
-        let full = index.len() > NEIGHBOURS;
-        let by_slot = index.points();
-        let certified = nearest
-            .par_iter()
-            .enumerate()
-            .map(|(s, n)| complete(by_slot[s], if full { n.1 } else { f64::INFINITY }))
-            .collect();
-        Self {
+        let mut hood = Self {
             index,
             part_of,
             nearest,
-            certified,
+            certified: Vec::new(),
             repeated,
+        };
+        let by_slot = hood.index.points();
+        hood.certified = (0..hood.index.len())
+            .into_par_iter()
+            .map(|s| complete(by_slot[s], hood.own_reach(s)))
+            .collect();
+        hood
+    }
+
+    /// The ball slot `s`'s 16 nearest lie in: out to the 16th (infinite when the part holds
+    /// 16 points or fewer: only the whole input then answers).
+    fn own_reach(&self, s: usize) -> f64 {
+        if self.index.len() > NEIGHBOURS {
+            self.nearest[s].1
+        } else {
+            f64::INFINITY
         }
     }
 
@@ -152,11 +161,7 @@ pub fn part_outlier_reaches(
                 Err(IncompletePart {
                     id: ids[hood.part_of[s]],
                     neighbours: NEIGHBOURS,
-                    reach: if hood.index.len() > NEIGHBOURS {
-                        hood.nearest[s].1
-                    } else {
-                        f64::INFINITY
-                    },
+                    reach: hood.own_reach(s),
                 })
             }
         })
