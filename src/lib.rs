@@ -89,5 +89,5 @@ pub use psi_particles::{
 pub use psi_shapes::{AnalyticShape, builtin_model};
 pub use render::{render_particles_png, save_png};
 pub use tile_outliers::{
-    StrayTally, stray_join, stray_reaches, stray_stats, stray_verdicts_of_batch,
+    StrayTally, stray_join, stray_standings, stray_stats, stray_verdicts_of_batch,
 };

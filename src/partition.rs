@@ -320,6 +320,7 @@ impl Input<'_> {
         monitor: &Monitor<'_>,
     ) -> Result<Partition, PsiError> {
         monitor.report(name, 0, 1);
+        let _span = tracing::info_span!("out_of_core_stage", stage = name).entered();
         let (paths, format) = (self.paths, self.format);
         let store = partition_with(
             paths,

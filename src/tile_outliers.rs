@@ -1,10 +1,10 @@
 //! The outlier step of a run out of core: repeated positions and the outlier search's strays
-//! left out tile by tile (psi-preprocess's `part_outlier_reaches` and `part_outliers` on each
-//! tile and a halo of the points around it), bitwise the in-core step before its clump search.
+//! left out tile by tile (psi-preprocess's `part_standings` and `part_outliers` on each tile
+//! and a halo of the points around it), bitwise the in-core step before its clump search.
 //! The verdicts go to `strays.bin` in the scratch directory (one byte a point, by its index in
 //! the store of all points; renamed into place once whole, kept for a rerun's report), which the
 //! partition of the kept points reads ([`crate::partition::Points::keep`]). Progress: stages
-//! `"reaches"` and `"strays"` (tiles done of tiles). Notes:
+//! `"standings"` and `"strays"` (tiles done of tiles). Notes:
 //! `docs/notes/2026-12-03-outliers-by-parts.md`.
 
 use std::fs::{self, File};
@@ -14,16 +14,19 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use psi_octree::Monitor;
 use psi_preprocess::{
-    OutlierStats, StrayVerdict, median_of_passes, part_outlier_reaches, part_outliers,
+    OutlierStats, OwnStanding, StrayVerdict, median_of_passes, part_outliers, part_standings,
+    settled_verdicts,
 };
-use psi_tiles::TileStore;
+use psi_tiles::{TileStore, TileWithHalo};
 use serde::{Deserialize, Serialize};
 
 use crate::PsiError;
 use crate::budget::OutOfCore;
 use crate::given_stages::{GivenStage, STRAYS_FILE, with_given_stage};
 use crate::partition::{Input, NormalsKind, Partition, StoreKind, failure, found, store_source};
-use crate::tile_parts::{Halos, WholeFile, by_tile, each_tile_into, first_halo, io_reason};
+use crate::tile_parts::{
+    Halos, WholeFile, by_tile, each_tile_into, first_halo, io_reason, read_at,
+};
 
 /// What the outlier step left out of a run out of core.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -88,38 +91,65 @@ fn batch_file(scratch: &Path, what: &str, batch: u32) -> PathBuf {
     scratch.join(format!("strays-{what}-{batch}.bin"))
 }
 
+/// Sample spacings' worth of first halos a pass of the outlier step starts from: a point's
+/// standing reads its neighbours' neighbours (measured on 10 M points: with one first halo, 59
+/// of 149 tries of the verdict pass were refused; with two, none; notes:
+/// `2026-12-03-outliers-by-parts.md`).
+const FIRST_HALOS: f64 = 2.0;
+
+/// A tile's header in a file of [`stray_standings`]: its key (three little-endian u32) and its
+/// own points' count (a little-endian u64).
+const HEADER: usize = 20;
+
+/// A record of [`stray_standings`]: a point's input index (a little-endian u64), then its
+/// [`OwnStanding`].
+const RECORD: usize = 8 + OwnStanding::BYTES;
+
 /// The outlier step's first pass over batch `batch` of `batches` of the tiles of `store` (all
-/// the input's points): each own point's 16th-neighbour distance (world units) that the search
-/// reads, written to a file of the batch in `scratch`; how many. A cluster's task each
-/// (`psi.distributed.sample_files`); run again, it writes the same file.
+/// the input's points; their normals read when `normals_given`): each own point's standing
+/// (`part_standings`), written to a file of the batch in `scratch`, tile by tile, each tile
+/// after a header; how many points were searched (the distances whose median
+/// [`stray_stats`] takes). A cluster's task each (`psi.distributed.sample_files`); run again,
+/// it writes the same file.
 ///
 /// # Errors
 ///
 /// The store or the file cannot be read or written (named), or `monitor` stopped the work.
-pub fn stray_reaches(
+pub fn stray_standings(
     store: &TileStore,
     scratch: &Path,
     batch: (u32, u32),
+    normals_given: bool,
     monitor: &Monitor<'_>,
 ) -> Result<u64, String> {
     let keys = batch_keys(store, batch);
-    let first = |key| first_halo(store, key);
-    let mut file = WholeFile::create(&batch_file(scratch, "reaches", batch.0))?;
+    let first = |key| FIRST_HALOS * first_halo(store, key);
+    let mut file = WholeFile::create(&batch_file(scratch, "standings", batch.0))?;
     let mut count = 0u64;
     each_tile_into(
         &keys,
         (&mut Halos::new(), &first),
-        ("reaches", monitor),
+        ("standings", monitor),
         &|key, halo| {
-            let (_, found) = by_tile(store, key, halo, |t, ids, holds| {
-                let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
-                part_outlier_reaches(&positions, ids, &t.own, holds)
+            let (tile, found) = by_tile(store, key, halo, |t, ids, holds| {
+                let (positions, normals) = part_points(t, normals_given);
+                part_standings(&positions, ids, &t.own, normals.as_deref(), holds)
             })?;
-            Ok(found)
+            let mut bytes = Vec::with_capacity(HEADER + RECORD * found.len());
+            for k in key {
+                bytes.extend(k.to_le_bytes());
+            }
+            bytes.extend((found.len() as u64).to_le_bytes());
+            let mut searched = 0u64;
+            for ((i, _), st) in tile.own_points().zip(found) {
+                bytes.extend(i.to_le_bytes());
+                bytes.extend(st.to_bytes());
+                searched += u64::from(st.searched_reach().is_some());
+            }
+            Ok((bytes, searched))
         },
-        &mut |found| {
-            count += found.len() as u64;
-            let bytes: Vec<u8> = found.iter().flat_map(|r| r.to_le_bytes()).collect();
+        &mut |(bytes, searched)| {
+            count += searched;
             file.write(&bytes)
         },
     )?;
@@ -127,47 +157,111 @@ pub fn stray_reaches(
     Ok(count)
 }
 
-/// The statistics the outlier search reads, from the `batches` files of [`stray_reaches`] in
-/// `scratch`: their count and their median (streamed, exact).
+/// A part's positions, and its normals when `normals_given` (shape: M each).
+fn part_points(t: &TileWithHalo, normals_given: bool) -> (Vec<DVec3>, Option<Vec<DVec3>>) {
+    let positions = t.points.iter().map(|p| p.p).collect();
+    let normals = normals_given.then(|| t.points.iter().map(|p| p.n).collect());
+    (positions, normals)
+}
+
+/// A batch file of [`stray_standings`]: each tile's key, and the offset and count of its
+/// records.
+struct Standings {
+    path: PathBuf,
+    file: File,
+    tiles: Vec<([u32; 3], u64, u64)>,
+}
+
+impl Standings {
+    /// Reads the headers of the file of batch `batch` in `scratch`.
+    fn open(scratch: &Path, batch: u32) -> Result<Self, String> {
+        let path = batch_file(scratch, "standings", batch);
+        let file = File::open(&path).map_err(|e| io_reason(&path, &e))?;
+        let len = file.metadata().map_err(|e| io_reason(&path, &e))?.len();
+        let mut tiles = Vec::new();
+        let mut at = 0u64;
+        while at < len {
+            let mut header = [0u8; HEADER];
+            read_at(&file, &mut header, at).map_err(|e| io_reason(&path, &e))?;
+            let word =
+                |k: usize| u32::from_le_bytes(header[4 * k..4 * k + 4].try_into().expect("4"));
+            let count = u64::from_le_bytes(header[12..].try_into().expect("8"));
+            let start = at + HEADER as u64;
+            at = count
+                .checked_mul(RECORD as u64)
+                .and_then(|b| b.checked_add(start))
+                .filter(|&end| end <= len)
+                .ok_or_else(|| format!("{}: truncated", path.display()))?;
+            tiles.push(([word(0), word(1), word(2)], start, count));
+        }
+        Ok(Self { path, file, tiles })
+    }
+
+    /// Each record's distance of a searched point, to `visit`.
+    fn each_reach(&self, visit: &mut dyn FnMut(f64)) -> Result<(), String> {
+        for &(key, _, _) in &self.tiles {
+            for (_, st) in self.of_tile(key)? {
+                if let Some(r) = st.searched_reach() {
+                    visit(r);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Tile `key`'s own points: their input indices and standings.
+    fn of_tile(&self, key: [u32; 3]) -> Result<Vec<(u64, OwnStanding)>, String> {
+        let &(_, start, count) = self
+            .tiles
+            .iter()
+            .find(|t| t.0 == key)
+            .ok_or_else(|| format!("{}: no tile {key:?}", self.path.display()))?;
+        let mut bytes = vec![0u8; count as usize * RECORD];
+        read_at(&self.file, &mut bytes, start).map_err(|e| io_reason(&self.path, &e))?;
+        bytes
+            .chunks_exact(RECORD)
+            .map(|r| {
+                let id = u64::from_le_bytes(r[..8].try_into().expect("8"));
+                let st = OwnStanding::from_bytes(r[8..].try_into().expect("9"));
+                st.map(|st| (id, st))
+                    .ok_or_else(|| format!("{}: not a standing", self.path.display()))
+            })
+            .collect()
+    }
+}
+
+/// The statistics the outlier search reads, from the `batches` files of [`stray_standings`]
+/// in `scratch`: the points searched and the median of their distances (streamed, exact).
 ///
 /// # Errors
 ///
 /// A file cannot be read (named).
 pub fn stray_stats(scratch: &Path, batches: u32) -> Result<OutlierStats, String> {
-    let files: Vec<PathBuf> = (0..batches)
-        .map(|b| batch_file(scratch, "reaches", b))
-        .collect();
+    let _span = tracing::info_span!("out_of_core_stage", stage = "median").entered();
+    let files = (0..batches)
+        .map(|b| Standings::open(scratch, b))
+        .collect::<Result<Vec<_>, String>>()?;
     let mut points = 0u64;
     for f in &files {
-        points += fs::metadata(f).map_err(|e| io_reason(f, &e))?.len() / 8;
+        f.each_reach(&mut |_| points += 1)?;
     }
     let typical = median_of_passes(|visit: &mut dyn FnMut(f64)| {
-        for f in &files {
-            let file = File::open(f).map_err(|e| io_reason(f, &e))?;
-            let mut reader = BufReader::with_capacity(1 << 20, file);
-            let mut record = [0u8; 8];
-            loop {
-                match reader.read_exact(&mut record) {
-                    Ok(()) => visit(f64::from_le_bytes(record)),
-                    Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => break,
-                    Err(e) => return Err(io_reason(f, &e)),
-                }
-            }
-        }
-        Ok::<(), String>(())
+        files.iter().try_for_each(|f| f.each_reach(visit))
     })?
     .ok_or_else(|| format!("{}: the distances changed while read", scratch.display()))?;
     Ok(OutlierStats { typical, points })
 }
 
 /// The outlier step's verdicts on batch `batch` of `batches` of the tiles of `store` (all the
-/// input's points; their normals read when `normals_given`) with the whole input's `stats`,
-/// written to a file of the batch in `scratch` (each own point's index and verdict). A
-/// cluster's task each; run again, it writes the same file.
+/// input's points; their normals read when `normals_given`) from their standings in the
+/// batch's file of [`stray_standings`] with the whole input's `stats`, written to a file of
+/// the batch in `scratch` (each own point's index and verdict). A tile none of whose points is
+/// unsure or sparse is not read again. A cluster's task each; run again, it writes the same
+/// file.
 ///
 /// # Errors
 ///
-/// As [`stray_reaches`].
+/// As [`stray_standings`], and a standing that is not of this store's tile.
 pub fn stray_verdicts_of_batch(
     store: &TileStore,
     scratch: &Path,
@@ -176,21 +270,39 @@ pub fn stray_verdicts_of_batch(
     monitor: &Monitor<'_>,
 ) -> Result<(), String> {
     let keys = batch_keys(store, batch);
-    let first = |key| first_halo(store, key);
+    let standings = Standings::open(scratch, batch.0)?;
+    let first = |key| FIRST_HALOS * first_halo(store, key);
     let mut file = WholeFile::create(&batch_file(scratch, "verdicts", batch.0))?;
     each_tile_into(
         &keys,
         (&mut Halos::new(), &first),
         ("strays", monitor),
         &|key, halo| {
-            let (tile, found) = by_tile(store, key, halo, |t, ids, holds| {
-                let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
-                let normals: Option<Vec<DVec3>> =
-                    normals_given.then(|| t.points.iter().map(|p| p.n).collect());
-                part_outliers(&positions, ids, &t.own, normals.as_deref(), holds, stats)
-            })?;
+            let records = standings.of_tile(key)?;
+            let own: Vec<OwnStanding> = records.iter().map(|r| r.1).collect();
+            let found = match settled_verdicts(&own, stats) {
+                Some(found) => found,
+                None => {
+                    let (tile, found) = by_tile(store, key, halo, |t, ids, holds| {
+                        let (positions, normals) = part_points(t, normals_given);
+                        let n = normals.as_deref();
+                        part_outliers(&positions, ids, &t.own, n, holds, (stats, &own))
+                    })?;
+                    if !tile
+                        .own_points()
+                        .map(|p| p.0)
+                        .eq(records.iter().map(|r| r.0))
+                    {
+                        return Err(format!(
+                            "{}: not the standings of tile {key:?}",
+                            standings.path.display()
+                        ));
+                    }
+                    found
+                }
+            };
             let mut bytes = Vec::with_capacity(9 * found.len());
-            for ((i, _), v) in tile.own_points().zip(found) {
+            for ((i, _), v) in records.iter().zip(found) {
                 bytes.extend(i.to_le_bytes());
                 bytes.push(code(v));
             }
@@ -241,7 +353,7 @@ pub(crate) fn found_with_strays(
 
 /// `strays.bin` in `scratch` (one byte a point of `store`, the store of all points, by its
 /// index) from the `batches` files of [`stray_verdicts_of_batch`], which are removed with those
-/// of [`stray_reaches`]; the tally. The store's source is recorded beside it (after it: a
+/// of [`stray_standings`]; the tally. The store's source is recorded beside it (after it: a
 /// rerun trusts only verdicts of its own store).
 ///
 /// # Errors
@@ -249,6 +361,7 @@ pub(crate) fn found_with_strays(
 /// A file cannot be read or written (named), or a point has no verdict.
 pub fn stray_join(store: &TileStore, scratch: &Path, batches: u32) -> Result<StrayTally, String> {
     const UNSET: u8 = u8::MAX;
+    let _span = tracing::info_span!("out_of_core_stage", stage = "join").entered();
     let source_path = strays_source(scratch);
     if source_path.exists() {
         fs::remove_file(&source_path).map_err(|e| io_reason(&source_path, &e))?;
@@ -284,7 +397,7 @@ pub fn stray_join(store: &TileStore, scratch: &Path, batches: u32) -> Result<Str
     file.finish()?;
     fs::write(&source_path, &store.manifest().source).map_err(|e| io_reason(&source_path, &e))?;
     for b in 0..batches {
-        for what in ["reaches", "verdicts"] {
+        for what in ["standings", "verdicts"] {
             let f = batch_file(scratch, what, b);
             fs::remove_file(&f).map_err(|e| io_reason(&f, &e))?;
         }
@@ -295,7 +408,7 @@ pub fn stray_join(store: &TileStore, scratch: &Path, batches: u32) -> Result<Str
 /// The outlier step's verdicts on the points of `store` (all the input's points; their
 /// normals read when `normals_given`) into `strays.bin` in `scratch`, unless an earlier run
 /// left them there for this store; their tally. On this machine, one batch of
-/// [`stray_reaches`], [`stray_stats`], [`stray_verdicts_of_batch`] and [`stray_join`].
+/// [`stray_standings`], [`stray_stats`], [`stray_verdicts_of_batch`] and [`stray_join`].
 pub(crate) fn stray_verdicts(
     store: &TileStore,
     scratch: &Path,
@@ -306,7 +419,7 @@ pub(crate) fn stray_verdicts(
     if let Some(tally) = strays_of(scratch, &m.source, Some(m.population)) {
         return Ok(tally);
     }
-    stray_reaches(store, scratch, (0, 1), monitor)?;
+    stray_standings(store, scratch, (0, 1), normals_given, monitor)?;
     let stats = stray_stats(scratch, 1)?;
     stray_verdicts_of_batch(store, scratch, (0, 1), (normals_given, stats), monitor)?;
     stray_join(store, scratch, 1)

@@ -59,6 +59,7 @@ pub(crate) fn each_tile_into<T: Send>(
     work: &TileWork<'_, T>,
     sink: &mut dyn FnMut(T) -> Result<(), String>,
 ) -> Result<(), String> {
+    let _span = tracing::info_span!("out_of_core_stage", stage, tiles = keys.len()).entered();
     for (p, pair) in keys.chunks(2).enumerate() {
         monitor.report(stage, (2 * p) as u64, keys.len() as u64);
         let mut h: Vec<f64> = pair
@@ -238,7 +239,7 @@ pub(crate) fn write_at(file: &File, bytes: &[u8], offset: u64) -> std::io::Resul
 
 /// Reads `bytes.len()` bytes at `offset` of `file`.
 #[cfg(unix)]
-fn read_at(file: &File, bytes: &mut [u8], offset: u64) -> std::io::Result<()> {
+pub(crate) fn read_at(file: &File, bytes: &mut [u8], offset: u64) -> std::io::Result<()> {
     std::os::unix::fs::FileExt::read_exact_at(file, bytes, offset)
 }
 
@@ -253,7 +254,7 @@ pub(crate) fn write_at(file: &File, bytes: &[u8], offset: u64) -> std::io::Resul
 
 /// Reads `bytes.len()` bytes at `offset` of `file`.
 #[cfg(not(unix))]
-fn read_at(file: &File, bytes: &mut [u8], offset: u64) -> std::io::Result<()> {
+pub(crate) fn read_at(file: &File, bytes: &mut [u8], offset: u64) -> std::io::Result<()> {
     use std::io::{Read, Seek, SeekFrom};
     let mut f = file;
     f.seek(SeekFrom::Start(offset))?;

@@ -7,7 +7,7 @@ use std::path::Path;
 use psi::preprocess::{
     IncompletePart, OutlierStats, PartEdges, StrayVerdict, estimate_normals, find_outliers,
     median_of_passes, orient_by_parts, orient_normals, part_normals, part_orientation_edges,
-    part_outlier_reaches, part_outliers,
+    part_outliers, part_standings,
 };
 use psi::{DVec3, OrientedPoint};
 
@@ -178,10 +178,19 @@ fn the_real_scan_loses_the_same_outliers_by_tiles() {
         return;
     };
     let whole = find_outliers(&positions, None);
-    let (reaches, _) = by_tiles(&positions, 0.005, |held, ids, own, inside| {
-        part_outlier_reaches(held, ids, own, inside)
+    let (standings, _) = by_tiles(&positions, 0.005, |held, ids, own, inside| {
+        let found = part_standings(held, ids, own, None, inside)?;
+        let mine = ids.iter().zip(own).filter(|p| *p.1).map(|p| *p.0);
+        Ok(mine.zip(found).collect::<Vec<_>>())
     });
-    let reaches: Vec<f64> = reaches.into_iter().flatten().collect();
+    let mut standing_of = vec![None; positions.len()];
+    for (i, st) in standings.into_iter().flatten() {
+        standing_of[i as usize] = Some(st);
+    }
+    let reaches: Vec<f64> = standing_of
+        .iter()
+        .filter_map(|st| st.and_then(|st| st.searched_reach()))
+        .collect();
     assert_eq!(reaches.len(), positions.len());
     let typical = median_of_passes(|visit: &mut dyn FnMut(f64)| {
         reaches.iter().for_each(|&r| visit(r));
@@ -194,9 +203,13 @@ fn the_real_scan_loses_the_same_outliers_by_tiles() {
         points: reaches.len() as u64,
     };
     let (found, grown) = by_tiles(&positions, 0.005, |held, ids, own, inside| {
-        let verdicts = part_outliers(held, ids, own, None, inside, stats)?;
-        let mine = ids.iter().zip(own).filter(|p| *p.1).map(|p| *p.0);
-        Ok(mine.zip(verdicts).collect::<Vec<_>>())
+        let mine: Vec<u32> = ids.iter().zip(own).filter(|p| *p.1).map(|p| *p.0).collect();
+        let own_standings: Vec<_> = mine
+            .iter()
+            .map(|&i| standing_of[i as usize].expect("a standing"))
+            .collect();
+        let verdicts = part_outliers(held, ids, own, None, inside, (stats, &own_standings))?;
+        Ok(mine.into_iter().zip(verdicts).collect::<Vec<_>>())
     });
     let mut by_parts = vec![None; positions.len()];
     for (i, v) in found.into_iter().flatten() {

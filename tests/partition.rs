@@ -114,7 +114,7 @@ fn the_outlier_step_in_batches_is_the_step_run_whole() {
     let batches = 3;
     let mut searched = 0;
     for b in [2, 0, 1] {
-        searched += psi::stray_reaches(&all.store, scratch, (b, batches), &silent).unwrap();
+        searched += psi::stray_standings(&all.store, scratch, (b, batches), true, &silent).unwrap();
     }
     let stats = psi::stray_stats(scratch, batches).unwrap();
     assert_eq!(stats.points, searched);

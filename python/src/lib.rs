@@ -40,7 +40,7 @@ fn psi_python(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(out_of_core::sample_files, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_preprocess, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_preprocessing, m)?)?;
-    m.add_function(wrap_pyfunction!(stray_tasks::_ooc_stray_reaches, m)?)?;
+    m.add_function(wrap_pyfunction!(stray_tasks::_ooc_stray_standings, m)?)?;
     m.add_function(wrap_pyfunction!(stray_tasks::_ooc_stray_stats, m)?)?;
     m.add_function(wrap_pyfunction!(stray_tasks::_ooc_stray_verdicts, m)?)?;
     m.add_function(wrap_pyfunction!(stray_tasks::_ooc_stray_join, m)?)?;

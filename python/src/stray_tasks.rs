@@ -1,6 +1,6 @@
 //! Tasks of `psi.distributed.sample_files` for the outlier step out of core (not API): its two
 //! passes over batches of the tiles of the store of all points, the statistics between them
-//! and the join of the verdicts ([`psi::stray_reaches`], [`psi::stray_stats`],
+//! and the join of the verdicts ([`psi::stray_standings`], [`psi::stray_stats`],
 //! [`psi::stray_verdicts_of_batch`], [`psi::stray_join`]).
 
 use std::path::PathBuf;
@@ -27,10 +27,11 @@ fn strays_task<T: Send>(
 }
 
 /// Task of `psi.distributed.sample_files` (not API): the outlier step's first pass over batch
-/// `batch` of `batches` of the tiles of the store of all points; returns how many distances.
+/// `batch` of `batches` of the tiles of the store of all points (with normals); returns how
+/// many points it searched.
 #[pyfunction]
 #[pyo3(signature = (scratch, batch, batches, threads=None))]
-pub(crate) fn _ooc_stray_reaches(
+pub(crate) fn _ooc_stray_standings(
     py: Python<'_>,
     scratch: PathBuf,
     batch: u32,
@@ -39,10 +40,11 @@ pub(crate) fn _ooc_stray_reaches(
 ) -> PyResult<u64> {
     let dir = scratch.clone();
     strays_task(py, &scratch, threads, move |store| {
-        psi::stray_reaches(
+        psi::stray_standings(
             store,
             &dir,
             (batch, batches),
+            true,
             &psi::octree::Monitor::silent(),
         )
     })

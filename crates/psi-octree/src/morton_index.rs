@@ -509,6 +509,22 @@ impl MortonIndex {
             .collect()
     }
 
+    /// The `k` nearest indexed points to the point at `slot` other than itself, as `(slot,
+    /// squared distance)` in increasing (distance, original index) order: the neighbours
+    /// [`MortonIndex::map_nearest`] gives that slot, for one point alone.
+    ///
+    /// # Panics
+    ///
+    /// When `slot` is not below [`MortonIndex::len`].
+    pub fn nearest_other(&self, slot: usize, k: usize) -> Vec<(u32, f64)> {
+        let k = k.min(self.len().saturating_sub(1));
+        let level = self.level_for(k);
+        self.search(self.points[slot], k, slot as u32, level)
+            .into_iter()
+            .map(|f| (f.2, f.0))
+            .collect()
+    }
+
     /// The number of indexed points whose Morton key (in this index's frame) is below that of
     /// `x` (world units; clamped to the index's cube): the slot `x` would take in the order,
     /// before any point of its key. A non-finite `x` ranks 0.

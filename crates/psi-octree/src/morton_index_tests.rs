@@ -53,6 +53,12 @@ fn check_all(points: &[DVec3], k: usize) {
     assert_eq!(got.len(), index.len());
     for (s, near) in got {
         let i = ids[s] as usize;
+        let alone: Vec<(u32, f64)> = index
+            .nearest_other(s, k)
+            .into_iter()
+            .map(|(t, d)| (ids[t as usize], d))
+            .collect();
+        assert_eq!(alone, near, "point {i} alone, k {k}");
         assert_eq!(
             near,
             brute(points, points[i], k, Some(i)),

@@ -6,8 +6,8 @@
 //! * [`mesh_coarseness`], [`densify_mesh`]: whether a mesh's triangles are large against the
 //!   implicit's tolerance, and more points on them when they are;
 //! * [`find_outliers`]: stray points that no surface supports; [`find_clumps`]: small groups
-//!   of them lying apart, off the surface (which support themselves); [`part_outliers`] with
-//!   [`part_outlier_reaches`] and [`median_of_passes`] the outlier step from parts of the points;
+//!   of them lying apart, off the surface (which support themselves); [`part_standings`],
+//!   [`median_of_passes`] and [`part_outliers`] the outlier step from parts of the points;
 //! * [`estimate_normals`]: normals for a cloud of positions only, from plane fits over an
 //!   adaptive neighbourhood;
 //! * [`orient_normals`] (propagation over a neighbour graph, after Hoppe et al. 1992) and
@@ -57,6 +57,7 @@ mod normals_by_parts;
 mod orient_by_parts;
 mod orient_from_level;
 mod orient_normals;
+mod outlier_verdicts_by_parts;
 mod outliers_by_parts;
 mod point_spread;
 mod preprocess;
@@ -84,7 +85,8 @@ pub use orient_by_parts::{
 pub use orient_normals::{
     NormalConsistency, check_normal_consistency, orient_normals, orient_normals_with, orient_toward,
 };
-pub use outliers_by_parts::{OutlierStats, StrayVerdict, part_outlier_reaches, part_outliers};
+pub use outlier_verdicts_by_parts::{part_outliers, settled_verdicts};
+pub use outliers_by_parts::{OutlierStats, OwnStanding, StrayVerdict, part_standings};
 pub use point_spread::{Spread, point_spread};
 pub use preprocess::{
     ErrorThreshold, INCONSISTENT_NORMALS, MeshRef, MeshReport, NOISE_ERROR_FACTOR, NormalTreatment,

@@ -2,25 +2,33 @@
 //! search — repeated positions left out, then [`crate::find_outliers`] — bitwise, from parts of
 //! the points (a tile and a halo of the points around it) that never need to be held together.
 //!
-//! The search reads one statistic of the whole input, the median over all points of the
-//! distance to the 16th nearest ([`part_outlier_reaches`] gives each part's, and
-//! [`median_of_passes`] their median in a few streamed passes); every other quantity is local.
-//! A point's standing in the first stage reads its 16 nearest and their 16th-neighbour
-//! distances, so a part decides it when it holds the balls of the point and of each neighbour;
-//! an unsure point is judged against its 16 nearest core points, so a part decides it when it
-//! holds that ball and every point in it has a standing. Neighbours tie to the lower index,
-//! and a part's points are kept in the input's order, so its answers are the whole search's.
-//! Repeats (a position equal to a point of lower index) lie in whichever parts their first copy
-//! lies in.
+//! Two passes. The first ([`part_standings`]) gives each own point its first-stage standing
+//! and its distance to the 16th nearest other point: the standing reads the point's 16 nearest
+//! and their 16th-neighbour distances, so a part decides it when it holds the balls of the
+//! point and of each neighbour. The standing reads the whole input once, through the median of
+//! those distances ([`OutlierStats::typical`], which [`median_of_passes`] streams from the
+//! first pass's distances): a point sparser than 3 × it is judged apart. So the first pass
+//! records the standing the point has when it is not, and the second pass ([`part_outliers`],
+//! `outlier_verdicts_by_parts.rs`) decides again only the points that are, then judges each
+//! unsure own point against its 16 nearest core points: a part decides it when it holds that
+//! ball and every point in it has a standing (the halo's, decided there, only near the unsure
+//! points). A part none of whose own points is unsure or sparse needs no second look
+//! ([`settled_verdicts`]). Neighbours tie to the lower index, and a part keeps its points in
+//! the input's order, so its answers are the whole search's. Repeats (a position equal to a
+//! point of lower index) lie in whichever parts their first copy lies in.
 //!
 //! [`median_of_passes`]: crate::median_of_passes
+//! [`part_outliers`]: crate::part_outliers
+//! [`settled_verdicts`]: crate::settled_verdicts
 
 use glam::DVec3;
 use psi_octree::MortonIndex;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::find_outliers::{NEIGHBOURS, Nearest, Status, nearest_of, status_of, verdict_of};
+use crate::find_outliers::{
+    NEIGHBOURS, Nearest, NormalOf, Status, dense_globally, nearest_of, status_of,
+};
 use crate::orient_by_parts::{IncompletePart, certified};
 
 /// The outlier search's statistics of the whole input (after repeats are left out).
@@ -63,17 +71,7 @@ struct Neighbourhoods {
 
 impl Neighbourhoods {
     fn of(positions: &[DVec3], complete: &(dyn Fn(DVec3, f64) -> bool + Sync)) -> Self {
-        // Ties among neighbours go to the lower local index, which is the lower input index.
-        let all = MortonIndex::new(positions);
-        let mut repeated = vec![false; positions.len()];
-        for c in all.repeated_positions() {
-            repeated[c as usize] = true;
-        }
-        let keep: Vec<bool> = repeated.iter().map(|r| !r).collect();
-        let kept: Vec<usize> = (0..positions.len()).filter(|&i| keep[i]).collect();
-        let index = all.retained(&keep);
-        drop(all);
-        let part_of: Vec<usize> = index.ids().iter().map(|&k| kept[k as usize]).collect();
+        let (index, part_of, repeated) = without_repeats(positions);
         let nearest = nearest_of(&index, &psi_octree::Monitor::silent()).expect("a silent monitor");
         let mut hood = Self {
             index,
@@ -132,92 +130,101 @@ impl Neighbourhoods {
     }
 }
 
-/// The distance to the 16th nearest other point of each of a part's own points that the
-/// outlier search reads (finite, repeating no point of lower index): `positions` (shape: M,
-/// world units) the part's own points and its halo, `ids` (shape: M) their input indices,
-/// ascending, `own` (shape: M) which are its own; `complete(x, r)` tells whether every input
-/// point within `r` of `x` is among `positions`. In no particular order (their median over all
-/// parts is [`OutlierStats::typical`]); or the uncertain own point whose neighbours reach
-/// farthest.
-///
-/// # Panics
-///
-/// When the lengths differ or `ids` do not ascend.
-pub fn part_outlier_reaches(
-    positions: &[DVec3],
-    ids: &[u32],
-    own: &[bool],
-    complete: &(dyn Fn(DVec3, f64) -> bool + Sync),
-) -> Result<Vec<f64>, IncompletePart> {
-    assert!(positions.len() == ids.len() && ids.len() == own.len());
-    assert!(ids.is_sorted(), "ids ascend");
-    let hood = Neighbourhoods::of(positions, complete);
-    let rows = (0..hood.index.len())
-        .filter(|&s| own[hood.part_of[s]])
-        .map(|s| {
-            if hood.certified[s] {
-                Ok(hood.nearest[s].1)
-            } else {
-                Err(IncompletePart {
-                    id: ids[hood.part_of[s]],
-                    neighbours: NEIGHBOURS,
-                    reach: hood.own_reach(s),
-                })
-            }
-        })
-        .collect();
-    certified(rows)
+/// A point's record after the first pass of the outlier step by parts ([`part_standings`]):
+/// a repeat, a point that is not finite, or a searched point with its 16th-neighbour distance
+/// and the standing it has when it is not sparser than 3 × the median of those distances.
+/// Nine bytes as [`OwnStanding::to_bytes`] writes them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OwnStanding {
+    /// 0 core, 1 inlier, 2 unsure, 3 repeated, 4 not finite.
+    pub(crate) code: u8,
+    /// The 16th-neighbour distance of a searched point (world units), else 0.
+    pub(crate) reach: f64,
 }
 
-/// The outlier step's verdict on each of a part's own points (shape: the own points, in the
-/// part's order): bitwise what `preprocess` decides for them (repeats left out, then
-/// [`crate::find_outliers`] with `stats` of the whole input), before its clump search.
-/// `positions`, `ids`, `own`, `complete` as for [`part_outlier_reaches`]; `normals` (shape: M,
-/// unit, either sign) the given normals, `None` for positions alone. Or the uncertain own
-/// point whose answer reaches farthest.
+impl OwnStanding {
+    /// The length of a record.
+    pub const BYTES: usize = 9;
+
+    fn searched(status: Status, reach: f64) -> Self {
+        let code = match status {
+            Status::Core => 0,
+            Status::Inlier => 1,
+            Status::Unsure => 2,
+        };
+        Self { code, reach }
+    }
+
+    /// The record: the distance as a little-endian f64, then the code.
+    pub fn to_bytes(self) -> [u8; Self::BYTES] {
+        let mut out = [0u8; Self::BYTES];
+        out[..8].copy_from_slice(&self.reach.to_le_bytes());
+        out[8] = self.code;
+        out
+    }
+
+    /// The standing a record holds; `None` when it holds none.
+    pub fn from_bytes(bytes: [u8; Self::BYTES]) -> Option<Self> {
+        let reach = f64::from_le_bytes(bytes[..8].try_into().expect("8 bytes"));
+        (bytes[8] <= 4).then_some(Self {
+            code: bytes[8],
+            reach,
+        })
+    }
+
+    /// The 16th-neighbour distance of a searched point (finite, no repeat): the values whose
+    /// median is [`OutlierStats::typical`].
+    pub fn searched_reach(self) -> Option<f64> {
+        (self.code <= 2).then_some(self.reach)
+    }
+
+    /// The first stage's standing, when the point is searched and not sparse against `typical`.
+    pub(crate) fn status(self, typical: f64) -> Option<Status> {
+        let status = match self.code {
+            0 => Status::Core,
+            1 => Status::Inlier,
+            2 => Status::Unsure,
+            _ => return None,
+        };
+        dense_globally(self.reach, typical).then_some(status)
+    }
+
+    /// The verdict on a point that needs no second look: a repeat, a point not finite, or one
+    /// kept (`None`: a searched point to look at again, unsure or sparse).
+    pub(crate) fn settled(self, typical: f64) -> Option<StrayVerdict> {
+        match self.code {
+            3 => Some(StrayVerdict::Repeated),
+            4 => Some(StrayVerdict::Far),
+            _ => match self.status(typical) {
+                Some(Status::Core | Status::Inlier) => Some(StrayVerdict::Kept),
+                _ => None,
+            },
+        }
+    }
+}
+
+/// The first pass of the outlier step on a part: each own point's [`OwnStanding`] (shape: the
+/// own points, in the part's order). `positions` (shape: M, world units) the part's own points
+/// and its halo, `ids` (shape: M) their input indices, ascending, `own` (shape: M) which are its
+/// own; `normals` (shape: M, unit, either sign) the given normals, `None` for positions alone;
+/// `complete(x, r)` tells whether every input point within `r` of `x` is among `positions`. Or
+/// the uncertain own point whose neighbours reach farthest.
 ///
 /// # Panics
 ///
 /// When the lengths differ or `ids` do not ascend.
-pub fn part_outliers(
+pub fn part_standings(
     positions: &[DVec3],
     ids: &[u32],
     own: &[bool],
     normals: Option<&[DVec3]>,
     complete: &(dyn Fn(DVec3, f64) -> bool + Sync),
-    stats: OutlierStats,
-) -> Result<Vec<StrayVerdict>, IncompletePart> {
+) -> Result<Vec<OwnStanding>, IncompletePart> {
     assert!(positions.len() == ids.len() && ids.len() == own.len());
     assert!(normals.is_none_or(|n| n.len() == positions.len()));
     assert!(ids.is_sorted(), "ids ascend");
     let hood = Neighbourhoods::of(positions, complete);
     let n = hood.index.len();
-    // A point not indexed (not finite) is far from everything; a repeat is left out first.
-    let mut verdicts: Vec<StrayVerdict> = hood
-        .repeated
-        .iter()
-        .map(|&r| {
-            if r {
-                StrayVerdict::Repeated
-            } else {
-                StrayVerdict::Far
-            }
-        })
-        .collect();
-    for &i in &hood.part_of {
-        verdicts[i] = StrayVerdict::Kept;
-    }
-    let own_verdicts = |verdicts: Vec<StrayVerdict>| {
-        verdicts
-            .into_iter()
-            .zip(own)
-            .filter_map(|(v, &o)| o.then_some(v))
-            .collect()
-    };
-    if stats.points <= NEIGHBOURS as u64 {
-        return Ok(own_verdicts(verdicts));
-    }
-    // The first stage, where decided; every own point's must be.
     let undecided: Vec<Result<(), IncompletePart>> = (0..n)
         .into_par_iter()
         .filter(|&s| own[hood.part_of[s]] && !hood.decided(s))
@@ -235,59 +242,55 @@ pub fn part_outliers(
         let part_of = &hood.part_of;
         move |s: usize| v[part_of[s]]
     });
-    let normal_of = normal_of
-        .as_ref()
-        .map(|f| f as &crate::find_outliers::NormalOf<'_>);
-    let status: Vec<Option<Status>> = (0..n)
+    let normal_of = normal_of.as_ref().map(|f| f as &NormalOf<'_>);
+    // (With 16 points or fewer in all there are no outliers: no standing is read.)
+    let searched: Vec<(usize, OwnStanding)> = (0..n)
         .into_par_iter()
+        .filter(|&s| own[hood.part_of[s]])
         .map(|s| {
-            hood.decided(s)
-                .then(|| status_of(s, by_slot, &hood.nearest, stats.typical, normal_of))
-        })
-        .collect();
-    let unsure = |s: usize| own[hood.part_of[s]] && status[s] == Some(Status::Unsure);
-    if !(0..n).any(unsure) {
-        return Ok(own_verdicts(verdicts));
-    }
-    // The second stage: each unsure own point against its 16 nearest core points, once no
-    // point of undecided standing lies as near.
-    let core_slots: Vec<u32> = (0..n as u32)
-        .filter(|&s| status[s as usize] == Some(Status::Core))
-        .collect();
-    let core_index = hood.index.subset(|s| status[s] == Some(Status::Core));
-    let open_index = hood.index.subset(|s| status[s].is_none());
-    let reach = |s: usize| hood.nearest[s].1;
-    let judged: Vec<Result<(usize, u8), IncompletePart>> = (0..n)
-        .into_par_iter()
-        .filter(|&s| unsure(s))
-        .map(|s| {
-            let x = by_slot[s];
-            let near = core_index.nearest(x, NEIGHBOURS);
-            let r2 = if near.len() < NEIGHBOURS {
-                f64::INFINITY
+            let status = if n > NEIGHBOURS {
+                status_of(s, by_slot, &hood.nearest, f64::INFINITY, normal_of)
             } else {
-                near.last().map_or(0.0, |l| l.1)
+                Status::Core
             };
-            let open_beyond = open_index.nearest(x, 1).first().is_none_or(|o| o.1 > r2);
-            if !(open_beyond && complete(x, r2.sqrt())) {
-                return Err(IncompletePart {
-                    id: ids[hood.part_of[s]],
-                    neighbours: NEIGHBOURS,
-                    reach: 2.0 * r2.sqrt(),
-                });
-            }
-            let core = (&core_index, core_slots.as_slice());
-            Ok((s, verdict_of((s, x), &near, core, &reach, normal_of)))
+            (
+                hood.part_of[s],
+                OwnStanding::searched(status, hood.nearest[s].1),
+            )
         })
         .collect();
-    for (s, v) in certified(judged)? {
-        verdicts[hood.part_of[s]] = match v {
-            0 => StrayVerdict::Kept,
-            1 => StrayVerdict::Far,
-            _ => StrayVerdict::OffSurface,
-        };
+    let mut out: Vec<OwnStanding> = hood
+        .repeated
+        .iter()
+        .map(|&r| OwnStanding {
+            code: if r { 3 } else { 4 },
+            reach: 0.0,
+        })
+        .collect();
+    for (i, standing) in searched {
+        out[i] = standing;
     }
-    Ok(own_verdicts(verdicts))
+    Ok(out
+        .into_iter()
+        .zip(own)
+        .filter_map(|(v, &o)| o.then_some(v))
+        .collect())
+}
+
+/// A part's finite points that repeat no point of lower index, indexed (ties among neighbours
+/// go to the lower local index, which is the lower input index); the part's index of each
+/// slot's point; per point of the part, whether it repeats a point of lower index.
+pub(crate) fn without_repeats(positions: &[DVec3]) -> (MortonIndex, Vec<usize>, Vec<bool>) {
+    let all = MortonIndex::new(positions);
+    let mut repeated = vec![false; positions.len()];
+    for c in all.repeated_positions() {
+        repeated[c as usize] = true;
+    }
+    let keep: Vec<bool> = repeated.iter().map(|r| !r).collect();
+    let kept: Vec<usize> = (0..positions.len()).filter(|&i| keep[i]).collect();
+    let index = all.retained(&keep);
+    let part_of = index.ids().iter().map(|&k| kept[k as usize]).collect();
+    (index, part_of, repeated)
 }
 
 #[cfg(test)]

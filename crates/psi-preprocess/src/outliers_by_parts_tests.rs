@@ -6,6 +6,7 @@ use super::*;
 use crate::find_outliers;
 use crate::grid_parts::grid_parts;
 use crate::median::median_of_passes;
+use crate::outlier_verdicts_by_parts::{part_outliers, settled_verdicts};
 use psi_shapes::AnalyticShape;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -93,65 +94,94 @@ fn whole(positions: &[DVec3], normals: Option<&[DVec3]>) -> Whole {
 }
 
 /// A test's work on one part: its points, input indices, which are its own, their normals,
-/// the part; per point found, its index, verdict and reach.
-type PartTask<'a> = dyn Fn(
+/// the part; per own point, its index and what was found.
+type PartTask<'a, T> = dyn Fn(
         &[DVec3],
         &[u32],
         &[bool],
         Option<&[DVec3]>,
         &crate::grid_parts::GridPart,
-    ) -> Result<Vec<(u32, StrayVerdict, f64)>, IncompletePart>
+    ) -> Result<Vec<(u32, T)>, IncompletePart>
     + 'a;
 
+/// `f` on each of the g³ parts of `positions` (with `normals`), each part's halo grown from
+/// `halo` while it refuses: what it found, how many parts grew, each part's last halo.
+fn each_part<T>(
+    positions: &[DVec3],
+    normals: Option<&[DVec3]>,
+    (g, halo): (usize, f64),
+    f: &PartTask<'_, T>,
+) -> (Vec<(u32, T)>, usize, Vec<f64>) {
+    let mut grown = 0;
+    let mut out = Vec::new();
+    let mut halos = Vec::new();
+    for c in 0..g * g * g {
+        let mut h = halo;
+        loop {
+            let part = grid_parts(positions, g, h).swap_remove(c);
+            let held: Vec<DVec3> = part.ids.iter().map(|&i| positions[i as usize]).collect();
+            let with: Option<Vec<DVec3>> =
+                normals.map(|n| part.ids.iter().map(|&i| n[i as usize]).collect());
+            match f(&held, &part.ids, &part.own, with.as_deref(), &part) {
+                Ok(found) => {
+                    out.extend(found);
+                    halos.push(h);
+                    break;
+                }
+                Err(e) => {
+                    assert!(e.reach > 0.0);
+                    grown += usize::from(h == halo);
+                    h = if e.reach.is_finite() {
+                        (1.01 * e.reach).max(1.5 * h)
+                    } else {
+                        2.0 * h
+                    };
+                }
+            }
+        }
+    }
+    (out, grown, halos)
+}
+
 /// The parts' verdicts per point, each part's halo grown from `halo` as the part asks; how
-/// many parts grew, and how many grew further to judge their unsure points than to measure
-/// their points' reaches. Each own point's standing reads, as the whole's does, the 16th-neighbour
-/// distances `reach_of[0]` (shape: N) of its 16 nearest, and a part holds the ball of its 16
-/// nearest core points, `reach_of[1]`, around each unsure own point (checked).
+/// many parts grew, and how many grew further to judge their unsure points than to give
+/// their points' standings. Each own point's standing reads, as the whole's does, the
+/// 16th-neighbour distances `reach_of[0]` (shape: N) of its 16 nearest, and a part holds the
+/// ball of its 16 nearest core points, `reach_of[1]`, around each unsure own point (checked).
 fn by_parts(
     positions: &[DVec3],
     normals: Option<&[DVec3]>,
     reach_of: &[Vec<f64>; 2],
-    (g, halo): (usize, f64),
+    parts: (usize, f64),
 ) -> (Vec<StrayVerdict>, OutlierStats, [usize; 2]) {
-    // Run `f` on each part, growing its halo while it refuses.
-    let each = |f: &PartTask<'_>| {
-        let mut grown = 0;
-        let mut out = Vec::new();
-        let mut halos = Vec::new();
-        for c in 0..g * g * g {
-            let mut h = halo;
-            loop {
-                let part = grid_parts(positions, g, h).swap_remove(c);
-                let held: Vec<DVec3> = part.ids.iter().map(|&i| positions[i as usize]).collect();
-                let with: Option<Vec<DVec3>> =
-                    normals.map(|n| part.ids.iter().map(|&i| n[i as usize]).collect());
-                match f(&held, &part.ids, &part.own, with.as_deref(), &part) {
-                    Ok(found) => {
-                        out.extend(found);
-                        halos.push(h);
-                        break;
-                    }
-                    Err(e) => {
-                        assert!(e.reach > 0.0);
-                        grown += usize::from(h == halo);
-                        h = if e.reach.is_finite() {
-                            (1.01 * e.reach).max(1.5 * h)
-                        } else {
-                            2.0 * h
-                        };
-                    }
+    // The first pass: every own point's standing reads its neighbours' reaches, the whole's.
+    let (standings, _, first_halos) =
+        each_part(positions, normals, parts, &|held, ids, own, with, part| {
+            let complete = |x: DVec3, r: f64| part.holds_ball(x, r);
+            let found = part_standings(held, ids, own, with, &complete)?;
+            let hood = Neighbourhoods::of(held, &complete);
+            for s in (0..hood.index.len()).filter(|&s| own[hood.part_of[s]]) {
+                for &q in &hood.nearest[s].0 {
+                    let id = ids[hood.part_of[q as usize]] as usize;
+                    assert_eq!(hood.nearest[q as usize].1, reach_of[0][id], "point {id}");
                 }
             }
-        }
-        (out, grown, halos)
-    };
-    let (reaches, _, first_halos) = each(&|held, ids, own, _, part| {
-        let r = part_outlier_reaches(held, ids, own, &|x, r| part.holds_ball(x, r))?;
-        Ok(r.into_iter().map(|r| (0, StrayVerdict::Kept, r)).collect())
-    });
+            let mine = ids.iter().zip(own).filter(|p| *p.1).map(|p| *p.0);
+            Ok(mine.zip(found).collect())
+        });
+    let mut standing_of = vec![None; positions.len()];
+    for &(i, st) in &standings {
+        assert!(
+            standing_of[i as usize].replace(st).is_none(),
+            "point {i} twice"
+        );
+    }
+    let reaches: Vec<f64> = standings
+        .iter()
+        .filter_map(|(_, st)| st.searched_reach())
+        .collect();
     let typical = median_of_passes(|visit: &mut dyn FnMut(f64)| {
-        reaches.iter().for_each(|r| visit(r.2));
+        reaches.iter().for_each(|&r| visit(r));
         Ok::<(), ()>(())
     })
     .unwrap()
@@ -160,28 +190,29 @@ fn by_parts(
         typical,
         points: reaches.len() as u64,
     };
-    let (found, grown, halos) = each(&|held, ids, own, with, part| {
-        let complete = |x: DVec3, r: f64| part.holds_ball(x, r);
-        let v = part_outliers(held, ids, own, with, &complete, stats)?;
-        let hood = Neighbourhoods::of(held, &complete);
-        for s in (0..hood.index.len()).filter(|&s| own[hood.part_of[s]]) {
-            for &q in &hood.nearest[s].0 {
-                let id = ids[hood.part_of[q as usize]] as usize;
-                assert_eq!(hood.nearest[q as usize].1, reach_of[0][id], "point {id}");
+    let (found, grown, halos) =
+        each_part(positions, normals, parts, &|held, ids, own, with, part| {
+            let complete = |x: DVec3, r: f64| part.holds_ball(x, r);
+            let mine: Vec<u32> = ids.iter().zip(own).filter(|p| *p.1).map(|p| *p.0).collect();
+            let st: Vec<OwnStanding> = mine
+                .iter()
+                .map(|&i| standing_of[i as usize].expect("a standing"))
+                .collect();
+            let v = part_outliers(held, ids, own, with, &complete, (stats, &st))?;
+            if let Some(settled) = settled_verdicts(&st, stats) {
+                assert_eq!(settled, v);
             }
-        }
-        for (&i, _) in ids.iter().zip(own).filter(|p| *p.1) {
-            let x = positions[i as usize];
-            assert!(
-                part.holds_ball(x, reach_of[1][i as usize]),
-                "point {i}: core ball"
-            );
-        }
-        let mine = ids.iter().zip(own).filter(|p| *p.1).map(|p| *p.0);
-        Ok(mine.zip(v).map(|(i, v)| (i, v, 0.0)).collect())
-    });
+            for &i in &mine {
+                let x = positions[i as usize];
+                assert!(
+                    part.holds_ball(x, reach_of[1][i as usize]),
+                    "point {i}: core ball"
+                );
+            }
+            Ok(mine.into_iter().zip(v).collect())
+        });
     let mut verdicts = vec![None; positions.len()];
-    for (i, v, _) in found {
+    for (i, v) in found {
         assert!(verdicts[i as usize].replace(v).is_none(), "point {i} twice");
     }
     let verdicts = verdicts.into_iter().map(|v| v.expect("every point judged"));

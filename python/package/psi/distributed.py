@@ -164,7 +164,7 @@ def sample_files(
             partition("all")
             batches = parts * STRAY_BATCHES_PER_PART
             client.gather(
-                [submit(_psi._ooc_stray_reaches, scratch_dir, b, batches, threads)
+                [submit(_psi._ooc_stray_standings, scratch_dir, b, batches, threads)
                  for b in range(batches)]
             )
             stats = submit(_psi._ooc_stray_stats, scratch_dir, batches).result()
