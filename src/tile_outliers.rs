@@ -91,7 +91,7 @@ fn batch_file(scratch: &Path, what: &str, batch: u32) -> PathBuf {
     scratch.join(format!("strays-{what}-{batch}.bin"))
 }
 
-/// Sample spacings' worth of first halos a pass of the outlier step starts from: a point's
+/// The first halo of a pass of the outlier step, in first halos ([`first_halo`]): a point's
 /// standing reads its neighbours' neighbours (measured on 10 M points: with one first halo, 59
 /// of 149 tries of the verdict pass were refused; with two, none; notes:
 /// `2026-12-03-outliers-by-parts.md`).
@@ -279,26 +279,26 @@ pub fn stray_verdicts_of_batch(
         ("strays", monitor),
         &|key, halo| {
             let records = standings.of_tile(key)?;
+            let stale = || {
+                let path = standings.path.display();
+                format!("{path}: not the standings of tile {key:?} of this store")
+            };
+            if records.len() as u64 != store.count(key) {
+                return Err(stale());
+            }
             let own: Vec<OwnStanding> = records.iter().map(|r| r.1).collect();
             let found = match settled_verdicts(&own, stats) {
                 Some(found) => found,
                 None => {
-                    let (tile, found) = by_tile(store, key, halo, |t, ids, holds| {
+                    let (_, found) = by_tile(store, key, halo, |t, ids, holds| {
+                        if !t.own_points().map(|p| p.0).eq(records.iter().map(|r| r.0)) {
+                            return Ok(None);
+                        }
                         let (positions, normals) = part_points(t, normals_given);
                         let n = normals.as_deref();
-                        part_outliers(&positions, ids, &t.own, n, holds, (stats, &own))
+                        part_outliers(&positions, ids, &t.own, n, holds, (stats, &own)).map(Some)
                     })?;
-                    if !tile
-                        .own_points()
-                        .map(|p| p.0)
-                        .eq(records.iter().map(|r| r.0))
-                    {
-                        return Err(format!(
-                            "{}: not the standings of tile {key:?}",
-                            standings.path.display()
-                        ));
-                    }
-                    found
+                    found.ok_or_else(stale)?
                 }
             };
             let mut bytes = Vec::with_capacity(9 * found.len());

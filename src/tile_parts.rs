@@ -124,6 +124,14 @@ pub(crate) fn by_tile<T>(
         let holds = |x: DVec3, r: f64| tile.holds_ball(x, r);
         match f(&tile, &ids, &holds) {
             Ok(out) => return Ok((tile, out)),
+            // (Holding every point certifies any part: a refusal then is a defect, reported
+            // rather than tried for ever.)
+            Err(e) if tile.ids.len() as u64 >= store.manifest().population => {
+                return Err(format!(
+                    "tile {key:?}: point {} undecided with every point held",
+                    e.id
+                ));
+            }
             // Fewer points held than a point's neighbours: twice the halo. Else the reach the
             // refused point needs (or half as much again, should rounding on the held cube's
             // face refuse it at that reach). The halo grows geometrically until the held cube

@@ -129,7 +129,9 @@ pub fn part_outliers(
             break;
         }
         within.clear();
-        let r = near.last().map_or(0.0, |l| l.1.sqrt());
+        // (One ulp more: the square of a square root can fall short of the squared distance,
+        // and a point tied with the 16th must be asked.)
+        let r = near.last().map_or(0.0, |l| l.1.sqrt().next_up());
         held.index.within(x, r, &mut within);
         for &id in &within {
             asked[held.slot_of_id[id as usize] as usize] = true;

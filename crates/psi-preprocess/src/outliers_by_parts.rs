@@ -101,12 +101,9 @@ impl Neighbourhoods {
     /// The reach a part must hold around slot `s` to give its standing: its neighbours' balls.
     fn standing_reach(&self, s: usize) -> f64 {
         let x = self.index.points()[s];
+        // (A ball the part does not hold reaches no farther than the part's answer.)
         let (near, reach) = &self.nearest[s];
-        let mut need = if self.certified[s] {
-            *reach
-        } else {
-            f64::INFINITY
-        };
+        let mut need = *reach;
         for &q in near {
             let q = q as usize;
             if !self.certified[q] {

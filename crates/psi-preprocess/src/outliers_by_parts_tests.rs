@@ -117,7 +117,9 @@ fn each_part<T>(
     let mut halos = Vec::new();
     for c in 0..g * g * g {
         let mut h = halo;
-        loop {
+        for tries in 0.. {
+            // (The halo grows geometrically: a part refused this often refuses for ever.)
+            assert!(tries < 40, "part {c} refused {tries} times");
             let part = grid_parts(positions, g, h).swap_remove(c);
             let held: Vec<DVec3> = part.ids.iter().map(|&i| positions[i as usize]).collect();
             let with: Option<Vec<DVec3>> =
@@ -315,5 +317,42 @@ fn parts_leave_out_what_the_whole_step_leaves_out() {
             assert_eq!(count(StrayVerdict::OffSurface), off);
             assert!(off > 0 && far > 0);
         }
+    }
+}
+
+/// A plane sampled on an exact unit grid with points lifted 0.8 above some nodes, their
+/// normals across it (unsure points, judged against the grid): the distances to the grid tie
+/// exactly, so the 16th nearest core point of a lifted point ties with points beyond a part's
+/// face. By parts, every verdict is the whole step's (and the parts end: a tied point of the
+/// halo is decided with the rest).
+#[test]
+fn exact_ties_on_a_grid_are_judged_as_the_whole_step_judges_them() {
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    // (A second plane far below, so that the parts split the grid across x and y alone.)
+    for z in [0.0, -40.0] {
+        for i in 0..40 {
+            for j in 0..40 {
+                positions.push(DVec3::new(f64::from(i), f64::from(j), z));
+                normals.push(DVec3::Z);
+            }
+        }
+    }
+    // Two nodes from a face of the parts (19.5; 13 and 26): the 16th nearest core point ties
+    // with a node across it.
+    for (i, j) in [(18, 9), (18, 20), (18, 29), (11, 20), (24, 12), (21, 30)] {
+        positions.push(DVec3::new(f64::from(i), f64::from(j), 0.8));
+        normals.push(DVec3::X);
+    }
+    let (truth, (_, off), _, reach_of) = whole(&positions, Some(&normals));
+    assert!(off > 0, "no lifted point left out");
+    for g in [2, 3] {
+        let (found, _, _) = by_parts(&positions, Some(&normals), &reach_of, (g, 0.6));
+        let kinds = |v: StrayVerdict| match v {
+            StrayVerdict::OffSurface => StrayVerdict::Far,
+            v => v,
+        };
+        let found: Vec<StrayVerdict> = found.into_iter().map(kinds).collect();
+        assert_eq!(found, truth, "{} parts", g * g * g);
     }
 }
