@@ -92,9 +92,8 @@ fn batch_file(scratch: &Path, what: &str, batch: u32) -> PathBuf {
 }
 
 /// The first halo of a pass of the outlier step, in first halos ([`first_halo`]): a point's
-/// standing reads its neighbours' neighbours (measured on 10 M points: with one first halo, 59
-/// of 149 tries of the verdict pass were refused; with two, none; notes:
-/// `2026-12-03-outliers-by-parts.md`).
+/// standing reads its neighbours' neighbours, which one first halo rarely holds at a tile's
+/// face (measured: `docs/notes/2026-12-03-outliers-by-parts.md`).
 const FIRST_HALOS: f64 = 2.0;
 
 /// A tile's header in a file of [`stray_standings`]: its key (three little-endian u32) and its

@@ -23,8 +23,8 @@ pub fn settled_verdicts(
     let few = stats.points <= NEIGHBOURS as u64;
     standings
         .iter()
-        .map(|st| match (few, st.code) {
-            (true, 0..=2) => Some(StrayVerdict::Kept),
+        .map(|st| match (few, st.searched_reach()) {
+            (true, Some(_)) => Some(StrayVerdict::Kept),
             _ => st.settled(stats.typical),
         })
         .collect()
@@ -67,22 +67,20 @@ pub fn part_outliers(
     assert_eq!(own_parts.len(), standings.len(), "a standing per own point");
     let mut sparse = Vec::new();
     for (&i, st) in own_parts.iter().zip(standings) {
+        // (Kept until judged below, when unsure.)
+        let verdict = st.settled(typical).unwrap_or(StrayVerdict::Kept);
         let slot = held.slot_of[i];
-        let verdict = match st.code {
-            3 => StrayVerdict::Repeated,
-            4 => StrayVerdict::Far,
-            _ => StrayVerdict::Kept,
-        };
+        let searched = st.searched_reach();
         assert_eq!(
             (held.repeated[i], slot == u32::MAX),
-            (st.code == 3, st.code >= 3),
+            (verdict == StrayVerdict::Repeated, searched.is_none()),
             "point {}: not the first pass's standing",
             ids[i]
         );
         verdicts.push(verdict);
-        if st.code <= 2 {
+        if let Some(r) = searched {
             let s = slot as usize;
-            reach[s] = st.reach;
+            reach[s] = r;
             status[s] = st.status(typical);
             if status[s].is_none() {
                 sparse.push(s);
@@ -172,15 +170,11 @@ pub fn part_outliers(
             Ok((s, verdict_of((s, x), &near, core, &reach_of, normal_of)))
         })
         .collect();
-    let rank_of: Vec<usize> = {
-        let mut rank = vec![usize::MAX; positions.len()];
-        for (k, &i) in own_parts.iter().enumerate() {
-            rank[i] = k;
-        }
-        rank
-    };
     for (s, v) in certified(judged)? {
-        verdicts[rank_of[held.part_of[s]]] = match v {
+        let rank = own_parts
+            .binary_search(&held.part_of[s])
+            .expect("an own point");
+        verdicts[rank] = match v {
             0 => StrayVerdict::Kept,
             1 => StrayVerdict::Far,
             _ => StrayVerdict::OffSurface,

@@ -134,9 +134,9 @@ impl Neighbourhoods {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OwnStanding {
     /// 0 core, 1 inlier, 2 unsure, 3 repeated, 4 not finite.
-    pub(crate) code: u8,
+    code: u8,
     /// The 16th-neighbour distance of a searched point (world units), else 0.
-    pub(crate) reach: f64,
+    reach: f64,
 }
 
 impl OwnStanding {
