@@ -77,6 +77,14 @@ pub struct BuildOptions<'a> {
     /// cell the table lacks is an error ([`MpuError::BadParameter`]). The result is the build
     /// the table's regions were decided for, bitwise.
     pub known_cells: Option<&'a CellTable>,
+    /// With [`BuildOptions::known_cells`]: the cube (centre in the build's local frame, half
+    /// edge; world units) where the
+    /// build is used. A known cell whose support ball does not meet it is not split and has
+    /// no function (it adds nothing to f): for α ≥ 0.5 the supports of a cell's descendants lie
+    /// within its own, so f and ∇f in the cube, the leaves meeting it and their points are
+    /// those of the whole build, in the time of the cells near the cube (a tile's seeding
+    /// builds one tile's part of a large octree). Ignored without known cells or for α < 0.5.
+    pub known_within: Option<(DVec3, f64)>,
     /// The points given and the buffers' positions are those of the MPU the buffers came
     /// from ([`Mpu::into_buffers`]) but at these indices (ascending): only they are checked
     /// and moved to the local frame, in the time of the points changed (an editor's stroke,
@@ -108,6 +116,8 @@ pub struct BuildOptions<'a> {
 enum CellRecord {
     Fitted(Box<FittedCell>),
     Reused(u32),
+    /// Left out ([`BuildOptions::known_within`]): a leaf without a function.
+    Void,
 }
 
 /// A cell fitted by this build.
@@ -233,6 +243,7 @@ impl Mpu {
             buffers,
             unit_normals,
             known_cells,
+            known_within,
             synced,
             carry_footprint,
             whole_footprint,
@@ -333,8 +344,17 @@ impl Mpu {
             beside: Some(marked_fits.running()),
         };
         let missing = std::sync::Mutex::new(None);
+        // The cube where a known-cells build is used.
+        let within = known_within.filter(|_| params.alpha >= 0.5);
         let decide = |v: psi_octree::CellView<'_>| {
             if let Some(table) = known_cells {
+                if let Some((c, h)) = within {
+                    // The distance from the cell's centre to the cube, against its support.
+                    let gap = ((v.cell.center - c).abs() - DVec3::splat(h)).max(DVec3::ZERO);
+                    if gap.length() > v.cell.support_radius(params.alpha) {
+                        return (false, CellRecord::Void);
+                    }
+                }
                 let Some(d) = table.get(v.cell.depth, v.cell.key) else {
                     missing
                         .lock()
@@ -458,6 +478,11 @@ impl Mpu {
                         fallback: l.fallback,
                     })
                 }
+                CellRecord::Void => {
+                    fit_radius.push(0.0);
+                    fitted.push(false);
+                    continue;
+                }
                 CellRecord::Reused(old) => {
                     let old_mpu = reuse.expect("reused records come from an earlier MPU").old;
                     fit_radius.push(old_mpu.fit_radius[old as usize]);
@@ -496,7 +521,8 @@ impl Mpu {
         let fits = fits.finish();
         if project {
             for l in octree.leaves() {
-                if holds_surface(&octree, Some((&fits, cell_fit[l as usize])), l) {
+                let id = cell_fit[l as usize];
+                if id != NO_FIT && holds_surface(&octree, Some((&fits, id)), l) {
                     report.count_surface_leaf(octree.cell(l).depth);
                 }
             }

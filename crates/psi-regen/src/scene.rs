@@ -327,6 +327,7 @@ impl Scene {
             // renormalisation, so a build from `points()` repeats this MPU bit for bit.
             unit_normals: true,
             known_cells: None,
+            known_within: None,
             synced: synced.as_deref(),
             // A brush carries the footprint table over (below) when that is the cheaper way.
             carry_footprint: carry,

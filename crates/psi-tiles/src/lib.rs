@@ -26,6 +26,7 @@
 //! assert!(d.report.count >= 8 && d.report.crossing_cells > 0);
 //! ```
 
+mod arena_order;
 mod decide_store;
 mod decide_tile;
 mod decide_tiles;

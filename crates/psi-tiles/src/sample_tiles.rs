@@ -8,6 +8,7 @@
 //! test. The particles are few (they follow the surface, not the input's density), so one
 //! relaxation of them all fits where the points do not, and it has no seams.
 
+use std::collections::HashMap;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -21,6 +22,7 @@ use psi_particles::{
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::arena_order::arena_indices;
 use crate::decide_tile::tile_keys;
 use crate::leaf_cover::LeafCover;
 use crate::thinned_data::ThinnedData;
@@ -165,6 +167,7 @@ pub fn seed_octant(
 ) -> Result<OctantSeeds, TileError> {
     let field = base_field(decisions);
     let thin = thinning_rate(source.population(), relax_points);
+    let arena = arena_indices(&decisions.cells, mpu_params.max_depth);
     let regions: Vec<Region> = regions_of(decisions)
         .into_iter()
         .filter(|r| octant_of(r) == octant)
@@ -177,6 +180,7 @@ pub fn seed_octant(
                 params,
                 field: &field,
                 thin,
+                arena: &arena,
             };
             seed_region(source, decisions, &seeding, region, monitor)
         })
@@ -208,6 +212,8 @@ struct Seeding<'a> {
     field: &'a DensityField,
     /// [`thinning_rate`].
     thin: Option<f64>,
+    /// The decisions' octree's arena index of each cell ([`arena_indices`]).
+    arena: &'a HashMap<CellAddress, u32>,
 }
 
 /// Samples the MPU `decisions` describe, reading points from `source`, with `params` (k
@@ -387,6 +393,7 @@ fn seed_region(
         params,
         field,
         thin,
+        arena,
     } = *seeding;
     let own: Vec<CellAddress> = decisions
         .surface
@@ -404,9 +411,12 @@ fn seed_region(
         return Ok(empty);
     }
     let read = points.len();
+    // Only the cells near the region's cube are built (f and the points there are the whole
+    // build's); its leaves are named by their index in the whole octree.
     let options = BuildOptions {
         frame: Some(decisions.frame),
         known_cells: Some(&decisions.cells),
+        known_within: Some((center, half)),
         monitor: monitor.quiet(),
         ..Default::default()
     };
@@ -421,8 +431,14 @@ fn seed_region(
         if !inside(cell.depth, cell.key, region) {
             continue;
         }
+        let whole = *arena.get(&(cell.depth, cell.key)).ok_or_else(|| {
+            TileError::BadParameter(format!(
+                "the decisions lack the leaf at depth {}, key {:?}",
+                cell.depth, cell.key
+            ))
+        })?;
         let s = seed_leaves(&mpu, &[l], field, params);
-        leaves.extend(std::iter::repeat_n(l, s.len()));
+        leaves.extend(std::iter::repeat_n(whole, s.len()));
         seeds.extend(&s);
         own_leaves.push(l);
     }

@@ -194,3 +194,85 @@ fn bad_tiling_parameters_are_refused() {
         assert!(matches!(r, Err(psi_tiles::TileError::BadParameter(_))));
     }
 }
+
+#[test]
+fn a_build_of_the_cells_near_a_cube_is_the_whole_build_inside_it() {
+    // Oracle: the build of every known cell. Only the points of a small cube are given (as a
+    // region's seeding gathers them); f and ∇f inside the cube, the leaves meeting it and
+    // their points must be the whole build's, and far cells must be left out.
+    let mut points = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.4,
+    }
+    .sample(20_000, 5);
+    let mut rng = Pcg64Mcg::seed_from_u64(8);
+    for p in &mut points {
+        p.p += 2e-3 * gaussian_vector(&mut rng);
+    }
+    // (A finer threshold than the paper's: leaves small enough that many lie in each cube.)
+    let params = MpuParams {
+        error_rel: 0.002,
+        ..MpuParams::paper()
+    };
+    let d = decide_tiled(
+        &points,
+        &params,
+        &TileParams::at_depth(2),
+        &Monitor::silent(),
+    )
+    .unwrap();
+    let built = |within: Option<(DVec3, f64)>, pts: &[OrientedPoint]| {
+        let options = psi_mpu::BuildOptions {
+            frame: Some(d.frame),
+            known_cells: Some(&d.cells),
+            known_within: within,
+            ..Default::default()
+        };
+        Mpu::build_with(pts, &params, options).unwrap()
+    };
+    let whole = built(None, &points);
+    for (k, &(c, h)) in [(points[0].p, 0.45), (points[12_345].p, 0.6)]
+        .iter()
+        .enumerate()
+    {
+        let local = c - d.frame.origin;
+        let inside = |x: DVec3| (x - d.frame.origin - local).abs().max_element() <= h;
+        let own: Vec<OrientedPoint> = points.iter().copied().filter(|p| inside(p.p)).collect();
+        let part = built(Some((local, h)), &own);
+        assert!(
+            part.octree().cells().len() < whole.octree().cells().len() / 2,
+            "cube {k}: {} of {} cells built",
+            part.octree().cells().len(),
+            whole.octree().cells().len()
+        );
+        // The leaves meeting the cube, and the points and surface flag of those inside it.
+        let leaves = |m: &Mpu| -> Vec<(u8, [u32; 3], Option<(bool, usize)>)> {
+            m.leaves()
+                .filter_map(|l| {
+                    let cell = m.octree().cell(l);
+                    let gap = (cell.center - local).abs() - DVec3::splat(h);
+                    (gap.max_element() < cell.half).then(|| {
+                        let within = (gap.max_element() + 2.0 * cell.half <= 0.0)
+                            .then(|| (m.is_surface_leaf(l), m.octree().points_in(l).len()));
+                        (cell.depth, cell.key, within)
+                    })
+                })
+                .collect()
+        };
+        let expected = leaves(&whole);
+        let surface = expected.iter().filter(|l| l.2.is_some_and(|w| w.0)).count();
+        assert!(surface > 10, "cube {k}: {surface} surface leaves inside");
+        assert_eq!(leaves(&part), expected, "cube {k}: the leaves meeting it");
+        for _ in 0..400 {
+            let t = DVec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - DVec3::ONE;
+            let x = c + t * h;
+            let (f, g) = whole.value_and_gradient(x);
+            let (fp, gp) = part.value_and_gradient(x);
+            assert_eq!(
+                (fp.to_bits(), gp.to_array()),
+                (f.to_bits(), g.to_array()),
+                "at {x}"
+            );
+        }
+    }
+}
