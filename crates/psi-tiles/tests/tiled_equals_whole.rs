@@ -195,6 +195,10 @@ fn bad_tiling_parameters_are_refused() {
     }
 }
 
+/// A leaf meeting a cube: depth, key, and for one inside it whether it holds the surface and
+/// its point count.
+type LeafNear = (u8, [u32; 3], Option<(bool, usize)>);
+
 #[test]
 fn a_build_of_the_cells_near_a_cube_is_the_whole_build_inside_it() {
     // Oracle: the build of every known cell. Only the points of a small cube are given (as a
@@ -246,7 +250,7 @@ fn a_build_of_the_cells_near_a_cube_is_the_whole_build_inside_it() {
             whole.octree().cells().len()
         );
         // The leaves meeting the cube, and the points and surface flag of those inside it.
-        let leaves = |m: &Mpu| -> Vec<(u8, [u32; 3], Option<(bool, usize)>)> {
+        let leaves = |m: &Mpu| -> Vec<LeafNear> {
             m.leaves()
                 .filter_map(|l| {
                     let cell = m.octree().cell(l);
