@@ -253,9 +253,7 @@ impl TileStore {
             let bytes = self.read_ranges(&path, entry, ranges.as_deref())?;
             decode_into(&bytes, keep, &mut found);
         }
-        // (Each run of records is in input order: a stable sort merges them.)
-        found.sort_by_key(|(i, _)| *i);
-        Ok(found)
+        Ok(in_input_order(found))
     }
 
     /// The points within ∞-distance `halo` of the cube with local centre `center` and
@@ -346,5 +344,57 @@ fn decode_into(bytes: &[u8], keep: &dyn Fn(DVec3) -> bool, found: &mut Vec<(u64,
                 },
             ));
         }
+    }
+}
+
+/// `found` (each point once, as a store holds it) in increasing input index: its keys and
+/// places sorted (16 bytes an entry, not the records' 56), then the records taken in that
+/// order once.
+fn in_input_order(found: Vec<(u64, OrientedPoint)>) -> Vec<(u64, OrientedPoint)> {
+    if found.is_sorted_by_key(|(i, _)| *i) {
+        return found;
+    }
+    let mut order: Vec<(u64, u32)> = found
+        .iter()
+        .enumerate()
+        .map(|(k, (i, _))| (*i, k as u32))
+        .collect();
+    order.sort_unstable();
+    order.iter().map(|&(_, k)| found[k as usize]).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    #[test]
+    fn records_come_out_in_input_order_as_a_stable_sort_gives_them() {
+        // Oracle: the standard library's stable sort by index. Runs of ascending ids, as the
+        // tiles' sub-cells give them, interleaved.
+        let mut rng = Pcg64Mcg::seed_from_u64(3);
+        let mut ids: Vec<u64> = (0..5000).map(|i| i * 3 + 7).collect();
+        for i in (1..ids.len()).rev() {
+            ids.swap(i, rng.random_range(0..=i));
+        }
+        let mut found: Vec<(u64, OrientedPoint)> = Vec::new();
+        for run in ids.chunks(97) {
+            let mut run = run.to_vec();
+            run.sort_unstable();
+            found.extend(run.iter().map(|&i| {
+                let p = OrientedPoint {
+                    p: DVec3::splat(i as f64),
+                    n: DVec3::Z,
+                };
+                (i, p)
+            }));
+        }
+        let mut expected = found.clone();
+        expected.sort_by_key(|(i, _)| *i);
+        assert_ne!(found, expected);
+        assert_eq!(in_input_order(found), expected);
+        assert_eq!(in_input_order(expected.clone()), expected);
     }
 }
