@@ -117,13 +117,20 @@ pub fn part_outliers(
     let own_cores = held
         .index
         .subset(|s| is_own(s) && status[s] == Some(Status::Core));
+    let own_core_slots: Vec<u32> = (0..n as u32)
+        .filter(|&s| is_own(s as usize) && status[s as usize] == Some(Status::Core))
+        .collect();
     let mut asked = vec![false; n];
     let mut within = Vec::new();
-    for &s in &unsure {
+    // Per unsure point, its 16 nearest own core points when no halo point lies as near: then
+    // they are its 16 nearest core points (the same, in the same (distance, index) order).
+    let mut direct: Vec<Option<Vec<(u32, f64)>>> = vec![None; unsure.len()];
+    for (j, &s) in unsure.iter().enumerate() {
         let x = by_slot[s];
         let near = own_cores.nearest(x, NEIGHBOURS);
         if near.len() < NEIGHBOURS {
             asked.iter_mut().for_each(|a| *a = true);
+            direct.iter_mut().for_each(|d| *d = None);
             break;
         }
         within.clear();
@@ -131,8 +138,14 @@ pub fn part_outliers(
         // and a point tied with the 16th must be asked.)
         let r = near.last().map_or(0.0, |l| l.1.sqrt().next_up());
         held.index.within(x, r, &mut within);
+        let mut only_own = true;
         for &id in &within {
-            asked[held.slot_of_id[id as usize] as usize] = true;
+            let q = held.slot_of_id[id as usize] as usize;
+            asked[q] = true;
+            only_own &= is_own(q);
+        }
+        if only_own {
+            direct[j] = Some(near);
         }
     }
     let halo: Vec<usize> = (0..n).filter(|&q| asked[q] && !is_own(q)).collect();
@@ -142,16 +155,33 @@ pub fn part_outliers(
     }
     // The second stage: each unsure own point against its 16 nearest core points, once no
     // point without a standing lies as near.
+    let rest = direct.iter().any(Option::is_none);
     let core_slots: Vec<u32> = (0..n as u32)
-        .filter(|&s| status[s as usize] == Some(Status::Core))
+        .filter(|&s| rest && status[s as usize] == Some(Status::Core))
         .collect();
-    let core_index = held.index.subset(|s| status[s] == Some(Status::Core));
-    let open_index = held.index.subset(|s| status[s].is_none());
+    let core_index = held
+        .index
+        .subset(|s| rest && status[s] == Some(Status::Core));
+    let open_index = held.index.subset(|s| rest && status[s].is_none());
     let reach_of = |s: usize| reach[s];
     let judged: Vec<Result<(usize, u8), IncompletePart>> = unsure
         .par_iter()
-        .map(|&s| {
+        .zip(&direct)
+        .map(|(&s, direct)| {
             let x = by_slot[s];
+            let incomplete = |r2: f64| IncompletePart {
+                id: ids[held.part_of[s]],
+                neighbours: NEIGHBOURS,
+                reach: 2.0 * r2.sqrt(),
+            };
+            if let Some(near) = direct {
+                let r2 = near.last().map_or(0.0, |l| l.1);
+                if !complete(x, r2.sqrt()) {
+                    return Err(incomplete(r2));
+                }
+                let core = (&own_cores, own_core_slots.as_slice());
+                return Ok((s, verdict_of((s, x), near, core, &reach_of, normal_of)));
+            }
             let near = core_index.nearest(x, NEIGHBOURS);
             let r2 = if near.len() < NEIGHBOURS {
                 f64::INFINITY
@@ -160,11 +190,7 @@ pub fn part_outliers(
             };
             let open_beyond = open_index.nearest(x, 1).first().is_none_or(|o| o.1 > r2);
             if !(open_beyond && complete(x, r2.sqrt())) {
-                return Err(IncompletePart {
-                    id: ids[held.part_of[s]],
-                    neighbours: NEIGHBOURS,
-                    reach: 2.0 * r2.sqrt(),
-                });
+                return Err(incomplete(r2));
             }
             let core = (&core_index, core_slots.as_slice());
             Ok((s, verdict_of((s, x), &near, core, &reach_of, normal_of)))
