@@ -7,7 +7,7 @@ use psi_mpu::{Mpu, MpuParams};
 use psi_octree::{Monitor, OrientedPoint};
 use psi_particles::{ParticleParams, sample};
 use psi_shapes::{AnalyticShape, assert_near, gaussian_vector, tolerance::EXACT};
-use psi_tiles::{TileParams, TileReport, build_tiled, decide_tiled};
+use psi_tiles::{TileParams, TileReport, TiledDecisions, build_tiled, decide_tiled};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
@@ -30,6 +30,20 @@ fn assert_same_mpu(tiled: &Mpu, whole: &Mpu, probes: usize, seed: u64) {
     }
 }
 
+/// `points` moved by seeded Gaussian noise of deviation `sigma` per axis (world units).
+fn noisy(mut points: Vec<OrientedPoint>, sigma: f64) -> Vec<OrientedPoint> {
+    let mut rng = Pcg64Mcg::seed_from_u64(8);
+    for p in &mut points {
+        p.p += sigma * gaussian_vector(&mut rng);
+    }
+    points
+}
+
+/// The decisions of `points` by tiles at depth 2.
+fn decided_at_depth_2(points: &[OrientedPoint], params: &MpuParams) -> TiledDecisions {
+    decide_tiled(points, params, &TileParams::at_depth(2), &Monitor::silent()).unwrap()
+}
+
 /// The tiling's own claims: enough tiles, faces crossed, halos grown when the first is 0.
 fn assert_tiling_exercised(report: &TileReport) {
     assert!(report.count >= 8, "{} tiles", report.count);
@@ -47,11 +61,10 @@ fn run(points: &[OrientedPoint], tiles: &TileParams) -> (Mpu, Mpu, TileReport) {
 
 #[test]
 fn a_noisy_sphere_tiled_is_the_whole_build_and_samples_the_same_particles() {
-    let mut points = AnalyticShape::Sphere { radius: 1.0 }.sample(20_000, 7);
-    let mut rng = Pcg64Mcg::seed_from_u64(8);
-    for p in &mut points {
-        p.p += 2e-3 * gaussian_vector(&mut rng);
-    }
+    let points = noisy(
+        AnalyticShape::Sphere { radius: 1.0 }.sample(20_000, 7),
+        2e-3,
+    );
     // No first halo and no shared levels (the sphere's octree is shallow): every tile whose
     // fits read outside its cube grows a halo.
     let tiles = TileParams {
@@ -142,13 +155,7 @@ fn the_decisions_do_not_depend_on_the_thread_count() {
 fn a_table_missing_a_cell_is_refused_not_refitted() {
     let points = AnalyticShape::Sphere { radius: 1.0 }.sample(3000, 3);
     let params = MpuParams::paper();
-    let d = decide_tiled(
-        &points,
-        &params,
-        &TileParams::at_depth(2),
-        &Monitor::silent(),
-    )
-    .unwrap();
+    let d = decided_at_depth_2(&points, &params);
     let mut partial = psi_mpu::CellTable::default();
     for (a, c) in d.cells.iter().filter(|(a, _)| a.0 < 3) {
         partial.insert(*a, c.clone()).unwrap();
@@ -204,27 +211,18 @@ fn a_build_of_the_cells_near_a_cube_is_the_whole_build_inside_it() {
     // Oracle: the build of every known cell. Only the points of a small cube are given (as a
     // region's seeding gathers them); f and ∇f inside the cube, the leaves meeting it and
     // their points must be the whole build's, and far cells must be left out.
-    let mut points = AnalyticShape::Torus {
+    let torus = AnalyticShape::Torus {
         major: 1.0,
         minor: 0.4,
-    }
-    .sample(20_000, 5);
-    let mut rng = Pcg64Mcg::seed_from_u64(8);
-    for p in &mut points {
-        p.p += 2e-3 * gaussian_vector(&mut rng);
-    }
+    };
+    let points = noisy(torus.sample(20_000, 5), 2e-3);
+    let mut rng = Pcg64Mcg::seed_from_u64(9);
     // (A finer threshold than the paper's: leaves small enough that many lie in each cube.)
     let params = MpuParams {
         error_rel: 0.002,
         ..MpuParams::paper()
     };
-    let d = decide_tiled(
-        &points,
-        &params,
-        &TileParams::at_depth(2),
-        &Monitor::silent(),
-    )
-    .unwrap();
+    let d = decided_at_depth_2(&points, &params);
     let built = |within: Option<(DVec3, f64)>, pts: &[OrientedPoint]| {
         let options = psi_mpu::BuildOptions {
             frame: Some(d.frame),
