@@ -65,6 +65,20 @@ fn check_all(points: &[DVec3], k: usize) {
             "point {i}, k {k}"
         );
     }
+    // The sweep of some slots alone (every third, and those of a box): their answers.
+    let all = index.map_nearest(k, |_, near| near.to_vec());
+    let boxed = |s: usize| index.points()[s].x < 0.3;
+    for want in [
+        &(|s: usize| s % 3 == 1) as &(dyn Fn(usize) -> bool + Sync),
+        &boxed,
+    ] {
+        let some = index.map_nearest_of(k, want, |s, near| (s, near.to_vec()));
+        let expected: Vec<(usize, Vec<(u32, f64)>)> = (0..index.len())
+            .filter(|&s| want(s))
+            .map(|s| (s, all[s].clone()))
+            .collect();
+        assert_eq!(some, expected, "k {k}");
+    }
 }
 
 #[test]

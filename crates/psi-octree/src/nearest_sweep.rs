@@ -21,7 +21,7 @@ impl MortonIndex {
         k: usize,
         f: impl Fn(usize, &[(u32, f64)]) -> T + Sync,
     ) -> Vec<T> {
-        self.map_nearest_until(k, &|| false, f)
+        self.map_nearest_until(k, &|| false, &|_| true, f)
     }
 
     /// [`map_nearest`](Self::map_nearest), stopping once `monitor`'s flag is set (checked per
@@ -33,24 +33,40 @@ impl MortonIndex {
         monitor: &Monitor<'_>,
         f: impl Fn(usize, &[(u32, f64)]) -> T + Sync,
     ) -> Result<Vec<T>, Interrupted> {
-        let mapped = self.map_nearest_until(k, &|| monitor.stopped(), f);
+        let mapped = self.map_nearest_until(k, &|| monitor.stopped(), &|_| true, f);
         monitor.check()?;
         // (A stop seen by a cell is seen by the check above: the flag is never cleared.)
         assert_eq!(mapped.len(), self.len());
         Ok(mapped)
     }
 
-    /// [`map_nearest`](Self::map_nearest) leaving out the cells that start once `stop()` holds
-    /// (the result is then shorter than the index).
+    /// [`map_nearest`](Self::map_nearest) for the slots `want` accepts alone (shape: one per
+    /// wanted slot, in slot order): each the same answer the whole sweep gives it, in the time
+    /// of the cells holding wanted slots.
+    pub fn map_nearest_of<T: Send>(
+        &self,
+        k: usize,
+        want: &(dyn Fn(usize) -> bool + Sync),
+        f: impl Fn(usize, &[(u32, f64)]) -> T + Sync,
+    ) -> Vec<T> {
+        self.map_nearest_until(k, &|| false, want, f)
+    }
+
+    /// [`map_nearest`](Self::map_nearest) for the slots `want` accepts, leaving out the cells
+    /// that start once `stop()` holds (the result is then shorter).
     fn map_nearest_until<T: Send>(
         &self,
         k: usize,
         stop: &(dyn Fn() -> bool + Sync),
+        want: &(dyn Fn(usize) -> bool + Sync),
         f: impl Fn(usize, &[(u32, f64)]) -> T + Sync,
     ) -> Vec<T> {
         let k = k.min(self.len().saturating_sub(1));
         if k == 0 {
-            return (0..self.len()).map(|s| f(s, &[])).collect();
+            return (0..self.len())
+                .filter(|&s| want(s))
+                .map(|s| f(s, &[]))
+                .collect();
         }
         let level = self.level_for(k);
         let shift = 3 * (BITS - level);
@@ -127,10 +143,10 @@ impl MortonIndex {
             .into_par_iter()
             .with_min_len(16)
             .flat_map_iter(|cell| {
-                if stop() {
+                let (a, b) = (starts[cell], starts[cell + 1]);
+                if stop() || !(a..b).any(want) {
                     return Vec::new();
                 }
-                let (a, b) = (starts[cell], starts[cell + 1]);
                 let c = self.cell_of(self.points[a], level);
                 let near_cells = cells_at(c, cell, &offsets[..inner]);
                 let block = Block::gather(self, &near_cells, level);
@@ -159,7 +175,9 @@ impl MortonIndex {
                 // that distance plus the step from the previous one (its k nearest and
                 // itself, less the point if it was one of them).
                 let mut previous: Option<(DVec3, f64)> = None;
+                // (A point left out only loosens the next one's first bound.)
                 (a..b)
+                    .filter(|&s| want(s))
                     .map(|s| {
                         let x = self.points[s];
                         let reach1 = self.block_reach(x, c, level, 1);

@@ -26,9 +26,7 @@ use psi_octree::MortonIndex;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::find_outliers::{
-    NEIGHBOURS, Nearest, NormalOf, Status, dense_globally, nearest_of, status_of,
-};
+use crate::find_outliers::{NEIGHBOURS, Nearest, NormalOf, Status, dense_globally, status_of};
 use crate::orient_by_parts::{IncompletePart, certified};
 
 /// The outlier search's statistics of the whole input (after repeats are left out).
@@ -55,24 +53,55 @@ pub enum StrayVerdict {
     OffSurface,
 }
 
-/// A part's points without the repeats, indexed, with each one's 16 nearest.
+/// A part's points without the repeats, indexed, with the 16 nearest of its own points and of
+/// their neighbours (what the own points' standings read).
 struct Neighbourhoods {
     /// The part's finite points that repeat no point of lower index, in the part's order.
     index: MortonIndex,
     /// The part's index of each slot's point.
     part_of: Vec<usize>,
-    /// Per slot.
+    /// Per slot: its 16 nearest, for the own points and their neighbours (the others' left
+    /// empty, with a NaN reach).
     nearest: Vec<Nearest>,
-    /// Per slot: whether the part holds the ball out to its 16th nearest.
+    /// Per slot: whether the part holds the ball out to its 16th nearest (false where the
+    /// nearest were not searched).
     certified: Vec<bool>,
     /// Per point of the part: whether it repeats a point of lower index.
     repeated: Vec<bool>,
 }
 
 impl Neighbourhoods {
-    fn of(positions: &[DVec3], complete: &(dyn Fn(DVec3, f64) -> bool + Sync)) -> Self {
+    /// The neighbourhoods of `positions`' own points (`own`, shape: the part's points) and
+    /// their neighbours': the own points first, then the halo points among their 16 nearest
+    /// (each answer the one a sweep of every point gives: `MortonIndex::map_nearest_of`).
+    fn of(
+        positions: &[DVec3],
+        own: &[bool],
+        complete: &(dyn Fn(DVec3, f64) -> bool + Sync),
+    ) -> Self {
         let (index, part_of, repeated) = without_repeats(positions);
-        let nearest = nearest_of(&index, &psi_octree::Monitor::silent()).expect("a silent monitor");
+        let n = index.len();
+        let mut nearest: Vec<Nearest> = vec![([0; NEIGHBOURS], f64::NAN); n];
+        let mut searched = vec![false; n];
+        let is_own = |s: usize| own[part_of[s]];
+        for (s, near) in nearest_where(&index, &is_own) {
+            nearest[s] = near;
+            searched[s] = true;
+        }
+        let mut around = vec![false; n];
+        // (All 16 entries: a part of 16 points or fewer pads them with slot 0, which the
+        // standing then reads too.)
+        for s in (0..n).filter(|&s| is_own(s)) {
+            for &q in &nearest[s].0 {
+                if !searched[q as usize] {
+                    around[q as usize] = true;
+                }
+            }
+        }
+        for (s, near) in nearest_where(&index, &|s| around[s]) {
+            nearest[s] = near;
+            searched[s] = true;
+        }
         let mut hood = Self {
             index,
             part_of,
@@ -83,7 +112,7 @@ impl Neighbourhoods {
         let by_slot = hood.index.points();
         hood.certified = (0..hood.index.len())
             .into_par_iter()
-            .map(|s| complete(by_slot[s], hood.own_reach(s)))
+            .map(|s| searched[s] && complete(by_slot[s], hood.own_reach(s)))
             .collect();
         hood
     }
@@ -220,7 +249,7 @@ pub fn part_standings(
     assert!(positions.len() == ids.len() && ids.len() == own.len());
     assert!(normals.is_none_or(|n| n.len() == positions.len()));
     assert!(ids.is_sorted(), "ids ascend");
-    let hood = Neighbourhoods::of(positions, complete);
+    let hood = Neighbourhoods::of(positions, own, complete);
     let n = hood.index.len();
     let undecided: Vec<Result<(), IncompletePart>> = (0..n)
         .into_par_iter()
@@ -272,6 +301,21 @@ pub fn part_standings(
         .zip(own)
         .filter_map(|(v, &o)| o.then_some(v))
         .collect())
+}
+
+/// The 16 nearest (as the sweep of every slot gives them) of the slots of `index` that `want` accepts,
+/// by slot.
+fn nearest_where(
+    index: &MortonIndex,
+    want: &(dyn Fn(usize) -> bool + Sync),
+) -> Vec<(usize, Nearest)> {
+    index.map_nearest_of(NEIGHBOURS, want, |s, near| {
+        let mut slots = [0u32; NEIGHBOURS];
+        for (slot, &(j, _)) in slots.iter_mut().zip(near) {
+            *slot = j;
+        }
+        (s, (slots, near.last().map_or(0.0, |l| l.1.sqrt())))
+    })
 }
 
 /// A part's finite points that repeat no point of lower index, indexed (ties among neighbours

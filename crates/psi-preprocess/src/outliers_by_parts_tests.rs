@@ -161,7 +161,7 @@ fn by_parts(
         each_part(positions, normals, parts, &|held, ids, own, with, part| {
             let complete = |x: DVec3, r: f64| part.holds_ball(x, r);
             let found = part_standings(held, ids, own, with, &complete)?;
-            let hood = Neighbourhoods::of(held, &complete);
+            let hood = Neighbourhoods::of(held, own, &complete);
             for s in (0..hood.index.len()).filter(|&s| own[hood.part_of[s]]) {
                 for &q in &hood.nearest[s].0 {
                     let id = ids[hood.part_of[q as usize]] as usize;
