@@ -349,9 +349,10 @@ impl Mpu {
         let decide = |v: psi_octree::CellView<'_>| {
             if let Some(table) = known_cells {
                 if let Some((c, h)) = within {
-                    // The distance from the cell's centre to the cube, against its support.
+                    // The distance from the cell's centre to the cube, against its support
+                    // (with a margin far above rounding: a cell kept in doubt costs nothing).
                     let gap = ((v.cell.center - c).abs() - DVec3::splat(h)).max(DVec3::ZERO);
-                    if gap.length() > v.cell.support_radius(params.alpha) {
+                    if gap.length() > v.cell.support_radius(params.alpha) * (1.0 + 1e-9) {
                         return (false, CellRecord::Void);
                     }
                 }

@@ -167,7 +167,9 @@ pub fn seed_octant(
 ) -> Result<OctantSeeds, TileError> {
     let field = base_field(decisions);
     let thin = thinning_rate(source.population(), relax_points);
-    let arena = arena_indices(&decisions.cells, mpu_params.max_depth);
+    // (The leaves of this octant alone: a map of the whole table per octant would be large.)
+    let in_octant = |(d, key): CellAddress| d == 0 || key.map(|k| k >> (d - 1)) == octant;
+    let arena = arena_indices(&decisions.cells, mpu_params.max_depth, &in_octant);
     let regions: Vec<Region> = regions_of(decisions)
         .into_iter()
         .filter(|r| octant_of(r) == octant)
@@ -411,12 +413,15 @@ fn seed_region(
         return Ok(empty);
     }
     let read = points.len();
-    // Only the cells near the region's cube are built (f and the points there are the whole
-    // build's); its leaves are named by their index in the whole octree.
+    // With one seed a leaf (its point nearest the centre), only the cells near the region's
+    // cube are built (the points there are the whole build's; its leaves are named by their
+    // index in the whole octree). More seeds take random positions keyed by the leaf's index
+    // and Newton steps that may leave the cube: the whole octree then.
+    let near_only = params.k <= 1;
     let options = BuildOptions {
         frame: Some(decisions.frame),
         known_cells: Some(&decisions.cells),
-        known_within: Some((center, half)),
+        known_within: near_only.then_some((center, half)),
         monitor: monitor.quiet(),
         ..Default::default()
     };
@@ -431,12 +436,15 @@ fn seed_region(
         if !inside(cell.depth, cell.key, region) {
             continue;
         }
-        let whole = *arena.get(&(cell.depth, cell.key)).ok_or_else(|| {
-            TileError::BadParameter(format!(
-                "the decisions lack the leaf at depth {}, key {:?}",
-                cell.depth, cell.key
-            ))
-        })?;
+        let whole = match near_only {
+            false => l,
+            true => *arena.get(&(cell.depth, cell.key)).ok_or_else(|| {
+                TileError::BadParameter(format!(
+                    "the decisions lack the leaf at depth {}, key {:?}",
+                    cell.depth, cell.key
+                ))
+            })?,
+        };
         let s = seed_leaves(&mpu, &[l], field, params);
         leaves.extend(std::iter::repeat_n(whole, s.len()));
         seeds.extend(&s);

@@ -208,3 +208,46 @@ fn the_tiled_particles_do_not_depend_on_the_thread_count() {
     assert!(one.report.regions >= 8 && !one.particles.is_empty());
     assert_eq!(one.particles, two.particles, "bitwise, in the same order");
 }
+
+#[test]
+fn several_seeds_a_leaf_tile_by_tile_are_the_whole_samplings() {
+    // k = 3: leaves with fewer points than that take random positions projected by Newton
+    // steps (keyed by the leaf's index), which the regions must give as the whole does.
+    let points = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.3,
+    }
+    .sample(6000, 13);
+    let mparams = MpuParams::paper();
+    let pparams = ParticleParams {
+        k: 3,
+        max_spacing: Some(f64::INFINITY),
+        ..ParticleParams::paper()
+    };
+    let whole = Mpu::build(&points, &mparams).unwrap();
+    let expected = initialize(&whole, &pparams).particles;
+    let sparse_leaves = whole
+        .surface_leaves()
+        .filter(|&l| whole.octree().points_in(l).len() < 3)
+        .count();
+    assert!(sparse_leaves > 0, "no leaf takes a random seed");
+    let decisions = decide_tiled(
+        &points,
+        &mparams,
+        &TileParams::at_depth(2),
+        &Monitor::silent(),
+    )
+    .unwrap();
+    let source = PointsInMemory::new(&points, decisions.frame, 2);
+    let tiled = sample_tiled(
+        &source,
+        &decisions,
+        &mparams,
+        &pparams,
+        points.len(),
+        &Monitor::silent(),
+    )
+    .unwrap();
+    assert!(tiled.report.regions >= 8, "{:?}", tiled.report);
+    assert_eq!(tiled.seeds, expected, "seeds bitwise, in the same order");
+}
