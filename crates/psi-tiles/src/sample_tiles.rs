@@ -214,7 +214,7 @@ struct Seeding<'a> {
     field: &'a DensityField,
     /// [`thinning_rate`].
     thin: Option<f64>,
-    /// The decisions' octree's arena index of each cell ([`arena_indices`]).
+    /// The decisions' octree's arena index of each leaf of the octant ([`arena_indices`]).
     arena: &'a HashMap<CellAddress, u32>,
 }
 
