@@ -1,10 +1,11 @@
 //! The distance from a place to its k-th nearest input point, from a tile store's sub-cell
 //! runs: the sub-cells within a search radius, nearest first, read until the next one lies
-//! farther than the k-th distance so far; the radius doubled while that is not settled. A far
+//! farther than the k-th distance so far; the radius doubled while that is not settled (a
+//! wider round reads only the sub-cells it adds to those read before). A far
 //! cell's fit radius R1 follows from it (Ohtake's R1 grows to the N_min + 1-th nearest point),
 //! so its ball is fetched at R1 instead of at a guess past it (notes: 2026-11-26-far-balls).
 
-use std::collections::BinaryHeap;
+use std::collections::{BinaryHeap, HashSet};
 
 use glam::DVec3;
 
@@ -46,6 +47,10 @@ impl TileStore {
         let frame = m.frame;
         let tile_edge = 2.0 * frame.root_half / f64::from(1u32 << m.depth);
         let mut reach = 2.0 * tile_edge / f64::from(SUB);
+        // The k nearest distances among the sub-cells read so far, and those sub-cells: a
+        // wider round reads only the ones it adds (the heap holds the k nearest of all read).
+        let mut heap: BinaryHeap<Dist2> = BinaryHeap::with_capacity(k + 1);
+        let mut read: HashSet<(usize, usize)> = HashSet::new();
         loop {
             let grown = DVec3::splat(reach + tile_edge);
             let lo = tile_key(&frame, m.depth, center - grown);
@@ -72,10 +77,12 @@ impl TileStore {
                 }
             }
             near.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let mut heap: BinaryHeap<Dist2> = BinaryHeap::with_capacity(k + 1);
             for &(d2, i, s) in &near {
                 if heap.len() == k && heap.peek().is_some_and(|top| d2 > top.0) {
                     break;
+                }
+                if !read.insert((i, s)) {
+                    continue;
                 }
                 let t = &m.tiles[i];
                 let range = [(t.runs[s], t.runs[s + 1])];
