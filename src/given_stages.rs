@@ -3,16 +3,46 @@
 //! keep. The partition's public steps (`partition.rs`) take the stage, so that a cluster's
 //! tasks write each store in parts.
 
+use std::fs::File;
+use std::io::Read;
 use std::path::Path;
 
 use crate::PsiError;
 use crate::budget::OutOfCore;
-use crate::input_points::{Normals, Points};
+use psi_tiles::TileStore;
+
+use crate::input_points::{KeptFrom, Normals, Points};
+use crate::tile_outliers::strays_of;
 use crate::tile_parts::RecordFile;
 
 /// The outlier step's verdicts in the scratch directory: a byte a point of the store of all
 /// points, by its index (kept: 0).
 pub(crate) const STRAYS_FILE: &str = "strays.bin";
+
+/// At most this many strays are listed for [`stray_indices`] (8 bytes each).
+const LISTED_STRAYS: usize = 1 << 21;
+
+/// The indices of the points `strays.bin` at `path` leaves out, ascending, read in one pass
+/// (a lookup among them is quick where the file's own windows would be read again for every
+/// scattered index); `None` when it cannot be read or they are more than [`LISTED_STRAYS`].
+pub(crate) fn stray_indices(path: &Path) -> Option<Vec<u64>> {
+    let mut file = File::open(path).ok()?;
+    let mut buffer = vec![0u8; 1 << 20];
+    let (mut out, mut at) = (Vec::new(), 0u64);
+    loop {
+        let n = file.read(&mut buffer).ok()?;
+        if n == 0 {
+            return Some(out);
+        }
+        for (k, _) in buffer[..n].iter().enumerate().filter(|(_, b)| **b != 0) {
+            if out.len() == LISTED_STRAYS {
+                return None;
+            }
+            out.push(at + k as u64);
+        }
+        at += n as u64;
+    }
+}
 
 /// The keep test of the outlier step's `verdicts` (`strays.bin` open): a point is kept when
 /// its verdict is 0, by its index in the store of all points.
@@ -52,9 +82,27 @@ pub(crate) fn with_given_stage<T>(
                 reason,
             })?;
             let keep = kept_by(&verdicts);
+            // The store of all points these verdicts are of, while it is there: the kept
+            // points' bounds come from it (`partition.rs` checks that it is of the same input).
+            let all = TileStore::open(&scratch.join("all")).ok();
+            let strays = stray_indices(&path);
+            let quick = |i: u64| {
+                Ok(strays
+                    .as_deref()
+                    .is_some_and(|s| s.binary_search(&i).is_err()))
+            };
+            let kept_from = all.as_ref().zip(strays.as_ref()).and_then(|(store, _)| {
+                let m = store.manifest();
+                strays_of(scratch, &m.source, Some(m.population)).map(|t| KeptFrom {
+                    store,
+                    count: m.population - t.removed(),
+                    keep: &quick,
+                })
+            });
             let points = Points {
                 normals: Normals::Given,
                 keep: Some(&keep),
+                kept_from,
             };
             f(&scratch.join("tiles"), points)
         }

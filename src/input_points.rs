@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use psi_io::{Format, PointStream, ReadOptions, chunk_oriented_points};
 use psi_octree::OrientedPoint;
+use psi_tiles::TileStore;
 
 use crate::PsiError;
 use crate::files::{check_not_dir, extension_format, open_error, read_error};
@@ -46,6 +47,20 @@ pub(crate) enum Normals<'a> {
 /// that cannot be read.
 pub(crate) type Keep<'a> = &'a (dyn Fn(u64) -> Result<bool, String> + Sync);
 
+/// The store of all points whose indices a keep test reads, and how many points it keeps:
+/// the kept points' bounds are read from its sub-cells ([`TileStore::bounds_where`]) instead
+/// of from the input (valid where every point the test keeps is stored: given normals, or
+/// none).
+#[derive(Clone, Copy)]
+pub(crate) struct KeptFrom<'a> {
+    /// The store of all points.
+    pub(crate) store: &'a TileStore,
+    /// Points the test keeps.
+    pub(crate) count: u64,
+    /// The same test, quick at scattered indices ([`crate::given_stages::stray_indices`]).
+    pub(crate) keep: Keep<'a>,
+}
+
 /// What a partition stores: the points' normals, and which points it keeps (all, without a
 /// test).
 #[derive(Clone, Copy)]
@@ -54,6 +69,8 @@ pub(crate) struct Points<'a> {
     pub(crate) normals: Normals<'a>,
     /// Which points are kept (the outlier step's verdicts).
     pub(crate) keep: Option<Keep<'a>>,
+    /// Where the kept points' bounds can be read without a pass over the input.
+    pub(crate) kept_from: Option<KeptFrom<'a>>,
 }
 
 impl<'a> Points<'a> {
@@ -62,6 +79,7 @@ impl<'a> Points<'a> {
         Self {
             normals,
             keep: None,
+            kept_from: None,
         }
     }
 

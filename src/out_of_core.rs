@@ -256,6 +256,7 @@ pub fn out_of_core_json(
             "seconds": {
                 "read": run.seconds[0],
                 "decide": run.seconds[1],
+                "top": run.tiles.top_seconds,
                 "sample": run.seconds[2],
                 "seed": run.sampling.seed_seconds,
                 "relax": run.sampling.relax_seconds,

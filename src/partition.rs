@@ -20,7 +20,7 @@ use crate::files::open_error;
 use crate::given_stages::{GivenStage, with_given_stage};
 pub use crate::input_points::has_normals;
 pub(crate) use crate::input_points::{
-    CHUNK, Keep, Normals, NormalsKind, Points, StoreKind, file_facts, for_each_input,
+    CHUNK, Keep, KeptFrom, Normals, NormalsKind, Points, StoreKind, file_facts, for_each_input,
 };
 use crate::read_ahead::{AHEAD, read_ahead};
 
@@ -154,9 +154,57 @@ fn start_in(
     if let Some(partition) = found(paths, options, dir, points.kind())? {
         return Ok(PartitionStart::Found(Box::new(partition)));
     }
+    monitor.report("read", 0, 2);
+    let (bounds, count) = match kept_extent(paths, points)? {
+        Some(known) => known,
+        None => extent_of(paths, format, points, monitor)?,
+    };
+    let bounds = bounds.ok_or_else(|| fail("holds no points".into()))?;
+    let frame = MpuFrame::for_bounds(&bounds, count as usize, mpu_params)
+        .map_err(|e| fail(e.to_string()))?;
+    let depth = options.tile_depth_for(count).map_err(&fail)?;
+    let plan = StorePlan::new(&source, &frame, depth);
+    plan.start(dir).map_err(|e| fail(e.to_string()))?;
+    Ok(PartitionStart::Planned { points: count })
+}
+
+/// The bounds and count of the points `points` keeps, from the store of all points they
+/// were chosen from ([`Points::kept_from`], when it holds these files' points; its sub-cells
+/// at the extremes alone are read); `None` otherwise. The same box as a pass over the input
+/// finds (each bound is a minimum or maximum of the same numbers).
+fn kept_extent(
+    paths: &[PathBuf],
+    points: Points<'_>,
+) -> Result<Option<(Option<Aabb>, u64)>, PsiError> {
+    let Some(from) = points.kept_from.filter(|_| points.keep.is_some()) else {
+        return Ok(None);
+    };
+    let all = StoreKind {
+        strays_left_out: false,
+        ..points.kind()
+    };
+    if from.store.manifest().source != store_source(paths, all)? {
+        return Ok(None);
+    }
+    let fail = failure_of(paths)?;
+    let bounds = from
+        .store
+        .bounds_where(from.keep)
+        .map_err(|e| fail(e.to_string()))?;
+    Ok(bounds.map(|b| (Some(b), from.count)))
+}
+
+/// The bounds and count of the points `points` gives from the files at `paths` (read as
+/// `format`): a pass over the input.
+fn extent_of(
+    paths: &[PathBuf],
+    format: Option<Format>,
+    points: Points<'_>,
+    monitor: &Monitor<'_>,
+) -> Result<(Option<Aabb>, u64), PsiError> {
+    let fail = failure_of(paths)?;
     let mut bounds: Option<Aabb> = None;
     let mut count = 0u64;
-    monitor.report("read", 0, 2);
     for_each_input(paths, format, points, |chunk| {
         count += chunk.len() as u64;
         let b = Aabb::from_points(chunk.iter().map(|p| p.p));
@@ -169,13 +217,7 @@ fn start_in(
         };
         monitor.check().map_err(|_| fail("interrupted".into()))
     })?;
-    let bounds = bounds.ok_or_else(|| fail("holds no points".into()))?;
-    let frame = MpuFrame::for_bounds(&bounds, count as usize, mpu_params)
-        .map_err(|e| fail(e.to_string()))?;
-    let depth = options.tile_depth_for(count).map_err(&fail)?;
-    let plan = StorePlan::new(&source, &frame, depth);
-    plan.start(dir).map_err(|e| fail(e.to_string()))?;
-    Ok(PartitionStart::Planned { points: count })
+    Ok((bounds, count))
 }
 
 /// The second pass over the files at `paths` for `part` of the store [`partition_start`]

@@ -235,6 +235,7 @@ pub(crate) fn partition_from_level(
         let points = Points {
             normals: Normals::Located(&normal_at),
             keep,
+            kept_from: None,
         };
         input.stage("orient", final_dir, points, monitor)?
     };

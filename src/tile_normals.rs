@@ -25,8 +25,10 @@ use psi_preprocess::{
 };
 
 use crate::PsiError;
-use crate::given_stages::{STRAYS_FILE, kept_by};
-use crate::partition::{Input, Keep, Normals, NormalsKind, Partition, Points, StoreKind, failure};
+use crate::given_stages::{STRAYS_FILE, kept_by, stray_indices};
+use crate::partition::{
+    Input, Keep, KeptFrom, Normals, NormalsKind, Partition, Points, StoreKind, failure,
+};
 use crate::tile_level_normals::partition_from_level;
 use crate::tile_outliers::{StrayTally, found_with_strays, stray_verdicts};
 use crate::tile_parts::{
@@ -105,11 +107,26 @@ pub(crate) fn partition_estimating_normals(
         None
     };
     let keep_strays = verdicts.as_ref().map(kept_by);
+    let strays = remove_outliers
+        .then(|| stray_indices(&strays_path))
+        .flatten();
+    let quick = |i: u64| {
+        Ok(strays
+            .as_deref()
+            .is_some_and(|s| s.binary_search(&i).is_err()))
+    };
     let keep: Option<Keep<'_>> = keep_strays.as_ref().map(|k| k as Keep<'_>);
     let bare = if remove_outliers {
+        // (Every position is stored: the kept points' bounds come from the store of all.)
+        let kept_from = tally.zip(strays.as_ref()).map(|(t, _)| KeptFrom {
+            store: &all.store,
+            count: all.points - t.removed(),
+            keep: &quick,
+        });
         let points = Points {
             normals: Normals::Zero,
             keep,
+            kept_from,
         };
         input.stage("kept", &kept_dir, points, monitor)?
     } else {
@@ -207,7 +224,11 @@ pub(crate) fn partition_estimating_normals(
             normals: &read,
             flips: None,
         };
-        let points = Points { normals, keep };
+        let points = Points {
+            normals,
+            keep,
+            kept_from: None,
+        };
         input.stage("normals", &estimated_dir, points, monitor)?
     };
     let kept = estimated.points as usize;
@@ -247,7 +268,11 @@ pub(crate) fn partition_estimating_normals(
             normals: &read,
             flips: Some(&flips),
         };
-        let points = Points { normals, keep };
+        let points = Points {
+            normals,
+            keep,
+            kept_from: None,
+        };
         input.stage("orient", &final_dir, points, monitor)?
     };
     drop(reader);

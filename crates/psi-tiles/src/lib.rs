@@ -31,6 +31,7 @@ mod decide_store;
 mod decide_tile;
 mod decide_tiles;
 mod error;
+mod kept_bounds;
 mod kth_distance;
 mod leaf_cover;
 mod point_source;
