@@ -260,14 +260,18 @@ pub(crate) type Nearest = ([u32; NEIGHBOURS], f64);
 /// Each point's [`Nearest`] in `index`, by slot; `None` once `monitor`'s flag is set.
 pub(crate) fn nearest_of(index: &MortonIndex, monitor: &Monitor<'_>) -> Option<Vec<Nearest>> {
     index
-        .map_nearest_with(NEIGHBOURS, monitor, |_, near| {
-            let mut slots = [0u32; NEIGHBOURS];
-            for (slot, &(j, _)) in slots.iter_mut().zip(near) {
-                *slot = j;
-            }
-            (slots, near.last().map_or(0.0, |l| l.1.sqrt()))
-        })
+        .map_nearest_with(NEIGHBOURS, monitor, |_, near| nearest_from(near))
         .ok()
+}
+
+/// A point's [`Nearest`] from its neighbours as the sweep gives them (slot, squared
+/// distance; nearest first, at most [`NEIGHBOURS`]).
+pub(crate) fn nearest_from(near: &[(u32, f64)]) -> Nearest {
+    let mut slots = [0u32; NEIGHBOURS];
+    for (slot, &(j, _)) in slots.iter_mut().zip(near) {
+        *slot = j;
+    }
+    (slots, near.last().map_or(0.0, |l| l.1.sqrt()))
 }
 
 /// The first stage's standing of the point at slot `i` of `positions` (shape: N, by slot):

@@ -26,7 +26,9 @@ use psi_octree::MortonIndex;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::find_outliers::{NEIGHBOURS, Nearest, NormalOf, Status, dense_globally, status_of};
+use crate::find_outliers::{
+    NEIGHBOURS, Nearest, NormalOf, Status, dense_globally, nearest_from, status_of,
+};
 use crate::orient_by_parts::{IncompletePart, certified};
 
 /// The outlier search's statistics of the whole input (after repeats are left out).
@@ -309,13 +311,7 @@ fn nearest_where(
     index: &MortonIndex,
     want: &(dyn Fn(usize) -> bool + Sync),
 ) -> Vec<(usize, Nearest)> {
-    index.map_nearest_of(NEIGHBOURS, want, |s, near| {
-        let mut slots = [0u32; NEIGHBOURS];
-        for (slot, &(j, _)) in slots.iter_mut().zip(near) {
-            *slot = j;
-        }
-        (s, (slots, near.last().map_or(0.0, |l| l.1.sqrt())))
-    })
+    index.map_nearest_of(NEIGHBOURS, want, |s, near| (s, nearest_from(near)))
 }
 
 /// A part's finite points that repeat no point of lower index, indexed (ties among neighbours

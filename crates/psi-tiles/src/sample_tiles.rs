@@ -167,9 +167,14 @@ pub fn seed_octant(
 ) -> Result<OctantSeeds, TileError> {
     let field = base_field(decisions);
     let thin = thinning_rate(source.population(), relax_points);
-    // (The leaves of this octant alone: a map of the whole table per octant would be large.)
+    // (The leaves of this octant alone: a map of the whole table per octant would be large.
+    // Only a region that builds the cells near it names its leaves by the map: one seed a
+    // leaf, `seed_region`.)
     let in_octant = |(d, key): CellAddress| d == 0 || key.map(|k| k >> (d - 1)) == octant;
-    let arena = arena_indices(&decisions.cells, mpu_params.max_depth, &in_octant);
+    let arena = match params.k <= 1 {
+        true => arena_indices(&decisions.cells, mpu_params.max_depth, &in_octant),
+        false => HashMap::new(),
+    };
     let regions: Vec<Region> = regions_of(decisions)
         .into_iter()
         .filter(|r| octant_of(r) == octant)
