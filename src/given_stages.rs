@@ -3,21 +3,25 @@
 //! keep. The partition's public steps (`partition.rs`) take the stage, so that a cluster's
 //! tasks write each store in parts.
 
-use std::fs::File;
+use std::fs::{self, File};
 use std::io::Read;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::PsiError;
 use crate::budget::OutOfCore;
 use psi_tiles::TileStore;
 
 use crate::input_points::{KeptFrom, Normals, Points};
-use crate::tile_outliers::strays_of;
 use crate::tile_parts::RecordFile;
 
 /// The outlier step's verdicts in the scratch directory: a byte a point of the store of all
 /// points, by its index (kept: 0).
 pub(crate) const STRAYS_FILE: &str = "strays.bin";
+
+/// Where `strays.bin`'s source is recorded: the source of the store its verdicts are of.
+pub(crate) fn strays_source(scratch: &Path) -> PathBuf {
+    scratch.join("strays.source")
+}
 
 /// At most this many strays are listed for [`stray_indices`] (8 bytes each).
 const LISTED_STRAYS: usize = 1 << 21;
@@ -91,14 +95,19 @@ pub(crate) fn with_given_stage<T>(
                     .as_deref()
                     .is_some_and(|s| s.binary_search(&i).is_err()))
             };
-            let kept_from = all.as_ref().zip(strays.as_ref()).and_then(|(store, _)| {
-                let m = store.manifest();
-                strays_of(scratch, &m.source, Some(m.population)).map(|t| KeptFrom {
-                    store,
-                    count: m.population - t.removed(),
-                    keep: &quick,
-                })
-            });
+            let kept_from = all
+                .as_ref()
+                .zip(strays.as_ref())
+                .and_then(|(store, listed)| {
+                    let m = store.manifest();
+                    let source = fs::read_to_string(strays_source(scratch));
+                    let whole = fs::metadata(&path).is_ok_and(|f| f.len() == m.population);
+                    (whole && source.is_ok_and(|s| s == m.source)).then(|| KeptFrom {
+                        store,
+                        count: m.population - listed.len() as u64,
+                        keep: &quick,
+                    })
+                });
             let points = Points {
                 normals: Normals::Given,
                 keep: Some(&keep),

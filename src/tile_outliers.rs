@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::PsiError;
 use crate::budget::OutOfCore;
-use crate::given_stages::{GivenStage, STRAYS_FILE, with_given_stage};
+use crate::given_stages::{GivenStage, STRAYS_FILE, strays_source, with_given_stage};
 use crate::partition::{Input, NormalsKind, Partition, StoreKind, failure, found, store_source};
 use crate::tile_parts::{
     Halos, WholeFile, by_tile, each_tile_into, first_halo, io_reason, read_at,
@@ -310,11 +310,6 @@ pub fn stray_verdicts_of_batch(
         &mut |bytes| file.write(&bytes),
     )?;
     file.finish()
-}
-
-/// Where `strays.bin`'s source is recorded: the source of the store its verdicts are of.
-fn strays_source(scratch: &Path) -> PathBuf {
-    scratch.join("strays.source")
 }
 
 /// The tally of `strays.bin` in `scratch` when it is whole and holds the verdicts of the store
