@@ -191,7 +191,10 @@ fn kept_extent(
         .store
         .bounds_where(from.keep)
         .map_err(|e| fail(e.to_string()))?;
-    tracing::info!(found = bounds.is_some(), "kept points' bounds from the store of all points");
+    tracing::info!(
+        found = bounds.is_some(),
+        "kept points' bounds from the store of all points"
+    );
     Ok(bounds.map(|b| (Some(b), from.count)))
 }
 
