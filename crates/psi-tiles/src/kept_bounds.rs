@@ -14,7 +14,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 use psi_octree::Aabb;
 
-use crate::sub_cells::{SUB, SUB_LEVELS, sub_cell_box};
+use crate::sub_cells::{SUB, SUB_LEVELS, occupied_sub_cells, sub_cell_box};
 use crate::tile_records::{RECORD, record_position};
 use crate::tile_store::tile_path;
 use crate::{TileError, TileStore};
@@ -38,15 +38,7 @@ impl TileStore {
         // Every non-empty sub-cell: (tile, sub-cell, its box grown by one sub-cell edge).
         let mut boxes: Vec<(usize, usize, DVec3, DVec3)> = Vec::new();
         for (i, t) in m.tiles.iter().enumerate() {
-            for s in 0..cells {
-                if t.runs[s + 1] == t.runs[s] {
-                    continue;
-                }
-                let sub = [
-                    s as u32 % SUB,
-                    (s as u32 / SUB) % SUB,
-                    s as u32 / (SUB * SUB),
-                ];
+            for (s, sub) in occupied_sub_cells(&t.runs) {
                 let (lo, hi) = sub_cell_box(&m.frame, m.depth, t.key, sub);
                 boxes.push((i, s, lo - DVec3::splat(edge), hi + DVec3::splat(edge)));
             }

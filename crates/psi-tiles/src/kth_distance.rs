@@ -9,7 +9,7 @@ use std::collections::{BinaryHeap, HashSet};
 
 use glam::DVec3;
 
-use crate::sub_cells::{SUB, box_distance, sub_cell_box};
+use crate::sub_cells::{SUB, box_distance, occupied_sub_cells, sub_cell_box};
 use crate::tile_records::{RECORD, record_position, tile_key};
 use crate::tile_store::tile_path;
 use crate::{TileError, TileStore};
@@ -61,15 +61,7 @@ impl TileStore {
                 if (0..3).any(|a| t.key[a] < lo[a] || t.key[a] > hi[a]) {
                     continue;
                 }
-                for s in 0..cells {
-                    if t.runs[s + 1] == t.runs[s] {
-                        continue;
-                    }
-                    let sub = [
-                        s as u32 % SUB,
-                        (s as u32 / SUB) % SUB,
-                        s as u32 / (SUB * SUB),
-                    ];
+                for (s, sub) in occupied_sub_cells(&t.runs) {
                     let d = box_distance(center, sub_cell_box(&frame, m.depth, t.key, sub));
                     if d <= reach {
                         near.push((d * d, i, s));

@@ -87,6 +87,17 @@ pub(crate) fn sub_cell_ranges(
     out
 }
 
+/// The non-empty sub-cells of a tile file whose runs are `runs` (shape SUB³ + 1): each one's
+/// linear index and its coordinates within the tile (x fastest).
+pub(crate) fn occupied_sub_cells(runs: &[u64]) -> impl Iterator<Item = (usize, [u32; 3])> + '_ {
+    (0..runs.len().saturating_sub(1))
+        .filter(move |&s| runs[s + 1] != runs[s])
+        .map(|s| {
+            let l = s as u32;
+            (s, [l % SUB, (l / SUB) % SUB, l / (SUB * SUB)])
+        })
+}
+
 /// The box (world units, min and max) of sub-cell `sub` of the tile `key` at `depth`, grown by
 /// far more than rounding, so that it holds every point keyed to the sub-cell.
 pub(crate) fn sub_cell_box(
