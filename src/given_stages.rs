@@ -69,10 +69,11 @@ pub enum GivenStage {
 }
 
 /// `f` with the directory and the points of `stage` of the run in `options.scratch` (for
-/// [`GivenStage::Kept`], `strays.bin` open while `f` runs).
+/// [`GivenStage::Kept`], `strays.bin` open while `f` runs; with `plans`, when `f` starts a
+/// store, the kept points' bounds readable from the store of all points, [`KeptFrom`]).
 pub(crate) fn with_given_stage<T>(
     options: &OutOfCore,
-    stage: GivenStage,
+    (stage, plans): (GivenStage, bool),
     f: impl FnOnce(&Path, Points<'_>) -> Result<T, PsiError>,
 ) -> Result<T, PsiError> {
     let scratch = &options.scratch;
@@ -88,8 +89,10 @@ pub(crate) fn with_given_stage<T>(
             let keep = kept_by(&verdicts);
             // The store of all points these verdicts are of, while it is there: the kept
             // points' bounds come from it (`partition.rs` checks that it is of the same input).
-            let all = TileStore::open(&scratch.join("all")).ok();
-            let strays = stray_indices(&path);
+            let all = plans
+                .then(|| TileStore::open(&scratch.join("all")).ok())
+                .flatten();
+            let strays = all.as_ref().and_then(|_| stray_indices(&path));
             let quick = |i: u64| {
                 Ok(strays
                     .as_deref()

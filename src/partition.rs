@@ -111,7 +111,7 @@ pub fn partition_start(
     stage: GivenStage,
     monitor: &Monitor<'_>,
 ) -> Result<PartitionStart, PsiError> {
-    with_given_stage(options, stage, |dir, points| {
+    with_given_stage(options, (stage, true), |dir, points| {
         start_in(paths, format, mpu_params, options, (dir, points), monitor)
     })
 }
@@ -242,7 +242,7 @@ pub fn partition_part(
     stage: GivenStage,
     monitor: &Monitor<'_>,
 ) -> Result<u64, PsiError> {
-    with_given_stage(options, stage, |dir, points| {
+    with_given_stage(options, (stage, false), |dir, points| {
         part_in(paths, format, part, options, (dir, points), monitor)
     })
 }
@@ -300,7 +300,7 @@ pub fn partition_assemble(
     options: &OutOfCore,
     stage: GivenStage,
 ) -> Result<Partition, PsiError> {
-    with_given_stage(options, stage, |dir, _| {
+    with_given_stage(options, (stage, false), |dir, _| {
         assemble_in(paths, parts, points, dir)
     })
 }
@@ -340,7 +340,7 @@ pub fn partition_files(
     options: &OutOfCore,
     monitor: &Monitor<'_>,
 ) -> Result<Partition, PsiError> {
-    with_given_stage(options, GivenStage::Plain, |dir, points| {
+    with_given_stage(options, (GivenStage::Plain, true), |dir, points| {
         partition_with(paths, format, mpu_params, options, (dir, points), monitor)
     })
 }

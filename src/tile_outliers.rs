@@ -452,11 +452,11 @@ pub(crate) fn partition_removing_outliers(
         clean_up()?;
         return Ok((found, tally));
     }
-    let all = with_given_stage(options, GivenStage::All, |dir, points| {
+    let all = with_given_stage(options, (GivenStage::All, true), |dir, points| {
         input.stage("all points", dir, points, monitor)
     })?;
     let tally = stray_verdicts(&all.store, scratch, true, monitor).map_err(&fail)?;
-    let kept = with_given_stage(options, GivenStage::Kept, |dir, points| {
+    let kept = with_given_stage(options, (GivenStage::Kept, true), |dir, points| {
         input.stage("kept points", dir, points, monitor)
     })?;
     clean_up()?;

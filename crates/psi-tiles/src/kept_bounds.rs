@@ -7,7 +7,8 @@
 //! face on that side, outermost first, and read until the next one's box (grown by one
 //! sub-cell edge: a point on a face may be keyed to the sub-cell beside it) lies wholly inside
 //! the extreme found so far. The answer is the minimum and maximum over every kept point, as
-//! a pass over all of them finds it.
+//! a pass over all of them in input order finds it (to the sign of a zero: a tie goes to the
+//! later point).
 
 use std::collections::HashMap;
 
@@ -18,6 +19,31 @@ use crate::sub_cells::{SUB, SUB_LEVELS, occupied_sub_cells, sub_cell_box};
 use crate::tile_records::{RECORD, record_position};
 use crate::tile_store::tile_path;
 use crate::{TileError, TileStore};
+
+/// A coordinate of a point and the point's input index.
+type Valued = (f64, u64);
+
+/// Per axis, the lowest and the highest coordinate of some points.
+type Extremes = ([Valued; 3], [Valued; 3]);
+
+/// The lower of two coordinates as a pass in input order takes it (glam's `min`, as
+/// `Aabb::from_points` folds it: on a tie, as of −0 and +0, the later point's).
+fn lower(a: Valued, b: Valued) -> Valued {
+    if b.0 < a.0 || (b.0 == a.0 && b.1 > a.1) {
+        b
+    } else {
+        a
+    }
+}
+
+/// The higher of two coordinates, as [`lower`].
+fn upper(a: Valued, b: Valued) -> Valued {
+    if b.0 > a.0 || (b.0 == a.0 && b.1 > a.1) {
+        b
+    } else {
+        a
+    }
+}
 
 impl TileStore {
     /// The bounds (world units) of the stored points whose input index `keep` accepts, reading
@@ -43,52 +69,54 @@ impl TileStore {
                 boxes.push((i, s, lo - DVec3::splat(edge), hi + DVec3::splat(edge)));
             }
         }
-        // The bounds of each sub-cell's kept points (None: it keeps none), read once.
-        let mut read: HashMap<(usize, usize), Option<Aabb>> = HashMap::new();
-        let mut kept_in = |i: usize, s: usize| -> Result<Option<Aabb>, TileError> {
+        // The extremes of each sub-cell's kept points (None: it keeps none), read once.
+        let mut read: HashMap<(usize, usize), Option<Extremes>> = HashMap::new();
+        let mut kept_in = |i: usize, s: usize| -> Result<Option<Extremes>, TileError> {
             if let Some(b) = read.get(&(i, s)) {
                 return Ok(*b);
             }
             let t = &m.tiles[i];
             let path = tile_path(self.dir(), t.key);
             let bytes = self.read_ranges(&path, t, Some(&[(t.runs[s], t.runs[s + 1])]))?;
-            let mut b: Option<Aabb> = None;
+            let mut b: Option<Extremes> = None;
             for r in bytes.chunks_exact(RECORD) {
                 let index = u64::from_le_bytes(r[..8].try_into().expect("8 bytes"));
                 if keep(index).map_err(TileError::Store)? {
                     let p = record_position(r);
-                    b = Some(b.map_or(Aabb { min: p, max: p }, |b| Aabb {
-                        min: b.min.min(p),
-                        max: b.max.max(p),
+                    let at: [Valued; 3] = std::array::from_fn(|a| (p[a], index));
+                    b = Some(b.map_or((at, at), |(lo, hi)| {
+                        let lows = std::array::from_fn(|a| lower(lo[a], at[a]));
+                        (lows, std::array::from_fn(|a| upper(hi[a], at[a])))
                     }));
                 }
             }
             read.insert((i, s), b);
             Ok(b)
         };
-        let mut min = DVec3::splat(f64::INFINITY);
-        let mut max = DVec3::splat(f64::NEG_INFINITY);
+        let mut min = [(f64::INFINITY, 0); 3];
+        let mut max = [(f64::NEG_INFINITY, 0); 3];
         for a in 0..3 {
             // The low side: the sub-cells by their grown box's low face, lowest first.
             boxes.sort_by(|x, y| x.2[a].total_cmp(&y.2[a]));
             for &(i, s, lo, _) in &boxes {
-                if lo[a] > min[a] {
+                if lo[a] > min[a].0 {
                     break;
                 }
                 if let Some(b) = kept_in(i, s)? {
-                    min[a] = min[a].min(b.min[a]);
+                    min[a] = lower(min[a], b.0[a]);
                 }
             }
             boxes.sort_by(|x, y| y.3[a].total_cmp(&x.3[a]));
             for &(i, s, _, hi) in &boxes {
-                if hi[a] < max[a] {
+                if hi[a] < max[a].0 {
                     break;
                 }
                 if let Some(b) = kept_in(i, s)? {
-                    max[a] = max[a].max(b.max[a]);
+                    max[a] = upper(max[a], b.1[a]);
                 }
             }
         }
+        let (min, max) = (DVec3::from(min.map(|v| v.0)), DVec3::from(max.map(|v| v.0)));
         Ok(min.is_finite().then_some(Aabb { min, max }))
     }
 }
@@ -102,6 +130,46 @@ mod tests {
 
     use super::*;
     use crate::TileWriter;
+
+    /// A box's bounds as their IEEE bits (−0 and +0 apart).
+    fn bits(b: Option<Aabb>) -> Option<[[u64; 3]; 2]> {
+        b.map(|b| [b.min, b.max].map(|v| v.to_array().map(f64::to_bits)))
+    }
+
+    /// A slab whose lowest z is 0, reached by points at −0 and +0 spread over many sub-cells:
+    /// the box's low z has the sign of the last of them in input order that the test keeps, as
+    /// a pass over the input folds it (oracle: `Aabb::from_points` in index order, by bits).
+    #[test]
+    fn a_tie_between_zeros_goes_to_the_later_point() {
+        let mut rng = Pcg64Mcg::seed_from_u64(5);
+        let points: Vec<OrientedPoint> = (0..6000)
+            .map(|i| {
+                let mut p = DVec3::new(rng.random(), rng.random(), rng.random()) * 4.0;
+                if i % 50 == 7 {
+                    p.z = if rng.random::<bool>() { -0.0 } else { 0.0 };
+                }
+                OrientedPoint { p, n: DVec3::Z }
+            })
+            .collect();
+        let store = store_of(&points, 2, "zeros");
+        let zeros: Vec<u64> = (0..6000).filter(|i| i % 50 == 7).collect();
+        // Each test's last kept zero is another of them.
+        for last in zeros.iter().rev().take(12) {
+            let keep = |i: u64| i % 50 != 7 || i <= *last;
+            let expected = Aabb::from_points(
+                (0..points.len() as u64)
+                    .filter(|&i| keep(i))
+                    .map(|i| points[i as usize].p),
+            );
+            let got = store.bounds_where(&|i| Ok(keep(i))).expect("read");
+            assert_eq!(
+                bits(got),
+                bits(expected),
+                "the last zero kept is point {last}"
+            );
+        }
+        let _ = std::fs::remove_dir_all(store.dir());
+    }
 
     /// A store of `points` at `depth` in a fresh directory.
     fn store_of(points: &[OrientedPoint], depth: u8, name: &str) -> TileStore {
@@ -153,11 +221,7 @@ mod tests {
                     .map(|i| points[i as usize].p),
             );
             let got = store.bounds_where(&|i| Ok(keep(i))).expect("read");
-            assert_eq!(
-                got.map(|b| (b.min, b.max)),
-                expected.map(|b| (b.min, b.max)),
-                "{name}"
-            );
+            assert_eq!(bits(got), bits(expected), "{name}");
         }
         assert!(store.bounds_where(&|_| Ok(false)).expect("read").is_none());
         let _ = std::fs::remove_dir_all(store.dir());
