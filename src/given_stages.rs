@@ -93,24 +93,16 @@ pub(crate) fn with_given_stage<T>(
                 .then(|| TileStore::open(&scratch.join("all")).ok())
                 .flatten();
             let strays = all.as_ref().and_then(|_| stray_indices(&path));
-            let quick = |i: u64| {
-                Ok(strays
-                    .as_deref()
-                    .is_some_and(|s| s.binary_search(&i).is_err()))
-            };
             let kept_from = all
                 .as_ref()
-                .zip(strays.as_ref())
-                .and_then(|(store, listed)| {
+                .zip(strays.as_deref())
+                .filter(|(store, _)| {
                     let m = store.manifest();
                     let source = fs::read_to_string(strays_source(scratch));
                     let whole = fs::metadata(&path).is_ok_and(|f| f.len() == m.population);
-                    (whole && source.is_ok_and(|s| s == m.source)).then(|| KeptFrom {
-                        store,
-                        count: m.population - listed.len() as u64,
-                        keep: &quick,
-                    })
-                });
+                    whole && source.is_ok_and(|s| s == m.source)
+                })
+                .map(|(store, strays)| KeptFrom { store, strays });
             let points = Points {
                 normals: Normals::Given,
                 keep: Some(&keep),

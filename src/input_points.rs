@@ -47,18 +47,16 @@ pub(crate) enum Normals<'a> {
 /// that cannot be read.
 pub(crate) type Keep<'a> = &'a (dyn Fn(u64) -> Result<bool, String> + Sync);
 
-/// The store of all points whose indices a keep test reads, and how many points it keeps:
-/// the kept points' bounds are read from its sub-cells ([`TileStore::bounds_where`]) instead
-/// of from the input (valid where every point the test keeps is stored: given normals, or
-/// none).
+/// The store of all points whose indices a keep test reads, and the indices it leaves out:
+/// the kept points' bounds are read from the store's sub-cells ([`TileStore::bounds_where`])
+/// instead of from the input (valid where every point the test keeps is stored: given
+/// normals, or none).
 #[derive(Clone, Copy)]
 pub(crate) struct KeptFrom<'a> {
     /// The store of all points.
     pub(crate) store: &'a TileStore,
-    /// Points the test keeps.
-    pub(crate) count: u64,
-    /// The same test, quick at scattered indices ([`crate::given_stages::stray_indices`]).
-    pub(crate) keep: Keep<'a>,
+    /// The indices of the points left out, ascending ([`crate::given_stages::stray_indices`]).
+    pub(crate) strays: &'a [u64],
 }
 
 /// What a partition stores: the points' normals, and which points it keeps (all, without a

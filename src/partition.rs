@@ -187,15 +187,17 @@ fn kept_extent(
         return Ok(None);
     }
     let fail = failure_of(paths)?;
+    let keep = |i: u64| Ok(from.strays.binary_search(&i).is_err());
     let bounds = from
         .store
-        .bounds_where(from.keep)
+        .bounds_where(&keep)
         .map_err(|e| fail(e.to_string()))?;
+    let count = from.store.manifest().population - from.strays.len() as u64;
     tracing::info!(
         found = bounds.is_some(),
         "kept points' bounds from the store of all points"
     );
-    Ok(bounds.map(|b| (Some(b), from.count)))
+    Ok(bounds.map(|b| (Some(b), count)))
 }
 
 /// The bounds and count of the points `points` gives from the files at `paths` (read as

@@ -110,18 +110,12 @@ pub(crate) fn partition_estimating_normals(
     let strays = remove_outliers
         .then(|| stray_indices(&strays_path))
         .flatten();
-    let quick = |i: u64| {
-        Ok(strays
-            .as_deref()
-            .is_some_and(|s| s.binary_search(&i).is_err()))
-    };
     let keep: Option<Keep<'_>> = keep_strays.as_ref().map(|k| k as Keep<'_>);
     let bare = if remove_outliers {
         // (Every position is stored: the kept points' bounds come from the store of all.)
-        let kept_from = tally.zip(strays.as_ref()).map(|(t, _)| KeptFrom {
+        let kept_from = strays.as_deref().map(|strays| KeptFrom {
             store: &all.store,
-            count: all.points - t.removed(),
-            keep: &quick,
+            strays,
         });
         let points = Points {
             normals: Normals::Zero,

@@ -78,11 +78,12 @@ pub struct BuildOptions<'a> {
     /// the table's regions were decided for, bitwise.
     pub known_cells: Option<&'a CellTable>,
     /// With [`BuildOptions::known_cells`]: the cube (centre in the build's local frame, half
-    /// edge; world units) where the build is used. A known cell whose support ball does not meet it is not split and has
-    /// no function (it adds nothing to f): for α ≥ 0.5 the supports of a cell's descendants lie
-    /// within its own, so f and ∇f in the cube, the leaves meeting it and their points are
-    /// those of the whole build, in the time of the cells near the cube (a tile's seeding
-    /// builds one tile's part of a large octree). Ignored without known cells or for α < 0.5.
+    /// edge; world units) where the build is used. A known cell whose support ball does not
+    /// meet it is not split and has no function (it adds nothing to f): for α ≥ 0.5 the
+    /// supports of a cell's descendants lie within its own, so f and ∇f in the cube, the
+    /// leaves meeting it and their points are those of the whole build, in the time of the
+    /// cells near the cube (a tile's seeding builds one tile's part of a large octree).
+    /// Ignored without known cells or for α < 0.5.
     pub known_within: Option<(DVec3, f64)>,
     /// The points given and the buffers' positions are those of the MPU the buffers came
     /// from ([`Mpu::into_buffers`]) but at these indices (ascending): only they are checked
