@@ -53,6 +53,8 @@ pub struct OutOfCoreRun {
     pub tiles: TileReport,
     /// The tiled sampling.
     pub sampling: TileSampleReport,
+    /// The ceiling on spacing applied (world units; `None` when there is none).
+    pub max_spacing: Option<f64>,
     /// Whether the tile files of an earlier run were used as they were.
     pub resumed: bool,
     /// Whether the input had no normals and they were estimated and oriented tile by tile.
@@ -71,10 +73,11 @@ pub struct OutOfCoreRun {
 /// the preprocessing steps of `preprocess` that run out of core (the outlier step, normals
 /// estimated where there are none), the MPU with `mpu_params` decided tile by tile, bitwise the
 /// in-core build of the same points, and particles with `particle_params` (k per leaf: the in-core seeds and count;
-/// seeded tile by tile, then relaxed at once). Tile files go to `options.scratch`; a run that finds
+/// seeded tile by tile, then relaxed at once, then the ceiling on spacing, its passes reading
+/// the tiles). Tile files go to `options.scratch`; a run that finds
 /// the files of an earlier run on the same file there resumes from them. Progress: stages
-/// `"read"`, `"tiles"`, `"sample tiles"` (and, for points without normals, first the stages of
-/// `tile_normals.rs`).
+/// `"read"`, `"tiles"`, `"sample tiles"`, `"relax"`, `"cover"` (and, for points without
+/// normals, first the stages of `tile_normals.rs`).
 ///
 /// # Errors
 ///
@@ -137,6 +140,7 @@ pub fn sample_files_out_of_core(
         dropped: part.dropped,
         tiles: decisions.report,
         sampling: sampled.report,
+        max_spacing: sampled.field.ceiling,
         resumed: part.resumed,
         normals_estimated,
         strays,
@@ -239,6 +243,10 @@ pub fn out_of_core_json(
             "k": particle_params.k,
             "iterations": particle_params.iterations,
             "after": run.after,
+            // The ceiling on spacing applied, as in core.
+            "max_spacing": run.max_spacing,
+            "added_by_ceiling": run.sampling.cover.added,
+            "replaced_by_ceiling": run.sampling.cover.removed,
         },
         "tiles": {
             "count": run.tiles.count,
@@ -260,6 +268,7 @@ pub fn out_of_core_json(
                 "sample": run.seconds[2],
                 "seed": run.sampling.seed_seconds,
                 "relax": run.sampling.relax_seconds,
+                "cover": run.sampling.cover.seconds,
             },
             "sampling": run.sampling,
             "preprocessing": {

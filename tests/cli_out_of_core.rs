@@ -212,7 +212,8 @@ fn torus_with_strays() -> Vec<psi::OrientedPoint> {
 /// The outlier step and missing normals out of core: a torus with strays (positions alone, and
 /// with normals), a box (positions alone: many ties among its neighbours) and a dense noisy
 /// sphere (positions alone, planes among a coarser level of its points), tile by tile, give
-/// the in-core run's particles byte for byte (the steps not done out of core off in both) and
+/// the in-core run's particles byte for byte (the steps not done out of core off in both; the
+/// ceiling on spacing in both, its darts on the box's faces) and
 /// leave out what it leaves out; a second run resumes from the final tiles, and only they and
 /// the verdicts are left in the scratch directory.
 #[test]
@@ -263,8 +264,6 @@ fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
             "--no-noise-estimate",
             "--no-denoise",
             "--keep-inward-normals",
-            "--max-spacing",
-            "inf",
             "-q",
             "-o",
             core.to_str().unwrap(),
@@ -306,6 +305,13 @@ fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
             "{name}: particles differ from in core"
         );
         assert!(report["tiles"]["count"].as_u64().unwrap() >= 8, "{report}");
+        assert_eq!(
+            report["particles"]["added_by_ceiling"], core_report["particles"]["added_by_ceiling"],
+            "{name}"
+        );
+        if name == "box" {
+            assert!(report["particles"]["added_by_ceiling"].as_u64() > Some(50));
+        }
         let pre = &report["tiles"]["preprocessing"];
         let normals = if with_normals {
             "given"

@@ -97,7 +97,8 @@ fn sampled_tile_by_tile(path: &std::path::Path) {
         .unwrap()
         .points;
     let mparams = MpuParams::paper();
-    // (Tiles do not apply the ceiling on spacing.)
+    // (The thinned relaxation judged alone: the ceiling's darts follow the relaxed positions;
+    // `crates/psi-tiles/tests/sample_tiles.rs` checks it tile by tile.)
     let pparams = ParticleParams {
         max_spacing: Some(f64::INFINITY),
         ..ParticleParams::paper()

@@ -64,12 +64,13 @@ pub(crate) fn threads_arg(threads: Option<i128>) -> PyResult<Option<usize>> {
 /// and the tile files to `scratch` (default: beside `output`). The same run as `psi sample
 /// INPUT --max-memory SIZE`: bitwise its particles. Preprocessing tile by tile: repeated
 /// points and outliers left out (unless `keep_outliers`), normals estimated and oriented where
-/// there are none; not yet the stray-clump search, noise threshold, denoising or ceiling on
-/// spacing. Returns the run's report (the CLI's `--json`). A rerun with the same scratch
+/// there are none; not yet the stray-clump search, noise threshold or denoising. The ceiling
+/// on spacing `max_spacing` (world units; default 2.5 % of the diagonal, `inf` for none) as in
+/// core. Returns the run's report (the CLI's `--json`). A rerun with the same scratch
 /// resumes from its tile files.
 #[pyfunction]
 #[pyo3(signature = (inputs, output, *, max_memory, scratch=None, k=1, iterations=20,
-    seed=2007, mpu_error=None, keep_outliers=false, progress=None))]
+    seed=2007, mpu_error=None, keep_outliers=false, max_spacing=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn sample_files<'py>(
     py: Python<'py>,
@@ -82,12 +83,31 @@ pub(crate) fn sample_files<'py>(
     seed: i128,
     mpu_error: Option<f64>,
     keep_outliers: bool,
+    max_spacing: Option<f64>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let particle_params = ooc_particle_params(k, iterations, seed, max_spacing)?;
     let run = (preprocess_params(keep_outliers), progress, None);
     run_sample_files(
-        py, inputs, output, max_memory, scratch, k, iterations, seed, mpu_error, run,
+        py,
+        inputs,
+        output,
+        max_memory,
+        scratch,
+        particle_params,
+        mpu_error,
+        run,
     )
+}
+
+/// The particle parameters of a run out of core: k per leaf, the ceiling on spacing.
+fn ooc_particle_params(
+    k: i128,
+    iterations: i128,
+    seed: i128,
+    max_spacing: Option<f64>,
+) -> PyResult<psi::ParticleParams> {
+    crate::sample::particle_params(iterations, Some(k), None, false, max_spacing, seed)
 }
 
 /// The preprocessing of a run out of core: the in-core defaults, outliers kept when asked.
@@ -102,7 +122,7 @@ fn preprocess_params(keep_outliers: bool) -> psi::preprocess::PreprocessParams {
 /// (key at depth 1) written to their file (or found intact), after every tile is decided.
 #[pyfunction]
 #[pyo3(signature = (scratch, octant, *, max_memory, k=1, iterations=20, seed=2007,
-    mpu_error=None, threads=None))]
+    mpu_error=None, max_spacing=None, threads=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn _ooc_seed(
     py: Python<'_>,
@@ -113,10 +133,10 @@ pub(crate) fn _ooc_seed(
     iterations: i128,
     seed: i128,
     mpu_error: Option<f64>,
+    max_spacing: Option<f64>,
     threads: Option<i128>,
 ) -> PyResult<()> {
-    let particle_params =
-        crate::sample::particle_params(iterations, Some(k), None, false, None, seed)?;
+    let particle_params = ooc_particle_params(k, iterations, seed, max_spacing)?;
     let budget = psi::OutOfCore {
         max_memory: memory_arg(max_memory)?,
         scratch: scratch.clone(),
@@ -147,7 +167,7 @@ pub(crate) fn _ooc_seed(
 /// Task of `psi.distributed.sample_files` (not API): [`sample_files`] on a pool of `threads`.
 #[pyfunction]
 #[pyo3(signature = (inputs, output, *, max_memory, scratch=None, k=1, iterations=20,
-    seed=2007, mpu_error=None, keep_outliers=false, threads=None))]
+    seed=2007, mpu_error=None, keep_outliers=false, max_spacing=None, threads=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn _ooc_sample<'py>(
     py: Python<'py>,
@@ -160,15 +180,24 @@ pub(crate) fn _ooc_sample<'py>(
     seed: i128,
     mpu_error: Option<f64>,
     keep_outliers: bool,
+    max_spacing: Option<f64>,
     threads: Option<i128>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let particle_params = ooc_particle_params(k, iterations, seed, max_spacing)?;
     let run = (
         preprocess_params(keep_outliers),
         None,
         threads_arg(threads)?,
     );
     run_sample_files(
-        py, inputs, output, max_memory, scratch, k, iterations, seed, mpu_error, run,
+        py,
+        inputs,
+        output,
+        max_memory,
+        scratch,
+        particle_params,
+        mpu_error,
+        run,
     )
 }
 
@@ -181,9 +210,7 @@ fn run_sample_files<'py>(
     output: PathBuf,
     max_memory: &Bound<'py, PyAny>,
     scratch: Option<PathBuf>,
-    k: i128,
-    iterations: i128,
-    seed: i128,
+    particle_params: psi::ParticleParams,
     mpu_error: Option<f64>,
     (preprocess, progress, threads): (
         psi::preprocess::PreprocessParams,
@@ -193,8 +220,6 @@ fn run_sample_files<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let inputs = inputs_arg(inputs)?;
     let max_memory = memory_arg(max_memory)?;
-    let particle_params =
-        crate::sample::particle_params(iterations, Some(k), None, false, None, seed)?;
     let mpu_params = mpu_params(mpu_error)?;
     let scratch = scratch.unwrap_or_else(|| default_scratch(&output));
     let options = psi::OutOfCore {

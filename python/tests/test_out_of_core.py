@@ -1,6 +1,7 @@
 """``psi.sample_files``: out of core as ``psi sample --max-memory``, bit for bit; a list of
-files read as one input; positions alone given normals tile by tile; resuming from the scratch
-files; bad sizes and too few points refused with the CLI's messages."""
+files read as one input; positions alone given normals tile by tile; the ceiling on spacing as
+in core; resuming from the scratch files; bad sizes and too few points refused with the CLI's
+messages."""
 
 import numpy as np
 import pytest
@@ -74,6 +75,35 @@ def test_positions_alone_get_their_normals_tile_by_tile_as_the_cli_does(cli, tmp
     with pytest.raises(ValueError, match="oriented.xyz: has normals where the input's first"):
         psi.sample_files([a, oriented], tmp_path / "mixed.ply", max_memory="64MiB")
     assert not (tmp_path / "mixed.ply").exists()
+
+
+def test_the_ceiling_on_spacing_covers_a_sheet_out_of_core_as_in_core(cli, tmp_path):
+    # A 2 m square sheet, positions alone (seeded): one big cell fits it, so the particles
+    # there are the ceiling's darts, thrown tile by tile out of core.
+    rng = np.random.default_rng(8)
+    pts = np.column_stack([2.0 * rng.random(20_000), 2.0 * rng.random(20_000),
+                           1e-4 * rng.standard_normal(20_000)])
+    src = tmp_path / "sheet.xyz"
+    write_positions(src, pts)
+    report = psi.sample_files(src, tmp_path / "py.ply", max_memory="64MiB", max_spacing=0.1)
+    parts = report["particles"]
+    assert parts["max_spacing"] == 0.1 and parts["added_by_ceiling"] > 300, parts
+    assert report["tiles"]["sampling"]["cover"]["passes"] >= 3
+    # The CLI out of core and in core (the steps not done out of core off): the same bytes.
+    run_cli(cli, "sample", src, "--max-memory", "64MiB", "--max-spacing", "0.1",
+            "-o", tmp_path / "ooc.ply", "--scratch", tmp_path / "s")
+    run_cli(cli, "sample", src, "--no-noise-estimate", "--no-denoise", "--keep-inward-normals",
+            "--max-spacing", "0.1", "-o", tmp_path / "core.ply")
+    py = (tmp_path / "py.ply").read_bytes()
+    assert py == (tmp_path / "ooc.ply").read_bytes()
+    assert py == (tmp_path / "core.ply").read_bytes()
+    # No ceiling: a handful of particles.
+    none = psi.sample_files(src, tmp_path / "none.ply", max_memory="64MiB",
+                            max_spacing=float("inf"))
+    assert none["particles"]["max_spacing"] is None
+    assert none["particles"]["count"] < 20
+    with pytest.raises(ValueError, match="max_spacing"):
+        psi.sample_files(src, tmp_path / "bad.ply", max_memory="64MiB", max_spacing=0.0)
 
 
 def test_outliers_are_left_out_tile_by_tile_unless_kept(cli, tmp_path):

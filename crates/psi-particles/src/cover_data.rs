@@ -13,9 +13,8 @@ use psi_mpu::Mpu;
 use psi_octree::Aabb;
 use rayon::prelude::*;
 
-use crate::dart_grid::DartGrid;
+use crate::dart_rounds::{CoverPoints, DartCells, PointsInMemory, throw_darts_in_rounds};
 use crate::project::project_to_surface;
-use crate::seed::spread_hash;
 use crate::sigma_scale::SigmaScale;
 use crate::{DensityField, ParticleGrid, ParticleParams, Particles};
 
@@ -54,65 +53,15 @@ pub fn spacing_ceiling(mpu: &Mpu, max_spacing: Option<f64>) -> f64 {
     }
 }
 
-/// Those of `candidates` (input point indices, [`Mpu::points`], ascending; `None`: all) that
-/// lie farther than `radius` (world units) from every one of `positions` (shape N, world
-/// units), ascending. Only the positions within `radius` of the candidates' box are indexed.
-pub(crate) fn uncovered_points(
-    mpu: &Mpu,
-    positions: &[DVec3],
-    radius: f64,
-    candidates: Option<&[u32]>,
-) -> Vec<u32> {
-    let points = mpu.points();
-    let all: Vec<u32>;
-    let candidates = match candidates {
-        Some(c) => c,
-        None => {
-            all = (0..points.len() as u32).collect();
-            &all
-        }
-    };
-    let Some(b) = Aabb::from_points(candidates.iter().map(|&q| points[q as usize].p)) else {
-        return Vec::new();
-    };
-    let (lo, hi) = (b.min - DVec3::splat(radius), b.max + DVec3::splat(radius));
-    let near: Vec<DVec3> = positions
-        .iter()
-        .filter(|x| x.cmpge(lo).all() && x.cmple(hi).all())
-        .copied()
-        .collect();
-    let grid = ParticleGrid::new(&near, radius);
-    candidates
-        .par_iter()
-        .map_init(Vec::new, |found, &q| {
-            found.clear();
-            grid.append_within(points[q as usize].p, radius, found);
-            found.is_empty().then_some(q)
-        })
-        .flatten_iter()
-        .collect()
-}
-
-/// A maximal set of `candidates` (input point indices) at least `radius` apart (world units):
-/// each candidate in a hashed order (seeded by `seed`) is kept when no kept one lies within
-/// `radius`. Returns the kept indices ascending; the same for any thread count.
-pub(crate) fn throw_darts(mpu: &Mpu, candidates: &[u32], radius: f64, seed: u64) -> Vec<u32> {
-    let points = mpu.points();
-    let mut order = candidates.to_vec();
-    // (The keys are distinct, so an unstable sort gives the one order.)
-    order.par_sort_unstable_by_key(|&q| (spread_hash(q as usize ^ seed as usize), q));
-    let mut kept = DartGrid::new(radius, 1024);
-    let mut out = Vec::new();
-    let r2 = radius * radius;
-    for q in order {
-        let p = points[q as usize].p;
-        if !kept.any_around(p, |_, k| k.distance_squared(p) < r2) {
-            kept.insert(q, p);
-            out.push(q);
-        }
-    }
-    out.sort_unstable();
-    out
+/// What [`cover_from`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Covered {
+    /// Particles added (darts).
+    pub added: usize,
+    /// Particles taken out (those whose σ̂ the cap lowered).
+    pub removed: usize,
+    /// Passes over the candidate points (one when every one is covered).
+    pub passes: usize,
 }
 
 /// Covers the input points `candidates` (indices into [`Mpu::points`], ascending; `None`: all)
@@ -121,11 +70,11 @@ pub(crate) fn throw_darts(mpu: &Mpu, candidates: &[u32], radius: f64, seed: u64)
 /// [`COVER_RADIUS`] × the ceiling from every particle: `field`'s σ̂ is capped (a cap it already
 /// has is kept); the changeable particles whose σ̂ the cap lowers (those of shallow, flat cells,
 /// spaced by their cells rather than the ceiling) are taken out; darts are thrown over the
-/// candidates the rest leave uncovered, projected onto the surface (Newton, `params`'
-/// tolerance) and placed at `first`, before the changeable particles left, with σ = c·σ̂ under
-/// the capped field. The darts are final: a maximal dart set is already even (its
-/// nearest-neighbour distances are 1.06 × the radius on average with a CV of 0.06), where a
-/// relaxation would pile particles onto creases (a particle pushed over a convex edge is
+/// candidates the rest leave uncovered ([`throw_darts_in_rounds`]), projected onto the surface
+/// (Newton, `params`' tolerance) and placed at `first`, before the changeable particles left,
+/// with σ = c·σ̂ under the capped field. The darts are final: a maximal dart set is already
+/// even (its nearest-neighbour distances are about 1.06 × the radius with a CV of 0.06), where
+/// a relaxation would pile particles onto creases (a particle pushed over a convex edge is
 /// projected back onto it). Returns how many particles were added and how many taken out
 /// ((0, 0): nothing changed).
 pub fn cover_data(
@@ -137,14 +86,57 @@ pub fn cover_data(
     candidates: Option<&[u32]>,
     params: &ParticleParams,
 ) -> (usize, usize) {
+    let points = mpu.points();
+    let source = PointsInMemory { points, candidates };
+    // Only the particles near the candidates are indexed (a stroke's leaves).
+    let near = candidates.and_then(|c| Aabb::from_points(c.iter().map(|&q| points[q as usize].p)));
+    match cover_from(mpu, &source, near, particles, first, field, ceiling, params) {
+        Ok(c) => (c.added, c.removed),
+        Err(never) => match never {},
+    }
+}
+
+/// [`cover_data`] with the candidates from `source` (all of them inside `near`, world units,
+/// when given): a tile store's points out of core. `mpu` projects the darts (its f is the
+/// whole input's; its points serve only where a projection stalls).
+///
+/// Errors: the source's.
+#[allow(clippy::too_many_arguments)]
+pub fn cover_from<S: CoverPoints + ?Sized>(
+    mpu: &Mpu,
+    source: &S,
+    near: Option<Aabb>,
+    particles: &mut Particles,
+    first: usize,
+    field: &mut DensityField,
+    ceiling: f64,
+    params: &ParticleParams,
+) -> Result<Covered, S::Error> {
     let n = particles.len();
     if !(ceiling.is_finite() && ceiling > 0.0) || n == 0 || first > n {
-        return (0, 0);
+        return Ok(Covered::default());
     }
     let radius = COVER_RADIUS * ceiling;
-    let mut uncovered = uncovered_points(mpu, &particles.positions, radius, candidates);
-    if uncovered.is_empty() {
-        return (0, 0);
+    let grid_of = |positions: &[DVec3]| match near {
+        None => ParticleGrid::new(positions, radius),
+        Some(b) => {
+            let (lo, hi) = (b.min - DVec3::splat(radius), b.max + DVec3::splat(radius));
+            let inside: Vec<DVec3> = positions
+                .iter()
+                .filter(|x| x.cmpge(lo).all() && x.cmple(hi).all())
+                .copied()
+                .collect();
+            ParticleGrid::new(&inside, radius)
+        }
+    };
+    let cells = DartCells::for_radius(mpu.frame_origin(), DART_RADIUS * ceiling, params.seed);
+    let mut grid = grid_of(&particles.positions);
+    let reps = source.representatives(&cells, &|p| !grid.any_within(p, radius))?;
+    if reps.is_empty() {
+        return Ok(Covered {
+            passes: 1,
+            ..Covered::default()
+        });
     }
     let scale_from = if first > 0 { 0..first } else { 0..n };
     let c =
@@ -161,18 +153,25 @@ pub fn cover_data(
         .collect();
     particles.retain_mask(&keep);
     let removed = n - particles.len();
-    if removed > 0 {
-        uncovered = uncovered_points(mpu, &particles.positions, radius, candidates);
-    }
-    let darts = throw_darts(mpu, &uncovered, DART_RADIUS * ceiling, params.seed);
+    // The first pass's representatives are the first round's when no particle left.
+    let reps = match removed {
+        0 => Some(reps),
+        _ => {
+            grid = grid_of(&particles.positions);
+            None
+        }
+    };
+    let (darts, passes) =
+        throw_darts_in_rounds(source, &|p| !grid.any_within(p, radius), &cells, reps)?;
     let tol = params.newton_tolerance * mpu.diagonal();
+    let origin = mpu.frame_origin();
     let placed: Vec<(DVec3, DVec3, u8)> = darts
         .par_iter()
-        .map(|&q| {
-            let p = mpu.points()[q as usize];
+        .map(|p| {
             let on = project_to_surface(mpu, p.p, tol, ceiling);
-            let leaf = on.leaf.unwrap_or_else(|| mpu.octree().leaf_of_point(q));
-            let depth = mpu.octree().cell(leaf).depth;
+            let tree = mpu.octree();
+            let leaf = on.leaf.or_else(|| tree.leaf_containing(p.p - origin));
+            let depth = tree.cell(leaf.unwrap_or(0)).depth;
             (on.position, on.gradient.normalize_or(p.n), depth)
         })
         .collect();
@@ -185,7 +184,11 @@ pub fn cover_data(
     let rest = particles.split_off(first);
     particles.extend(&added);
     particles.extend(&rest);
-    (darts.len(), removed)
+    Ok(Covered {
+        added: darts.len(),
+        removed,
+        passes: passes + 1,
+    })
 }
 
 #[cfg(test)]
@@ -194,44 +197,86 @@ mod tests {
     use psi_mpu::MpuParams;
     use psi_shapes::AnalyticShape;
 
-    fn sphere() -> Mpu {
-        let points = AnalyticShape::Sphere { radius: 1.0 }.sample(4000, 3);
-        Mpu::build(&points, &MpuParams::paper()).unwrap()
-    }
-
+    /// Every input point ends within the darts' radius of a particle, on a sheet whose one big
+    /// cell gives a single particle.
     #[test]
-    fn uncovered_points_match_brute_force() {
-        let mpu = sphere();
-        let positions: Vec<DVec3> = mpu.points().iter().step_by(97).map(|p| p.p).collect();
-        for radius in [0.05, 0.2, 0.4] {
-            let fast = uncovered_points(&mpu, &positions, radius, None);
-            let brute: Vec<u32> = (0..mpu.points().len() as u32)
-                .filter(|&q| {
-                    let p = mpu.points()[q as usize].p;
-                    positions.iter().all(|x| x.distance(p) > radius)
-                })
-                .collect();
-            assert_eq!(fast, brute, "radius {radius}");
-            assert!(!brute.is_empty() || radius > 0.2);
-        }
-    }
-
-    #[test]
-    fn darts_are_apart_and_leave_no_candidate_uncovered() {
-        let mpu = sphere();
-        let all: Vec<u32> = (0..mpu.points().len() as u32).collect();
-        let radius = 0.15;
-        let kept = throw_darts(&mpu, &all, radius, 7);
-        let at = |q: u32| mpu.points()[q as usize].p;
-        for (i, &a) in kept.iter().enumerate() {
-            for &b in &kept[i + 1..] {
-                assert!(at(a).distance(at(b)) >= radius);
+    fn a_sheet_ends_covered() {
+        let mut points = Vec::new();
+        for i in 0..80 {
+            for j in 0..80 {
+                let p = DVec3::new(i as f64 / 79.0, j as f64 / 79.0, 0.0);
+                points.push(psi_octree::OrientedPoint { p, n: DVec3::Z });
             }
         }
-        // Maximal: every candidate lies within the radius of a kept one.
-        for &q in &all {
-            assert!(kept.iter().any(|&k| at(k).distance(at(q)) < radius));
+        let mpu = Mpu::build(&points, &MpuParams::paper()).unwrap();
+        let params = ParticleParams::paper();
+        let run = crate::sample(&mpu, &params);
+        let ceiling = spacing_ceiling(&mpu, None);
+        assert!(
+            run.report.added_by_ceiling > 100,
+            "{}",
+            run.report.added_by_ceiling
+        );
+        for p in &points {
+            let nearest = run
+                .particles
+                .positions
+                .iter()
+                .map(|x| x.distance(p.p))
+                .fold(f64::INFINITY, f64::min);
+            assert!(nearest < DART_RADIUS * ceiling * (1.0 + 1e-9), "{nearest}");
         }
-        assert_eq!(kept, throw_darts(&mpu, &all, radius, 7));
+    }
+
+    /// A sphere's relaxed particles cover its points: nothing changes, in one pass.
+    #[test]
+    fn a_covered_surface_is_left_as_it_is() {
+        let points = AnalyticShape::Sphere { radius: 1.0 }.sample(4000, 3);
+        let mpu = Mpu::build(&points, &MpuParams::paper()).unwrap();
+        let params = ParticleParams {
+            max_spacing: Some(f64::INFINITY),
+            ..ParticleParams::paper()
+        };
+        let run = crate::sample(&mpu, &params);
+        let mut particles = run.particles;
+        let before = particles.clone();
+        let mut field = run.report.density;
+        let source = PointsInMemory {
+            points: mpu.points(),
+            candidates: None,
+        };
+        let ceiling = 0.5;
+        let done = cover_from(
+            &mpu,
+            &source,
+            None,
+            &mut particles,
+            0,
+            &mut field,
+            ceiling,
+            &params,
+        );
+        assert_eq!(
+            done,
+            Ok(Covered {
+                added: 0,
+                removed: 0,
+                passes: 1
+            })
+        );
+        assert_eq!(particles, before);
+        assert_eq!(field.cap, None);
+        // A ceiling far below the spacing: darts everywhere.
+        let done = cover_from(
+            &mpu,
+            &source,
+            None,
+            &mut particles,
+            0,
+            &mut field,
+            0.02,
+            &params,
+        );
+        assert!(done.unwrap().added > before.len());
     }
 }

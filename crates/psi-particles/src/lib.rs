@@ -12,7 +12,9 @@
 //! * [`separate_close_pairs`]: uniform mode's last step, pushing apart the pairs relaxation
 //!   left closer than [`SEPARATION`] of the spacing;
 //! * [`cover_data`]: the ceiling on spacing ([`MAX_SPACING`] of D by default), darts where the
-//!   relaxed particles leave input points uncovered (flat regions).
+//!   relaxed particles leave input points uncovered (flat regions); [`cover_from`] with the
+//!   points from a [`CoverPoints`] source (a tile store), the darts thrown in rounds
+//!   ([`throw_darts_in_rounds`]) that do not depend on how the points come.
 //!
 //! ```
 //! use psi_mpu::{Mpu, MpuParams};
@@ -28,6 +30,7 @@
 
 mod cover_data;
 mod dart_grid;
+mod dart_rounds;
 mod density;
 mod depth_range;
 mod neighbours;
@@ -46,7 +49,10 @@ mod separate;
 mod sigma_scale;
 mod transfer_attributes;
 
-pub use cover_data::{COVER_RADIUS, MAX_SPACING, cover_data, spacing_ceiling};
+pub use cover_data::{COVER_RADIUS, Covered, MAX_SPACING, cover_data, cover_from, spacing_ceiling};
+pub use dart_rounds::{
+    CELLS_PER_RADIUS, CoverPoints, DartCells, Representatives, throw_darts_in_rounds,
+};
 pub use density::{DensityField, paper_weight};
 pub use depth_range::depth_range;
 pub use octree_buckets::OctreeBuckets;

@@ -161,6 +161,39 @@ impl ParticleGrid {
         }
         out.truncate(len);
     }
+
+    /// Whether an indexed point lies within `radius` of `x` (|p − x| ≤ radius): whether
+    /// [`ParticleGrid::append_within`] would append any.
+    pub fn any_within(&self, x: DVec3, radius: f64) -> bool {
+        if self.ids.is_empty() || radius.is_nan() || radius < 0.0 || !x.is_finite() {
+            return false;
+        }
+        let lo = (x - radius - self.min) * self.inv_edge;
+        let hi = (x + radius - self.min) * self.inv_edge;
+        let range = |a: f64, b: f64, n: usize| {
+            (b >= 0.0 && a < n as f64).then(|| (a.max(0.0) as usize, (b as usize).min(n - 1)))
+        };
+        let (Some((x0, x1)), Some((y0, y1)), Some((z0, z1))) = (
+            range(lo.x, hi.x, self.dims[0]),
+            range(lo.y, hi.y, self.dims[1]),
+            range(lo.z, hi.z, self.dims[2]),
+        ) else {
+            return false;
+        };
+        let r2 = radius * radius;
+        (z0..=z1).any(|z| {
+            (y0..=y1).any(|y| {
+                let row = self.dims[0] * (y + self.dims[1] * z);
+                let (a, b) = (
+                    self.starts[row + x0] as usize,
+                    self.starts[row + x1 + 1] as usize,
+                );
+                self.positions[a..b]
+                    .iter()
+                    .any(|p| (*p - x).length_squared() <= r2)
+            })
+        })
+    }
 }
 
 #[cfg(test)]
@@ -209,6 +242,11 @@ mod tests {
                 };
                 let mut got = vec![u32::MAX];
                 grid.append_within(x, r, &mut got);
+                assert_eq!(
+                    grid.any_within(x, r),
+                    got.len() > 1,
+                    "edge {edge}, query {q}"
+                );
                 assert_eq!(got.remove(0), u32::MAX, "appends after what was there");
                 got.sort_unstable();
                 let want: Vec<u32> = (0..pts.len() as u32)

@@ -13,7 +13,8 @@
 //! [`decide_store_top_upper`], [`decide_store_top_group`], [`decide_store_top_keys`] and
 //! [`decide_store_tiles`]); particles:
 //! [`sample_tiled`] (seeds exactly the whole sampling's, region by region; one relaxation of
-//! them all, on the decisions and the points the memory allows).
+//! them all, on the decisions and the points the memory allows; then the ceiling on spacing,
+//! its passes reading the input tile by tile).
 //!
 //! ```
 //! use psi_mpu::MpuParams;
@@ -27,6 +28,7 @@
 //! ```
 
 mod arena_order;
+mod cover_parts;
 mod decide_store;
 mod decide_tile;
 mod decide_tiles;
@@ -59,8 +61,8 @@ pub use decide_tiles::{TiledDecisions, build_tiled, decide_tiled};
 pub use error::TileError;
 pub use point_source::{PointSource, PointsInMemory};
 pub use sample_tiles::{
-    OctantSeeds, SEED_MARGIN, TileSampleReport, TiledSampling, sample_tiled, sample_tiled_from,
-    seed_octant, seed_octants,
+    OctantSeeds, SEED_MARGIN, TileCover, TileSampleReport, TiledSampling, sample_tiled,
+    sample_tiled_from, seed_octant, seed_octants,
 };
 pub use seed_store::seed_store_octant;
 pub use store_plan::{StorePart, StorePlan, WrittenPart};

@@ -2,7 +2,7 @@
 //! store on disk; both give the points near a cube in input index order.
 
 use glam::DVec3;
-use psi_mpu::MpuFrame;
+use psi_mpu::{MpuFrame, Region};
 use psi_octree::OrientedPoint;
 
 use crate::tile_buckets::TileBuckets;
@@ -51,6 +51,14 @@ pub trait PointSource: Sync {
         self.gather_box_where(frame.root_center, frame.root_half, 0.0, &|p| {
             position_hash(p) < rate
         })
+    }
+
+    /// Cubes (local centre, half-edge; world units) that together hold every point, each
+    /// small enough for a gather to hold in memory: the store's tiles, or the root cube (the
+    /// default, for points in memory). A point on a face may lie in two.
+    fn parts(&self) -> Vec<(DVec3, f64)> {
+        let frame = self.frame();
+        vec![(frame.root_center, frame.root_half)]
     }
 
     /// The distance (world units) from world position `center` to its `k`-th nearest input
@@ -138,6 +146,15 @@ impl PointSource for TileStore {
 
     fn population(&self) -> usize {
         self.manifest().population as usize
+    }
+
+    fn parts(&self) -> Vec<(DVec3, f64)> {
+        let manifest = self.manifest();
+        manifest
+            .tiles
+            .iter()
+            .map(|t| Region::tile(manifest.depth, t.key).cube(&manifest.frame))
+            .collect()
     }
 
     fn gather_box_where(

@@ -6,7 +6,8 @@
 //! the decisions with the points the memory allows: every input point when they fit (then the
 //! particles are bitwise the whole sampling's), else a thinned subset for the relaxation's data
 //! test. The particles are few (they follow the surface, not the input's density), so one
-//! relaxation of them all fits where the points do not, and it has no seams.
+//! relaxation of them all fits where the points do not, and it has no seams. The ceiling on
+//! spacing follows, its passes reading the input part by part (`cover_parts.rs`).
 
 use std::collections::HashMap;
 use std::time::Instant;
@@ -16,13 +17,14 @@ use glam::DVec3;
 use psi_mpu::{BuildOptions, CellAddress, Mpu, MpuParams, Region};
 use psi_octree::Monitor;
 use psi_particles::{
-    DensityField, ParticleParams, Particles, Quality, RelaxOptions, measure_quality, relax,
-    seed_leaves,
+    DensityField, ParticleParams, Particles, Quality, RelaxOptions, cover_from, measure_quality,
+    relax, seed_leaves, spacing_ceiling,
 };
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::arena_order::arena_indices;
+use crate::cover_parts::PartsCover;
 use crate::decide_tile::tile_keys;
 use crate::leaf_cover::LeafCover;
 use crate::thinned_data::ThinnedData;
@@ -68,6 +70,22 @@ pub struct TileSampleReport {
     pub seed_seconds: f64,
     /// Seconds relaxing.
     pub relax_seconds: f64,
+    /// Seconds.
+    pub seconds: f64,
+    /// The ceiling on spacing.
+    #[serde(default)]
+    pub cover: TileCover,
+}
+
+/// What the ceiling on spacing did out of core ([`psi_particles::cover_from`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TileCover {
+    /// Particles added where the relaxed ones left input points uncovered.
+    pub added: usize,
+    /// Particles taken out (σ̂ capped under the ceiling; replaced by the added ones).
+    pub removed: usize,
+    /// Passes over the input (one when every point is covered).
+    pub passes: usize,
     /// Seconds.
     pub seconds: f64,
 }
@@ -227,9 +245,10 @@ struct Seeding<'a> {
 /// particles per surface leaf; exact counts and uniform mode throw darts over the whole input
 /// and are refused here): the regions' seeds (by octant, in parallel), then one relaxation of
 /// them all whose MPU holds at most `relax_points` input points (all of them when there are no
-/// more: then the particles are bitwise [`psi_particles::sample`]'s without the ceiling on
-/// spacing). The result does not depend on the order of the octants or the thread count.
-/// Progress: stage `"sample tiles"` (octants seeded), then `"relax"`.
+/// more: then the particles are bitwise [`psi_particles::sample`]'s), then the ceiling on
+/// spacing over every input point, read part by part ([`psi_particles::cover_from`]). The
+/// result does not depend on the order of the octants or the thread count.
+/// Progress: stage `"sample tiles"` (octants seeded), then `"relax"`, then `"cover"`.
 ///
 /// Errors: [`TileError::BadParameter`] for an exact count or uniform mode, the point source's
 /// errors, an interruption.
@@ -338,6 +357,7 @@ pub fn sample_tiled_from(
     };
     let held = points.len();
     let mut particles = seeds.clone();
+    let mut cover = TileCover::default();
     let after = if points.is_empty() {
         Quality::default()
     } else {
@@ -355,6 +375,33 @@ pub fn sample_tiled_from(
         };
         relax(&mpu, &mut particles, &field, params, options);
         monitor.check()?;
+        // The ceiling on spacing, as the whole sampling applies it: its passes read every
+        // input point, tile by tile.
+        let ceiling = Some(spacing_ceiling(&mpu, params.max_spacing)).filter(|s| s.is_finite());
+        field.ceiling = ceiling;
+        if let Some(s) = ceiling {
+            monitor.report("cover", 0, 1);
+            let t = Instant::now();
+            let source = PartsCover { source };
+            let covered = cover_from(
+                &mpu,
+                &source,
+                None,
+                &mut particles,
+                0,
+                &mut field,
+                s,
+                params,
+            )?;
+            monitor.check()?;
+            monitor.report("cover", 1, 1);
+            cover = TileCover {
+                added: covered.added,
+                removed: covered.removed,
+                passes: covered.passes,
+                seconds: t.elapsed().as_secs_f64(),
+            };
+        }
         measure_quality(&mpu, &particles)
     };
     Ok(TiledSampling {
@@ -367,8 +414,9 @@ pub fn sample_tiled_from(
             points_read,
             relax_points: held,
             seed_seconds,
-            relax_seconds: t1.elapsed().as_secs_f64(),
+            relax_seconds: t1.elapsed().as_secs_f64() - cover.seconds,
             seconds: t0.elapsed().as_secs_f64(),
+            cover,
         },
     })
 }

@@ -1,6 +1,7 @@
 //! Particles tile by tile against the whole sampling (the oracle): bitwise the same seeds, and
 //! bitwise the same particles when every point fits the relaxation; with a thinned data test
-//! the same count and quality (per-level spacing CV within 5 %, on the surface), and no seam
+//! the same count before the ceiling on spacing (within 1 % after it) and quality (per-level
+//! spacing CV within 5 %, on the surface), and no seam
 //! (spacing CV, relative to each particle's target, near tile faces at most 1.1 × elsewhere).
 
 use glam::DVec3;
@@ -58,15 +59,17 @@ fn seam_cvs(p: &Particles, frame: &MpuFrame, depth: u8, width: f64) -> (f64, f64
 
 fn check(points: &[OrientedPoint], depth: u8, seam: bool) {
     let mparams = MpuParams::paper();
-    // Tiles do not apply the ceiling on spacing yet (docs/notes/2026-11-25-spacing-ceiling.md):
-    // the whole sampling is compared without it.
+    // With the ceiling on spacing (the default), its passes reading the points tile by tile;
+    // the relaxation's thinned data test is judged without it (below).
+    let covered = ParticleParams::paper();
     let pparams = ParticleParams {
         max_spacing: Some(f64::INFINITY),
-        ..ParticleParams::paper()
+        ..covered
     };
     let whole = Mpu::build(points, &mparams).unwrap();
     let expected_seeds = initialize(&whole, &pparams).particles;
     let expected = sample(&whole, &pparams);
+    let expected_covered = sample(&whole, &covered);
     let tiles = TileParams {
         depth,
         halo: 0.25,
@@ -74,31 +77,43 @@ fn check(points: &[OrientedPoint], depth: u8, seam: bool) {
     };
     let decisions = decide_tiled(points, &mparams, &tiles, &Monitor::silent()).unwrap();
     let source = PointsInMemory::new(points, decisions.frame, depth);
-    let run = |relax_points: usize| {
+    let run = |relax_points: usize, params: &ParticleParams| {
         sample_tiled(
             &source,
             &decisions,
             &mparams,
-            &pparams,
+            params,
             relax_points,
             &Monitor::silent(),
         )
         .unwrap()
     };
 
-    // Every point fits: the relaxation is the whole sampling's, bit for bit.
-    let exact = run(points.len());
+    // Every point fits: the relaxation is the whole sampling's, bit for bit, and so is the
+    // ceiling's cover.
+    let exact = run(points.len(), &covered);
     assert_eq!(
         exact.seeds, expected_seeds,
         "seeds bitwise, in the same order"
     );
-    assert_eq!(exact.particles, expected.particles, "particles bitwise");
+    assert_eq!(
+        exact.particles, expected_covered.particles,
+        "particles bitwise"
+    );
+    assert_eq!(exact.field, expected_covered.report.density);
+    let cover = &exact.report.cover;
+    assert_eq!(cover.added, expected_covered.report.added_by_ceiling);
+    assert_eq!(cover.removed, expected_covered.report.replaced_by_ceiling);
     assert_eq!(exact.report.relax_points, points.len());
     assert!(exact.report.regions >= 8, "{:?}", exact.report);
     assert_eq!(exact.after, measure_quality(&whole, &exact.particles));
 
-    // A third of the points fit: the data test reads about a third of them.
-    let tiled = run(points.len() / 3);
+    // A third of the points fit: the data test reads about a third of them. With the ceiling,
+    // its darts follow the relaxed positions: about as many.
+    let thinned_covered = run(points.len() / 3, &covered);
+    let ratio = thinned_covered.particles.len() as f64 / expected_covered.particles.len() as f64;
+    assert!((0.98..=1.02).contains(&ratio), "{ratio}");
+    let tiled = run(points.len() / 3, &pparams);
     assert_eq!(tiled.seeds, expected_seeds);
     assert_eq!(tiled.particles.len(), expected.particles.len());
     assert!(
@@ -250,4 +265,65 @@ fn several_seeds_a_leaf_tile_by_tile_are_the_whole_samplings() {
     .unwrap();
     assert!(tiled.report.regions >= 8, "{:?}", tiled.report);
     assert_eq!(tiled.seeds, expected, "seeds bitwise, in the same order");
+}
+
+/// A box's faces are planes, fitted by big cells that seed few particles: the ceiling on
+/// spacing adds darts over them. Tile by tile its passes read the points tile by tile, and
+/// the particles are the whole sampling's bitwise when every point fits; with a third of them
+/// in the relaxation, the same count within 3 % and every input point covered.
+#[test]
+fn a_box_covered_tile_by_tile_is_covered_as_a_whole() {
+    let points = AnalyticShape::Box {
+        half: DVec3::new(1.0, 0.7, 0.4),
+    }
+    .sample(30_000, 3);
+    let mparams = MpuParams::paper();
+    let pparams = ParticleParams::paper();
+    let whole = Mpu::build(&points, &mparams).unwrap();
+    let expected = sample(&whole, &pparams);
+    let added = expected.report.added_by_ceiling;
+    assert!(added > 100, "{added} darts");
+    let ceiling = expected.report.density.ceiling.unwrap();
+    let decisions = decide_tiled(
+        &points,
+        &mparams,
+        &TileParams::at_depth(2),
+        &Monitor::silent(),
+    )
+    .unwrap();
+    let source = PointsInMemory::new(&points, decisions.frame, 2);
+    let run = |relax_points: usize| {
+        sample_tiled(
+            &source,
+            &decisions,
+            &mparams,
+            &pparams,
+            relax_points,
+            &Monitor::silent(),
+        )
+        .unwrap()
+    };
+    let exact = run(points.len());
+    assert_eq!(exact.particles, expected.particles, "particles bitwise");
+    assert_eq!(exact.report.cover.added, added);
+    assert_eq!(
+        exact.report.cover.removed,
+        expected.report.replaced_by_ceiling
+    );
+    assert!(exact.report.cover.passes >= 3, "{:?}", exact.report.cover);
+    assert_eq!(exact.field, expected.report.density);
+
+    let thinned = run(points.len() / 3);
+    assert!(thinned.report.relax_points < points.len() / 2);
+    let ratio = thinned.particles.len() as f64 / expected.particles.len() as f64;
+    assert!((0.97..=1.03).contains(&ratio), "{ratio}");
+    let grid = psi_particles::ParticleGrid::new(&thinned.particles.positions, ceiling);
+    let uncovered = points
+        .iter()
+        .filter(|p| !grid.any_within(p.p, ceiling))
+        .count();
+    assert_eq!(
+        uncovered, 0,
+        "points farther than the ceiling from every particle"
+    );
 }

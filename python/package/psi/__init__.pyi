@@ -348,6 +348,7 @@ def sample_files(
     seed: int = 2007,
     mpu_error: Optional[float] = None,
     keep_outliers: bool = False,
+    max_spacing: Optional[float] = None,
     progress: _Progress = None,
 ) -> Dict[str, Any]:
     """Samples ``inputs`` (a path, or a list of paths read as one input in that order) out of
@@ -357,9 +358,11 @@ def sample_files(
     extension). As ``psi sample INPUT --max-memory SIZE``: bitwise its particles. Preprocessing
     tile by tile: repeated points and outliers left out (unless ``keep_outliers``), normals
     estimated and oriented where there are none; not yet the stray-clump search, noise
-    threshold, denoising or ceiling on spacing. A rerun with the same scratch resumes from its files. Returns the CLI's
-    ``--json`` report (``tiles``: count, depth, points per tile, halos, seconds, ...). Stages ``"read"``,
-    ``"tiles"``, ``"sample tiles"``. ``ValueError`` for a bad size, a budget too small (naming what is needed); ``OSError`` when a file cannot be read."""
+    threshold or denoising. The ceiling on spacing ``max_spacing`` as in ``psi.sample`` (world
+    units; default 2.5 % of the diagonal, ``inf`` for none). A rerun with the same scratch
+    resumes from its files. Returns the CLI's ``--json`` report (``tiles``: count, depth,
+    points per tile, halos, seconds, ...). Stages ``"read"``, ``"tiles"``, ``"sample tiles"``,
+    ``"relax"``, ``"cover"``. ``ValueError`` for a bad size, a budget too small (naming what is needed); ``OSError`` when a file cannot be read."""
 
 def load_particles(path: _Path) -> Particles:
     """Reads particles from a PLY (as ``save_particles`` and ``psi sample -o`` write it,

@@ -94,13 +94,14 @@ def sample_files(
     seed: int = 2007,
     mpu_error: Optional[float] = None,
     keep_outliers: bool = False,
+    max_spacing: Optional[float] = None,
     threads: int = 1,
 ) -> Dict[str, Any]:
     """``psi.sample_files`` as Dask tasks on ``client`` (a ``LocalCluster`` of worker
     processes when ``None``, closed afterwards). The tiling is a function of the inputs and
     ``max_memory`` alone, so the particles written to ``output`` are bitwise those of
-    ``psi sample INPUT --max-memory SIZE`` and of ``psi.sample_files`` (``keep_outliers`` as
-    there); ``max_memory`` bounds
+    ``psi sample INPUT --max-memory SIZE`` and of ``psi.sample_files`` (``keep_outliers`` and
+    ``max_spacing`` as there); ``max_memory`` bounds
     what psi allocates in a task, not the worker's own baseline. Each task runs psi on
     ``threads`` threads of its own (Dask's convention is one task per worker thread, so one;
     give more for workers started with fewer threads than their cores); the particles do not
@@ -197,7 +198,8 @@ def sample_files(
         client.gather(
             [
                 submit(_psi._ooc_seed, scratch_dir, o, max_memory=max_memory, k=k,
-                       iterations=iterations, seed=seed, mpu_error=mpu_error, threads=threads)
+                       iterations=iterations, seed=seed, mpu_error=mpu_error,
+                       max_spacing=max_spacing, threads=threads)
                 for o in octants
             ]
         )
@@ -212,6 +214,7 @@ def sample_files(
             seed=seed,
             mpu_error=mpu_error,
             keep_outliers=keep_outliers,
+            max_spacing=max_spacing,
             threads=threads,
         ).result()
         return report

@@ -38,7 +38,7 @@ pub(crate) struct SampleArgs {
     /// so flat regions are covered at about this spacing (`inf`: none) [default: 2.5 % of the
     /// bounding-box diagonal; not with --count or --uniform, which set their own spacing].
     #[arg(long, value_parser = crate::positive_length,
-        conflicts_with_all = ["count", "uniform", "max_memory"])]
+        conflicts_with_all = ["count", "uniform"])]
     max_spacing: Option<f64>,
     /// Seed of every random choice.
     #[arg(long, default_value_t = 2007)]
@@ -60,8 +60,9 @@ pub(crate) struct SampleArgs {
     /// Work out of core within this much memory (e.g. 4GiB, 512MiB): the input streamed into
     /// tile files, the MPU and the particles made tile by tile. Preprocessing tile by tile:
     /// repeated points and outliers left out (unless --keep-outliers), normals estimated and
-    /// oriented where there are none; not yet the stray-clump search, noise threshold,
-    /// denoising or ceiling on spacing.
+    /// oriented where there are none; not yet the stray-clump search, noise threshold or
+    /// denoising. The ceiling on spacing (--max-spacing) as in core, its passes reading the
+    /// tile files.
     #[arg(long, value_parser = psi::parse_memory_size,
         conflicts_with_all = ["count", "uniform", "png", "points_out", "evaluation_floor",
             "per_vertex", "orient_normals", "viewpoint", "no_normal_estimation"])]
@@ -211,6 +212,7 @@ fn run_out_of_core(args: &SampleArgs, max_memory: u64, ui: crate::ui::Ui) -> Res
             k: args.k,
             iterations: args.iterations,
             seed: args.seed,
+            max_spacing: args.max_spacing,
             ..ParticleParams::paper()
         },
         max_memory,

@@ -42,8 +42,7 @@ pub(crate) struct Request<'a> {
 pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
     let scratch = scratch_dir(req.scratch, req.output)?;
     ui.notice(&format!(
-        "--max-memory: not done out of core yet: {}; nor is the ceiling on spacing \
-         (--max-spacing) applied",
+        "--max-memory: not done out of core yet: {}",
         psi::NOT_DONE_OUT_OF_CORE.join(", ")
     ));
     let options = OutOfCore {

@@ -1,0 +1,369 @@
+//! A maximal dart set over points that may come in parts (the ceiling on spacing,
+//! `cover_data.rs`): in rounds, each one pass over the points still open (candidates farther
+//! than the dart radius r from every dart so far). A pass keeps, per cube of a grid of edge
+//! r / [`CELLS_PER_RADIUS`], the open point of least rank (a seeded hash of its position and
+//! normal); the round then takes those representatives in rank order and keeps each one no
+//! dart lies within r of. A round keeps at least its first representative, and the rounds end
+//! when no point is open: every candidate lies within r of a dart, and darts lie at least r
+//! apart, as a sequential dart throw gives (random sequential adsorption over the cubes'
+//! representatives).
+//!
+//! The darts are a function of the candidates as a set of positions and normals: a pass may
+//! visit them in parts, in any order, a point more than once (a point on a face shared by two
+//! parts), on any number of threads, because a cube keeps the least rank. So a sampling in
+//! memory, one out of core (a pass over the tile files) and one on a cluster give the same
+//! darts; a sequential throw in a hashed input order (what this replaced) cannot stream.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+use psi_octree::OrientedPoint;
+
+use crate::dart_grid::DartGrid;
+
+/// The representatives' cubes have edge r / this (r the dart radius): four cubes a radius,
+/// about 50 representatives in a dart's disc on a plane, so that a round is close to a throw
+/// over every point and few rounds remain.
+pub const CELLS_PER_RADIUS: f64 = 4.0;
+
+/// The grid a pass takes one point a cube from, and the ranks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DartCells {
+    /// Where cube (0, 0, 0) starts (world units; the MPU's frame origin).
+    pub origin: DVec3,
+    /// The cubes' edge (world units).
+    pub edge: f64,
+    /// The seed of the ranks.
+    pub seed: u64,
+}
+
+impl DartCells {
+    /// Cubes of edge `radius` / [`CELLS_PER_RADIUS`] from `origin` (world units), ranks seeded
+    /// by `seed`.
+    pub fn for_radius(origin: DVec3, radius: f64, seed: u64) -> Self {
+        DartCells {
+            origin,
+            edge: radius / CELLS_PER_RADIUS,
+            seed,
+        }
+    }
+
+    fn cube(&self, p: DVec3) -> [i64; 3] {
+        let k = ((p - self.origin) / self.edge).floor();
+        [k.x as i64, k.y as i64, k.z as i64]
+    }
+}
+
+/// A point's place in the throw: a seeded hash of its position, then its coordinates' and
+/// normal's bits (distinct points have distinct ranks).
+type Rank = (u64, [u64; 6]);
+
+fn rank(p: &OrientedPoint, seed: u64) -> Rank {
+    // SplitMix64's finaliser (Steele, Lea, Flood, "Fast splittable pseudorandom number
+    // generators", 2014) over the coordinates' bits, chained.
+    let mix = |mut x: u64| {
+        x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        x ^ (x >> 31)
+    };
+    let bits = [
+        p.p.x.to_bits(),
+        p.p.y.to_bits(),
+        p.p.z.to_bits(),
+        p.n.x.to_bits(),
+        p.n.y.to_bits(),
+        p.n.z.to_bits(),
+    ];
+    let h = mix(bits[0] ^ mix(bits[1] ^ mix(bits[2] ^ mix(seed))));
+    (h, bits)
+}
+
+/// Per cube of a [`DartCells`] grid, the offered point of least rank.
+#[derive(Clone, Debug, Default)]
+pub struct Representatives {
+    cubes: HashMap<[i64; 3], (Rank, OrientedPoint)>,
+}
+
+impl Representatives {
+    /// Offers `p` (world units) for its cube of `cells`.
+    pub fn offer(&mut self, cells: &DartCells, p: OrientedPoint) {
+        let r = rank(&p, cells.seed);
+        self.cubes
+            .entry(cells.cube(p.p))
+            .and_modify(|held| {
+                if r < held.0 {
+                    *held = (r, p);
+                }
+            })
+            .or_insert((r, p));
+    }
+
+    /// These and `other`'s, the least rank per cube (the same in any order of merging).
+    pub fn merge(mut self, other: Representatives) -> Representatives {
+        let (mut big, small) = match self.cubes.len() >= other.cubes.len() {
+            true => (std::mem::take(&mut self.cubes), other.cubes),
+            false => (other.cubes, std::mem::take(&mut self.cubes)),
+        };
+        for (cube, held) in small {
+            big.entry(cube)
+                .and_modify(|b| {
+                    if held.0 < b.0 {
+                        *b = held;
+                    }
+                })
+                .or_insert(held);
+        }
+        Representatives { cubes: big }
+    }
+
+    /// Whether no point was offered.
+    pub fn is_empty(&self) -> bool {
+        self.cubes.is_empty()
+    }
+
+    /// The representatives by rank.
+    fn in_rank_order(self) -> Vec<OrientedPoint> {
+        let mut all: Vec<(Rank, OrientedPoint)> = self.cubes.into_values().collect();
+        all.sort_unstable_by_key(|a| a.0);
+        all.into_iter().map(|(_, p)| p).collect()
+    }
+}
+
+/// Where a dart throw's candidate points come from: the input in memory, or a tile store read
+/// tile by tile.
+pub trait CoverPoints: Sync {
+    /// What a pass can fail with (a file's error out of core).
+    type Error;
+
+    /// The [`Representatives`] on `cells` of the candidates whose world position `open`
+    /// accepts: every candidate offered at least once.
+    fn representatives(
+        &self,
+        cells: &DartCells,
+        open: &(dyn Fn(DVec3) -> bool + Sync),
+    ) -> Result<Representatives, Self::Error>;
+}
+
+/// Darts over the candidates of `source` that `candidate` accepts (world position), at least
+/// `cells.edge × CELLS_PER_RADIUS` = r apart, every such candidate within r of one (|p − d| <
+/// r): in the order kept (round by round, by rank). `first`, when given, is the first pass's
+/// result (the representatives of every accepted candidate), already made by the caller.
+/// Returns the darts and the passes made.
+///
+/// Errors: the source's.
+pub fn throw_darts_in_rounds<S: CoverPoints + ?Sized>(
+    source: &S,
+    candidate: &(dyn Fn(DVec3) -> bool + Sync),
+    cells: &DartCells,
+    first: Option<Representatives>,
+) -> Result<(Vec<OrientedPoint>, usize), S::Error> {
+    let radius = cells.edge * CELLS_PER_RADIUS;
+    let r2 = radius * radius;
+    let mut grid = DartGrid::new(radius, 1024);
+    let mut darts: Vec<OrientedPoint> = Vec::new();
+    let mut passes = 0;
+    let mut given = first;
+    loop {
+        let reps = match given.take() {
+            Some(reps) => reps,
+            None => {
+                passes += 1;
+                let open = |p: DVec3| {
+                    candidate(p) && !grid.any_around(p, |_, d| d.distance_squared(p) < r2)
+                };
+                source.representatives(cells, &open)?
+            }
+        };
+        if reps.is_empty() {
+            return Ok((darts, passes));
+        }
+        for p in reps.in_rank_order() {
+            if !grid.any_around(p.p, |_, d| d.distance_squared(p.p) < r2) {
+                grid.insert(darts.len() as u32, p.p);
+                darts.push(p);
+            }
+        }
+    }
+}
+
+/// Points in memory (shape N, world units) as a dart throw's candidates: `candidates` of them
+/// (indices), or all.
+pub(crate) struct PointsInMemory<'a> {
+    pub(crate) points: &'a [OrientedPoint],
+    pub(crate) candidates: Option<&'a [u32]>,
+}
+
+impl CoverPoints for PointsInMemory<'_> {
+    type Error = std::convert::Infallible;
+
+    fn representatives(
+        &self,
+        cells: &DartCells,
+        open: &(dyn Fn(DVec3) -> bool + Sync),
+    ) -> Result<Representatives, Self::Error> {
+        use rayon::prelude::*;
+        let offer = |mut reps: Representatives, p: &OrientedPoint| {
+            if open(p.p) {
+                reps.offer(cells, *p);
+            }
+            reps
+        };
+        let reps = match self.candidates {
+            None => self
+                .points
+                .par_iter()
+                .fold(Representatives::default, offer)
+                .reduce(Representatives::default, Representatives::merge),
+            Some(c) => c
+                .par_iter()
+                .fold(Representatives::default, |r, &q| {
+                    offer(r, &self.points[q as usize])
+                })
+                .reduce(Representatives::default, Representatives::merge),
+        };
+        Ok(reps)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    fn plane_points(n: usize, seed: u64) -> Vec<OrientedPoint> {
+        let mut rng = Pcg64Mcg::seed_from_u64(seed);
+        (0..n)
+            .map(|_| OrientedPoint {
+                p: DVec3::new(rng.random(), rng.random(), 0.01 * rng.random::<f64>()),
+                n: DVec3::Z,
+            })
+            .collect()
+    }
+
+    /// The points in `parts` pieces of a shuffled order, the first `dup` of them twice.
+    struct InParts {
+        parts: Vec<Vec<OrientedPoint>>,
+    }
+
+    impl CoverPoints for InParts {
+        type Error = ();
+        fn representatives(
+            &self,
+            cells: &DartCells,
+            open: &(dyn Fn(DVec3) -> bool + Sync),
+        ) -> Result<Representatives, ()> {
+            let mut all = Representatives::default();
+            for part in self.parts.iter().rev() {
+                let mut r = Representatives::default();
+                for p in part.iter().filter(|p| open(p.p)) {
+                    r.offer(cells, *p);
+                }
+                all = r.merge(all);
+            }
+            Ok(all)
+        }
+    }
+
+    /// The brute-force twin of a pass: per cube, the least rank by a scan of every point.
+    fn brute_rounds(
+        points: &[OrientedPoint],
+        cells: &DartCells,
+        candidate: &dyn Fn(DVec3) -> bool,
+    ) -> Vec<OrientedPoint> {
+        let r = cells.edge * CELLS_PER_RADIUS;
+        let mut darts: Vec<OrientedPoint> = Vec::new();
+        loop {
+            let open: Vec<&OrientedPoint> = points
+                .iter()
+                .filter(|p| candidate(p.p) && darts.iter().all(|d| d.p.distance(p.p) >= r))
+                .collect();
+            if open.is_empty() {
+                return darts;
+            }
+            let mut cubes: Vec<[i64; 3]> = open.iter().map(|p| cells.cube(p.p)).collect();
+            cubes.sort_unstable();
+            cubes.dedup();
+            let mut reps: Vec<&OrientedPoint> = cubes
+                .iter()
+                .map(|c| {
+                    *open
+                        .iter()
+                        .filter(|p| cells.cube(p.p) == *c)
+                        .min_by_key(|p| rank(p, cells.seed))
+                        .expect("a point in the cube")
+                })
+                .collect();
+            reps.sort_by_key(|p| rank(p, cells.seed));
+            for p in reps {
+                if darts.iter().all(|d| d.p.distance(p.p) >= r) {
+                    darts.push(*p);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn darts_match_brute_force_and_cover_every_candidate() {
+        for (seed, radius) in [(1, 0.05), (2, 0.12), (3, 0.3)] {
+            let points = plane_points(3000, seed);
+            let cells = DartCells::for_radius(DVec3::splat(-0.5), radius, seed);
+            let candidate = |p: DVec3| p.x < 0.8;
+            let source = PointsInMemory {
+                points: &points,
+                candidates: None,
+            };
+            let (darts, passes) = throw_darts_in_rounds(&source, &candidate, &cells, None).unwrap();
+            assert_eq!(darts, brute_rounds(&points, &cells, &candidate));
+            assert!(passes >= 2, "the last pass finds nothing open");
+            for (i, a) in darts.iter().enumerate() {
+                assert!(candidate(a.p));
+                for b in &darts[i + 1..] {
+                    assert!(a.p.distance(b.p) >= radius);
+                }
+            }
+            for p in points.iter().filter(|p| candidate(p.p)) {
+                assert!(darts.iter().any(|d| d.p.distance(p.p) < radius));
+            }
+        }
+    }
+
+    /// Parts, their order, points offered twice and a subset of indices give the same darts.
+    #[test]
+    fn darts_do_not_depend_on_how_the_points_come() {
+        let points = plane_points(4000, 9);
+        let cells = DartCells::for_radius(DVec3::ZERO, 0.08, 4);
+        let all = |_: DVec3| true;
+        let whole = PointsInMemory {
+            points: &points,
+            candidates: None,
+        };
+        let (want, _) = throw_darts_in_rounds(&whole, &all, &cells, None).unwrap();
+        let mut shuffled = points.clone();
+        let mut rng = Pcg64Mcg::seed_from_u64(5);
+        for i in (1..shuffled.len()).rev() {
+            shuffled.swap(i, rng.random_range(0..=i));
+        }
+        let mut parts: Vec<Vec<OrientedPoint>> = shuffled.chunks(700).map(|c| c.to_vec()).collect();
+        parts[2].extend_from_slice(&shuffled[..300]);
+        let (got, _) = throw_darts_in_rounds(&InParts { parts }, &all, &cells, None).unwrap();
+        assert_eq!(got, want);
+        let every: Vec<u32> = (0..points.len() as u32).collect();
+        let indexed = PointsInMemory {
+            points: &points,
+            candidates: Some(&every),
+        };
+        assert_eq!(
+            throw_darts_in_rounds(&indexed, &all, &cells, None)
+                .unwrap()
+                .0,
+            want
+        );
+        // Another seed, other darts.
+        let other = DartCells { seed: 5, ..cells };
+        assert_ne!(
+            throw_darts_in_rounds(&whole, &all, &other, None).unwrap().0,
+            want
+        );
+    }
+}
