@@ -1,9 +1,10 @@
 //! The ceiling on spacing: particles where the data has none near (issue 28). Particle density
 //! follows octree depth and a plane is fitted exactly by one big cell, so a flat region gets a
 //! single particle. After relaxation every input point farther than [`COVER_RADIUS`] × the
-//! ceiling s from every particle is uncovered; darts thrown over the uncovered points in a
-//! hashed order (one kept when no kept dart lies within [`DART_RADIUS`] × s) become new
-//! particles, projected onto the surface and not relaxed, σ̂ is capped at their spacing (the
+//! ceiling s from every particle is uncovered; a maximal set of darts over the uncovered points
+//! (none within [`DART_RADIUS`] × s of another; thrown in rounds that read the points pass by
+//! pass, `dart_rounds.rs`) become new particles, projected onto the surface and not relaxed,
+//! σ̂ is capped at their spacing (the
 //! particles whose σ̂ the cap lowers are replaced by darts too, so that a flat region is
 //! spaced by one rule). Where every input point is covered nothing changes, as on the paper's
 //! models (measured in docs/notes/2026-11-25-spacing-ceiling.md).
@@ -157,6 +158,7 @@ pub fn cover_from<S: CoverPoints + ?Sized>(
     let reps = match removed {
         0 => Some(reps),
         _ => {
+            drop(reps);
             grid = grid_of(&particles.positions);
             None
         }

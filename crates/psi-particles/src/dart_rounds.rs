@@ -1,18 +1,19 @@
 //! A maximal dart set over points that may come in parts (the ceiling on spacing,
 //! `cover_data.rs`): in rounds, each one pass over the points still open (candidates farther
 //! than the dart radius r from every dart so far). A pass keeps, per cube of a grid of edge
-//! r / [`CELLS_PER_RADIUS`], the open point of least rank (a seeded hash of its position and
-//! normal); the round then takes those representatives in rank order and keeps each one no
+//! r / [`CELLS_PER_RADIUS`], the open point of least rank (a seeded hash of its input index,
+//! as the sequential throw this replaced ordered its candidates: a translated input gets the
+//! same darts); the round then takes those representatives in rank order and keeps each one no
 //! dart lies within r of. A round keeps at least its first representative, and the rounds end
 //! when no point is open: every candidate lies within r of a dart, and darts lie at least r
 //! apart, as a sequential dart throw gives (random sequential adsorption over the cubes'
 //! representatives).
 //!
-//! The darts are a function of the candidates as a set of positions and normals: a pass may
-//! visit them in parts, in any order, a point more than once (a point on a face shared by two
-//! parts), on any number of threads, because a cube keeps the least rank. So a sampling in
-//! memory, one out of core (a pass over the tile files) and one on a cluster give the same
-//! darts; a sequential throw in a hashed input order (what this replaced) cannot stream.
+//! The darts are a function of the candidates as a set of indexed points: a pass may visit
+//! them in parts, in any order, a point more than once, on any number of threads, because a
+//! cube keeps the least rank. So a sampling in memory, one out of core (a pass over the tile
+//! files) and one on a cluster give the same darts; a sequential throw in a hashed input order
+//! (what this replaced) cannot stream.
 
 use std::collections::HashMap;
 
@@ -54,40 +55,35 @@ impl DartCells {
     }
 }
 
-/// A point's place in the throw: a seeded hash of its position, then its coordinates' and
-/// normal's bits (distinct points have distinct ranks).
-type Rank = (u64, [u64; 6]);
+/// A point's place in the throw: a seeded hash of its input index, then the index (distinct
+/// points, distinct ranks).
+type Rank = (u64, u64);
 
-fn rank(p: &OrientedPoint, seed: u64) -> Rank {
+fn rank(index: u64, seed: u64) -> Rank {
     // SplitMix64's finaliser (Steele, Lea, Flood, "Fast splittable pseudorandom number
-    // generators", 2014) over the coordinates' bits, chained.
+    // generators", 2014), over the index mixed with the seed's own hash.
     let mix = |mut x: u64| {
         x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
         x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
         x ^ (x >> 31)
     };
-    let bits = [
-        p.p.x.to_bits(),
-        p.p.y.to_bits(),
-        p.p.z.to_bits(),
-        p.n.x.to_bits(),
-        p.n.y.to_bits(),
-        p.n.z.to_bits(),
-    ];
-    let h = mix(bits[0] ^ mix(bits[1] ^ mix(bits[2] ^ mix(seed))));
-    (h, bits)
+    (mix(index ^ mix(seed)), index)
 }
 
 /// Per cube of a [`DartCells`] grid, the offered point of least rank.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Representatives {
     cubes: HashMap<[i64; 3], (Rank, OrientedPoint)>,
 }
 
 impl Representatives {
-    /// Offers `p` (world units) for its cube of `cells`.
-    pub fn offer(&mut self, cells: &DartCells, p: OrientedPoint) {
-        let r = rank(&p, cells.seed);
+    /// Offers the point of input index `index` at `p` (world units) for its cube of `cells`
+    /// (a point that is not finite is never a dart).
+    pub fn offer(&mut self, cells: &DartCells, index: u64, p: OrientedPoint) {
+        if !p.p.is_finite() {
+            return;
+        }
+        let r = rank(index, cells.seed);
         self.cubes
             .entry(cells.cube(p.p))
             .and_modify(|held| {
@@ -136,7 +132,7 @@ pub trait CoverPoints: Sync {
     type Error;
 
     /// The [`Representatives`] on `cells` of the candidates whose world position `open`
-    /// accepts: every candidate offered at least once.
+    /// accepts: every candidate offered at least once, with its input index.
     fn representatives(
         &self,
         cells: &DartCells,
@@ -202,23 +198,21 @@ impl CoverPoints for PointsInMemory<'_> {
         open: &(dyn Fn(DVec3) -> bool + Sync),
     ) -> Result<Representatives, Self::Error> {
         use rayon::prelude::*;
-        let offer = |mut reps: Representatives, p: &OrientedPoint| {
+        let offer = |mut reps: Representatives, q: usize| {
+            let p = self.points[q];
             if open(p.p) {
-                reps.offer(cells, *p);
+                reps.offer(cells, q as u64, p);
             }
             reps
         };
         let reps = match self.candidates {
-            None => self
-                .points
-                .par_iter()
+            None => (0..self.points.len())
+                .into_par_iter()
                 .fold(Representatives::default, offer)
                 .reduce(Representatives::default, Representatives::merge),
             Some(c) => c
                 .par_iter()
-                .fold(Representatives::default, |r, &q| {
-                    offer(r, &self.points[q as usize])
-                })
+                .fold(Representatives::default, |r, &q| offer(r, q as usize))
                 .reduce(Representatives::default, Representatives::merge),
         };
         Ok(reps)
@@ -241,9 +235,9 @@ mod tests {
             .collect()
     }
 
-    /// The points in `parts` pieces of a shuffled order, the first `dup` of them twice.
+    /// Indexed points in parts.
     struct InParts {
-        parts: Vec<Vec<OrientedPoint>>,
+        parts: Vec<Vec<(u64, OrientedPoint)>>,
     }
 
     impl CoverPoints for InParts {
@@ -256,8 +250,8 @@ mod tests {
             let mut all = Representatives::default();
             for part in self.parts.iter().rev() {
                 let mut r = Representatives::default();
-                for p in part.iter().filter(|p| open(p.p)) {
-                    r.offer(cells, *p);
+                for (i, p) in part.iter().filter(|(_, p)| open(p.p)) {
+                    r.offer(cells, *i, *p);
                 }
                 all = r.merge(all);
             }
@@ -274,30 +268,32 @@ mod tests {
         let r = cells.edge * CELLS_PER_RADIUS;
         let mut darts: Vec<OrientedPoint> = Vec::new();
         loop {
-            let open: Vec<&OrientedPoint> = points
-                .iter()
-                .filter(|p| candidate(p.p) && darts.iter().all(|d| d.p.distance(p.p) >= r))
+            let open: Vec<usize> = (0..points.len())
+                .filter(|&i| {
+                    let p = points[i].p;
+                    candidate(p) && darts.iter().all(|d| d.p.distance(p) >= r)
+                })
                 .collect();
             if open.is_empty() {
                 return darts;
             }
-            let mut cubes: Vec<[i64; 3]> = open.iter().map(|p| cells.cube(p.p)).collect();
+            let mut cubes: Vec<[i64; 3]> = open.iter().map(|&i| cells.cube(points[i].p)).collect();
             cubes.sort_unstable();
             cubes.dedup();
-            let mut reps: Vec<&OrientedPoint> = cubes
+            let mut reps: Vec<usize> = cubes
                 .iter()
                 .map(|c| {
                     *open
                         .iter()
-                        .filter(|p| cells.cube(p.p) == *c)
-                        .min_by_key(|p| rank(p, cells.seed))
+                        .filter(|&&i| cells.cube(points[i].p) == *c)
+                        .min_by_key(|&&i| rank(i as u64, cells.seed))
                         .expect("a point in the cube")
                 })
                 .collect();
-            reps.sort_by_key(|p| rank(p, cells.seed));
-            for p in reps {
-                if darts.iter().all(|d| d.p.distance(p.p) >= r) {
-                    darts.push(*p);
+            reps.sort_by_key(|&i| rank(i as u64, cells.seed));
+            for i in reps {
+                if darts.iter().all(|d| d.p.distance(points[i].p) >= r) {
+                    darts.push(points[i]);
                 }
             }
         }
@@ -328,7 +324,8 @@ mod tests {
         }
     }
 
-    /// Parts, their order, points offered twice and a subset of indices give the same darts.
+    /// Parts, their order, points offered twice and a subset of indices give the same darts;
+    /// so do the points moved by a million (the ranks follow the indices).
     #[test]
     fn darts_do_not_depend_on_how_the_points_come() {
         let points = plane_points(4000, 9);
@@ -339,12 +336,17 @@ mod tests {
             candidates: None,
         };
         let (want, _) = throw_darts_in_rounds(&whole, &all, &cells, None).unwrap();
-        let mut shuffled = points.clone();
+        let mut shuffled: Vec<(u64, OrientedPoint)> = points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (i as u64, *p))
+            .collect();
         let mut rng = Pcg64Mcg::seed_from_u64(5);
         for i in (1..shuffled.len()).rev() {
             shuffled.swap(i, rng.random_range(0..=i));
         }
-        let mut parts: Vec<Vec<OrientedPoint>> = shuffled.chunks(700).map(|c| c.to_vec()).collect();
+        let mut parts: Vec<Vec<(u64, OrientedPoint)>> =
+            shuffled.chunks(700).map(|c| c.to_vec()).collect();
         parts[2].extend_from_slice(&shuffled[..300]);
         let (got, _) = throw_darts_in_rounds(&InParts { parts }, &all, &cells, None).unwrap();
         assert_eq!(got, want);
@@ -359,6 +361,33 @@ mod tests {
                 .0,
             want
         );
+        // Translated by a million (the cubes from the translated origin): the same points.
+        let shift = DVec3::splat(1e6);
+        let moved: Vec<OrientedPoint> = points
+            .iter()
+            .map(|p| OrientedPoint {
+                p: p.p + shift,
+                n: p.n,
+            })
+            .collect();
+        let far = PointsInMemory {
+            points: &moved,
+            candidates: None,
+        };
+        let far_cells = DartCells {
+            origin: cells.origin + shift,
+            ..cells
+        };
+        let (got, _) = throw_darts_in_rounds(&far, &all, &far_cells, None).unwrap();
+        assert_eq!(got.len(), want.len());
+        for (g, w) in got.iter().zip(&want) {
+            assert!(
+                (g.p - shift).distance(w.p) < 1e-9,
+                "{} against {}",
+                g.p,
+                w.p
+            );
+        }
         // Another seed, other darts.
         let other = DartCells { seed: 5, ..cells };
         assert_ne!(

@@ -2,7 +2,7 @@
 //! store on disk; both give the points near a cube in input index order.
 
 use glam::DVec3;
-use psi_mpu::{MpuFrame, Region};
+use psi_mpu::MpuFrame;
 use psi_octree::OrientedPoint;
 
 use crate::tile_buckets::TileBuckets;
@@ -53,13 +53,18 @@ pub trait PointSource: Sync {
         })
     }
 
-    /// Cubes (local centre, half-edge; world units) that together hold every point, each
-    /// small enough for a gather to hold in memory: the store's tiles, or the root cube (the
-    /// default, for points in memory). A point on a face may lie in two.
-    fn parts(&self) -> Vec<(DVec3, f64)> {
-        let frame = self.frame();
-        vec![(frame.root_center, frame.root_half)]
-    }
+    /// How many parts a pass over every point reads one at a time ([`PointSource::part_where`]):
+    /// a store's tile files, the buckets of points in memory.
+    fn part_count(&self) -> usize;
+
+    /// The points of part `part` (< [`PointSource::part_count`]) whose world position `keep`
+    /// accepts, each with its input index, in no particular order. Every point lies in exactly
+    /// one part.
+    fn part_where(
+        &self,
+        part: usize,
+        keep: &(dyn Fn(DVec3) -> bool + Sync),
+    ) -> Result<Vec<(u64, OrientedPoint)>, TileError>;
 
     /// The distance (world units) from world position `center` to its `k`-th nearest input
     /// point, or `None` when this source does not tell (the default) or has fewer points.
@@ -117,6 +122,24 @@ impl PointSource for PointsInMemory<'_> {
         self.frame
     }
 
+    fn part_count(&self) -> usize {
+        self.buckets.bucket_count()
+    }
+
+    fn part_where(
+        &self,
+        part: usize,
+        keep: &(dyn Fn(DVec3) -> bool + Sync),
+    ) -> Result<Vec<(u64, OrientedPoint)>, TileError> {
+        Ok(self
+            .buckets
+            .bucket(part)
+            .iter()
+            .map(|&i| (u64::from(i), self.points[i as usize]))
+            .filter(|(_, p)| keep(p.p))
+            .collect())
+    }
+
     fn population(&self) -> usize {
         self.points.len()
     }
@@ -148,13 +171,16 @@ impl PointSource for TileStore {
         self.manifest().population as usize
     }
 
-    fn parts(&self) -> Vec<(DVec3, f64)> {
-        let manifest = self.manifest();
-        manifest
-            .tiles
-            .iter()
-            .map(|t| Region::tile(manifest.depth, t.key).cube(&manifest.frame))
-            .collect()
+    fn part_count(&self) -> usize {
+        self.manifest().tiles.len()
+    }
+
+    fn part_where(
+        &self,
+        part: usize,
+        keep: &(dyn Fn(DVec3) -> bool + Sync),
+    ) -> Result<Vec<(u64, OrientedPoint)>, TileError> {
+        self.tile_file_where(part, keep)
     }
 
     fn gather_box_where(

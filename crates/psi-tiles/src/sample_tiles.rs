@@ -382,7 +382,7 @@ pub fn sample_tiled_from(
         if let Some(s) = ceiling {
             monitor.report("cover", 0, 1);
             let t = Instant::now();
-            let source = PartsCover { source };
+            let source = PartsCover { source, monitor };
             let covered = cover_from(
                 &mpu,
                 &source,

@@ -50,6 +50,16 @@ impl TileBuckets {
         self.buckets[self.slot(key)].len()
     }
 
+    /// How many buckets (8^depth, empty ones included).
+    pub(crate) fn bucket_count(&self) -> usize {
+        self.buckets.len()
+    }
+
+    /// The indices (increasing) of bucket `i` (< [`TileBuckets::bucket_count`]).
+    pub(crate) fn bucket(&self, i: usize) -> &[u32] {
+        &self.buckets[i]
+    }
+
     /// Indices (increasing) of the points within ∞-distance `halo` of the cube with local
     /// centre `center` and half-edge `half`.
     pub(crate) fn gather(

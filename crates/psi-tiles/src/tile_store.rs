@@ -259,6 +259,20 @@ impl TileStore {
         Ok(in_input_order(found))
     }
 
+    /// The points of the `i`-th tile file (of the manifest's) whose world position `keep`
+    /// accepts, with their input indices, in the file's order (by sub-cell).
+    pub(crate) fn tile_file_where(
+        &self,
+        i: usize,
+        keep: &dyn Fn(DVec3) -> bool,
+    ) -> Result<Vec<(u64, OrientedPoint)>, TileError> {
+        let entry = &self.manifest.tiles[i];
+        let bytes = self.read_ranges(&tile_path(&self.dir, entry.key), entry, None)?;
+        let mut found = Vec::new();
+        decode_into(&bytes, keep, &mut found);
+        Ok(found)
+    }
+
     /// The points within ∞-distance `halo` of the cube with local centre `center` and
     /// half-edge `half` (world units) whose world position `keep` accepts, in increasing input
     /// index order ([`crate::PointSource::gather_box_where`]; its `gather_box` keeps all).

@@ -4,8 +4,8 @@
 //! model, or the shared Stanford dragon (`../shared/models/stanford_dragon_vrip_raw.ply`,
 //! area-weighted, Gaussian noise of σ = 2e-4 D, the triangles' normals). Each is sampled by the
 //! release `psi` in core (what the tiled run does: the outlier step but no stray clumps, noise
-//! threshold or inward-normals check, no ceiling on spacing: `--no-noise-estimate
-//! --keep-inward-normals --max-spacing inf`; skipped when
+//! threshold or inward-normals check, the ceiling on spacing as out of core: `--no-noise-estimate
+//! --keep-inward-normals`; skipped when
 //! psi's estimate exceeds the memory available) and with `--max-memory` (default 1GiB): wall
 //! time, peak memory, the tiles, whether the counts agree, and per level the spacing CV out of
 //! core over in core (issue 26: within 5 %) and the tiled surface distance; for the dragon,
@@ -249,7 +249,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
     let mut md = format!(
         "# Scale: in core and out of core (`--max-memory {budget}`)\n\n\
          Model `{model}` sampled at N points (seed 1), binary PCD with normals; release build, \
-         {} threads. In core without the ceiling on spacing, as out of core.\n\n\
+         {} threads. In core without the noise threshold and the inward-normals check, as out of core.\n\n\
          | N | in core s | in core peak MiB | estimate MiB | out of core s | ratio | out of core peak MiB | tiles (depth) | counts | per level: CV out of core (in core) | tiled max \\|f\\|/\\|∇f\\| / D |\n\
          |---|---|---|---|---|---|---|---|---|---|---|\n",
         rayon::current_num_threads()
@@ -275,8 +275,6 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
                     i,
                     "--no-noise-estimate",
                     "--keep-inward-normals",
-                    "--max-spacing",
-                    "inf",
                     "-o",
                     core_out.to_str().context("path")?,
                     "-q",
