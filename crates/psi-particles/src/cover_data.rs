@@ -247,17 +247,10 @@ mod tests {
             points: mpu.points(),
             candidates: None,
         };
-        let ceiling = 0.5;
-        let done = cover_from(
-            &mpu,
-            &source,
-            None,
-            &mut particles,
-            0,
-            &mut field,
-            ceiling,
-            &params,
-        );
+        let cover = |particles: &mut Particles, field: &mut DensityField, ceiling: f64| {
+            cover_from(&mpu, &source, None, particles, 0, field, ceiling, &params)
+        };
+        let done = cover(&mut particles, &mut field, 0.5);
         assert_eq!(
             done,
             Ok(Covered {
@@ -269,16 +262,8 @@ mod tests {
         assert_eq!(particles, before);
         assert_eq!(field.cap, None);
         // A ceiling far below the spacing: darts everywhere.
-        let done = cover_from(
-            &mpu,
-            &source,
-            None,
-            &mut particles,
-            0,
-            &mut field,
-            0.02,
-            &params,
-        );
+        let done = cover(&mut particles, &mut field, 0.02);
         assert!(done.unwrap().added > before.len());
+        assert!(field.cap.is_some());
     }
 }
