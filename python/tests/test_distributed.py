@@ -111,15 +111,18 @@ print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
 )
 def test_positions_alone_get_the_clis_normals_and_particles_on_the_cluster(cli, client,
                                                                           tmp_path):
-    # Normals estimated and oriented tile by tile (one task), then the tasks as ever.
+    # Normals estimated and oriented tile by tile (one task), then the tasks as ever; a
+    # ceiling on spacing below the coarse levels' spacing, so that darts are thrown.
     plain = tmp_path / "plain.xyz"
     pts = psi.builtin_model(20_000).points
     plain.write_text("".join(" ".join(repr(float(v)) for v in p) + "\n" for p in pts))
     report = psi.distributed.sample_files(plain, tmp_path / "dask.ply", client=client,
-                                          max_memory="64MiB", scratch=tmp_path / "s1")
-    run_cli(cli, "sample", plain, "--max-memory", "64MiB", "-o", tmp_path / "cli.ply",
-            "--scratch", tmp_path / "s2")
+                                          max_memory="64MiB", scratch=tmp_path / "s1",
+                                          max_spacing=0.1)
+    run_cli(cli, "sample", plain, "--max-memory", "64MiB", "--max-spacing", "0.1",
+            "-o", tmp_path / "cli.ply", "--scratch", tmp_path / "s2")
     assert report["tiles"]["preprocessing"]["normals"] == "estimated and oriented tile by tile"
+    assert report["particles"]["added_by_ceiling"] > 100, report["particles"]
     assert (tmp_path / "dask.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
 
 
