@@ -74,9 +74,8 @@ pub struct Covered {
 /// candidates the rest leave uncovered ([`throw_darts_in_rounds`]), projected onto the surface
 /// (Newton, `params`' tolerance) and placed at `first`, before the changeable particles left,
 /// with σ = c·σ̂ under the capped field. The darts are final: a maximal dart set is already
-/// even (its nearest-neighbour distances are about 1.06 × the radius with a CV of 0.06), where
-/// a relaxation would pile particles onto creases (a particle pushed over a convex edge is
-/// projected back onto it). Returns how many particles were added and how many taken out
+/// even (measured in docs/notes/2026-11-25-spacing-ceiling.md), where a relaxation would pile
+/// particles onto creases (a particle pushed over a convex edge is projected back onto it). Returns how many particles were added and how many taken out
 /// ((0, 0): nothing changed).
 pub fn cover_data(
     mpu: &Mpu,

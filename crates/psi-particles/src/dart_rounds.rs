@@ -21,6 +21,7 @@ use glam::DVec3;
 use psi_octree::OrientedPoint;
 
 use crate::dart_grid::DartGrid;
+use crate::seed::spread_hash;
 
 /// The representatives' cubes have edge r / this (r the dart radius): four cubes a radius,
 /// about 50 representatives in a dart's disc on a plane, so that a round is close to a throw
@@ -55,19 +56,13 @@ impl DartCells {
     }
 }
 
-/// A point's place in the throw: a seeded hash of its input index, then the index (distinct
+/// A point's place in the throw: the hash of its input index the sequential throw ordered
+/// its candidates by ([`spread_hash`] of the index and the seed), then the index (distinct
 /// points, distinct ranks).
 type Rank = (u64, u64);
 
 fn rank(index: u64, seed: u64) -> Rank {
-    // SplitMix64's finaliser (Steele, Lea, Flood, "Fast splittable pseudorandom number
-    // generators", 2014), over the index mixed with the seed's own hash.
-    let mix = |mut x: u64| {
-        x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        x ^ (x >> 31)
-    };
-    (mix(index ^ mix(seed)), index)
+    (spread_hash((index ^ seed) as usize), index)
 }
 
 /// Per cube of a [`DartCells`] grid, the offered point of least rank.
