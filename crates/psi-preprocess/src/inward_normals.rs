@@ -78,12 +78,17 @@ struct Dipoles {
     radius: f64,
 }
 
+/// Input indices between the dipoles' samples among `n` points (points 0, stride, 2·stride, …).
+fn winding_stride(n: u64) -> u64 {
+    n.div_ceil(WINDING_SAMPLES as u64).max(1)
+}
+
 impl Dipoles {
-    fn new(points: &[OrientedPoint]) -> Self {
-        let stride = points.len().div_ceil(WINDING_SAMPLES).max(1);
-        let sample: Vec<OrientedPoint> = points
+    /// The dipoles of `sample` (the points at every [`winding_stride`]-th index, in index
+    /// order): those with a finite position and a normal, the normal made unit.
+    fn new(sample: &[OrientedPoint]) -> Self {
+        let sample: Vec<OrientedPoint> = sample
             .iter()
-            .step_by(stride)
             .filter_map(|p| {
                 let n = p.n.normalize_or_zero();
                 (p.p.is_finite() && n != DVec3::ZERO).then_some(OrientedPoint { p: p.p, n })
@@ -146,11 +151,114 @@ fn fibonacci_direction(i: usize, n: usize) -> DVec3 {
     DVec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
+/// What the inward check reads of N oriented points, gathered part by part in any order
+/// ([`InwardEvidence::add`], [`InwardEvidence::merge`]): per direction the extreme point (ties:
+/// the lowest index), and the points at every stride-th index for the winding number. Its
+/// [`InwardEvidence::votes`] are [`inward_votes`] of the N points, bit for bit.
+#[derive(Clone, Debug)]
+pub struct InwardEvidence {
+    n: u64,
+    /// Per direction: how far along it, the index, the point.
+    extremes: Vec<(f64, u64, OrientedPoint)>,
+    /// The winding number's samples (index, point), in the order added.
+    sample: Vec<(u64, OrientedPoint)>,
+}
+
+impl InwardEvidence {
+    /// No points yet, of `n` in all (indices 0..n).
+    pub fn new(n: u64) -> Self {
+        let nowhere = OrientedPoint {
+            p: DVec3::ZERO,
+            n: DVec3::ZERO,
+        };
+        let none = (f64::NEG_INFINITY, u64::MAX, nowhere);
+        InwardEvidence {
+            n,
+            extremes: vec![none; DIRECTIONS],
+            sample: Vec::new(),
+        }
+    }
+
+    /// Adds point `p` (world units) of input index `index` (< n; each index once).
+    pub fn add(&mut self, index: u64, p: OrientedPoint) {
+        if index.is_multiple_of(winding_stride(self.n)) {
+            self.sample.push((index, p));
+        }
+        if !p.p.is_finite() {
+            return;
+        }
+        for (i, e) in self.extremes.iter_mut().enumerate() {
+            let along = p.p.dot(direction(i));
+            if along > e.0 || (along == e.0 && index < e.1) {
+                *e = (along, index, p);
+            }
+        }
+    }
+
+    /// The evidence of both parts' points (disjoint indices of the same N).
+    pub fn merge(mut self, other: InwardEvidence) -> InwardEvidence {
+        for (e, o) in self.extremes.iter_mut().zip(other.extremes) {
+            if o.0 > e.0 || (o.0 == e.0 && o.1 < e.1) {
+                *e = o;
+            }
+        }
+        self.sample.extend(other.sample);
+        self
+    }
+
+    /// The votes of the extreme points ([`inward_votes`]).
+    pub fn votes(mut self) -> InwardVotes {
+        let dirs: Vec<DVec3> = (0..DIRECTIONS).map(direction).collect();
+        let mut votes = InwardVotes::default();
+        let extremes: Vec<(OrientedPoint, DVec3)> = self
+            .extremes
+            .iter()
+            .zip(&dirs)
+            .filter(|(e, _)| e.1 < self.n)
+            .map(|(e, d)| (e.2, *d))
+            .collect();
+        for (p, d) in &extremes {
+            let s = p.n.normalize_or_zero().dot(*d);
+            if s.abs() >= DECISIVE {
+                votes.decisive += 1;
+                votes.inward += usize::from(s < 0.0);
+            }
+        }
+        // The winding number just inside each extreme point (a few area radii along −d).
+        self.sample.sort_unstable_by_key(|s| s.0);
+        let sample: Vec<OrientedPoint> = self.sample.iter().map(|s| s.1).collect();
+        let dipoles = Dipoles::new(&sample);
+        let w: Vec<f64> = extremes
+            .par_iter()
+            .map(|(p, d)| dipoles.winding_number(p.p - INSIDE_RADII * dipoles.radius * *d))
+            .collect();
+        votes.probes = w.len();
+        for w in w {
+            if (w.abs() - 1.0).abs() <= WHOLE {
+                if w < 0.0 {
+                    votes.wound_inward += 1;
+                } else {
+                    votes.wound_outward += 1;
+                }
+            } else if w.abs() > WHOLE {
+                votes.open += 1;
+            }
+        }
+        votes
+    }
+}
+
+/// The `i`-th of the [`DIRECTIONS`] directions probed.
+fn direction(i: usize) -> DVec3 {
+    fibonacci_direction(i, DIRECTIONS)
+}
+
 /// For each of 64 directions d, the point of `points` (shape N, world units, unit normals)
 /// farthest along d (ties: the lowest index) votes with its normal: along d (outward) or
 /// against it (inward), when |n·d| ≥ 0.5; and the winding number of the points just inside
 /// each extreme point (two area radii along −d) says whether the surface is closed there
-/// (±1, or 0 past a thin part) or open (a fraction). Deterministic for any thread count.
+/// (±1, or 0 past a thin part) or open (a fraction). Deterministic for any thread count; by
+/// parts: [`InwardEvidence`].
 ///
 /// ```
 /// use glam::DVec3;
@@ -165,65 +273,19 @@ fn fibonacci_direction(i: usize, n: usize) -> DVec3 {
 /// assert!(inward_votes(&sphere).inward());
 /// ```
 pub fn inward_votes(points: &[OrientedPoint]) -> InwardVotes {
-    let dirs: Vec<DVec3> = (0..DIRECTIONS)
-        .map(|i| fibonacci_direction(i, DIRECTIONS))
-        .collect();
-    let none = || vec![(f64::NEG_INFINITY, usize::MAX); DIRECTIONS];
-    let better = |a: (f64, usize), b: (f64, usize)| {
-        if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
-            b
-        } else {
-            a
-        }
-    };
-    let extremes = points
+    let n = points.len() as u64;
+    points
         .par_iter()
         .enumerate()
-        .fold(none, |mut best, (i, p)| {
-            if p.p.is_finite() {
-                for (b, d) in best.iter_mut().zip(&dirs) {
-                    *b = better(*b, (p.p.dot(*d), i));
-                }
-            }
-            best
-        })
-        .reduce(none, |a, b| {
-            a.into_iter().zip(b).map(|(a, b)| better(a, b)).collect()
-        });
-    let mut votes = InwardVotes::default();
-    for (&(_, i), d) in extremes.iter().zip(&dirs) {
-        let Some(p) = points.get(i) else { continue };
-        let s = p.n.normalize_or_zero().dot(*d);
-        if s.abs() >= DECISIVE {
-            votes.decisive += 1;
-            votes.inward += usize::from(s < 0.0);
-        }
-    }
-    // The winding number just inside each extreme point (a few area radii along −d).
-    let probes: Vec<(usize, DVec3)> = extremes
-        .iter()
-        .zip(&dirs)
-        .filter(|(e, _)| e.1 < points.len())
-        .map(|(e, d)| (e.1, *d))
-        .collect();
-    let dipoles = Dipoles::new(points);
-    let w: Vec<f64> = probes
-        .par_iter()
-        .map(|&(i, d)| dipoles.winding_number(points[i].p - INSIDE_RADII * dipoles.radius * d))
-        .collect();
-    votes.probes = w.len();
-    for w in w {
-        if (w.abs() - 1.0).abs() <= WHOLE {
-            if w < 0.0 {
-                votes.wound_inward += 1;
-            } else {
-                votes.wound_outward += 1;
-            }
-        } else if w.abs() > WHOLE {
-            votes.open += 1;
-        }
-    }
-    votes
+        .fold(
+            || InwardEvidence::new(n),
+            |mut e, (i, p)| {
+                e.add(i as u64, *p);
+                e
+            },
+        )
+        .reduce(|| InwardEvidence::new(n), InwardEvidence::merge)
+        .votes()
 }
 
 #[cfg(test)]
@@ -280,6 +342,36 @@ mod tests {
             }
         }
         points
+    }
+
+    /// The evidence gathered in parts, in a shuffled order, votes as the whole: the torus's
+    /// points (and the flipped torus's) dealt to 7 parts by a hash of their index.
+    #[test]
+    fn parts_vote_as_the_whole() {
+        let torus = AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.3,
+        };
+        for points in [torus.sample(30_000, 5), flipped(torus.sample(30_000, 5))] {
+            let n = points.len() as u64;
+            let mut parts: Vec<InwardEvidence> = (0..7).map(|_| InwardEvidence::new(n)).collect();
+            for (i, p) in points.iter().enumerate().rev() {
+                let part = (i.wrapping_mul(2_654_435_761) >> 7) % 7;
+                parts[part].add(i as u64, *p);
+            }
+            let votes = parts
+                .into_iter()
+                .rev()
+                .reduce(InwardEvidence::merge)
+                .unwrap()
+                .votes();
+            let whole = inward_votes(&points);
+            assert_eq!(votes, whole);
+            assert!(
+                whole.probes == DIRECTIONS && whole.decisive >= MIN_VOTES,
+                "{whole:?}"
+            );
+        }
     }
 
     #[test]

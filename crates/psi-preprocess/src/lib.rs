@@ -73,7 +73,7 @@ pub use estimate_normals::{
 };
 pub use find_clumps::{CLUMP_GAP, CLUMP_POINTS, Clumps, find_clumps, find_clumps_with};
 pub use find_outliers::{Outliers, find_outliers, find_outliers_with};
-pub use inward_normals::{InwardVotes, inward_votes};
+pub use inward_normals::{InwardEvidence, InwardVotes, inward_votes};
 pub use level_by_parts::LevelIndex;
 pub use median::median_of_passes;
 pub use noise_by_parts::part_noise_samples;

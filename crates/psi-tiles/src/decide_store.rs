@@ -362,13 +362,14 @@ pub(crate) fn fingerprint(store: &TileStore, params: &MpuParams, tiles: &TilePar
     let mut h = Sha256::new();
     let m = store.manifest();
     h.update(format!(
-        "{:?} {} {} {:?} {} {}",
+        "{:?} {} {} {:?} {} {}{}",
         m.frame_bits,
         m.population,
         m.depth,
         params,
         tiles.halo.to_bits(),
-        tiles.shared_levels
+        tiles.shared_levels,
+        if m.normals_negated { " negated" } else { "" }
     ));
     for t in m.tiles.iter().chain([&m.coarse]) {
         h.update(&t.sha256);

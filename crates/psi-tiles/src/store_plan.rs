@@ -168,6 +168,7 @@ impl TileStore {
             depth: plan.depth,
             tiles,
             coarse,
+            normals_negated: false,
         };
         let text = serde_json::to_string_pretty(&manifest).expect("serialisable");
         crate::write_atomically(&dir.join(MANIFEST), text.as_bytes())?;

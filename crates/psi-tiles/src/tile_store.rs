@@ -66,6 +66,10 @@ pub struct StoreManifest {
     pub tiles: Vec<StoredTile>,
     /// The coarse points' file.
     pub coarse: StoredTile,
+    /// Whether every normal is read negated: the files as written, their normals judged to
+    /// point inward as a whole afterwards ([`TileStore::with_normals_negated`]).
+    #[serde(default)]
+    pub normals_negated: bool,
 }
 
 /// A finished store, its manifest read and trusted; files are checked as they are read (each
@@ -146,6 +150,30 @@ impl TileStore {
         &self.manifest
     }
 
+    /// The sign every normal is read with (−1 when [`StoreManifest::normals_negated`]).
+    fn sign(&self) -> f64 {
+        if self.manifest.normals_negated {
+            -1.0
+        } else {
+            1.0
+        }
+    }
+
+    /// This store with its normals read negated, or as written again (`negated`): the
+    /// manifest rewritten (a temporary file, renamed), the files untouched.
+    pub fn with_normals_negated(self, negated: bool) -> Result<TileStore, TileError> {
+        if self.manifest.normals_negated == negated {
+            return Ok(self);
+        }
+        let manifest = StoreManifest {
+            normals_negated: negated,
+            ..self.manifest.clone()
+        };
+        let text = serde_json::to_string_pretty(&manifest).expect("serialisable");
+        crate::write_atomically(&self.dir.join(MANIFEST), text.as_bytes())?;
+        TileStore::open(&self.dir)
+    }
+
     /// The store's directory.
     pub fn dir(&self) -> &Path {
         &self.dir
@@ -216,7 +244,7 @@ impl TileStore {
         let path = self.dir.join("coarse.pts");
         let bytes = self.read_ranges(&path, &self.manifest.coarse, None)?;
         let mut found = Vec::new();
-        decode_into(&bytes, &|_| true, &mut found);
+        decode_into(&bytes, &|_| true, self.sign(), &mut found);
         Ok(found.into_iter().map(|(_, p)| p).collect())
     }
 
@@ -254,7 +282,7 @@ impl TileStore {
                 .then(|| sub_cell_ranges(&entry.runs, sub_lo, sub_hi, &touches));
             let path = tile_path(&self.dir, key);
             let bytes = self.read_ranges(&path, entry, ranges.as_deref())?;
-            decode_into(&bytes, keep, &mut found);
+            decode_into(&bytes, keep, self.sign(), &mut found);
         }
         Ok(in_input_order(found))
     }
@@ -269,7 +297,7 @@ impl TileStore {
         let entry = &self.manifest.tiles[i];
         let bytes = self.read_ranges(&tile_path(&self.dir, entry.key), entry, None)?;
         let mut found = Vec::new();
-        decode_into(&bytes, keep, &mut found);
+        decode_into(&bytes, keep, self.sign(), &mut found);
         Ok(found)
     }
 
@@ -344,8 +372,13 @@ fn wrong_size(path: &Path, len: u64, points: u64, expected: u64) -> TileError {
 }
 
 /// Appends the records of `bytes` whose position satisfies `keep` to `found`, with their
-/// input indices.
-fn decode_into(bytes: &[u8], keep: &dyn Fn(DVec3) -> bool, found: &mut Vec<(u64, OrientedPoint)>) {
+/// input indices and their normals times `sign` (±1: a negation, exact).
+fn decode_into(
+    bytes: &[u8],
+    keep: &dyn Fn(DVec3) -> bool,
+    sign: f64,
+    found: &mut Vec<(u64, OrientedPoint)>,
+) {
     let f = |r: &[u8], k: usize| {
         f64::from_le_bytes(r[8 + 8 * k..16 + 8 * k].try_into().expect("8 bytes"))
     };
@@ -357,7 +390,7 @@ fn decode_into(bytes: &[u8], keep: &dyn Fn(DVec3) -> bool, found: &mut Vec<(u64,
                 index,
                 OrientedPoint {
                     p,
-                    n: DVec3::new(f(r, 3), f(r, 4), f(r, 5)),
+                    n: sign * DVec3::new(f(r, 3), f(r, 4), f(r, 5)),
                 },
             ));
         }

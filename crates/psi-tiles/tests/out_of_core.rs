@@ -244,6 +244,63 @@ fn decisions_from_the_store_equal_the_build_in_memory() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A store whose normals are read negated (the manifest's flag, the files untouched) gives
+/// the flipped points everywhere, decides the cells the build in memory decides from the
+/// flipped points, and reads as written again once the flag is cleared.
+#[test]
+fn a_store_read_negated_is_the_store_of_the_flipped_points() {
+    let points = noisy_torus(12_000, 6);
+    let flipped: Vec<OrientedPoint> = points
+        .iter()
+        .map(|p| OrientedPoint { p: p.p, n: -p.n })
+        .collect();
+    let params = MpuParams::paper();
+    let dir = scratch("negated");
+    let store = store_of(&points, 2, &dir);
+    let sums: Vec<String> = store
+        .manifest()
+        .tiles
+        .iter()
+        .map(|t| t.sha256.clone())
+        .collect();
+    let before = decide_store(&store, &params, &tiles(2, 0.0), &Monitor::silent()).unwrap();
+    let store = store.with_normals_negated(true).unwrap();
+    // Opened again from its directory: the flag is in the manifest.
+    let store = TileStore::open(store.dir()).unwrap();
+    assert!(store.manifest().normals_negated);
+    let m = store.manifest().clone();
+    assert_eq!(
+        m.tiles.iter().map(|t| t.sha256.clone()).collect::<Vec<_>>(),
+        sums
+    );
+    let all = store
+        .gather_box(m.frame.root_center, m.frame.root_half, 0.0)
+        .unwrap();
+    assert_eq!(all, flipped, "bitwise, in input order");
+    let coarse: Vec<OrientedPoint> = flipped
+        .iter()
+        .copied()
+        .filter(|p| is_coarse_point(&m.frame, p.p))
+        .collect();
+    assert_eq!(store.coarse_points().unwrap(), coarse);
+    let mut parts: Vec<(u64, OrientedPoint)> = (0..store.part_count())
+        .flat_map(|i| store.part_where(i, &|_| true).unwrap())
+        .collect();
+    parts.sort_by_key(|p| p.0);
+    assert!(parts.iter().all(|(i, p)| *p == flipped[*i as usize]));
+    // The decisions are the flipped points' (not the earlier ones, found on disk).
+    let from_store = decide_store(&store, &params, &tiles(2, 0.0), &Monitor::silent()).unwrap();
+    let in_memory = decide_tiled(&flipped, &params, &tiles(2, 0.0), &Monitor::silent()).unwrap();
+    assert_eq!(from_store.cells, in_memory.cells);
+    assert_ne!(from_store.cells, before.cells);
+    let store = store.with_normals_negated(false).unwrap();
+    let again = store
+        .gather_box(m.frame.root_center, m.frame.root_half, 0.0)
+        .unwrap();
+    assert_eq!(again, points);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn an_interrupted_run_resumes_and_damaged_decisions_are_decided_again() {
     use std::os::unix::fs::MetadataExt;
