@@ -37,7 +37,9 @@ mod read_ahead;
 mod read_file;
 pub mod render;
 pub mod report;
+mod store_checks;
 mod tile_level_normals;
+mod tile_noise;
 mod tile_normals;
 mod tile_outliers;
 mod tile_parts;
@@ -71,8 +73,8 @@ pub use partition::{
     partition_start,
 };
 pub use partition_preprocessed::{
-    OutOfCorePreprocessing, PreprocessedPartition, out_of_core_preprocessing,
-    partition_preprocessed,
+    OutOfCorePreprocessing, PreprocessedPartition, check_out_of_core_store,
+    out_of_core_preprocessing, partition_preprocessed,
 };
 pub use prepare::{
     ERROR_RANK_POINTS, PreparedInput, RANKED_NOISE, builtin_file, builtin_file_with, prepare_input,
@@ -88,6 +90,7 @@ pub use psi_particles::{
 };
 pub use psi_shapes::{AnalyticShape, builtin_model};
 pub use render::{render_particles_png, save_png};
+pub use store_checks::{ChecksWanted, OutOfCoreMpu, StoreChecks, out_of_core_mpu_params};
 pub use tile_outliers::{
     StrayTally, stray_join, stray_standings, stray_stats, stray_verdicts_of_batch,
 };

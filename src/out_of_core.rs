@@ -5,10 +5,10 @@
 //! run this.
 //!
 //! The preprocessing done tile by tile, bitwise the in-core steps: repeated points and the
-//! outlier search's strays left out (`tile_outliers.rs`), and points without normals given
-//! them, estimated and oriented (`tile_normals.rs`). Not yet: the stray-clump search, the
-//! noise threshold, denoising, the inward-normals check (a run out of core takes the points as
-//! those steps find them, and says so up front).
+//! outlier search's strays left out (`tile_outliers.rs`), points without normals given
+//! them, estimated and oriented (`tile_normals.rs`), given normals that point inward flipped
+//! and the noise's error threshold (`store_checks.rs`). Not yet: the stray-clump search and
+//! denoising (a run out of core takes the points as those steps find them, and says so).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -17,7 +17,7 @@ use psi_io::Format;
 use psi_mpu::MpuParams;
 use psi_octree::Monitor;
 use psi_particles::{ParticleParams, Particles, Quality};
-use psi_preprocess::PreprocessParams;
+use psi_preprocess::{ErrorThreshold, PreprocessParams};
 use psi_tiles::{
     TileParams, TileReport, TileSampleReport, TileStore, decide_store, sample_tiled_from,
     seed_store_octant,
@@ -27,16 +27,12 @@ use crate::PsiError;
 use crate::budget::OutOfCore;
 use crate::partition::failure;
 use crate::partition_preprocessed::{PreprocessedPartition, partition_preprocessed};
+use crate::store_checks::{OutOfCoreMpu, StoreChecks, check_store};
 use crate::tile_outliers::StrayTally;
 
 /// The in-core preprocessing steps a run out of core does not do yet (its JSON report lists
 /// them; the CLI says so up front).
-pub const NOT_DONE_OUT_OF_CORE: [&str; 4] = [
-    "stray clumps",
-    "noise threshold",
-    "denoising",
-    "inward normals check",
-];
+pub const NOT_DONE_OUT_OF_CORE: [&str; 2] = ["stray clumps", "denoising"];
 
 /// What a run out of core made.
 #[derive(Clone, Debug)]
@@ -64,15 +60,25 @@ pub struct OutOfCoreRun {
     /// The level the estimated normals' planes were fitted at (one point in 4^level; `None`
     /// when given, or found in the store of an earlier run).
     pub normals_level: Option<u32>,
-    /// Seconds: reading and partitioning, deciding the cells, sampling.
+    /// What the checks before the MPU found (the inward normals, the noise).
+    pub checks: StoreChecks,
+    /// The MPU's error threshold (the given one, the noise's or the paper's).
+    pub error: ErrorThreshold,
+    /// The MPU's parameters the run used.
+    pub mpu_params: MpuParams,
+    /// Seconds of the checks (counted in the reading's too; 0 when found).
+    pub checks_seconds: f64,
+    /// Seconds: reading and partitioning (and the checks), deciding the cells, sampling.
     pub seconds: [f64; 3],
 }
 
 /// Samples the files at `paths` (one input, their points in this order, as a survey's tiles
 /// come; each read as `format`, or as its extension says) out of core:
 /// the preprocessing steps of `preprocess` that run out of core (the outlier step, normals
-/// estimated where there are none), the MPU with `mpu_params` decided tile by tile, bitwise the
-/// in-core build of the same points, and particles with `particle_params` (k per leaf: the in-core seeds and count;
+/// estimated where there are none, given normals that point inward flipped, the noise
+/// estimate), the MPU with `mpu`'s parameters decided tile by tile, bitwise the in-core build
+/// of the same points (the error threshold given, else the noise's or the paper's, and the
+/// cell error's rank, as in core: [`crate::StoreChecks::mpu_params`]), and particles with `particle_params` (k per leaf: the in-core seeds and count;
 /// seeded tile by tile, then relaxed at once, then the ceiling on spacing, its passes reading
 /// the tiles). Tile files go to `options.scratch`; a run that finds
 /// the files of an earlier run on the same file there resumes from them. Progress: stages
@@ -88,7 +94,7 @@ pub fn sample_files_out_of_core(
     paths: &[PathBuf],
     format: Option<Format>,
     preprocess: &PreprocessParams,
-    mpu_params: &MpuParams,
+    mpu: &OutOfCoreMpu,
     particle_params: &ParticleParams,
     options: &OutOfCore,
     monitor: &Monitor<'_>,
@@ -99,11 +105,17 @@ pub fn sample_files_out_of_core(
         strays,
         normals_estimated,
         normals_level,
-    } = partition_preprocessed(paths, format, preprocess, mpu_params, options, monitor)?;
+        checks,
+    } = partition_preprocessed(paths, format, preprocess, &mpu.params, options, monitor)?;
+    let t_checks = Instant::now();
+    let (store, checks) = check_store(part.store.clone(), checks, &options.scratch, monitor)?;
+    let checks_seconds = t_checks.elapsed().as_secs_f64();
+    let (mpu_params, error) = checks.mpu_params(mpu);
+    let mpu_params = &mpu_params;
     let read_seconds = t0.elapsed().as_secs_f64();
     let fail = failure(&paths[0]);
     let t1 = Instant::now();
-    let store = &part.store;
+    let store = &store;
     let tiles = out_of_core_tiles(store);
     let decisions =
         decide_store(store, mpu_params, &tiles, monitor).map_err(|e| fail(e.to_string()))?;
@@ -145,6 +157,10 @@ pub fn sample_files_out_of_core(
         normals_estimated,
         strays,
         normals_level,
+        checks,
+        error,
+        mpu_params: *mpu_params,
+        checks_seconds,
         seconds: [read_seconds, decide_seconds, t2.elapsed().as_secs_f64()],
     })
 }
@@ -163,7 +179,7 @@ pub fn sample_file_out_of_core(
     path: &Path,
     format: Option<Format>,
     preprocess: &PreprocessParams,
-    mpu_params: &MpuParams,
+    mpu: &OutOfCoreMpu,
     particle_params: &ParticleParams,
     options: &OutOfCore,
     monitor: &Monitor<'_>,
@@ -173,7 +189,7 @@ pub fn sample_file_out_of_core(
         &paths,
         format,
         preprocess,
-        mpu_params,
+        mpu,
         particle_params,
         options,
         monitor,
@@ -226,7 +242,6 @@ pub fn parse_memory_size(text: &str) -> Result<u64, String> {
 /// `tiles` object.
 pub fn out_of_core_json(
     inputs: &[PathBuf],
-    mpu_params: &MpuParams,
     particle_params: &ParticleParams,
     options: &OutOfCore,
     run: &OutOfCoreRun,
@@ -237,7 +252,12 @@ pub fn out_of_core_json(
             "points": run.points,
             "dropped_zero_normals": run.dropped,
         },
-        "mpu": { "error_rel": mpu_params.error_rel, "max_depth": mpu_params.max_depth },
+        "mpu": {
+            "error_rel": run.error.relative,
+            "error_threshold": run.error,
+            "error_rank": run.mpu_params.error_rank,
+            "max_depth": run.mpu_params.max_depth,
+        },
         "particles": {
             "count": run.particles.len(),
             "k": particle_params.k,
@@ -263,6 +283,7 @@ pub fn out_of_core_json(
             "max_memory_bytes": options.max_memory,
             "seconds": {
                 "read": run.seconds[0],
+                "checks": run.checks_seconds,
                 "decide": run.seconds[1],
                 "top": run.tiles.top_seconds,
                 "sample": run.seconds[2],
@@ -284,6 +305,11 @@ pub fn out_of_core_json(
                     "far": t.far,
                     "off_surface": t.off_surface,
                 })),
+                "inward_normals_flipped": run.checks.inward_normals_flipped,
+                "inward_votes": run.checks.inward,
+                "noise": run.checks.noise,
+                "noise_rel": run.checks.noise_rel,
+                "denoise_skipped": run.checks.denoise_skipped,
                 "not_done": NOT_DONE_OUT_OF_CORE,
             },
         },

@@ -11,12 +11,14 @@ use psi_io::Format;
 use psi_mpu::MpuParams;
 use psi_octree::Monitor;
 use psi_preprocess::PreprocessParams;
+use psi_tiles::TileStore;
 
 use crate::PsiError;
 use crate::budget::OutOfCore;
 use crate::partition::{
     Input, NormalsKind, Partition, StoreKind, file_facts, has_normals, partition_files,
 };
+use crate::store_checks::{ChecksWanted, StoreChecks, check_store};
 use crate::tile_normals::partition_estimating_normals;
 use crate::tile_outliers::{StrayTally, found_with_strays, partition_removing_outliers};
 
@@ -32,15 +34,17 @@ pub struct PreprocessedPartition {
     /// The level their planes were fitted at (one point in 4^level; `None` when the store
     /// of an earlier run was found, or the normals were given).
     pub normals_level: Option<u32>,
+    /// The checks the store gets before the MPU (`store_checks.rs`).
+    pub checks: ChecksWanted,
 }
 
 /// What the preprocessing of `paths` (read as `format`) does out of core: whether the points
-/// get normals, and whether the outlier step runs. Checks that the files have normals or none.
+/// get normals, whether the outlier step runs, and whether they are a mesh's. Checks that the files have normals or none.
 fn steps(
     paths: &[PathBuf],
     format: Option<Format>,
     preprocess: &PreprocessParams,
-) -> Result<(bool, bool), PsiError> {
+) -> Result<(bool, bool, bool), PsiError> {
     let first = paths.first().ok_or_else(|| PsiError::OutOfCore {
         path: PathBuf::new(),
         reason: "no input files given".into(),
@@ -60,7 +64,7 @@ fn steps(
     }
     // A mesh's triangles are the surface: in core its points are not searched for outliers.
     let remove = preprocess.remove_outliers && !mesh;
-    Ok((estimate, remove))
+    Ok((estimate, remove, mesh))
 }
 
 /// The error for a file of an input whose first file has normals (`estimate` false) or none.
@@ -103,7 +107,7 @@ pub fn out_of_core_preprocessing(
     preprocess: &PreprocessParams,
     options: &OutOfCore,
 ) -> Result<OutOfCorePreprocessing, PsiError> {
-    let (estimate, remove) = steps(paths, format, preprocess)?;
+    let (estimate, remove, _) = steps(paths, format, preprocess)?;
     let (normals, all_normals) = if estimate {
         (NormalsKind::Oriented, NormalsKind::Positions)
     } else {
@@ -147,7 +151,7 @@ pub fn partition_preprocessed(
     options: &OutOfCore,
     monitor: &Monitor<'_>,
 ) -> Result<PreprocessedPartition, PsiError> {
-    let (estimate, remove) = steps(paths, format, preprocess)?;
+    let (estimate, remove, mesh) = steps(paths, format, preprocess)?;
     let input = Input {
         paths,
         format,
@@ -171,5 +175,44 @@ pub fn partition_preprocessed(
         strays,
         normals_estimated: estimate,
         normals_level,
+        checks: checks_wanted(preprocess, estimate, mesh),
     })
+}
+
+/// The checks the final store gets before the MPU (`store_checks.rs`), as the in-core
+/// preprocessing makes them: the inward check for given normals (unless reoriented), the noise
+/// estimate for a scan's points.
+fn checks_wanted(preprocess: &PreprocessParams, estimate: bool, mesh: bool) -> ChecksWanted {
+    ChecksWanted {
+        inward: !estimate && preprocess.flip_inward_normals && !preprocess.orient_given_normals,
+        // A mesh's triangles are the surface: in core their residuals set no threshold.
+        noise: preprocess.estimate_noise && !mesh,
+        denoise: preprocess.denoise,
+    }
+}
+
+/// The checks of the run out of core on `paths` (read as `format`) with `preprocess`, on the
+/// final store its partition wrote in `options.scratch` (a cluster's task, after the
+/// partition's): made, or found from an earlier run, and kept in the scratch directory where
+/// the later tasks read the run's error threshold ([`crate::out_of_core_mpu_params`]).
+///
+/// # Errors
+///
+/// As [`partition_preprocessed`]'s checks of the files; [`PsiError::OutOfCore`] when the store
+/// or the checks' file cannot be read or written.
+pub fn check_out_of_core_store(
+    paths: &[PathBuf],
+    format: Option<Format>,
+    preprocess: &PreprocessParams,
+    options: &OutOfCore,
+    monitor: &Monitor<'_>,
+) -> Result<StoreChecks, PsiError> {
+    let (estimate, _, mesh) = steps(paths, format, preprocess)?;
+    let dir = options.scratch.join("tiles");
+    let store = TileStore::open(&dir).map_err(|e| PsiError::OutOfCore {
+        path: dir.clone(),
+        reason: e.to_string(),
+    })?;
+    let wanted = checks_wanted(preprocess, estimate, mesh);
+    Ok(check_store(store, wanted, &options.scratch, monitor)?.1)
 }

@@ -40,9 +40,15 @@ impl PreparedInput {
     pub fn error_rank(&self, error_rel: f64) -> Option<usize> {
         let mesh = self.json["faces"].as_u64().is_some_and(|f| f > 0);
         let noise = self.report.noise_rel_after.or(self.report.noise_rel);
-        let noisy = noise.is_some_and(|n| n >= RANKED_NOISE * error_rel);
-        (!mesh && noisy).then_some(ERROR_RANK_POINTS)
+        error_rank_for(mesh, noise, error_rel)
     }
+}
+
+/// [`PreparedInput::error_rank`] of a mesh's points (`mesh`) or a point cloud's whose noise,
+/// relative to D, is `noise_rel` (`None`: not estimated), for the error threshold `error_rel`.
+pub(crate) fn error_rank_for(mesh: bool, noise_rel: Option<f64>, error_rel: f64) -> Option<usize> {
+    let noisy = noise_rel.is_some_and(|n| n >= RANKED_NOISE * error_rel);
+    (!mesh && noisy).then_some(ERROR_RANK_POINTS)
 }
 
 /// Points per rank of a noisy point cloud's cell error ([`PreparedInput::error_rank`]): about

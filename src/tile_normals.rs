@@ -20,8 +20,7 @@ use std::fs::{self, File};
 use glam::DVec3;
 use psi_octree::Monitor;
 use psi_preprocess::{
-    NoiseRound, PartEdges, noise_by_rounds, noise_level, orientation_flips, part_noise_samples,
-    part_normals, part_orientation_edges,
+    PartEdges, noise_level, orientation_flips, part_normals, part_orientation_edges,
 };
 
 use crate::PsiError;
@@ -30,6 +29,7 @@ use crate::partition::{
     Input, Keep, KeptFrom, Normals, NormalsKind, Partition, Points, StoreKind, failure,
 };
 use crate::tile_level_normals::partition_from_level;
+use crate::tile_noise::store_noise;
 use crate::tile_outliers::{StrayTally, found_with_strays, stray_verdicts};
 use crate::tile_parts::{
     Halos, RecordFile, by_tile, each_tile, first_halo, io_reason, normal_bytes, normal_of_bytes,
@@ -141,22 +141,7 @@ pub(crate) fn partition_estimating_normals(
     let mut halos = Halos::new();
     let keys = store.tile_keys();
     let first = |key| first_halo(store, key);
-    let (noise, reach) = noise_by_rounds(n, |round: NoiseRound| {
-        let found = each_tile(
-            &keys,
-            (&mut halos, &first),
-            ("noise", monitor),
-            &|key, halo| {
-                let (_, fits) = by_tile(store, key, halo, |t, ids, holds| {
-                    let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
-                    part_noise_samples(&positions, ids, &t.own, holds, round)
-                })?;
-                Ok(fits)
-            },
-        )
-        .map_err(&fail)?;
-        Ok::<_, PsiError>(found.concat())
-    })?;
+    let (noise, reach) = store_noise(store, &mut halos, monitor).map_err(&fail)?;
     let level = noise_level(noise.sigma, reach);
     if level > 0 {
         // The planes among the level's points (none when it holds too few: level 0 then).

@@ -47,6 +47,8 @@ fn the_bunny_out_of_core_has_the_in_core_count_and_resumes_from_its_tiles() {
             "--json",
             report,
             "-q",
+            // (The point formats' noise would set the threshold the mesh's does not.)
+            "--no-noise-estimate",
         ]);
         common::assert_success(&out);
     };
@@ -212,8 +214,9 @@ fn torus_with_strays() -> Vec<psi::OrientedPoint> {
 /// The outlier step and missing normals out of core: a torus with strays (positions alone, and
 /// with normals), a box (positions alone: many ties among its neighbours) and a dense noisy
 /// sphere (positions alone, planes among a coarser level of its points), tile by tile, give
-/// the in-core run's particles byte for byte (the steps not done out of core off in both; the
-/// ceiling on spacing in both, its darts on the box's faces) and
+/// the in-core run's particles byte for byte (denoising, not done out of core, off in core;
+/// the noise's threshold, the inward check and the ceiling on spacing in both, its darts on
+/// the box's faces) and
 /// leave out what it leaves out; a second run resumes from the final tiles, and only they and
 /// the verdicts are left in the scratch directory.
 #[test]
@@ -258,12 +261,12 @@ fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
             dir.join(format!("{name}-core.ply")),
             dir.join(format!("{name}-core.json")),
         );
+        // (Denoising is not done out of core yet; the noise's threshold and the inward check
+        // are, in both.)
         let out = common::psi(&[
             "sample",
             x,
-            "--no-noise-estimate",
             "--no-denoise",
-            "--keep-inward-normals",
             "-q",
             "-o",
             core.to_str().unwrap(),
@@ -330,7 +333,25 @@ fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
         left.sort();
-        assert_eq!(left, ["strays.bin", "strays.source", "tiles"], "{name}");
+        assert_eq!(
+            left,
+            ["checks.json", "strays.bin", "strays.source", "tiles"],
+            "{name}"
+        );
+        // The noise's threshold as in core (the noisy sphere's above the paper's).
+        assert_eq!(
+            report["mpu"]["error_threshold"],
+            core_report["mpu"]["error_threshold"]["source"]
+                .as_str()
+                .map(|source| serde_json::json!({
+                    "relative": core_report["mpu"]["error_threshold"]["relative"],
+                    "source": source,
+                }))
+                .unwrap(),
+            "{name}"
+        );
+        let noisy = name == "noisy-sphere";
+        assert_eq!(report["mpu"]["error_threshold"]["source"] == "noise", noisy);
         let (again, report) = tiled("b");
         assert_eq!(report["tiles"]["resumed"], true);
         assert_eq!(
@@ -339,6 +360,104 @@ fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
         );
         assert!(again == first, "{name}: the resumed run differs");
     }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The checks before the MPU out of core: a noisy torus whose given normals point inward, read
+/// from a PLY file, tile by tile gives the in-core run's particles byte for byte (its normals
+/// flipped outward, ε0 set from the noise, which in core would also ask for denoising: off
+/// there); again with the same scratch and `--keep-inward-normals` (the store read as written),
+/// with a given threshold, and with the defaults once more (flipped again).
+#[test]
+fn out_of_core_flips_inward_normals_and_sets_the_noise_threshold_as_in_core() {
+    use psi::shapes::AnalyticShape;
+    let dir = common::scratch("out-of-core-checks");
+    let mut rng = <rand_pcg::Pcg64Mcg as rand::SeedableRng>::seed_from_u64(5);
+    let points: Vec<psi::OrientedPoint> = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.35,
+    }
+    .sample(20_000, 9)
+    .iter()
+    .map(|p| psi::OrientedPoint {
+        p: p.p + 0.008 * psi::shapes::gaussian_vector(&mut rng),
+        n: -p.n,
+    })
+    .collect();
+    let ply = dir.join("inward.ply");
+    psi::save_points(&ply, &points).unwrap();
+    let x = ply.to_str().unwrap();
+    let scratch = dir.join("scratch");
+    let run = |tag: &str, flags: &[&str], tiled: bool| {
+        let (o, j) = (
+            dir.join(format!("{tag}.ply")),
+            dir.join(format!("{tag}.json")),
+        );
+        // (Quiet but for the first tiled run, whose notices are read.)
+        let mut args = vec!["sample", x, "-o", o.to_str().unwrap()];
+        if tag != "tiled" {
+            args.push("-q");
+        }
+        args.extend(["--json", j.to_str().unwrap()]);
+        if tiled {
+            args.extend([
+                "--max-memory",
+                "64MiB",
+                "--scratch",
+                scratch.to_str().unwrap(),
+            ]);
+        }
+        args.extend(flags);
+        let out = common::psi(&args);
+        common::assert_success(&out);
+        (std::fs::read(o).unwrap(), json(&j), out)
+    };
+    let (core, core_report, _) = run("core", &["--no-denoise"], false);
+    assert_eq!(
+        core_report["input"]["inward_normals_flipped"], true,
+        "{core_report}"
+    );
+    assert_eq!(core_report["mpu"]["error_threshold"]["source"], "noise");
+    let (tiled, report, out) = run("tiled", &[], true);
+    assert!(tiled == core, "particles differ from in core");
+    let pre = &report["tiles"]["preprocessing"];
+    assert_eq!(pre["inward_normals_flipped"], true, "{pre}");
+    assert_eq!(pre["denoise_skipped"], true, "{pre}");
+    assert_eq!(
+        pre["noise"]["sigma"],
+        core_report["input"]["noise_estimate"]["sigma"]
+    );
+    assert!(report["tiles"]["count"].as_u64().unwrap() >= 8);
+    assert_eq!(
+        report["mpu"]["error_rel"],
+        core_report["mpu"]["error_threshold"]["relative"]
+    );
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(said.contains("flipped them outward"), "{said}");
+    assert!(said.contains("calls for denoising"), "{said}");
+    // The store read as written, and the checks made again.
+    let kept = ["--no-denoise", "--keep-inward-normals"];
+    let (core_kept, ..) = run("core-kept", &kept, false);
+    let (tiled_kept, report_kept, _) = run("tiled-kept", &["--keep-inward-normals"], true);
+    assert!(
+        tiled_kept == core_kept,
+        "--keep-inward-normals: particles differ"
+    );
+    assert_ne!(core_kept, core);
+    assert_eq!(report_kept["tiles"]["resumed"], true);
+    assert_eq!(
+        report_kept["tiles"]["preprocessing"]["inward_normals_flipped"],
+        false
+    );
+    // A given threshold is the run's.
+    let given = ["--no-denoise", "--mpu-error", "0.003"];
+    let (core_given, ..) = run("core-given", &given, false);
+    let (tiled_given, report_given, _) = run("tiled-given", &["--mpu-error", "0.003"], true);
+    assert!(tiled_given == core_given, "--mpu-error: particles differ");
+    assert_eq!(report_given["mpu"]["error_threshold"]["source"], "user");
+    // The defaults again: flipped again, the first run's particles.
+    let (again, ..) = run("again", &[], true);
+    assert!(again == core, "the defaults again: particles differ");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

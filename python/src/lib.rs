@@ -47,6 +47,7 @@ fn psi_python(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_partition_start, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_partition_part, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_partition_assemble, m)?)?;
+    m.add_function(wrap_pyfunction!(out_of_core::_ooc_checks, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_top_upper, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_top_group, m)?)?;
     m.add_function(wrap_pyfunction!(out_of_core::_ooc_top, m)?)?;

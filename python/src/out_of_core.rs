@@ -64,7 +64,8 @@ pub(crate) fn threads_arg(threads: Option<i128>) -> PyResult<Option<usize>> {
 /// and the tile files to `scratch` (default: beside `output`). The same run as `psi sample
 /// INPUT --max-memory SIZE`: bitwise its particles. Preprocessing tile by tile: repeated
 /// points and outliers left out (unless `keep_outliers`), normals estimated and oriented where
-/// there are none; not yet the stray-clump search, noise threshold or denoising. The ceiling
+/// there are none, given normals that point inward flipped, the error threshold set from the
+/// noise (unless `mpu_error` is given); not yet the stray-clump search or denoising. The ceiling
 /// on spacing `max_spacing` (world units; default 2.5 % of the diagonal, `inf` for none) as in
 /// core. Returns the run's report (the CLI's `--json`). A rerun with the same scratch
 /// resumes from its tile files.
@@ -220,7 +221,7 @@ fn run_sample_files<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let inputs = inputs_arg(inputs)?;
     let max_memory = memory_arg(max_memory)?;
-    let mpu_params = mpu_params(mpu_error)?;
+    let mpu = psi::OutOfCoreMpu::given(mpu_params(mpu_error)?, mpu_error);
     let scratch = scratch.unwrap_or_else(|| default_scratch(&output));
     let options = psi::OutOfCore {
         max_memory,
@@ -235,7 +236,7 @@ fn run_sample_files<'py>(
                 &work_inputs,
                 None,
                 &preprocess,
-                &mpu_params,
+                &mpu,
                 &particle_params,
                 &work_options,
                 monitor,
@@ -252,7 +253,7 @@ fn run_sample_files<'py>(
     })?
     .map_err(value_error)?
     .map_err(|e| psi_error(py, e, Some("sampling out of core")))?;
-    let report = psi::out_of_core_json(&inputs, &mpu_params, &particle_params, &options, &run);
+    let report = psi::out_of_core_json(&inputs, &particle_params, &options, &run);
     crate::json::to_python(py, &report)
 }
 
@@ -300,7 +301,10 @@ fn store_task<T: Send>(
 ) -> PyResult<T> {
     let threads = threads_arg(threads)?;
     let store = open_store(scratch)?;
-    let params = mpu_params(mpu_error)?;
+    // ε0 as the checks' task set it (the noise's, when above the given or the paper's).
+    let mpu = psi::OutOfCoreMpu::given(mpu_params(mpu_error)?, mpu_error);
+    let params =
+        psi::out_of_core_mpu_params(scratch, &mpu).map_err(|e| value_error(e.to_string()))?;
     crate::errors::detached(py, move || {
         on_threads(threads, || {
             work(&store, &params, &psi::out_of_core_tiles(&store))
@@ -473,6 +477,31 @@ pub(crate) fn _ooc_preprocessing(
                 P::Plain => "none",
             },
         )
+    })
+}
+
+/// Task of `psi.distributed.sample_files` (not API), after the partition's: the checks of the
+/// final store in `scratch` before the MPU (inward normals flipped, the noise's error
+/// threshold; [`psi::check_out_of_core_store`]), kept there for the later tasks.
+#[pyfunction]
+#[pyo3(signature = (inputs, max_memory, scratch, mpu_error=None, keep_outliers=false,
+    threads=None))]
+pub(crate) fn _ooc_checks(
+    py: Python<'_>,
+    inputs: &Bound<'_, PyAny>,
+    max_memory: &Bound<'_, PyAny>,
+    scratch: PathBuf,
+    mpu_error: Option<f64>,
+    keep_outliers: bool,
+    threads: Option<i128>,
+) -> PyResult<()> {
+    let inputs = inputs_arg(inputs)?;
+    let options = partition_options(max_memory, scratch)?;
+    partition_task(py, threads, move || {
+        let preprocess = preprocess_params(keep_outliers);
+        let silent = psi::octree::Monitor::silent();
+        psi::check_out_of_core_store(&inputs, None, &preprocess, &options, &silent)?;
+        Ok(())
     })
 }
 

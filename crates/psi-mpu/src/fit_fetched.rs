@@ -10,6 +10,7 @@ use psi_octree::{Cell, OrientedPoint};
 use crate::fit_cell::{CellFit, fit_octree_cell};
 use crate::fit_radius::radius_reaching;
 use crate::region_points::{IndexedPoints, key_of_point};
+use crate::surface_leaf::leaf_holds_surface;
 use crate::{MpuError, MpuFrame, MpuParams};
 
 /// The points within a ball, fetched on demand: `fetch(centre, radius)` (world units) returns
@@ -134,10 +135,11 @@ pub(crate) fn fit_fetched(
                 // circumradius).
                 // (Only points in or at the cube can be in it: the exact rule for those alone.)
                 let reach = cell.half + margin;
-                let surface = indexed.positions().iter().any(|&x| {
+                let inside = indexed.positions().iter().copied().filter(|&x| {
                     (x - cell.center).abs().max_element() <= reach
                         && key_of_point(frame, x, cell.depth) == cell.key
                 });
+                let surface = leaf_holds_surface(params, cell, &f, eps0, inside);
                 return Ok((f, surface));
             }
             radius = (f.fit_radius + margin).max(1.25 * radius);

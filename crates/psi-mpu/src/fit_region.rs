@@ -15,6 +15,7 @@ use crate::cell_table::{CellAddress, CellDecision, CellTable};
 use crate::fit_cell::{CellFit, fit_octree_cell};
 use crate::fit_fetched::{BallCache, BallSource, fit_fetched};
 use crate::region_points::{IndexedPoints, check_population};
+use crate::surface_leaf::leaf_holds_surface;
 use crate::{MpuError, MpuFrame, MpuParams};
 
 /// A region of the octree: the cell at `depth` with integer `key` and the cells below it down
@@ -185,7 +186,12 @@ pub fn fit_region(
                     fit_fetched(cell, frame, params, population, eps0, &far.source, &cache)?;
                 Ok((f, surface, true))
             }
-            (Some(f), _) => Ok((f, !inside.is_empty(), false)),
+            (Some(f), _) => {
+                let positions = indexed.positions();
+                let points = inside.iter().map(|&i| positions[i as usize]);
+                let surface = leaf_holds_surface(params, cell, &f, eps0, points);
+                Ok((f, surface, false))
+            }
             (None, Some(far)) => {
                 let (f, surface) =
                     fit_fetched(cell, frame, params, population, eps0, &far.source, &cache)?;

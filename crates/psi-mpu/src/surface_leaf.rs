@@ -9,8 +9,10 @@
 //! the leaf's points and its fit, which a local regeneration refits and a tile builds exactly.
 
 use glam::DVec3;
-use psi_octree::Octree;
+use psi_octree::{Cell, Octree};
 
+use crate::MpuParams;
+use crate::fit_cell::CellFit;
 use crate::fit_store::FitStore;
 
 /// Whether leaf `leaf` of `octree` (local frame) holds the surface: a point in its cube, or,
@@ -18,17 +20,56 @@ use crate::fit_store::FitStore;
 /// whose projection onto it (x − Q(x)∇Q(x)/|∇Q(x)|², local frame) lies in its cube (closed).
 /// A point where the step is not finite (a vanishing gradient) stays where it is.
 pub(crate) fn holds_surface(octree: &Octree, fit: Option<(&FitStore, u32)>, leaf: u32) -> bool {
-    let points = octree.points_in(leaf);
-    let Some((fits, id)) = fit else {
-        return !points.is_empty();
-    };
-    let cell = octree.cell(leaf);
     let positions = octree.positions();
-    points.iter().any(|&i| {
-        let x = positions[i as usize];
-        let (q, g) = fits.value_and_gradient(id, x);
+    let points = octree
+        .points_in(leaf)
+        .iter()
+        .map(|&i| positions[i as usize]);
+    let cell = octree.cell(leaf);
+    match fit {
+        None => points_hold_surface(cell, None, points),
+        Some((fits, id)) => {
+            points_hold_surface(cell, Some(&|x| fits.value_and_gradient(id, x)), points)
+        }
+    }
+}
+
+/// [`holds_surface`] of leaf `cell` given the positions of its points (local frame) and, for a
+/// noisy point cloud, its function's value and gradient `fit` (local frame): a tile's decisions
+/// read the points they hold.
+pub(crate) fn points_hold_surface(
+    cell: &Cell,
+    fit: Option<&dyn Fn(DVec3) -> (f64, DVec3)>,
+    mut points: impl Iterator<Item = DVec3>,
+) -> bool {
+    let Some(fit) = fit else {
+        return points.next().is_some();
+    };
+    points.any(|x| {
+        let (q, g) = fit(x);
         (projected(x, q, g) - cell.center).abs().max_element() <= cell.half
     })
+}
+
+/// Whether `cell`, fitted with `f` (its error against `eps0`, world units), is a leaf that holds
+/// the surface as the whole build finds it ([`points_hold_surface`] of `points`, its points in
+/// the local frame; with its function when `params.error_rank` ranks the cells' errors); false
+/// for a cell that splits.
+pub(crate) fn leaf_holds_surface(
+    params: &MpuParams,
+    cell: &Cell,
+    f: &CellFit,
+    eps0: f64,
+    points: impl Iterator<Item = DVec3>,
+) -> bool {
+    if f.splits(cell, eps0, params.max_depth) {
+        return false;
+    }
+    let function = &f.fit.function;
+    let value_and_gradient = |x| function.value_and_gradient(x);
+    let fit: Option<&dyn Fn(DVec3) -> (f64, DVec3)> =
+        params.error_rank.is_some().then_some(&value_and_gradient);
+    points_hold_surface(cell, fit, points)
 }
 
 /// One Newton step from `x` onto the zero set of a function with value `q` and gradient `g`

@@ -91,6 +91,6 @@ pub use point_spread::{Spread, point_spread};
 pub use preprocess::{
     ErrorThreshold, INCONSISTENT_NORMALS, MeshRef, MeshReport, NOISE_ERROR_FACTOR, NormalTreatment,
     PAPER_ERROR_REL, PointOrigin, PreprocessError, PreprocessParams, PreprocessReport,
-    Preprocessed, ScanInput, StepSeconds, ThresholdSource, error_threshold_for_noise, preprocess,
-    preprocess_with,
+    Preprocessed, ScanInput, StepSeconds, ThresholdSource, error_threshold_for_noise,
+    inward_flip_notice, preprocess, preprocess_with,
 };

@@ -283,11 +283,8 @@ impl PreprocessReport {
     /// The notice for normals flipped outward ([`PreprocessReport::inward_normals_flipped`]),
     /// naming the input; the caller adds how to keep them.
     pub fn inward_notice(&self, name: &str) -> Option<String> {
-        self.inward_normals_flipped.then(|| {
-            format!(
-                "{name}: the normals pointed inward (judged on the convex hull); flipped them outward"
-            )
-        })
+        self.inward_normals_flipped
+            .then(|| inward_flip_notice(name))
     }
 
     /// The MPU error threshold to use: `user`'s when given, else the one the noise suggests
@@ -334,6 +331,11 @@ fn opposed_beyond_limit(
     consistency
         .map(|c| c.opposed_fraction())
         .filter(|&f| f > INCONSISTENT_NORMALS && normals == NormalTreatment::Given)
+}
+
+/// The notice for the normals of input `name` flipped outward ([`crate::inward_votes`]).
+pub fn inward_flip_notice(name: &str) -> String {
+    format!("{name}: the normals pointed inward (judged on the convex hull); flipped them outward")
 }
 
 /// ε0 relative to D for a noise of `noise_rel` × D: the paper's 0.005, or

@@ -18,6 +18,7 @@ use glam::DVec3;
 use psi_mpu::MpuFrame;
 use psi_octree::OrientedPoint;
 use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
 
 use crate::TileError;
 use crate::run_digests::{check_runs, trailer_len, trailer_sum};
@@ -172,6 +173,21 @@ impl TileStore {
         let text = serde_json::to_string_pretty(&manifest).expect("serialisable");
         crate::write_atomically(&self.dir.join(MANIFEST), text.as_bytes())?;
         TileStore::open(&self.dir)
+    }
+
+    /// What the store's points are, hashed (SHA-256, hexadecimal): its source, frame, count,
+    /// depth and every file's checksum; not whether the normals are read negated.
+    pub fn digest(&self) -> String {
+        let m = &self.manifest;
+        let mut h = Sha256::new();
+        h.update(format!(
+            "{}\n{:?} {} {}",
+            m.source, m.frame_bits, m.population, m.depth
+        ));
+        for t in m.tiles.iter().chain([&m.coarse]) {
+            h.update(&t.sha256);
+        }
+        h.finalize().iter().map(|b| format!("{b:02x}")).collect()
     }
 
     /// The store's directory.

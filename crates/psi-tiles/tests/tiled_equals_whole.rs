@@ -278,3 +278,46 @@ fn a_build_of_the_cells_near_a_cube_is_the_whole_build_inside_it() {
         }
     }
 }
+
+/// A noisy point cloud's MPU ranks its cells' errors ([`MpuParams::error_rank`]) and seeds
+/// only in the leaves whose points, moved onto their fits, stay in them: tiled, the same.
+#[test]
+fn a_ranked_error_tiles_exactly() {
+    let points = noisy(
+        AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.35,
+        }
+        .sample(20_000, 9),
+        8e-3,
+    );
+    let params = MpuParams {
+        error_rel: 0.008,
+        error_rank: Some(256),
+        ..MpuParams::paper()
+    };
+    let whole = Mpu::build(&points, &params).unwrap();
+    let (tiled, report) = build_tiled(
+        &points,
+        &params,
+        &TileParams::at_depth(2),
+        &Monitor::silent(),
+    )
+    .unwrap();
+    assert!(report.count >= 8 && report.crossing_cells > 0);
+    assert_same_mpu(&tiled, &whole, 2000, 3);
+    assert_eq!(
+        tiled.surface_leaves().collect::<Vec<_>>(),
+        whole.surface_leaves().collect::<Vec<_>>()
+    );
+    let decisions = decided_at_depth_2(&points, &params);
+    let mut surface: Vec<_> = whole
+        .surface_leaves()
+        .map(|l| {
+            let c = whole.octree().cell(l);
+            (c.depth, c.key)
+        })
+        .collect();
+    surface.sort_unstable();
+    assert_eq!(decisions.surface, surface);
+}

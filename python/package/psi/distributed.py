@@ -177,6 +177,11 @@ def sample_files(
             partition("kept")
         else:
             partition("tiles")
+        # The final store's checks (inward normals, the noise's error threshold), kept in the
+        # scratch directory where the tasks below read the run's threshold.
+        submit(
+            _psi._ooc_checks, paths, max_memory, scratch_dir, mpu_error, keep_outliers, threads
+        ).result()
         groups = submit(_psi._ooc_top_upper, scratch_dir, mpu_error, threads).result()
         client.gather(
             [submit(_psi._ooc_top_group, scratch_dir, g, mpu_error, threads) for g in groups]

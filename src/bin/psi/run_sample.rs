@@ -207,7 +207,7 @@ fn run_out_of_core(args: &SampleArgs, max_memory: u64, ui: crate::ui::Ui) -> Res
         input,
         format: args.input.format,
         preprocess: crate::input::preprocess_params(&args.input),
-        mpu: args.mpu.params(relative),
+        mpu: psi::OutOfCoreMpu::given(args.mpu.params(relative), args.mpu.mpu_error),
         particles: ParticleParams {
             k: args.k,
             iterations: args.iterations,

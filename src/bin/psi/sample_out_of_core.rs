@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, anyhow};
-use psi::{MpuParams, OutOfCore, ParticleParams};
+use psi::{OutOfCore, ParticleParams};
 
 use crate::Failure;
 
@@ -31,7 +31,7 @@ pub(crate) struct Request<'a> {
     pub(crate) input: &'a Path,
     pub(crate) format: Option<psi::io::Format>,
     pub(crate) preprocess: psi::preprocess::PreprocessParams,
-    pub(crate) mpu: MpuParams,
+    pub(crate) mpu: psi::OutOfCoreMpu,
     pub(crate) particles: ParticleParams,
     pub(crate) max_memory: u64,
     pub(crate) scratch: Option<&'a Path>,
@@ -75,12 +75,24 @@ pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
     );
     bar.finish_and_clear();
     let run = run.with_context(|| "sampling out of core".to_string())?;
+    let name = req.input.display();
+    if run.checks.inward_normals_flipped {
+        ui.notice(&psi::preprocess::inward_flip_notice(&name.to_string()));
+    }
+    if run.checks.denoise_skipped {
+        ui.notice(&format!(
+            "{name}: the noise ({:.3} % of D) calls for denoising, which a run out of core does \
+             not do yet: ε0 = {:.4} D set from the noise as it is (the in-core run with --no-denoise)",
+            100.0 * run.checks.noise_rel.unwrap_or(0.0),
+            run.error.relative
+        ));
+    }
     if let Some(out) = req.output {
         psi::save_particles(out, &run.particles, &psi::io::PointAttributes::default())?;
     }
     if let Some(path) = req.json {
         let inputs = [req.input.to_path_buf()];
-        let report = psi::out_of_core_json(&inputs, &req.mpu, &req.particles, &options, &run);
+        let report = psi::out_of_core_json(&inputs, &req.particles, &options, &run);
         psi::save_json(path, &report)?;
     }
     ui.summary(&format!(

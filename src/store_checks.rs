@@ -1,0 +1,256 @@
+//! What a run out of core checks on its final store before the MPU, as the in-core
+//! preprocessing checks its points after the outlier step (`psi_preprocess::preprocess`):
+//! given normals that point inward as a whole are flipped outward (the votes gathered tile by
+//! tile, [`InwardEvidence`]; the flip is the store's flag, [`TileStore::with_normals_negated`],
+//! the files untouched), and the noise is estimated (`tile_noise.rs`), which sets the MPU's
+//! error threshold ε0 as in core. Both bitwise the in-core steps on the same points. What they
+//! found is kept in `<scratch>/checks.json` (written whole, then renamed), so a cluster's
+//! tasks read the run's ε0 ([`out_of_core_mpu_params`]) and a resumed run does not check again.
+//!
+//! Not done: denoising, which in core follows when the noise raises ε0 above the paper's; the
+//! run takes the points as they are (the in-core run with `--no-denoise`) and says so
+//! ([`StoreChecks::denoise_skipped`]).
+
+use std::path::Path;
+
+use psi_mpu::MpuParams;
+use psi_octree::Monitor;
+use psi_preprocess::{
+    ErrorThreshold, InwardEvidence, InwardVotes, NoiseEstimate, PAPER_ERROR_REL, ThresholdSource,
+    error_threshold_for_noise,
+};
+use psi_tiles::{PointSource, TileStore};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::PsiError;
+use crate::prepare::error_rank_for;
+use crate::tile_noise::store_noise;
+use crate::tile_parts::Halos;
+
+/// The checks' file in the scratch directory.
+pub(crate) const CHECKS_FILE: &str = "checks.json";
+
+/// Which checks a run asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ChecksWanted {
+    /// The inward-normals check (given normals, `flip_inward_normals`).
+    pub inward: bool,
+    /// The noise estimate (`estimate_noise`, not for a mesh's points).
+    pub noise: bool,
+    /// Whether denoising is on (`denoise`): said to be skipped where the noise calls for it.
+    pub denoise: bool,
+}
+
+/// What the checks found on a store.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StoreChecks {
+    /// The store they are of ([`TileStore::digest`]).
+    pub store: String,
+    /// The checks asked for.
+    pub wanted: ChecksWanted,
+    /// The inward check's votes (when it ran).
+    pub inward: Option<InwardVotes>,
+    /// Whether the normals pointed inward and are read flipped outward.
+    pub inward_normals_flipped: bool,
+    /// The noise estimate (when it ran).
+    pub noise: Option<NoiseEstimate>,
+    /// The noise relative to the diagonal D of the store's points.
+    pub noise_rel: Option<f64>,
+    /// Whether the in-core run would denoise (the noise raises ε0 above the paper's, denoising
+    /// on) and this one did not.
+    pub denoise_skipped: bool,
+}
+
+/// The MPU's parameters of a run out of core: `params`, its error threshold ε0 / D
+/// `given_error` when given, else the one the run's checks set ([`StoreChecks::mpu_params`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OutOfCoreMpu {
+    /// The parameters (their `error_rel` and `error_rank` are the run's to set).
+    pub params: MpuParams,
+    /// The error threshold ε0 / D given by the user.
+    pub given_error: Option<f64>,
+}
+
+impl OutOfCoreMpu {
+    /// The paper's parameters, the threshold set by the checks.
+    pub fn paper() -> Self {
+        OutOfCoreMpu {
+            params: MpuParams::paper(),
+            given_error: None,
+        }
+    }
+
+    /// `params` with the threshold `given_error` when given.
+    pub fn given(params: MpuParams, given_error: Option<f64>) -> Self {
+        OutOfCoreMpu {
+            params,
+            given_error,
+        }
+    }
+}
+
+impl StoreChecks {
+    /// The MPU's error threshold, as in core ([`psi_preprocess::PreprocessReport::error_threshold`]):
+    /// `given` (ε0 / D) when given, else the noise's ([`error_threshold_for_noise`]) when it is
+    /// above the paper's, else the paper's.
+    pub fn error_threshold(&self, given: Option<f64>) -> ErrorThreshold {
+        let noise = self.noise_rel.map(error_threshold_for_noise);
+        match (given, noise) {
+            (Some(relative), _) => ErrorThreshold {
+                relative,
+                source: ThresholdSource::User,
+            },
+            (None, Some(relative)) if relative > PAPER_ERROR_REL => ErrorThreshold {
+                relative,
+                source: ThresholdSource::Noise,
+            },
+            _ => ErrorThreshold {
+                relative: PAPER_ERROR_REL,
+                source: ThresholdSource::Paper,
+            },
+        }
+    }
+
+    /// `mpu`'s parameters with the error threshold ([`StoreChecks::error_threshold`]) and the
+    /// cell error's rank the in-core run takes for the same points
+    /// ([`crate::PreparedInput::error_rank`]; a mesh's points have no noise estimate here).
+    pub fn mpu_params(&self, mpu: &OutOfCoreMpu) -> (MpuParams, ErrorThreshold) {
+        let threshold = self.error_threshold(mpu.given_error);
+        let params = MpuParams {
+            error_rel: threshold.relative,
+            error_rank: error_rank_for(false, self.noise_rel, threshold.relative),
+            ..mpu.params
+        };
+        (params, threshold)
+    }
+}
+
+/// The inward check's votes on `store`'s points as it reads them, tile file by tile file
+/// (one held at a time). Progress: stage `"inward"`, tiles done of tiles.
+fn store_inward_votes(store: &TileStore, monitor: &Monitor<'_>) -> Result<InwardVotes, String> {
+    let n = store.manifest().population;
+    let tiles = store.part_count();
+    let mut evidence = InwardEvidence::new(n);
+    for part in 0..tiles {
+        monitor.report("inward", part as u64, tiles as u64);
+        monitor.check().map_err(|_| "interrupted".to_string())?;
+        let points = store
+            .part_where(part, &|_| true)
+            .map_err(|e| e.to_string())?;
+        let found = points
+            .par_chunks(4096)
+            .fold(
+                || InwardEvidence::new(n),
+                |mut e, chunk| {
+                    for &(i, p) in chunk {
+                        e.add(i, p);
+                    }
+                    e
+                },
+            )
+            .reduce(|| InwardEvidence::new(n), InwardEvidence::merge);
+        evidence = evidence.merge(found);
+    }
+    monitor.report("inward", tiles as u64, tiles as u64);
+    Ok(evidence.votes())
+}
+
+/// The checks of `wanted` on `store` (the final store in `scratch`): found in
+/// `<scratch>/checks.json` when an earlier run made them on the same points, else made and
+/// written there; the store returned reads its normals flipped when they pointed inward.
+///
+/// # Errors
+///
+/// [`PsiError::OutOfCore`] naming the store or the checks' file when either cannot be read or
+/// written; interrupted.
+pub(crate) fn check_store(
+    store: TileStore,
+    wanted: ChecksWanted,
+    scratch: &Path,
+    monitor: &Monitor<'_>,
+) -> Result<(TileStore, StoreChecks), PsiError> {
+    let path = scratch.join(CHECKS_FILE);
+    let fail = |reason: String| PsiError::OutOfCore {
+        path: store.dir().to_path_buf(),
+        reason,
+    };
+    let digest = store.digest();
+    let found = read_checks(&path)
+        .ok()
+        .filter(|c| c.store == digest && c.wanted == wanted);
+    let checks = match found {
+        Some(c) => c,
+        None => {
+            // The votes read the normals as written.
+            let store = store
+                .clone()
+                .with_normals_negated(false)
+                .map_err(|e| fail(e.to_string()))?;
+            let inward = if wanted.inward {
+                Some(store_inward_votes(&store, monitor).map_err(fail)?)
+            } else {
+                None
+            };
+            let noise = if wanted.noise {
+                let (noise, _) = store_noise(&store, &mut Halos::new(), monitor).map_err(fail)?;
+                Some(noise)
+            } else {
+                None
+            };
+            let diagonal = store.manifest().frame.diagonal;
+            let noise_rel = noise.filter(|_| diagonal > 0.0).map(|n| n.sigma / diagonal);
+            let checks = StoreChecks {
+                store: digest,
+                wanted,
+                inward,
+                inward_normals_flipped: inward.is_some_and(|v| v.inward()),
+                noise,
+                noise_rel,
+                denoise_skipped: wanted.denoise
+                    && noise_rel.is_some_and(|r| error_threshold_for_noise(r) > PAPER_ERROR_REL),
+            };
+            let text = serde_json::to_value(&checks).expect("serialisable");
+            crate::save_json(&path, &text)?;
+            checks
+        }
+    };
+    let store = store
+        .with_normals_negated(checks.inward_normals_flipped)
+        .map_err(|e| PsiError::OutOfCore {
+            path: path.clone(),
+            reason: e.to_string(),
+        })?;
+    Ok((store, checks))
+}
+
+/// The checks in the file at `path`.
+fn read_checks(path: &Path) -> Result<StoreChecks, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
+    serde_json::from_str(&text).map_err(|e| e.to_string())
+}
+
+/// The MPU parameters of the run out of core whose scratch directory is `scratch`: `mpu`'s
+/// with the error threshold and rank its checks set ([`StoreChecks::mpu_params`]), as a
+/// cluster's tasks take them after the checks' task.
+///
+/// # Errors
+///
+/// [`PsiError::OutOfCore`] naming the store or the checks' file when the store cannot be
+/// opened, the checks are missing or were made on other points.
+pub fn out_of_core_mpu_params(scratch: &Path, mpu: &OutOfCoreMpu) -> Result<MpuParams, PsiError> {
+    let dir = scratch.join("tiles");
+    let store = TileStore::open(&dir).map_err(|e| PsiError::OutOfCore {
+        path: dir.clone(),
+        reason: e.to_string(),
+    })?;
+    let path = scratch.join(CHECKS_FILE);
+    let checks = read_checks(&path)
+        .ok()
+        .filter(|c| c.store == store.digest())
+        .ok_or_else(|| PsiError::OutOfCore {
+            path: path.clone(),
+            reason: "missing, or made on other points: the checks' task runs first".into(),
+        })?;
+    Ok(checks.mpu_params(mpu).0)
+}
