@@ -120,3 +120,16 @@ def sphere(n, seed, radius=0.5, centre=(0.0, 0.0, 0.0)):
     normal = rng.normal(size=(n, 3))
     normal /= np.linalg.norm(normal, axis=1)[:, None]
     return np.asarray(centre) + radius * normal, normal
+
+
+def inward_noisy_model(path, n=20_000):
+    """The built-in model with its normals turned inward and seeded noise of 0.3 % of its
+    diagonal, written to ``path`` (x y z nx ny nz)."""
+    ps = psi.builtin_model(n)
+    pts, nrm = np.asarray(ps.points), np.asarray(ps.normals)
+    diagonal = np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))
+    rng = np.random.default_rng(4)
+    noisy = pts + 0.003 * diagonal * rng.standard_normal(pts.shape)
+    with open(path, "w") as f:
+        for p, q in zip(noisy, -nrm):
+            f.write(" ".join(repr(float(v)) for v in (*p, *q)) + "\n")

@@ -14,7 +14,7 @@ import time
 import pytest
 
 import psi
-from conftest import model, run_cli
+from conftest import inward_noisy_model, model, run_cli
 
 distributed = pytest.importorskip("dask.distributed")
 
@@ -92,23 +92,6 @@ def test_a_worker_killed_during_tile_tasks_costs_a_retry_not_the_result(client, 
     assert out.read_bytes() == ref.read_bytes()
 
 
-FAULTS = """
-import resource, sys
-import psi.distributed
-if sys.argv[1] == "tuned":
-    psi.distributed._tune_allocator()
-before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
-for _ in range(100):
-    block = bytearray(4 << 20)  # 4 MiB, written whole
-    del block
-print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
-"""
-
-
-@pytest.mark.skipif(
-    not (sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc"),
-    reason="the allocator tuning is for glibc",
-)
 def test_positions_alone_get_the_clis_normals_and_particles_on_the_cluster(cli, client,
                                                                           tmp_path):
     # Normals estimated and oriented tile by tile (one task), then the tasks as ever; a
@@ -126,6 +109,36 @@ def test_positions_alone_get_the_clis_normals_and_particles_on_the_cluster(cli, 
     assert (tmp_path / "dask.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
 
 
+def test_inward_noisy_normals_get_the_clis_checks_on_the_cluster(cli, client, tmp_path):
+    # The checks' task flips the normals and sets ε0 from the noise; the later tasks read it.
+    src = tmp_path / "inward.xyz"
+    inward_noisy_model(src)
+    report = psi.distributed.sample_files(src, tmp_path / "dask.ply", client=client,
+                                          max_memory="64MiB", scratch=tmp_path / "s1")
+    run_cli(cli, "sample", src, "--max-memory", "64MiB", "-o", tmp_path / "cli.ply",
+            "--scratch", tmp_path / "s2")
+    assert report["tiles"]["preprocessing"]["inward_normals_flipped"] is True
+    assert report["mpu"]["error_threshold"]["source"] == "noise"
+    assert (tmp_path / "dask.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
+
+
+FAULTS = """
+import resource, sys
+import psi.distributed
+if sys.argv[1] == "tuned":
+    psi.distributed._tune_allocator()
+before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+for _ in range(100):
+    block = bytearray(4 << 20)  # 4 MiB, written whole
+    del block
+print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+"""
+
+
+@pytest.mark.skipif(
+    not (sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc"),
+    reason="the allocator tuning is for glibc",
+)
 def test_tasks_undo_the_mmap_threshold_dasks_worker_environment_fixes():
     # Dask's nanny sets MALLOC_TRIM_THRESHOLD_; glibc then maps every block above 128 KiB
     # afresh, so 100 blocks of 4 MiB fault in about 100 × 1024 pages. A tuned process reuses

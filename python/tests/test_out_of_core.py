@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import psi
-from conftest import cli_error, model, run_cli
+from conftest import cli_error, inward_noisy_model, model, run_cli
 
 
 def write_xyz(path, points, normals):
@@ -89,11 +89,11 @@ def test_the_ceiling_on_spacing_covers_a_sheet_out_of_core_as_in_core(cli, tmp_p
     parts = report["particles"]
     assert parts["max_spacing"] == 0.1 and parts["added_by_ceiling"] > 300, parts
     assert report["tiles"]["sampling"]["cover"]["passes"] >= 3
-    # The CLI out of core and in core (the steps not done out of core off): the same bytes.
+    # The CLI out of core and in core (denoising, not done out of core, off): the same bytes.
     run_cli(cli, "sample", src, "--max-memory", "64MiB", "--max-spacing", "0.1",
             "-o", tmp_path / "ooc.ply", "--scratch", tmp_path / "s")
-    run_cli(cli, "sample", src, "--no-noise-estimate", "--no-denoise", "--keep-inward-normals",
-            "--max-spacing", "0.1", "-o", tmp_path / "core.ply")
+    run_cli(cli, "sample", src, "--no-denoise", "--max-spacing", "0.1",
+            "-o", tmp_path / "core.ply")
     py = (tmp_path / "py.ply").read_bytes()
     assert py == (tmp_path / "ooc.ply").read_bytes()
     assert py == (tmp_path / "core.ply").read_bytes()
@@ -104,6 +104,25 @@ def test_the_ceiling_on_spacing_covers_a_sheet_out_of_core_as_in_core(cli, tmp_p
     assert none["particles"]["count"] < 20
     with pytest.raises(ValueError, match="max_spacing"):
         psi.sample_files(src, tmp_path / "bad.ply", max_memory="64MiB", max_spacing=0.0)
+
+
+def test_inward_normals_and_the_noise_threshold_out_of_core_as_in_core(cli, tmp_path):
+    # Normals flipped outward and ε0 set from the noise, as in core (where denoising, not done
+    # out of core, is off); a given threshold is the run's.
+    src = tmp_path / "inward.xyz"
+    inward_noisy_model(src)
+    report = psi.sample_files(src, tmp_path / "py.ply", max_memory="64MiB")
+    pre = report["tiles"]["preprocessing"]
+    assert pre["inward_normals_flipped"] is True and pre["denoise_skipped"] is True, pre
+    assert report["mpu"]["error_threshold"]["source"] == "noise"
+    assert report["mpu"]["error_rel"] > 0.005
+    run_cli(cli, "sample", src, "--no-denoise", "-o", tmp_path / "core.ply")
+    assert (tmp_path / "py.ply").read_bytes() == (tmp_path / "core.ply").read_bytes()
+    given = psi.sample_files(src, tmp_path / "given.ply", max_memory="64MiB", mpu_error=0.004)
+    assert given["mpu"]["error_threshold"] == {"relative": 0.004, "source": "user"}
+    run_cli(cli, "sample", src, "--no-denoise", "--mpu-error", "0.004",
+            "-o", tmp_path / "core-given.ply")
+    assert (tmp_path / "given.ply").read_bytes() == (tmp_path / "core-given.ply").read_bytes()
 
 
 def test_outliers_are_left_out_tile_by_tile_unless_kept(cli, tmp_path):
