@@ -38,6 +38,7 @@ mod read_file;
 pub mod render;
 pub mod report;
 mod store_checks;
+mod tile_clumps;
 mod tile_level_normals;
 mod tile_noise;
 mod tile_normals;

@@ -7,8 +7,9 @@
 //! The preprocessing done tile by tile, bitwise the in-core steps: repeated points and the
 //! outlier search's strays left out (`tile_outliers.rs`), points without normals given
 //! them, estimated and oriented (`tile_normals.rs`), given normals that point inward flipped
-//! and the noise's error threshold (`store_checks.rs`). Not yet: the stray-clump search and
-//! denoising (a run out of core takes the points as those steps find them, and says so).
+//! and the noise's error threshold (`store_checks.rs`); the stray-clump search follows the
+//! outlier search's (`tile_clumps.rs`). Not yet: denoising (a run out of core takes the
+//! points as the other steps leave them, and says so).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -32,7 +33,7 @@ use crate::tile_outliers::StrayTally;
 
 /// The in-core preprocessing steps a run out of core does not do yet (its JSON report lists
 /// them; the CLI says so up front).
-pub const NOT_DONE_OUT_OF_CORE: [&str; 2] = ["stray clumps", "denoising"];
+pub const NOT_DONE_OUT_OF_CORE: [&str; 1] = ["denoising"];
 
 /// What a run out of core made.
 #[derive(Clone, Debug)]
@@ -304,6 +305,7 @@ pub fn out_of_core_json(
                     "repeated": t.repeated,
                     "far": t.far,
                     "off_surface": t.off_surface,
+                    "clumps": t.clumps,
                 })),
                 "inward_normals_flipped": run.checks.inward_normals_flipped,
                 "inward_votes": run.checks.inward,

@@ -1,8 +1,8 @@
 //! Normals for a run out of core whose input has none: estimated and oriented tile by tile
 //! (psi-preprocess's by-parts functions on each tile and a halo of the points around it), so
 //! that the store the MPU is decided from holds, bitwise, the points and normals the in-core
-//! preprocessing gives the same input with the steps not done out of core off (`--no-noise-
-//! estimate --no-denoise`, and no stray clumps). Stores in the scratch directory, each found
+//! preprocessing gives the same input (with `--no-denoise`: not done out of core). Stores in
+//! the scratch directory, each found
 //! again by a run on the same input: the positions (`positions/`), with the outlier step the
 //! positions it keeps (`kept/`, `tile_outliers.rs`), the estimated normals by index
 //! (`normals.bin`, renamed into place once whole), the points with their unoriented normals

@@ -1,10 +1,10 @@
 //! The outlier step of a run out of core: repeated positions and the outlier search's strays
 //! left out tile by tile (psi-preprocess's `part_standings` and `part_outliers` on each tile
-//! and a halo of the points around it), bitwise the in-core step before its clump search.
-//! The verdicts go to `strays.bin` in the scratch directory (one byte a point, by its index in
+//! and a halo of the points around it), then the stray clumps among the points kept
+//! (`tile_clumps.rs`), bitwise the in-core step. The verdicts go to `strays.bin` in the scratch directory (one byte a point, by its index in
 //! the store of all points; renamed into place once whole, kept for a rerun's report), which the
 //! partition of the kept points reads ([`crate::partition::Points::keep`]). Progress: stages
-//! `"standings"` and `"strays"` (tiles done of tiles). Notes:
+//! `"standings"`, `"strays"` and `"clumps"` (tiles done of tiles). Notes:
 //! `docs/notes/2026-12-03-outliers-by-parts.md`.
 
 use std::fs::{self, File};
@@ -24,6 +24,7 @@ use crate::PsiError;
 use crate::budget::OutOfCore;
 use crate::given_stages::{GivenStage, STRAYS_FILE, strays_source, with_given_stage};
 use crate::partition::{Input, NormalsKind, Partition, StoreKind, failure, found, store_source};
+use crate::tile_clumps::stray_clumps;
 use crate::tile_parts::{
     Halos, WholeFile, by_tile, each_tile_into, first_halo, io_reason, read_at,
 };
@@ -37,12 +38,15 @@ pub struct StrayTally {
     pub far: u64,
     /// Outliers near the data but off the surface it describes.
     pub off_surface: u64,
+    /// Points in small groups lying apart from the rest, off its surface (stray clumps).
+    #[serde(default)]
+    pub clumps: u64,
 }
 
 impl StrayTally {
     /// Points left out.
     pub fn removed(&self) -> u64 {
-        self.repeated + self.far + self.off_surface
+        self.repeated + self.far + self.off_surface + self.clumps
     }
 }
 
@@ -56,6 +60,9 @@ fn code(v: StrayVerdict) -> u8 {
     }
 }
 
+/// A stray clump's point as `strays.bin` stores it (the clump search follows the verdicts).
+const CLUMP: u8 = 4;
+
 /// The tally of the verdicts in the file at `path`.
 pub(crate) fn tally_of(path: &Path) -> Result<StrayTally, String> {
     let bytes = fs::read(path).map_err(|e| io_reason(path, &e))?;
@@ -64,7 +71,7 @@ pub(crate) fn tally_of(path: &Path) -> Result<StrayTally, String> {
 
 /// The tally of verdicts as `strays.bin` stores them ([`code`]), or the first byte that is none.
 fn tally_of_bytes(verdicts: &[u8]) -> Result<StrayTally, u8> {
-    let mut counts = [0u64; 4];
+    let mut counts = [0u64; 5];
     for &b in verdicts {
         *counts.get_mut(b as usize).ok_or(b)? += 1;
     }
@@ -72,6 +79,7 @@ fn tally_of_bytes(verdicts: &[u8]) -> Result<StrayTally, u8> {
         repeated: counts[1],
         far: counts[2],
         off_surface: counts[3],
+        clumps: counts[CLUMP as usize],
     })
 }
 
@@ -347,13 +355,19 @@ pub(crate) fn found_with_strays(
 
 /// `strays.bin` in `scratch` (one byte a point of `store`, the store of all points, by its
 /// index) from the `batches` files of [`stray_verdicts_of_batch`], which are removed with those
-/// of [`stray_standings`]; the tally. The store's source is recorded beside it (after it: a
-/// rerun trusts only verdicts of its own store).
+/// of [`stray_standings`], and the stray clumps among the points they keep
+/// (`tile_clumps.rs`; progress to `monitor`); the tally. The store's source is recorded beside
+/// it (after it: a rerun trusts only verdicts of its own store).
 ///
 /// # Errors
 ///
-/// A file cannot be read or written (named), or a point has no verdict.
-pub fn stray_join(store: &TileStore, scratch: &Path, batches: u32) -> Result<StrayTally, String> {
+/// A file cannot be read or written (named), a point has no verdict, or interrupted.
+pub fn stray_join(
+    store: &TileStore,
+    scratch: &Path,
+    batches: u32,
+    monitor: &Monitor<'_>,
+) -> Result<StrayTally, String> {
     const UNSET: u8 = u8::MAX;
     let _span = tracing::info_span!("out_of_core_stage", stage = "join").entered();
     let source_path = strays_source(scratch);
@@ -382,6 +396,11 @@ pub fn stray_join(store: &TileStore, scratch: &Path, batches: u32) -> Result<Str
     }
     if let Some(i) = verdicts.iter().position(|&v| v == UNSET) {
         return Err(format!("{}: no verdict for point {i}", scratch.display()));
+    }
+    // The stray clumps among the points kept, as in core.
+    let (clumped, _) = stray_clumps(store, &verdicts, monitor)?;
+    for i in clumped {
+        verdicts[i as usize] = CLUMP;
     }
     let tally = tally_of_bytes(&verdicts)
         .map_err(|b| format!("{}: not a verdict: {b}", scratch.display()))?;
@@ -416,7 +435,7 @@ pub(crate) fn stray_verdicts(
     stray_standings(store, scratch, (0, 1), normals_given, monitor)?;
     let stats = stray_stats(scratch, 1)?;
     stray_verdicts_of_batch(store, scratch, (0, 1), (normals_given, stats), monitor)?;
-    stray_join(store, scratch, 1)
+    stray_join(store, scratch, 1, monitor)
 }
 
 /// The store of `input`'s points (files with normals) without the outlier step's strays, in `options.scratch/tiles` (found there when an

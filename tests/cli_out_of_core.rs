@@ -172,7 +172,7 @@ fn write_positions(path: &Path, points: &[psi::DVec3]) {
 
 /// A torus with what a scan's outlier step leaves out: 150 points scattered through its box,
 /// 40 lifted 3 to 10 spacings off, 25 repeats of earlier points (random normals on the
-/// scattered ones).
+/// scattered ones), a stray clump of 30 points.
 fn torus_with_strays() -> Vec<psi::OrientedPoint> {
     use psi::shapes::AnalyticShape;
     use rand::{RngExt, SeedableRng};
@@ -207,12 +207,18 @@ fn torus_with_strays() -> Vec<psi::OrientedPoint> {
     for k in 0..25 {
         scattered.push(points[k * 701]);
     }
+    // A stray clump: 30 points within 0.01 of each other, hovering 0.33 above the top of the
+    // torus (farther than 3 link distances from it).
+    for _ in 0..30 {
+        let p = psi::DVec3::new(1.0, 0.0, 0.68) + 0.01 * within(psi::DVec3::ONE);
+        scattered.push(psi::OrientedPoint { p, n: psi::DVec3::Z });
+    }
     points.extend(scattered);
     points
 }
 
-/// The outlier step and missing normals out of core: a torus with strays (positions alone, and
-/// with normals), a box (positions alone: many ties among its neighbours) and a dense noisy
+/// The outlier step (its clump search too) and missing normals out of core: a torus with strays
+/// and a clump (positions alone, and with normals), a box (positions alone: many ties among its neighbours) and a dense noisy
 /// sphere (positions alone, planes among a coarser level of its points), tile by tile, give
 /// the in-core run's particles byte for byte (denoising, not done out of core, off in core;
 /// the noise's threshold, the inward check and the ceiling on spacing in both, its darts on
@@ -276,8 +282,8 @@ fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
         common::assert_success(&out);
         let core_report = json(&core_json);
         let outliers = &core_report["input"]["outliers"];
-        // (No stray clumps: that search is not done out of core yet.)
-        assert_eq!(outliers["clumps"], 0, "{name}: {outliers}");
+        let clumps = outliers["clumps"].as_u64().unwrap();
+        assert_eq!(clumps >= 30, name.starts_with("torus"), "{name}: {outliers}");
         let removed = outliers["removed"].as_u64().unwrap()
             + core_report["input"]["repeated_points"].as_u64().unwrap();
         let scratch = dir.join(format!("{name}-scratch"));
@@ -324,6 +330,7 @@ fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
         assert_eq!(pre["normals"], normals);
         assert_eq!(pre["normals_level"].as_i64().unwrap_or(-1), level, "{name}");
         assert_eq!(pre["outliers"]["removed"].as_u64(), Some(removed), "{name}");
+        assert_eq!(pre["outliers"]["clumps"].as_u64(), Some(clumps), "{name}");
         if name.starts_with("torus") {
             assert_eq!(pre["outliers"]["repeated"], 25);
             assert!(removed >= 25 + 150, "{name}: {removed} left out");

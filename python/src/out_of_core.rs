@@ -63,9 +63,9 @@ pub(crate) fn threads_arg(threads: Option<i128>) -> PyResult<Option<usize>> {
 /// within `max_memory` (bytes, or a size such as "4GiB"), writing the particles to `output`
 /// and the tile files to `scratch` (default: beside `output`). The same run as `psi sample
 /// INPUT --max-memory SIZE`: bitwise its particles. Preprocessing tile by tile: repeated
-/// points and outliers left out (unless `keep_outliers`), normals estimated and oriented where
-/// there are none, given normals that point inward flipped, the error threshold set from the
-/// noise (unless `mpu_error` is given); not yet the stray-clump search or denoising. The ceiling
+/// points, outliers and stray clumps left out (unless `keep_outliers`), normals estimated and
+/// oriented where there are none, given normals that point inward flipped, the error threshold
+/// set from the noise (unless `mpu_error` is given); not yet denoising. The ceiling
 /// on spacing `max_spacing` (world units; default 2.5 % of the diagonal, `inf` for none) as in
 /// core. Returns the run's report (the CLI's `--json`). A rerun with the same scratch
 /// resumes from its tile files.
@@ -484,14 +484,12 @@ pub(crate) fn _ooc_preprocessing(
 /// final store in `scratch` before the MPU (inward normals flipped, the noise's error
 /// threshold; [`psi::check_out_of_core_store`]), kept there for the later tasks.
 #[pyfunction]
-#[pyo3(signature = (inputs, max_memory, scratch, mpu_error=None, keep_outliers=false,
-    threads=None))]
+#[pyo3(signature = (inputs, max_memory, scratch, keep_outliers=false, threads=None))]
 pub(crate) fn _ooc_checks(
     py: Python<'_>,
     inputs: &Bound<'_, PyAny>,
     max_memory: &Bound<'_, PyAny>,
     scratch: PathBuf,
-    mpu_error: Option<f64>,
     keep_outliers: bool,
     threads: Option<i128>,
 ) -> PyResult<()> {

@@ -87,6 +87,6 @@ pub(crate) fn _ooc_stray_verdicts(
 pub(crate) fn _ooc_stray_join(py: Python<'_>, scratch: PathBuf, batches: u32) -> PyResult<u64> {
     let dir = scratch.clone();
     strays_task(py, &scratch, None, move |store| {
-        psi::stray_join(store, &dir, batches).map(|t| t.removed())
+        psi::stray_join(store, &dir, batches, &psi::octree::Monitor::silent()).map(|t| t.removed())
     })
 }

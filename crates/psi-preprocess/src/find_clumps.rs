@@ -37,44 +37,44 @@ pub const CLUMP_GAP: f64 = 0.02;
 /// The link distance is at least this many typical sample spacings: with h = 3 spacings a
 /// point of a surface has about 9π ≈ 28 others within h, and a surface sampled that densely
 /// does not fall apart into small groups (the chance that a point has none is e^-28).
-const SPACING_LINKS: f64 = 3.0;
+pub(crate) const SPACING_LINKS: f64 = 3.0;
 
 /// The typical sample spacing is this quantile of the points' spacings, a high one: the
 /// sparser parts of a scan (grazing views, borders) must hold together too.
-const SPACING_QUANTILE: f64 = 0.9;
+pub(crate) const SPACING_QUANTILE: f64 = 0.9;
 
 /// Points whose spacing is measured (evenly spread over the input's order).
-const SPACING_SAMPLES: usize = 4096;
+pub(crate) const SPACING_SAMPLES: usize = 4096;
 
 /// A point's spacing: d·√(π/16), d the distance to its 16th nearest other point (16 points
 /// fill the disc of radius d at that spacing; as in [`crate::find_outliers`]).
-const SPACING_NEIGHBOURS: usize = 16;
+pub(crate) const SPACING_NEIGHBOURS: usize = 16;
 
 /// A clump fits in a box of this many link distances a side, so that deciding whether a point
 /// belongs to one reads only the data near it (see [`find_clumps`]).
-const SPAN_LINKS: f64 = 2.0;
+pub(crate) const SPAN_LINKS: f64 = 2.0;
 
 /// A small group with no point of a larger group within this many link distances lies off
 /// every surface.
-const SEARCH_LINKS: f64 = 3.0;
+pub(crate) const SEARCH_LINKS: f64 = 3.0;
 
 /// A small group is off the surface when its point q nearest a larger group's point s lies
 /// farther than this many link distances from the tangent plane at s …
-const OFF_PLANE_LINKS: f64 = 0.5;
+pub(crate) const OFF_PLANE_LINKS: f64 = 0.5;
 
 /// … that plane fitted to the points within this many link distances of s (hundreds of points
 /// in a scan: a normal steady against the noise) …
-const PLANE_LINKS: f64 = 0.5;
+pub(crate) const PLANE_LINKS: f64 = 0.5;
 
 /// … and only where the surface is well sampled: at least this share of the points a surface
 /// at the median spacing holds there. Near a sparsely sampled part, which a scan leaves in
 /// fragments, a small group may be one more fragment: it is kept (the dragon scan has two
 /// such groups on the reference surface: docs/notes/2026-11-25-real-scans-2.md).
-const SUPPORT_SHARE: f64 = 0.25;
+pub(crate) const SUPPORT_SHARE: f64 = 0.25;
 
 /// Clumps holding more than this share of the points are no clumps: the data are too sparse
 /// or too fragmented for the test, and all are kept.
-const MAX_SHARE: f64 = 0.01;
+pub(crate) const MAX_SHARE: f64 = 0.01;
 
 /// What [`find_clumps`] found.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -216,12 +216,12 @@ fn clumps_at(
 /// The scale of a point set: the link distance and how many points a well-sampled surface
 /// holds near a point.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Scale {
+pub(crate) struct Scale {
     /// The link distance h, world units.
-    link: f64,
+    pub(crate) link: f64,
     /// Points within h/2 of a point on a surface sampled at the median spacing s:
     /// π (h/2)² / s² (0 when s is 0).
-    dense: f64,
+    pub(crate) dense: f64,
 }
 
 impl Scale {
@@ -231,14 +231,19 @@ impl Scale {
     fn of(positions: &[DVec3], index: &MortonIndex, diagonal: f64) -> Scale {
         let stride = positions.len().div_ceil(SPACING_SAMPLES).max(1);
         let sampled: Vec<usize> = (0..positions.len()).step_by(stride).collect();
-        let mut spacings: Vec<f64> = sampled
+        let spacings: Vec<f64> = sampled
             .par_iter()
             .map(|&i| {
                 let near = index.nearest(positions[i], SPACING_NEIGHBOURS + 1);
-                let reach = near.last().map_or(0.0, |&(_, d2)| d2.sqrt());
-                reach * (std::f64::consts::PI / SPACING_NEIGHBOURS as f64).sqrt()
+                spacing_of(near.last().map_or(0.0, |&(_, d2)| d2.sqrt()))
             })
             .collect();
+        Scale::from_spacings(spacings, diagonal)
+    }
+
+    /// The scale of points of bounding-box diagonal `diagonal` whose sampled spacings are
+    /// `spacings` (shape: S ≥ 1, any order).
+    pub(crate) fn from_spacings(mut spacings: Vec<f64>, diagonal: f64) -> Scale {
         let k = ((spacings.len() - 1) as f64 * SPACING_QUANTILE) as usize;
         let high = *spacings.select_nth_unstable_by(k, f64::total_cmp).1;
         let typical = median(&mut spacings);
@@ -252,12 +257,53 @@ impl Scale {
     }
 }
 
+/// A point's sample spacing from the distance `reach` to its 16th nearest other point.
+pub(crate) fn spacing_of(reach: f64) -> f64 {
+    reach * (std::f64::consts::PI / SPACING_NEIGHBOURS as f64).sqrt()
+}
+
 /// Bits per cube coordinate in a cube key.
-const KEY_BITS: u32 = 21;
+pub(crate) const KEY_BITS: u32 = 21;
 
 /// The key of the cube with integer coordinates `c` (each in 0..2²¹).
-fn cube_key(c: [u64; 3]) -> u64 {
+pub(crate) fn cube_key(c: [u64; 3]) -> u64 {
     c[0] | c[1] << KEY_BITS | c[2] << (2 * KEY_BITS)
+}
+
+/// The edge of the cubes whose adjacent cubes' points are always linked at link distance
+/// `link`: link / (2√3) (world units).
+pub(crate) fn cube_edge(link: f64) -> f64 {
+    link / (2.0 * 3f64.sqrt())
+}
+
+/// The key of the cube of edge `edge` holding world position `p` (≥ `origin`), its
+/// coordinates counted from 1 (so that every neighbour's are ≥ 0) and clamped.
+pub(crate) fn cube_key_of(p: DVec3, origin: DVec3, edge: f64) -> u64 {
+    let limit = ((1u64 << KEY_BITS) - 2) as f64;
+    let c = ((p - origin) / edge)
+        .floor()
+        .clamp(DVec3::ZERO, DVec3::splat(limit - 1.0))
+        .to_array()
+        .map(|c| c as u64 + 1);
+    cube_key(c)
+}
+
+/// Joins in `sets` (one set per entry of `cubes`, sorted cube keys) every two 26-adjacent
+/// cubes.
+pub(crate) fn join_adjacent(cubes: &[u64], sets: &mut Sets) {
+    for (c, &key) in cubes.iter().enumerate() {
+        let at = [0, 1, 2].map(|a| key >> (a * KEY_BITS) & ((1 << KEY_BITS) - 1));
+        // Offset (x, y, z) ∈ {-1, 0, 1}³ has number 13 + x + 3y + 9z, and its cube's key is
+        // larger than this one's exactly when that number is: the 13 neighbours with larger
+        // keys (the other 13 join from theirs).
+        for d in 14..27u64 {
+            let off = [d % 3, d / 3 % 3, d / 9].map(|o| o as i64 - 1);
+            let near = cube_key([0, 1, 2].map(|a| (at[a] as i64 + off[a]) as u64));
+            if let Ok(other) = cubes.binary_search(&near) {
+                sets.join(c as u32, other as u32);
+            }
+        }
+    }
 }
 
 /// The groups of `positions` (shape: N, indexed by `index`, all ≥ `origin`) under links of at
@@ -277,17 +323,11 @@ fn small_groups(
     link: f64,
 ) -> Vec<Vec<u32>> {
     let n = positions.len();
-    let edge = link / (2.0 * 3f64.sqrt());
-    let limit = ((1u64 << KEY_BITS) - 2) as f64;
-    // Coordinates from 1, so that every neighbour's are ≥ 0.
-    let cube = |p: DVec3| -> [u64; 3] {
-        ((p - origin) / edge)
-            .floor()
-            .clamp(DVec3::ZERO, DVec3::splat(limit - 1.0))
-            .to_array()
-            .map(|c| c as u64 + 1)
-    };
-    let keys: Vec<u64> = positions.par_iter().map(|&p| cube_key(cube(p))).collect();
+    let edge = cube_edge(link);
+    let keys: Vec<u64> = positions
+        .par_iter()
+        .map(|&p| cube_key_of(p, origin, edge))
+        .collect();
     let mut cubes = keys.clone();
     cubes.par_sort_unstable();
     cubes.dedup();
@@ -296,19 +336,7 @@ fn small_groups(
         .map(|k| cubes.binary_search(k).unwrap_or(0) as u32)
         .collect();
     let mut sets = Sets::new(cubes.len());
-    for (c, &key) in cubes.iter().enumerate() {
-        let at = [0, 1, 2].map(|a| key >> (a * KEY_BITS) & ((1 << KEY_BITS) - 1));
-        // Offset (x, y, z) ∈ {-1, 0, 1}³ has number 13 + x + 3y + 9z, and its cube's key is
-        // larger than this one's exactly when that number is: the 13 neighbours with larger
-        // keys (the other 13 join from theirs).
-        for d in 14..27u64 {
-            let off = [d % 3, d / 3 % 3, d / 9].map(|o| o as i64 - 1);
-            let near = cube_key([0, 1, 2].map(|a| (at[a] as i64 + off[a]) as u64));
-            if let Ok(other) = cubes.binary_search(&near) {
-                sets.join(c as u32, other as u32);
-            }
-        }
-    }
+    join_adjacent(&cubes, &mut sets);
     let span = SPAN_LINKS * link;
     let small = |sets: &mut Sets| -> Vec<bool> {
         let mut count = vec![0usize; cubes.len()];

@@ -422,3 +422,81 @@ fn clumps_do_not_depend_on_the_thread_count() {
     let stopped = find_clumps_with(&points, &Monitor::new(None, Some(&stop)));
     assert_eq!(stopped.points, 0);
 }
+
+/// The search by parts ([`crate::clumps_by_parts`]): spacings from 27 parts with halos grown as
+/// they ask, cubes counted part by part in a shuffled order, the candidates' balls gathered by
+/// brute force, gives [`find_clumps`]'s clumps bit for bit (and its 1 % rule) on random scenes.
+#[test]
+fn the_search_by_parts_is_the_whole_search() {
+    use crate::clumps_by_parts::{
+        ClumpCubes, ClumpScale, clumps_of_candidates, part_clump_spacings,
+    };
+    use crate::grid_parts::grid_parts;
+    let mut found_some = 0;
+    for seed in 0..24 {
+        let points = scene(seed);
+        let whole = find_clumps(&points);
+        let n = points.len() as u64;
+        let Some(bounds) = Aabb::from_points(points.iter().copied()) else {
+            continue;
+        };
+        let stride = ClumpScale::spacing_stride(n);
+        let mut halo = 0.05 * bounds.diagonal();
+        let spacings = loop {
+            let parts = grid_parts(&points, 3, halo);
+            let found: Result<Vec<Vec<f64>>, _> = parts
+                .iter()
+                .map(|part| {
+                    let held: Vec<DVec3> = part.ids.iter().map(|&i| points[i as usize]).collect();
+                    let ids: Vec<u64> = part.ids.iter().map(|&i| u64::from(i)).collect();
+                    let holds = |x: DVec3, r: f64| part.holds_ball(x, r);
+                    part_clump_spacings(&held, &ids, &part.own, &holds, stride)
+                })
+                .collect();
+            match found {
+                Ok(f) => break f.concat(),
+                Err(_) => halo *= 2.0,
+            }
+        };
+        let scale = ClumpScale::of_spacings(spacings, bounds.diagonal());
+        assert_eq!(scale.link(), whole.link, "seed {seed}");
+        let mut cubes: Vec<ClumpCubes> = (0..5)
+            .map(|_| ClumpCubes::new(bounds.min, &scale))
+            .collect();
+        for (i, &p) in points.iter().enumerate().rev() {
+            cubes[i * 7 % 5].add(p);
+        }
+        let cubes = cubes.into_iter().reduce(ClumpCubes::merge).unwrap();
+        let candidates = cubes.candidates(&scale);
+        let chosen: Vec<(u64, DVec3)> = points
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| candidates.holds(&cubes, **p))
+            .map(|(i, &p)| (i as u64, p))
+            .rev()
+            .collect();
+        let mut gathers = 0;
+        let mut gather = |lo: DVec3, hi: DVec3| -> Result<Vec<(u64, DVec3)>, ()> {
+            gathers += 1;
+            Ok(points
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| p.cmpge(lo).all() && p.cmple(hi).all())
+                .map(|(i, &p)| (i as u64, p))
+                .rev()
+                .collect())
+        };
+        let (groups, withheld) =
+            clumps_of_candidates(n, &cubes, &scale, chosen, &mut gather).unwrap();
+        let mut mask = vec![false; points.len()];
+        for &i in groups.iter().flatten() {
+            mask[i as usize] = true;
+        }
+        assert_eq!(mask, whole.mask, "seed {seed}");
+        assert_eq!(withheld as usize, whole.withheld, "seed {seed}");
+        assert_eq!(groups.len(), whole.groups, "seed {seed}");
+        found_some += usize::from(whole.points > 0 || whole.withheld > 0);
+        assert!(candidates.is_empty() == (gathers == 0));
+    }
+    assert!(found_some >= 8, "{found_some}");
+}

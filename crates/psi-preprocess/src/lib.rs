@@ -36,6 +36,7 @@
 //! assert_eq!(points, truth);
 //! ```
 
+mod clumps_by_parts;
 mod denoise;
 mod densify_mesh;
 mod disjoint_sets;
@@ -64,6 +65,9 @@ mod preprocess;
 mod spanning_forest;
 mod spatial_order;
 
+pub use clumps_by_parts::{
+    Candidates, ClumpCubes, ClumpScale, clumps_of_candidates, part_clump_spacings,
+};
 pub use denoise::{DenoiseReport, denoise, denoise_with};
 pub use densify_mesh::{MeshCoarseness, densify_mesh, densify_mesh_with_sources, mesh_coarseness};
 pub use drop_strays::OutlierReport;

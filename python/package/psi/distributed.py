@@ -180,7 +180,7 @@ def sample_files(
         # The final store's checks (inward normals, the noise's error threshold), kept in the
         # scratch directory where the tasks below read the run's threshold.
         submit(
-            _psi._ooc_checks, paths, max_memory, scratch_dir, mpu_error, keep_outliers, threads
+            _psi._ooc_checks, paths, max_memory, scratch_dir, keep_outliers, threads
         ).result()
         groups = submit(_psi._ooc_top_upper, scratch_dir, mpu_error, threads).result()
         client.gather(

@@ -100,8 +100,8 @@ pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
         req.input.display(),
         run.points,
         run.strays
-            .map(|t| format!(" ({} left out: {} repeated, {} far, {} off the surface)",
-                t.removed(), t.repeated, t.far, t.off_surface))
+            .map(|t| format!(" ({} left out: {} repeated, {} far, {} off the surface, {} in clumps)",
+                t.removed(), t.repeated, t.far, t.off_surface, t.clumps))
             .unwrap_or_default(),
         run.tiles.count,
         run.tiles.depth,

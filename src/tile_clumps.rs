@@ -1,0 +1,159 @@
+//! The stray-clump search of a run out of core (psi-preprocess's `clumps_by_parts`), after the
+//! outlier search and among the points it keeps, bitwise the in-core search: its spacings
+//! sampled tile by tile with halos, the cubes of edge h/(2√3) counted tile file by tile file,
+//! the few candidates' surroundings gathered from the store. `stray_join` (`tile_outliers.rs`)
+//! marks the clumps' points in `strays.bin` with the outliers. Progress: stage `"clumps"`.
+
+use glam::DVec3;
+use psi_octree::{Aabb, Monitor};
+use psi_preprocess::{ClumpCubes, ClumpScale, clumps_of_candidates, part_clump_spacings};
+use psi_tiles::{PointSource, TileStore};
+
+use crate::tile_parts::{Halos, by_tile, each_tile, first_halo};
+
+/// Points between the counts of kept points that rank a point among them.
+const RANK_BLOCK: usize = 4096;
+
+/// The ranks of the points `verdicts` keeps (verdict 0) among them, by their index in the
+/// store of all points.
+struct Ranks<'a> {
+    verdicts: &'a [u8],
+    /// Kept points before each block of [`RANK_BLOCK`].
+    before: Vec<u64>,
+}
+
+impl<'a> Ranks<'a> {
+    fn new(verdicts: &'a [u8]) -> Self {
+        let mut before = Vec::with_capacity(verdicts.len() / RANK_BLOCK + 1);
+        let mut kept = 0u64;
+        for block in verdicts.chunks(RANK_BLOCK) {
+            before.push(kept);
+            kept += block.iter().filter(|&&v| v == 0).count() as u64;
+        }
+        Ranks { verdicts, before }
+    }
+
+    /// Whether point `i` is kept.
+    fn kept(&self, i: u64) -> bool {
+        self.verdicts.get(i as usize) == Some(&0)
+    }
+
+    /// The rank of kept point `i` among the kept points.
+    fn rank(&self, i: u64) -> u64 {
+        let i = i as usize;
+        let start = i / RANK_BLOCK * RANK_BLOCK;
+        let within = self.verdicts[start..i].iter().filter(|&&v| v == 0).count();
+        self.before[i / RANK_BLOCK] + within as u64
+    }
+}
+
+/// The stray clumps among the points of `store` (all points) that `verdicts` keeps (shape: the
+/// store's population; 0: kept): their indices in the store, ascending, and the clump points
+/// withheld by the 1 % rule. Bitwise [`psi_preprocess::find_clumps`] of the kept points in
+/// index order.
+///
+/// # Errors
+///
+/// Why the store could not be read (a file named), or `"interrupted"`.
+pub(crate) fn stray_clumps(
+    store: &TileStore,
+    verdicts: &[u8],
+    monitor: &Monitor<'_>,
+) -> Result<(Vec<u64>, u64), String> {
+    let ranks = Ranks::new(verdicts);
+    let n = verdicts.iter().filter(|&&v| v == 0).count() as u64;
+    let keep = |i: u64| Ok::<bool, String>(ranks.kept(i));
+    let fail = |e: psi_tiles::TileError| e.to_string();
+    let tiles = store.part_count();
+    let each_kept = |visit: &mut dyn FnMut(u64, DVec3)| -> Result<(), String> {
+        for part in 0..tiles {
+            monitor.report("clumps", part as u64, tiles as u64);
+            monitor.check().map_err(|_| "interrupted".to_string())?;
+            for (i, p) in store.part_where(part, &|_| true).map_err(fail)? {
+                if ranks.kept(i) {
+                    visit(i, p.p);
+                }
+            }
+        }
+        Ok(())
+    };
+    let bounds = match store.bounds_where(&keep).map_err(fail)? {
+        Some(b) => Some(b),
+        None => {
+            let mut b: Option<Aabb> = None;
+            each_kept(&mut |_, p| {
+                b = Some(b.map_or(Aabb { min: p, max: p }, |b| Aabb {
+                    min: b.min.min(p),
+                    max: b.max.max(p),
+                }));
+            })?;
+            b
+        }
+    };
+    // As in core: no clumps among fewer than two distinct points or 2^32 − 1 and more.
+    let Some(bounds) = bounds.filter(|b| b.diagonal() > 0.0 && b.diagonal().is_finite()) else {
+        return Ok((Vec::new(), 0));
+    };
+    if n < 2 || n >= u64::from(u32::MAX) {
+        return Ok((Vec::new(), 0));
+    }
+    // The spacings sampled every stride-th kept point, tile by tile with halos.
+    let stride = ClumpScale::spacing_stride(n);
+    let keys = store.tile_keys();
+    let first = |key| first_halo(store, key);
+    let spacings = each_tile(
+        &keys,
+        (&mut Halos::new(), &first),
+        ("clumps", monitor),
+        &|key, halo| {
+            let (_, found) = by_tile(store, key, halo, |t, _, holds| {
+                let kept: Vec<usize> = (0..t.ids.len()).filter(|&k| ranks.kept(t.ids[k])).collect();
+                let positions: Vec<DVec3> = kept.iter().map(|&k| t.points[k].p).collect();
+                let ids: Vec<u64> = kept.iter().map(|&k| ranks.rank(t.ids[k])).collect();
+                let own: Vec<bool> = kept.iter().map(|&k| t.own[k]).collect();
+                part_clump_spacings(&positions, &ids, &own, holds, stride)
+            })?;
+            Ok(found)
+        },
+    )?
+    .concat();
+    if spacings.is_empty() {
+        return Ok((Vec::new(), 0));
+    }
+    let scale = ClumpScale::of_spacings(spacings, bounds.diagonal());
+    let mut cubes = ClumpCubes::new(bounds.min, &scale);
+    each_kept(&mut |_, p| cubes.add(p))?;
+    let candidates = cubes.candidates(&scale);
+    if candidates.is_empty() {
+        return Ok((Vec::new(), 0));
+    }
+    let mut chosen = Vec::new();
+    each_kept(&mut |i, p| {
+        if candidates.holds(&cubes, p) {
+            chosen.push((i, p));
+        }
+    })?;
+    // (Indices in the store of all points order the kept points as their ranks do.) The
+    // cube around the box, a rounding's margin wider: the search needs every point of the box
+    // and takes more.
+    let frame = store.manifest().frame;
+    let mut gather = |lo: DVec3, hi: DVec3| -> Result<Vec<(u64, DVec3)>, String> {
+        let centre = 0.5 * (lo + hi);
+        let half = 0.5 * (hi - lo).max_element();
+        let found = store
+            .gather_box_indexed(centre - frame.origin, half, 1e-9 * frame.root_half, &|_| {
+                true
+            })
+            .map_err(fail)?;
+        Ok(found
+            .into_iter()
+            .filter(|(i, _)| ranks.kept(*i))
+            .map(|(i, p)| (i, p.p))
+            .collect())
+    };
+    let (groups, withheld) = clumps_of_candidates(n, &cubes, &scale, chosen, &mut gather)?;
+    let mut clumped: Vec<u64> = groups.into_iter().flatten().collect();
+    clumped.sort_unstable();
+    monitor.report("clumps", tiles as u64, tiles as u64);
+    Ok((clumped, withheld))
+}
