@@ -18,9 +18,19 @@ use crate::tile_parts::RecordFile;
 /// points, by its index (kept: 0).
 pub(crate) const STRAYS_FILE: &str = "strays.bin";
 
-/// Where `strays.bin`'s source is recorded: the source of the store its verdicts are of.
+/// Where `strays.bin`'s source is recorded: the source of the store its verdicts are of, and
+/// [`VERDICTS_KIND`].
 pub(crate) fn strays_source(scratch: &Path) -> PathBuf {
     scratch.join("strays.source")
+}
+
+/// What `strays.source` adds to the store's source: the verdicts include the stray clumps
+/// (an earlier psi's, without them, are made again).
+pub(crate) const VERDICTS_KIND: &str = "\nverdicts: outliers and stray clumps";
+
+/// What `strays.source` holds for verdicts of the store whose source is `source`.
+pub(crate) fn verdicts_source(source: &str) -> String {
+    format!("{source}{VERDICTS_KIND}")
 }
 
 /// At most this many strays are listed for [`stray_indices`] (8 bytes each).
@@ -100,7 +110,7 @@ pub(crate) fn with_given_stage<T>(
                     let m = store.manifest();
                     let source = fs::read_to_string(strays_source(scratch));
                     let whole = fs::metadata(&path).is_ok_and(|f| f.len() == m.population);
-                    whole && source.is_ok_and(|s| s == m.source)
+                    whole && source.is_ok_and(|s| s == verdicts_source(&m.source))
                 })
                 .map(|(store, strays)| KeptFrom { store, strays });
             let points = Points {

@@ -38,7 +38,8 @@ pub(crate) fn store_source(paths: &[PathBuf], kind: StoreKind) -> Result<String,
         NormalsKind::Oriented => "oriented normals of ",
     };
     let strays = if kind.strays_left_out {
-        "strays left out of "
+        // (Since the clump search runs out of core: an earlier psi's store had them in.)
+        "strays and clumps left out of "
     } else {
         ""
     };

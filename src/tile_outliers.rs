@@ -22,7 +22,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::PsiError;
 use crate::budget::OutOfCore;
-use crate::given_stages::{GivenStage, STRAYS_FILE, strays_source, with_given_stage};
+use crate::given_stages::{
+    GivenStage, STRAYS_FILE, strays_source, verdicts_source, with_given_stage,
+};
 use crate::partition::{Input, NormalsKind, Partition, StoreKind, failure, found, store_source};
 use crate::tile_clumps::stray_clumps;
 use crate::tile_parts::{
@@ -324,7 +326,8 @@ pub fn stray_verdicts_of_batch(
 /// whose source is `source` (an earlier run's, on the same input and store); `None` otherwise.
 pub(crate) fn strays_of(scratch: &Path, source: &str, n: Option<u64>) -> Option<StrayTally> {
     let path = scratch.join(STRAYS_FILE);
-    let same = fs::read_to_string(strays_source(scratch)).is_ok_and(|s| s == source);
+    let same =
+        fs::read_to_string(strays_source(scratch)).is_ok_and(|s| s == verdicts_source(source));
     let whole = n.is_none_or(|n| fs::metadata(&path).is_ok_and(|m| m.len() == n));
     (same && whole).then(|| tally_of(&path).ok()).flatten()
 }
@@ -408,7 +411,8 @@ pub fn stray_join(
     let mut file = WholeFile::create(&path)?;
     file.write(&verdicts)?;
     file.finish()?;
-    fs::write(&source_path, &store.manifest().source).map_err(|e| io_reason(&source_path, &e))?;
+    fs::write(&source_path, verdicts_source(&store.manifest().source))
+        .map_err(|e| io_reason(&source_path, &e))?;
     for b in 0..batches {
         for what in ["standings", "verdicts"] {
             let f = batch_file(scratch, what, b);

@@ -211,7 +211,10 @@ fn torus_with_strays() -> Vec<psi::OrientedPoint> {
     // torus (farther than 3 link distances from it).
     for _ in 0..30 {
         let p = psi::DVec3::new(1.0, 0.0, 0.68) + 0.01 * within(psi::DVec3::ONE);
-        scattered.push(psi::OrientedPoint { p, n: psi::DVec3::Z });
+        scattered.push(psi::OrientedPoint {
+            p,
+            n: psi::DVec3::Z,
+        });
     }
     points.extend(scattered);
     points
@@ -283,7 +286,11 @@ fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
         let core_report = json(&core_json);
         let outliers = &core_report["input"]["outliers"];
         let clumps = outliers["clumps"].as_u64().unwrap();
-        assert_eq!(clumps >= 30, name.starts_with("torus"), "{name}: {outliers}");
+        assert_eq!(
+            clumps >= 30,
+            name.starts_with("torus"),
+            "{name}: {outliers}"
+        );
         let removed = outliers["removed"].as_u64().unwrap()
             + core_report["input"]["repeated_points"].as_u64().unwrap();
         let scratch = dir.join(format!("{name}-scratch"));
