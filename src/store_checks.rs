@@ -13,19 +13,22 @@
 
 use std::path::Path;
 
+use glam::DVec3;
 use psi_mpu::MpuParams;
-use psi_octree::Monitor;
+use std::sync::Mutex;
+
+use psi_octree::{Monitor, OrientedPoint};
 use psi_preprocess::{
     ErrorThreshold, InwardEvidence, InwardVotes, NoiseEstimate, PAPER_ERROR_REL, ThresholdSource,
     error_threshold_for_noise,
 };
-use psi_tiles::{PointSource, TileStore};
+use psi_tiles::{PointSource, TileStore, TileWithHalo};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::PsiError;
 use crate::prepare::error_rank_for;
-use crate::tile_noise::store_noise;
+use crate::tile_noise::{TileVisit, store_noise};
 use crate::tile_parts::Halos;
 
 /// The checks' file in the scratch directory.
@@ -126,34 +129,62 @@ impl StoreChecks {
     }
 }
 
+/// The cube of tile `key` of `store` (world units, low and high corners).
+fn tile_cube(store: &TileStore, key: [u32; 3]) -> (DVec3, DVec3) {
+    let m = store.manifest();
+    let edge = 2.0 * m.frame.root_half / f64::from(1u32 << m.depth);
+    let low = m.frame.origin + m.frame.root_center - DVec3::splat(m.frame.root_half);
+    let key = DVec3::from_array(key.map(f64::from));
+    (low + key * edge, low + (key + 1.0) * edge)
+}
+
+/// Adds the points `points` (index, point) of tile `key` of `store` to `evidence`: along the
+/// directions its cube may reach, the points read on the threads; merged under the lock.
+fn add_tile(
+    store: &TileStore,
+    key: [u32; 3],
+    points: &[(u64, OrientedPoint)],
+    evidence: &Mutex<InwardEvidence>,
+) {
+    let n = store.manifest().population;
+    let (lo, hi) = tile_cube(store, key);
+    // Along most directions no point of an inner tile can be the extreme: its cube says so.
+    let along = evidence
+        .lock()
+        .expect("not poisoned")
+        .directions_reaching(lo, hi);
+    let found = points
+        .par_chunks(4096)
+        .fold(
+            || InwardEvidence::new(n),
+            |mut e, chunk| {
+                for &(i, p) in chunk {
+                    e.add_along(i, p, &along);
+                }
+                e
+            },
+        )
+        .reduce(|| InwardEvidence::new(n), InwardEvidence::merge);
+    let mut e = evidence.lock().expect("not poisoned");
+    *e = std::mem::replace(&mut *e, InwardEvidence::new(n)).merge(found);
+}
+
 /// The inward check's votes on `store`'s points as it reads them, tile file by tile file
 /// (one held at a time). Progress: stage `"inward"`, tiles done of tiles.
 fn store_inward_votes(store: &TileStore, monitor: &Monitor<'_>) -> Result<InwardVotes, String> {
-    let n = store.manifest().population;
+    let m = store.manifest();
     let tiles = store.part_count();
-    let mut evidence = InwardEvidence::new(n);
+    let evidence = Mutex::new(InwardEvidence::new(m.population));
     for part in 0..tiles {
         monitor.report("inward", part as u64, tiles as u64);
         monitor.check().map_err(|_| "interrupted".to_string())?;
         let points = store
             .part_where(part, &|_| true)
             .map_err(|e| e.to_string())?;
-        let found = points
-            .par_chunks(4096)
-            .fold(
-                || InwardEvidence::new(n),
-                |mut e, chunk| {
-                    for &(i, p) in chunk {
-                        e.add(i, p);
-                    }
-                    e
-                },
-            )
-            .reduce(|| InwardEvidence::new(n), InwardEvidence::merge);
-        evidence = evidence.merge(found);
+        add_tile(store, m.tiles[part].key, &points, &evidence);
     }
     monitor.report("inward", tiles as u64, tiles as u64);
-    Ok(evidence.votes())
+    Ok(evidence.into_inner().expect("not poisoned").votes())
 }
 
 /// The checks of `wanted` on `store` (the final store in `scratch`): found in
@@ -187,16 +218,25 @@ pub(crate) fn check_store(
                 .clone()
                 .with_normals_negated(false)
                 .map_err(|e| fail(e.to_string()))?;
-            let inward = if wanted.inward {
-                Some(store_inward_votes(&store, monitor).map_err(fail)?)
-            } else {
-                None
+            // The inward check's evidence from the noise's tiles when both run (one read).
+            let evidence = Mutex::new(InwardEvidence::new(store.manifest().population));
+            let visit = |key: [u32; 3], tile: &TileWithHalo| {
+                let own: Vec<(u64, OrientedPoint)> =
+                    tile.own_points().map(|(i, p)| (i, *p)).collect();
+                add_tile(&store, key, &own, &evidence);
             };
             let noise = if wanted.noise {
-                let (noise, _) = store_noise(&store, &mut Halos::new(), monitor).map_err(fail)?;
+                let visit: Option<&TileVisit<'_>> = wanted.inward.then_some(&visit);
+                let (noise, _) =
+                    store_noise(&store, &mut Halos::new(), visit, monitor).map_err(fail)?;
                 Some(noise)
             } else {
                 None
+            };
+            let inward = match (wanted.inward, wanted.noise) {
+                (false, _) => None,
+                (true, true) => Some(evidence.into_inner().expect("not poisoned").votes()),
+                (true, false) => Some(store_inward_votes(&store, monitor).map_err(fail)?),
             };
             let diagonal = store.manifest().frame.diagonal;
             let noise_rel = noise.filter(|_| diagonal > 0.0).map(|n| n.sigma / diagonal);

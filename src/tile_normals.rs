@@ -141,7 +141,7 @@ pub(crate) fn partition_estimating_normals(
     let mut halos = Halos::new();
     let keys = store.tile_keys();
     let first = |key| first_halo(store, key);
-    let (noise, reach) = store_noise(store, &mut halos, monitor).map_err(&fail)?;
+    let (noise, reach) = store_noise(store, &mut halos, None, monitor).map_err(&fail)?;
     let level = noise_level(noise.sigma, reach);
     if level > 0 {
         // The planes among the level's points (none when it holds too few: level 0 then).

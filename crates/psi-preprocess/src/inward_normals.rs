@@ -181,18 +181,39 @@ impl InwardEvidence {
 
     /// Adds point `p` (world units) of input index `index` (< n; each index once).
     pub fn add(&mut self, index: u64, p: OrientedPoint) {
+        self.add_along(index, p, &ALL_DIRECTIONS);
+    }
+
+    /// [`InwardEvidence::add`] where only the directions `along` (of
+    /// [`InwardEvidence::directions_reaching`] a box holding `p`) may find a new extreme.
+    pub fn add_along(&mut self, index: u64, p: OrientedPoint, along: &[usize]) {
         if index.is_multiple_of(winding_stride(self.n)) {
             self.sample.push((index, p));
         }
         if !p.p.is_finite() {
             return;
         }
-        for (i, e) in self.extremes.iter_mut().enumerate() {
-            let along = p.p.dot(direction(i));
-            if along > e.0 || (along == e.0 && index < e.1) {
-                *e = (along, index, p);
+        for &i in along {
+            let e = &mut self.extremes[i];
+            let x = p.p.dot(direction(i));
+            if x > e.0 || (x == e.0 && index < e.1) {
+                *e = (x, index, p);
             }
         }
+    }
+
+    /// The directions along which a point in the closed box `lo..=hi` (world units) could be
+    /// or tie the extreme found so far (the box's farthest corner, with a rounding's slack, as
+    /// far as it); along the others, its points cannot change the votes.
+    pub fn directions_reaching(&self, lo: DVec3, hi: DVec3) -> Vec<usize> {
+        let slack = 1e-9 * (lo.abs().max(hi.abs()).max_element() + (hi - lo).max_element());
+        (0..DIRECTIONS)
+            .filter(|&i| {
+                let d = direction(i);
+                let corner = DVec3::select(d.cmpge(DVec3::ZERO), hi, lo);
+                !(corner.dot(d) + slack < self.extremes[i].0)
+            })
+            .collect()
     }
 
     /// The evidence of both parts' points (disjoint indices of the same N).
@@ -247,6 +268,17 @@ impl InwardEvidence {
         votes
     }
 }
+
+/// Every direction's number.
+const ALL_DIRECTIONS: [usize; DIRECTIONS] = {
+    let mut all = [0; DIRECTIONS];
+    let mut i = 0;
+    while i < DIRECTIONS {
+        all[i] = i;
+        i += 1;
+    }
+    all
+};
 
 /// The `i`-th of the [`DIRECTIONS`] directions probed.
 fn direction(i: usize) -> DVec3 {
@@ -367,6 +399,28 @@ mod tests {
                 .votes();
             let whole = inward_votes(&points);
             assert_eq!(votes, whole);
+            // Parts of a grid, each adding along the directions its box may reach: the same.
+            let mut pruned = InwardEvidence::new(n);
+            let (mut skipped, cells) = (0, 4);
+            let lo = points.iter().fold(DVec3::INFINITY, |m, p| m.min(p.p));
+            let hi = points.iter().fold(DVec3::NEG_INFINITY, |m, p| m.max(p.p));
+            let edge = (hi - lo) / cells as f64;
+            for c in 0..cells * cells * cells {
+                let at = DVec3::new((c % 4) as f64, (c / 4 % 4) as f64, (c / 16) as f64);
+                let (a, b) = (lo + at * edge, lo + (at + 1.0) * edge);
+                let along = pruned.directions_reaching(a, b);
+                skipped += DIRECTIONS - along.len();
+                for (i, p) in points.iter().enumerate() {
+                    let cell = ((p.p - lo) / edge)
+                        .floor()
+                        .clamp(DVec3::ZERO, DVec3::splat(3.0));
+                    if cell == at {
+                        pruned.add_along(i as u64, *p, &along);
+                    }
+                }
+            }
+            assert_eq!(pruned.votes(), whole);
+            assert!(skipped > 32 * DIRECTIONS, "{skipped}");
             assert!(
                 whole.probes == DIRECTIONS && whole.decisive >= MIN_VOTES,
                 "{whole:?}"

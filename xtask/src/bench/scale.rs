@@ -3,9 +3,8 @@
 //! fixed seed and written as binary PCD with normals (nothing large is committed): the built-in
 //! model, or the shared Stanford dragon (`../shared/models/stanford_dragon_vrip_raw.ply`,
 //! area-weighted, Gaussian noise of σ = 2e-4 D, the triangles' normals). Each is sampled by the
-//! release `psi` in core (what the tiled run does: the outlier step but no stray clumps, noise
-//! threshold or inward-normals check, the ceiling on spacing as out of core: `--no-noise-estimate
-//! --keep-inward-normals`; skipped when
+//! release `psi` in core (what the tiled run does: every preprocessing step but denoising,
+//! `--no-denoise`; skipped when
 //! psi's estimate exceeds the memory available) and with `--max-memory` (default 1GiB): wall
 //! time, peak memory, the tiles, whether the counts agree, and per level the spacing CV out of
 //! core over in core (issue 26: within 5 %) and the tiled surface distance; for the dragon,
@@ -273,8 +272,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
                 &[
                     "sample",
                     i,
-                    "--no-noise-estimate",
-                    "--keep-inward-normals",
+                    "--no-denoise",
                     "-o",
                     core_out.to_str().context("path")?,
                     "-q",
