@@ -123,7 +123,7 @@ fn the_outlier_step_in_batches_is_the_step_run_whole() {
         let work = (true, stats);
         psi::stray_verdicts_of_batch(&all.store, scratch, (b, batches), work, &silent).unwrap();
     }
-    let joined = psi::stray_join(&all.store, scratch, batches).unwrap();
+    let joined = psi::stray_join(&all.store, scratch, batches, &silent).unwrap();
     assert_eq!(joined, tally);
     let verdicts = |o: &OutOfCore| std::fs::read(o.scratch.join("strays.bin")).unwrap();
     assert_eq!(verdicts(&parted), verdicts(&whole));

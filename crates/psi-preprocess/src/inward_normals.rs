@@ -211,7 +211,7 @@ impl InwardEvidence {
             .filter(|&i| {
                 let d = direction(i);
                 let corner = DVec3::select(d.cmpge(DVec3::ZERO), hi, lo);
-                !(corner.dot(d) + slack < self.extremes[i].0)
+                corner.dot(d) + slack >= self.extremes[i].0
             })
             .collect()
     }
