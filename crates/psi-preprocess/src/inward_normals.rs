@@ -39,6 +39,11 @@ const WHOLE: f64 = 0.25;
 /// At least this many extreme points must read a whole, non-zero winding number.
 const MIN_INSIDE: usize = 8;
 
+/// The notice for the normals of input `name` flipped outward ([`inward_votes`]).
+pub fn inward_flip_notice(name: &str) -> String {
+    format!("{name}: the normals pointed inward (judged on the convex hull); flipped them outward")
+}
+
 /// The votes of the extreme points ([`inward_votes`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct InwardVotes {

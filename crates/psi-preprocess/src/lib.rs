@@ -77,7 +77,7 @@ pub use estimate_normals::{
 };
 pub use find_clumps::{CLUMP_GAP, CLUMP_POINTS, Clumps, find_clumps, find_clumps_with};
 pub use find_outliers::{Outliers, find_outliers, find_outliers_with};
-pub use inward_normals::{InwardEvidence, InwardVotes, inward_votes};
+pub use inward_normals::{InwardEvidence, InwardVotes, inward_flip_notice, inward_votes};
 pub use level_by_parts::LevelIndex;
 pub use median::median_of_passes;
 pub use noise_by_parts::part_noise_samples;
@@ -95,6 +95,6 @@ pub use point_spread::{Spread, point_spread};
 pub use preprocess::{
     ErrorThreshold, INCONSISTENT_NORMALS, MeshRef, MeshReport, NOISE_ERROR_FACTOR, NormalTreatment,
     PAPER_ERROR_REL, PointOrigin, PreprocessError, PreprocessParams, PreprocessReport,
-    Preprocessed, ScanInput, StepSeconds, ThresholdSource, error_threshold_for_noise,
-    inward_flip_notice, preprocess, preprocess_with,
+    Preprocessed, ScanInput, StepSeconds, ThresholdSource, error_threshold_for_noise, preprocess,
+    preprocess_with,
 };

@@ -17,8 +17,8 @@ use crate::orient_from_level::orient_from_level;
 use crate::orient_normals::{check_normal_consistency_in, orient_normals_in};
 use crate::{
     DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, Spread, denoise_with,
-    densify_mesh_with_sources, estimate_noise, inward_votes, mesh_coarseness, orient_toward,
-    point_spread,
+    densify_mesh_with_sources, estimate_noise, inward_flip_notice, inward_votes, mesh_coarseness,
+    orient_toward, point_spread,
 };
 
 /// Ohtake's error threshold ε0 relative to the bounding-box diagonal D (algorithms.md §1.1):
@@ -331,11 +331,6 @@ fn opposed_beyond_limit(
     consistency
         .map(|c| c.opposed_fraction())
         .filter(|&f| f > INCONSISTENT_NORMALS && normals == NormalTreatment::Given)
-}
-
-/// The notice for the normals of input `name` flipped outward ([`crate::inward_votes`]).
-pub fn inward_flip_notice(name: &str) -> String {
-    format!("{name}: the normals pointed inward (judged on the convex hull); flipped them outward")
 }
 
 /// ε0 relative to D for a noise of `noise_rel` × D: the paper's 0.005, or
