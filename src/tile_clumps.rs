@@ -12,7 +12,7 @@ use psi_tiles::{PointSource, TileStore};
 use crate::tile_parts::{Halos, by_tile, each_tile, first_halo};
 
 /// Points between the counts of kept points that rank a point among them.
-const RANK_BLOCK: usize = 4096;
+const RANK_BLOCK: usize = 256;
 
 /// The ranks of the points `verdicts` keeps (verdict 0) among them, by their index in the
 /// store of all points.
