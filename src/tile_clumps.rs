@@ -157,3 +157,27 @@ pub(crate) fn stray_clumps(
     monitor.report("clumps", tiles as u64, tiles as u64);
     Ok((clumped, withheld))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A kept point's rank from the marks is the count of kept points before it, by brute force.
+    #[test]
+    fn ranks_count_the_kept_points_before() {
+        let verdicts: Vec<u8> = (0..3000u64)
+            .map(|i| [0, 0, 0, 2, 0, 3, 0, 4][(i * 2_654_435_761 >> 9) as usize % 8])
+            .collect();
+        let ranks = Ranks::new(&verdicts);
+        let mut before = 0;
+        for (i, &v) in verdicts.iter().enumerate() {
+            assert_eq!(ranks.kept(i as u64), v == 0);
+            if v == 0 {
+                assert_eq!(ranks.rank(i as u64), before, "point {i}");
+                before += 1;
+            }
+        }
+        assert!(before > 1000 && before < 3000);
+        assert!(!ranks.kept(3000));
+    }
+}
