@@ -166,7 +166,7 @@ mod tests {
     #[test]
     fn ranks_count_the_kept_points_before() {
         let verdicts: Vec<u8> = (0..3000u64)
-            .map(|i| [0, 0, 0, 2, 0, 3, 0, 4][(i * 2_654_435_761 >> 9) as usize % 8])
+            .map(|i| [0, 0, 0, 2, 0, 3, 0, 4][((i * 2_654_435_761) >> 9) as usize % 8])
             .collect();
         let ranks = Ranks::new(&verdicts);
         let mut before = 0;
