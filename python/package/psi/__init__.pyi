@@ -356,13 +356,14 @@ def sample_files(
     points streamed into tile files in ``scratch`` (default ``<output>.psi-scratch``), the MPU
     and the particles made tile by tile, the particles written to ``output`` (PLY, or LAS/LAZ by
     extension). As ``psi sample INPUT --max-memory SIZE``: bitwise its particles. Preprocessing
-    tile by tile: repeated points and outliers left out (unless ``keep_outliers``), normals
-    estimated and oriented where there are none; not yet the stray-clump search, noise
-    threshold or denoising. The ceiling on spacing ``max_spacing`` as in ``psi.sample`` (world
+    tile by tile: repeated points, outliers and stray clumps left out (unless
+    ``keep_outliers``), normals estimated and oriented where there are none, given normals that
+    point inward flipped, the error threshold set from the noise (unless ``mpu_error``); not yet
+    denoising. The ceiling on spacing ``max_spacing`` as in ``psi.sample`` (world
     units; default 2.5 % of the diagonal, ``inf`` for none). A rerun with the same scratch
     resumes from its files. Returns the CLI's ``--json`` report (``tiles``: count, depth,
-    points per tile, halos, seconds, ...). Stages ``"read"``, ``"tiles"``, ``"sample tiles"``,
-    ``"relax"``, ``"cover"``. ``ValueError`` for a bad size, a budget too small (naming what is needed); ``OSError`` when a file cannot be read."""
+    points per tile, halos, seconds, ...). Stages ``"read"``, ``"noise"``, ``"tiles"``,
+    ``"sample tiles"``, ``"relax"``, ``"cover"``. ``ValueError`` for a bad size, a budget too small (naming what is needed); ``OSError`` when a file cannot be read."""
 
 def load_particles(path: _Path) -> Particles:
     """Reads particles from a PLY (as ``save_particles`` and ``psi sample -o`` write it,
