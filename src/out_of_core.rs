@@ -83,8 +83,9 @@ pub struct OutOfCoreRun {
 /// seeded tile by tile, then relaxed at once, then the ceiling on spacing, its passes reading
 /// the tiles). Tile files go to `options.scratch`; a run that finds
 /// the files of an earlier run on the same file there resumes from them. Progress: stages
-/// `"read"`, `"tiles"`, `"sample tiles"`, `"relax"`, `"cover"` (and, for points without
-/// normals, first the stages of `tile_normals.rs`).
+/// `"read"` (with the outlier step `"standings"`, `"strays"`, `"clumps"`; for points without
+/// normals, the stages of `tile_normals.rs`), the checks' `"noise"` (or `"inward"`), then
+/// `"tiles"`, `"sample tiles"`, `"relax"`, `"cover"`.
 ///
 /// # Errors
 ///
