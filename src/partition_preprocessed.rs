@@ -39,7 +39,8 @@ pub struct PreprocessedPartition {
 }
 
 /// What the preprocessing of `paths` (read as `format`) does out of core: whether the points
-/// get normals, whether the outlier step runs, and whether they are a mesh's. Checks that the files have normals or none.
+/// get normals, whether the outlier step runs, and whether they are a mesh's. Checks that the
+/// files have normals or none, and refuses the steps not done out of core.
 fn steps(
     paths: &[PathBuf],
     format: Option<Format>,
@@ -60,6 +61,22 @@ fn steps(
         return Err(PsiError::OutOfCore {
             path: first.clone(),
             reason: "has no normals, and normal estimation is off".into(),
+        });
+    }
+    // What a run out of core would otherwise leave undone without a word.
+    let not_done = if estimate && preprocess.viewpoint.is_some() {
+        Some("orienting estimated normals toward a viewpoint (--viewpoint)")
+    } else if !estimate && preprocess.orient_given_normals {
+        Some("reorienting given normals (--orient-normals)")
+    } else {
+        None
+    };
+    if let Some(step) = not_done {
+        return Err(PsiError::OutOfCore {
+            path: first.clone(),
+            reason: format!(
+                "{step} is not done out of core yet; run without --max-memory, or without it"
+            ),
         });
     }
     // A mesh's triangles are the surface: in core its points are not searched for outliers.

@@ -476,7 +476,8 @@ fn out_of_core_flips_inward_normals_and_sets_the_noise_threshold_as_in_core() {
 }
 
 /// Refused without touching the output: four points (too few for an MPU, their normals
-/// estimated first), sizes that are no sizes; normal estimation cannot be turned off.
+/// estimated first), sizes that are no sizes; normal estimation cannot be turned off, nor steps
+/// not done out of core asked for.
 #[test]
 fn out_of_core_refuses_too_few_points_and_bad_sizes() {
     let dir = common::scratch("out-of-core-bad");
@@ -507,6 +508,19 @@ fn out_of_core_refuses_too_few_points_and_bad_sizes() {
     ]);
     common::assert_rejected(&out, "plain.xyz", &kept, "too few");
     assert!(String::from_utf8_lossy(&out.stderr).contains("too few"));
+    // Steps not done out of core are refused by the parser, not skipped: reorienting given
+    // normals, a viewpoint.
+    for flag in ["--orient-normals", "--viewpoint=0,0,5"] {
+        let out = common::psi(&[
+            "sample",
+            xyz.to_str().unwrap(),
+            "--max-memory",
+            "64MiB",
+            flag,
+        ]);
+        assert_eq!(out.status.code(), Some(2), "{flag}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("cannot be used with"));
+    }
     for size in ["12XB", "lots", "1MiB"] {
         let out = common::psi(&[
             "sample",

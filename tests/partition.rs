@@ -152,5 +152,18 @@ fn the_outlier_step_in_batches_is_the_step_run_whole() {
         psi::partition_preprocessed(&inputs, None, &preprocess, &params, &whole, &silent).unwrap();
     assert_eq!(again.strays, Some(tally));
     assert_eq!(verdicts(&whole), right);
+
+    // A step not done out of core (reorienting given normals) is refused, naming the file.
+    let reorient = psi::preprocess::PreprocessParams {
+        orient_given_normals: true,
+        ..preprocess
+    };
+    let refused = psi::partition_preprocessed(&inputs, None, &reorient, &params, &fresh, &silent)
+        .unwrap_err();
+    let said = refused.to_string();
+    assert!(
+        said.contains("strays.ply") && said.contains("not done out of core"),
+        "{said}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
