@@ -16,6 +16,7 @@ use std::path::Path;
 use glam::DVec3;
 use psi_mpu::MpuParams;
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use psi_octree::{Monitor, OrientedPoint};
 use psi_preprocess::{
@@ -60,6 +61,9 @@ pub struct StoreChecks {
     pub noise: Option<NoiseEstimate>,
     /// The noise relative to the diagonal D of the store's points.
     pub noise_rel: Option<f64>,
+    /// Its IEEE bits, which a resumed run and a cluster's tasks read.
+    #[serde(default)]
+    pub noise_rel_bits: Option<u64>,
     /// Whether the in-core run would denoise (the noise raises ε0 above the paper's, denoising
     /// on) and this one did not.
     pub denoise_skipped: bool,
@@ -202,41 +206,46 @@ pub(crate) fn check_store(
     monitor: &Monitor<'_>,
 ) -> Result<(TileStore, StoreChecks), PsiError> {
     let path = scratch.join(CHECKS_FILE);
+    let dir = store.dir().to_path_buf();
     let fail = |reason: String| PsiError::OutOfCore {
-        path: store.dir().to_path_buf(),
+        path: dir.clone(),
         reason,
     };
     let digest = store.digest();
     let found = read_checks(&path)
         .ok()
         .filter(|c| c.store == digest && c.wanted == wanted);
+    let mut store = store;
     let checks = match found {
         Some(c) => c,
         None => {
-            // The votes read the normals as written.
-            let store = store
-                .clone()
+            // The votes read the normals as written (and the flag on disk says so).
+            store = store
                 .with_normals_negated(false)
                 .map_err(|e| fail(e.to_string()))?;
+            let store = &store;
             // The inward check's evidence from the noise's tiles when both run (one read).
             let evidence = Mutex::new(InwardEvidence::new(store.manifest().population));
+            let visited = AtomicBool::new(false);
             let visit = |key: [u32; 3], tile: &TileWithHalo| {
                 let own: Vec<(u64, OrientedPoint)> =
                     tile.own_points().map(|(i, p)| (i, *p)).collect();
-                add_tile(&store, key, &own, &evidence);
+                add_tile(store, key, &own, &evidence);
+                visited.store(true, Ordering::Relaxed);
             };
             let noise = if wanted.noise {
                 let visit: Option<&TileVisit<'_>> = wanted.inward.then_some(&visit);
                 let (noise, _) =
-                    store_noise(&store, &mut Halos::new(), visit, monitor).map_err(fail)?;
+                    store_noise(store, &mut Halos::new(), visit, monitor).map_err(fail)?;
                 Some(noise)
             } else {
                 None
             };
-            let inward = match (wanted.inward, wanted.noise) {
+            // (Fewer than 7 points have no noise round: their votes by a pass of their own.)
+            let inward = match (wanted.inward, visited.load(Ordering::Relaxed)) {
                 (false, _) => None,
                 (true, true) => Some(evidence.into_inner().expect("not poisoned").votes()),
-                (true, false) => Some(store_inward_votes(&store, monitor).map_err(fail)?),
+                (true, false) => Some(store_inward_votes(store, monitor).map_err(fail)?),
             };
             let diagonal = store.manifest().frame.diagonal;
             let noise_rel = noise.filter(|_| diagonal > 0.0).map(|n| n.sigma / diagonal);
@@ -247,6 +256,7 @@ pub(crate) fn check_store(
                 inward_normals_flipped: inward.is_some_and(|v| v.inward()),
                 noise,
                 noise_rel,
+                noise_rel_bits: noise_rel.map(f64::to_bits),
                 denoise_skipped: wanted.denoise
                     && noise_rel.is_some_and(|r| error_threshold_for_noise(r) > PAPER_ERROR_REL),
             };
@@ -264,10 +274,16 @@ pub(crate) fn check_store(
     Ok((store, checks))
 }
 
-/// The checks in the file at `path`.
+/// The checks in the file at `path`, the noise's share of D as its bits say (a JSON number
+/// need not read back to the same bits, and ε0 follows from it).
 fn read_checks(path: &Path) -> Result<StoreChecks, String> {
     let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
-    serde_json::from_str(&text).map_err(|e| e.to_string())
+    let mut checks: StoreChecks = serde_json::from_str(&text).map_err(|e| e.to_string())?;
+    if checks.noise_rel.is_some() != checks.noise_rel_bits.is_some() {
+        return Err("the noise's share without its bits".into());
+    }
+    checks.noise_rel = checks.noise_rel_bits.map(f64::from_bits);
+    Ok(checks)
 }
 
 /// The MPU parameters of the run out of core whose scratch directory is `scratch`: `mpu`'s

@@ -140,10 +140,11 @@ pub(crate) fn stray_clumps(
     let mut gather = |lo: DVec3, hi: DVec3| -> Result<Vec<(u64, DVec3)>, String> {
         let centre = 0.5 * (lo + hi);
         let half = 0.5 * (hi - lo).max_element();
+        // (The rounding of the local centre grows with the coordinates' size.)
+        let size = frame.origin.abs().max_element() + centre.abs().max_element() + half;
+        let margin = 1e-9 * frame.root_half + 16.0 * f64::EPSILON * size;
         let found = store
-            .gather_box_indexed(centre - frame.origin, half, 1e-9 * frame.root_half, &|_| {
-                true
-            })
+            .gather_box_indexed(centre - frame.origin, half, margin, &|_| true)
             .map_err(fail)?;
         Ok(found
             .into_iter()

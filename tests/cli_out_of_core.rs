@@ -449,6 +449,22 @@ fn out_of_core_flips_inward_normals_and_sets_the_noise_threshold_as_in_core() {
     let said = String::from_utf8_lossy(&out.stderr);
     assert!(said.contains("flipped them outward"), "{said}");
     assert!(said.contains("calls for denoising"), "{said}");
+    // The store's own manifest says its normals are read flipped (a cluster's tasks open it),
+    // also after the checks were made again for other flags.
+    let negated = || {
+        let m = json(&scratch.join("tiles").join("manifest.json"));
+        m["normals_negated"].as_bool() == Some(true)
+    };
+    assert!(negated());
+    let (again_nd, ..) = run("tiled-nd", &["--no-denoise"], true);
+    assert!(
+        again_nd == core,
+        "--no-denoise out of core: particles differ"
+    );
+    assert!(
+        negated(),
+        "the flag on disk after the checks were made again"
+    );
     // The store read as written, and the checks made again.
     let kept = ["--no-denoise", "--keep-inward-normals"];
     let (core_kept, ..) = run("core-kept", &kept, false);
