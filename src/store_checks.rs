@@ -20,7 +20,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use psi_octree::{Monitor, OrientedPoint};
 use psi_preprocess::{
-    ErrorThreshold, InwardEvidence, InwardVotes, NoiseEstimate, PAPER_ERROR_REL, ThresholdSource,
+    ErrorThreshold, InwardEvidence, InwardVotes, NoiseEstimate, PAPER_ERROR_REL,
     error_threshold_for_noise,
 };
 use psi_tiles::{PointSource, TileStore, TileWithHalo};
@@ -102,21 +102,10 @@ impl StoreChecks {
     /// `given` (ε0 / D) when given, else the noise's ([`error_threshold_for_noise`]) when it is
     /// above the paper's, else the paper's.
     pub fn error_threshold(&self, given: Option<f64>) -> ErrorThreshold {
-        let noise = self.noise_rel.map(error_threshold_for_noise);
-        match (given, noise) {
-            (Some(relative), _) => ErrorThreshold {
-                relative,
-                source: ThresholdSource::User,
-            },
-            (None, Some(relative)) if relative > PAPER_ERROR_REL => ErrorThreshold {
-                relative,
-                source: ThresholdSource::Noise,
-            },
-            _ => ErrorThreshold {
-                relative: PAPER_ERROR_REL,
-                source: ThresholdSource::Paper,
-            },
-        }
+        let suggested = self
+            .noise_rel
+            .map_or(PAPER_ERROR_REL, error_threshold_for_noise);
+        ErrorThreshold::chosen(given, suggested)
     }
 
     /// `mpu`'s parameters with the error threshold ([`StoreChecks::error_threshold`]) and the

@@ -182,6 +182,19 @@ pub struct ErrorThreshold {
     pub source: ThresholdSource,
 }
 
+impl ErrorThreshold {
+    /// The threshold to use: `user`'s (ε0 / D) when given, else `suggested` (what the noise
+    /// suggests, [`error_threshold_for_noise`]) when it is above the paper's, else the paper's.
+    pub fn chosen(user: Option<f64>, suggested: f64) -> ErrorThreshold {
+        let (relative, source) = match user {
+            Some(user) => (user, ThresholdSource::User),
+            None if suggested > PAPER_ERROR_REL => (suggested, ThresholdSource::Noise),
+            None => (PAPER_ERROR_REL, ThresholdSource::Paper),
+        };
+        ErrorThreshold { relative, source }
+    }
+}
+
 /// What [`preprocess`] did, step by step.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PreprocessReport {
@@ -299,20 +312,7 @@ impl PreprocessReport {
     /// assert_eq!(done.report.error_threshold(Some(0.01)).relative, 0.01);
     /// ```
     pub fn error_threshold(&self, user: Option<f64>) -> ErrorThreshold {
-        match user {
-            Some(relative) => ErrorThreshold {
-                relative,
-                source: ThresholdSource::User,
-            },
-            None if self.error_rel > PAPER_ERROR_REL => ErrorThreshold {
-                relative: self.error_rel,
-                source: ThresholdSource::Noise,
-            },
-            None => ErrorThreshold {
-                relative: PAPER_ERROR_REL,
-                source: ThresholdSource::Paper,
-            },
-        }
+        ErrorThreshold::chosen(user, self.error_rel)
     }
     /// The share (0..1) of neighbouring pairs whose given normals point to opposite sides,
     /// when it exceeds [`INCONSISTENT_NORMALS`] and the normals were kept as given (such
