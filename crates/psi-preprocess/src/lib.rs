@@ -15,10 +15,12 @@
 //!   [`part_orientation_edges`] and [`orient_by_parts`] give `orient_normals`' sides bitwise
 //!   from parts of the points (tiles with a halo), [`part_normals`] the level-0 estimate
 //!   ([`noise_level`]), [`part_noise_samples`] with [`noise_by_rounds`] the noise estimate;
-//!   [`check_normal_consistency`] counts the neighbours whose normals oppose;
+//!   [`check_normal_consistency`] counts the neighbours whose normals oppose
+//!   ([`part_normal_consistency`] by parts);
 //! * [`estimate_noise`]: the noise level of the positions, from quadric fits, and
 //!   [`error_threshold_for_noise`], the MPU error threshold it suggests; [`denoise`] takes it
-//!   out of the positions (moving least squares with quadrics);
+//!   out of the positions (moving least squares with quadrics; [`part_denoise_samples`],
+//!   [`DenoiseScale`] and [`part_denoise`] by parts);
 //! * [`preprocess`]: all of it in order, each step on or off ([`PreprocessParams`]), with a
 //!   [`PreprocessReport`].
 //!
@@ -37,6 +39,7 @@
 //! ```
 
 mod clumps_by_parts;
+mod consistency_by_parts;
 mod denoise;
 mod densify_mesh;
 mod disjoint_sets;
@@ -63,12 +66,14 @@ mod outliers_by_parts;
 mod point_spread;
 mod preprocess;
 mod spanning_forest;
-mod spatial_order;
 
 pub use clumps_by_parts::{
     Candidates, ClumpCubes, ClumpScale, clumps_of_candidates, part_clump_spacings,
 };
-pub use denoise::{DenoiseReport, denoise, denoise_with};
+pub use consistency_by_parts::{CONSISTENCY_QUERIES, part_normal_consistency};
+pub use denoise::{
+    DenoiseReport, DenoiseScale, denoise, denoise_with, part_denoise, part_denoise_samples,
+};
 pub use densify_mesh::{MeshCoarseness, densify_mesh, densify_mesh_with_sources, mesh_coarseness};
 pub use drop_strays::OutlierReport;
 pub use estimate_noise::{NoiseEstimate, NoiseRound, estimate_noise, noise_by_rounds};

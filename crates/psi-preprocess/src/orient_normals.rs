@@ -33,6 +33,14 @@ impl NormalConsistency {
             self.opposed as f64 / self.pairs as f64
         }
     }
+
+    /// The counts of two checks together (parts of one check, [`crate::part_normal_consistency`]).
+    pub fn merge(self, other: NormalConsistency) -> NormalConsistency {
+        NormalConsistency {
+            pairs: self.pairs + other.pairs,
+            opposed: self.opposed + other.opposed,
+        }
+    }
 }
 
 /// For every `stride`-th point (points 0, stride, 2·stride, … with finite coordinates, in

@@ -458,7 +458,7 @@ pub fn preprocess_with(
     let mut inward_normals_flipped = false;
     let normals = if normals_given {
         let at = index.get_or_insert_with(|| morton_index_of(&points));
-        let check = check_normal_consistency_in(&points, at, 20_000);
+        let check = check_normal_consistency_in(&points, at, crate::CONSISTENCY_QUERIES);
         consistency = Some(check);
         monitor.check()?;
         if params.orient_given_normals {
