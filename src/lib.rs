@@ -39,6 +39,7 @@ pub mod render;
 pub mod report;
 mod store_checks;
 mod tile_clumps;
+mod tile_denoise;
 mod tile_level_normals;
 mod tile_noise;
 mod tile_normals;
@@ -66,8 +67,8 @@ pub use memory_estimate::{
     available_memory_bytes, check_fits_in_memory, estimate_in_core_bytes, estimate_points,
 };
 pub use out_of_core::{
-    NOT_DONE_OUT_OF_CORE, OutOfCoreRun, out_of_core_json, out_of_core_tiles, parse_memory_size,
-    sample_file_out_of_core, sample_files_out_of_core,
+    OutOfCoreRun, out_of_core_json, out_of_core_tiles, parse_memory_size, sample_file_out_of_core,
+    sample_files_out_of_core,
 };
 pub use partition::{
     Partition, PartitionStart, has_normals, partition_assemble, partition_files, partition_part,
@@ -91,7 +92,7 @@ pub use psi_particles::{
 };
 pub use psi_shapes::{AnalyticShape, builtin_model};
 pub use render::{render_particles_png, save_png};
-pub use store_checks::{ChecksWanted, OutOfCoreMpu, StoreChecks, out_of_core_mpu_params};
+pub use store_checks::{ChecksWanted, OutOfCoreMpu, StoreChecks, out_of_core_store};
 pub use tile_outliers::{
     StrayTally, stray_join, stray_standings, stray_stats, stray_verdicts_of_batch,
 };

@@ -7,9 +7,9 @@
 //! The preprocessing done tile by tile, bitwise the in-core steps: repeated points and the
 //! outlier search's strays left out (`tile_outliers.rs`), points without normals given
 //! them, estimated and oriented (`tile_normals.rs`), given normals that point inward flipped
-//! and the noise's error threshold (`store_checks.rs`); the stray-clump search follows the
-//! outlier search's (`tile_clumps.rs`). Not yet: denoising (a run out of core takes the
-//! points as the other steps leave them, and says so).
+//! and the noise's error threshold (`store_checks.rs`), denoising where the noise calls for
+//! it (`tile_denoise.rs`); the stray-clump search follows the outlier search's
+//! (`tile_clumps.rs`).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -30,10 +30,6 @@ use crate::partition::failure;
 use crate::partition_preprocessed::{PreprocessedPartition, partition_preprocessed};
 use crate::store_checks::{OutOfCoreMpu, StoreChecks, check_store};
 use crate::tile_outliers::StrayTally;
-
-/// The in-core preprocessing steps a run out of core does not do yet (its JSON report lists
-/// them; the CLI says so up front).
-pub const NOT_DONE_OUT_OF_CORE: [&str; 1] = ["denoising"];
 
 /// What a run out of core made.
 #[derive(Clone, Debug)]
@@ -110,7 +106,8 @@ pub fn sample_files_out_of_core(
         checks,
     } = partition_preprocessed(paths, format, preprocess, &mpu.params, options, monitor)?;
     let t_checks = Instant::now();
-    let (store, checks) = check_store(part.store.clone(), checks, &options.scratch, monitor)?;
+    let at = (options, &mpu.params);
+    let (store, checks) = check_store(part.store.clone(), checks, at, monitor)?;
     let checks_seconds = t_checks.elapsed().as_secs_f64();
     let (mpu_params, error) = checks.mpu_params(mpu);
     let mpu_params = &mpu_params;
@@ -312,8 +309,12 @@ pub fn out_of_core_json(
                 "inward_votes": run.checks.inward,
                 "noise": run.checks.noise,
                 "noise_rel": run.checks.noise_rel,
-                "denoise_skipped": run.checks.denoise_skipped,
-                "not_done": NOT_DONE_OUT_OF_CORE,
+                "normal_consistency": run.checks.consistency.map(|c| serde_json::json!({
+                    "pairs_checked": c.pairs,
+                    "opposed_fraction": c.opposed_fraction(),
+                })),
+                "denoised": run.checks.denoised,
+                "noise_rel_after": run.checks.noise_rel_after(),
             },
         },
         "peak_memory_bytes": crate::report::peak_memory_bytes(),

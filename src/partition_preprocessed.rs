@@ -198,20 +198,23 @@ pub fn partition_preprocessed(
 
 /// The checks the final store gets before the MPU (`store_checks.rs`), as the in-core
 /// preprocessing makes them: the inward check for given normals (unless reoriented), the noise
-/// estimate for a scan's points.
+/// estimate for a scan's points (with it, the consistency of given normals and denoising).
 fn checks_wanted(preprocess: &PreprocessParams, estimate: bool, mesh: bool) -> ChecksWanted {
     ChecksWanted {
         inward: !estimate && preprocess.flip_inward_normals && !preprocess.orient_given_normals,
         // A mesh's triangles are the surface: in core their residuals set no threshold.
         noise: preprocess.estimate_noise && !mesh,
         denoise: preprocess.denoise,
+        consistency: !estimate,
     }
 }
 
 /// The checks of the run out of core on `paths` (read as `format`) with `preprocess`, on the
 /// final store its partition wrote in `options.scratch` (a cluster's task, after the
 /// partition's): made, or found from an earlier run, and kept in the scratch directory where
-/// the later tasks read the run's error threshold ([`crate::out_of_core_mpu_params`]).
+/// the later tasks read the run's error threshold and the store to decide from
+/// ([`crate::out_of_core_store`]; the denoised points', their frame as `mpu_params` makes it,
+/// when the noise called for denoising).
 ///
 /// # Errors
 ///
@@ -221,6 +224,7 @@ pub fn check_out_of_core_store(
     paths: &[PathBuf],
     format: Option<Format>,
     preprocess: &PreprocessParams,
+    mpu_params: &MpuParams,
     options: &OutOfCore,
     monitor: &Monitor<'_>,
 ) -> Result<StoreChecks, PsiError> {
@@ -231,5 +235,5 @@ pub fn check_out_of_core_store(
         reason: e.to_string(),
     })?;
     let wanted = checks_wanted(preprocess, estimate, mesh);
-    Ok(check_store(store, wanted, &options.scratch, monitor)?.1)
+    Ok(check_store(store, wanted, (options, mpu_params), monitor)?.1)
 }

@@ -6,10 +6,11 @@
 //! error threshold ε0 as in core. Both bitwise the in-core steps on the same points. What they
 //! found is kept in `<scratch>/checks.json` (written whole, then renamed), so a cluster's
 //! tasks read the run's ε0 ([`out_of_core_mpu_params`]) and a resumed run does not check again.
-//!
-//! Not done: denoising, which in core follows when the noise raises ε0 above the paper's; the
-//! run takes the points as they are (the in-core run with `--no-denoise`) and says so
-//! ([`StoreChecks::denoise_skipped`]).
+//! Given normals are checked for consistency in the noise's tiles (as in core, every
+//! ⌈N/20 000⌉-th point's neighbours). Where the noise raises ε0 above the paper's, the points
+//! are denoised as in core (`tile_denoise.rs`; not for given normals found inconsistent) into
+//! a store of their own, which the MPU then reads ([`out_of_core_store`]), and the noise left is
+//! estimated on it.
 
 use std::path::Path;
 
@@ -20,15 +21,17 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use psi_octree::{Monitor, OrientedPoint};
 use psi_preprocess::{
-    ErrorThreshold, InwardEvidence, InwardVotes, NoiseEstimate, PAPER_ERROR_REL,
-    error_threshold_for_noise,
+    DenoiseReport, ErrorThreshold, INCONSISTENT_NORMALS, InwardEvidence, InwardVotes,
+    NoiseEstimate, NormalConsistency, PAPER_ERROR_REL, error_threshold_for_noise,
 };
 use psi_tiles::{PointSource, TileStore, TileWithHalo};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::PsiError;
+use crate::budget::OutOfCore;
 use crate::prepare::error_rank_for;
+use crate::tile_denoise::{DENOISED_DIR, denoise_store};
 use crate::tile_noise::{TileVisit, store_noise};
 use crate::tile_parts::Halos;
 
@@ -42,8 +45,11 @@ pub struct ChecksWanted {
     pub inward: bool,
     /// The noise estimate (`estimate_noise`, not for a mesh's points).
     pub noise: bool,
-    /// Whether denoising is on (`denoise`): said to be skipped where the noise calls for it.
+    /// Denoising where the noise calls for it (`denoise`).
     pub denoise: bool,
+    /// The consistency check of given normals (made in the noise's tiles).
+    #[serde(default)]
+    pub consistency: bool,
 }
 
 /// What the checks found on a store.
@@ -64,9 +70,20 @@ pub struct StoreChecks {
     /// Its IEEE bits, which a resumed run and a cluster's tasks read.
     #[serde(default)]
     pub noise_rel_bits: Option<u64>,
-    /// Whether the in-core run would denoise (the noise raises ε0 above the paper's, denoising
-    /// on) and this one did not.
-    pub denoise_skipped: bool,
+    /// The consistency check of given normals (when it ran).
+    #[serde(default)]
+    pub consistency: Option<NormalConsistency>,
+    /// What denoising did (when the noise called for it: the points the MPU reads are then
+    /// the store `<scratch>/denoised`).
+    #[serde(default)]
+    pub denoised: Option<DenoiseReport>,
+    /// The store of the denoised points ([`TileStore::digest`]).
+    #[serde(default)]
+    pub denoised_store: Option<String>,
+    /// The noise left after denoising relative to the diagonal D of the points before, as its
+    /// IEEE bits (ε0 follows from it).
+    #[serde(default)]
+    pub noise_rel_after_bits: Option<u64>,
 }
 
 /// The MPU's parameters of a run out of core: `params`, its error threshold ε0 / D
@@ -103,7 +120,7 @@ impl StoreChecks {
     /// above the paper's, else the paper's.
     pub fn error_threshold(&self, given: Option<f64>) -> ErrorThreshold {
         let suggested = self
-            .noise_rel
+            .noise_left()
             .map_or(PAPER_ERROR_REL, error_threshold_for_noise);
         ErrorThreshold::chosen(given, suggested)
     }
@@ -115,10 +132,21 @@ impl StoreChecks {
         let threshold = self.error_threshold(mpu.given_error);
         let params = MpuParams {
             error_rel: threshold.relative,
-            error_rank: error_rank_for(false, self.noise_rel, threshold.relative),
+            error_rank: error_rank_for(false, self.noise_left(), threshold.relative),
             ..mpu.params
         };
         (params, threshold)
+    }
+
+    /// The noise left after denoising relative to the diagonal D of the points before (when
+    /// they were denoised).
+    pub fn noise_rel_after(&self) -> Option<f64> {
+        self.noise_rel_after_bits.map(f64::from_bits)
+    }
+
+    /// The noise the MPU sees, relative to D: what denoising left, else the noise estimate's.
+    fn noise_left(&self) -> Option<f64> {
+        self.noise_rel_after().or(self.noise_rel)
     }
 }
 
@@ -180,9 +208,11 @@ fn store_inward_votes(store: &TileStore, monitor: &Monitor<'_>) -> Result<Inward
     Ok(evidence.into_inner().expect("not poisoned").votes())
 }
 
-/// The checks of `wanted` on `store` (the final store in `scratch`): found in
-/// `<scratch>/checks.json` when an earlier run made them on the same points, else made and
-/// written there; the store returned reads its normals flipped when they pointed inward.
+/// The checks of `wanted` on `store` (the final store in `options.scratch`): found in
+/// `<scratch>/checks.json` when an earlier run made them on the same points (and the denoised
+/// store they made is whole), else made and written there. Returns the store the MPU reads
+/// (the denoised points', with `mpu`'s frame rules, when the noise called for denoising; else
+/// `store`, its normals read flipped when they pointed inward) and the checks.
 ///
 /// # Errors
 ///
@@ -191,9 +221,10 @@ fn store_inward_votes(store: &TileStore, monitor: &Monitor<'_>) -> Result<Inward
 pub(crate) fn check_store(
     store: TileStore,
     wanted: ChecksWanted,
-    scratch: &Path,
+    (options, mpu): (&OutOfCore, &MpuParams),
     monitor: &Monitor<'_>,
 ) -> Result<(TileStore, StoreChecks), PsiError> {
+    let scratch = &options.scratch;
     let path = scratch.join(CHECKS_FILE);
     let dir = store.dir().to_path_buf();
     let fail = |reason: String| PsiError::OutOfCore {
@@ -203,64 +234,125 @@ pub(crate) fn check_store(
     let digest = store.digest();
     let found = read_checks(&path)
         .ok()
-        .filter(|c| c.store == digest && c.wanted == wanted);
-    let mut store = store;
-    let checks = match found {
-        Some(c) => c,
-        None => {
-            // The votes read the normals as written (and the flag on disk says so).
-            store = store
-                .with_normals_negated(false)
-                .map_err(|e| fail(e.to_string()))?;
-            let store = &store;
-            // The inward check's evidence from the noise's tiles when both run (one read).
-            let evidence = Mutex::new(InwardEvidence::new(store.manifest().population));
-            let visited = AtomicBool::new(false);
-            let visit = |key: [u32; 3], tile: &TileWithHalo| {
-                let own: Vec<(u64, OrientedPoint)> =
-                    tile.own_points().map(|(i, p)| (i, *p)).collect();
-                add_tile(store, key, &own, &evidence);
-                visited.store(true, Ordering::Relaxed);
-            };
-            let noise = if wanted.noise {
-                let visit: Option<&TileVisit<'_>> = wanted.inward.then_some(&visit);
-                let (noise, _) =
-                    store_noise(store, &mut Halos::new(), visit, monitor).map_err(fail)?;
-                Some(noise)
-            } else {
-                None
-            };
-            // (Fewer than 7 points have no noise round: their votes by a pass of their own.)
-            let inward = match (wanted.inward, visited.load(Ordering::Relaxed)) {
-                (false, _) => None,
-                (true, true) => Some(evidence.into_inner().expect("not poisoned").votes()),
-                (true, false) => Some(store_inward_votes(store, monitor).map_err(fail)?),
-            };
-            let diagonal = store.manifest().frame.diagonal;
-            let noise_rel = noise.filter(|_| diagonal > 0.0).map(|n| n.sigma / diagonal);
-            let checks = StoreChecks {
-                store: digest,
-                wanted,
-                inward,
-                inward_normals_flipped: inward.is_some_and(|v| v.inward()),
-                noise,
-                noise_rel,
-                noise_rel_bits: noise_rel.map(f64::to_bits),
-                denoise_skipped: wanted.denoise
-                    && noise_rel.is_some_and(|r| error_threshold_for_noise(r) > PAPER_ERROR_REL),
-            };
-            let text = serde_json::to_value(&checks).expect("serialisable");
-            crate::save_json(&path, &text)?;
-            checks
-        }
-    };
+        .filter(|c| c.store == digest && c.wanted == wanted)
+        .and_then(|c| Some((denoised_found(&c, scratch)?, c)));
+    if let Some((denoised, checks)) = found {
+        let store = match denoised {
+            Some(denoised) => denoised,
+            None => flagged(store, &checks, &path)?,
+        };
+        return Ok((store, checks));
+    }
+    // The votes read the normals as written (and the flag on disk says so).
     let store = store
+        .with_normals_negated(false)
+        .map_err(|e| fail(e.to_string()))?;
+    let mut halos = Halos::new();
+    let (inward, noise, consistency) = inward_and_noise(&store, wanted, &mut halos, monitor)?;
+    let diagonal = store.manifest().frame.diagonal;
+    let noise_rel = noise.filter(|_| diagonal > 0.0).map(|n| n.sigma / diagonal);
+    let mut checks = StoreChecks {
+        store: digest,
+        wanted,
+        inward,
+        inward_normals_flipped: inward.is_some_and(|v| v.inward()),
+        noise,
+        noise_rel,
+        noise_rel_bits: noise_rel.map(f64::to_bits),
+        consistency,
+        denoised: None,
+        denoised_store: None,
+        noise_rel_after_bits: None,
+    };
+    let store = flagged(store, &checks, &path)?;
+    // As in core: denoised where the noise raises ε0 above the paper's, unless given normals
+    // point every way (each point would have few neighbours on its side).
+    let inconsistent = consistency.is_some_and(|c| c.opposed_fraction() > INCONSISTENT_NORMALS);
+    let calls = noise_rel.is_some_and(|r| error_threshold_for_noise(r) > PAPER_ERROR_REL);
+    let mut denoised_store = None;
+    if let Some(noise) = noise.filter(|_| wanted.denoise && calls && !inconsistent) {
+        let at = (scratch.as_path(), mpu, options.max_memory);
+        if let Some((denoised, report)) =
+            denoise_store(&store, noise.sigma, at, &mut halos, monitor).map_err(&fail)?
+        {
+            let (after, _) =
+                store_noise(&denoised, &mut Halos::new(), None, false, monitor).map_err(&fail)?;
+            checks.denoised = Some(report);
+            checks.denoised_store = Some(denoised.digest());
+            checks.noise_rel_after_bits = Some((after.0.sigma / diagonal).to_bits());
+            denoised_store = Some(denoised);
+        }
+    }
+    let text = serde_json::to_value(&checks).expect("serialisable");
+    crate::save_json(&path, &text)?;
+    Ok((denoised_store.unwrap_or(store), checks))
+}
+
+/// The inward check's votes (when `wanted`), the noise estimate and the consistency of given
+/// normals (when `wanted`, in the noise's tiles) of `store`'s points, its tiles' halos kept
+/// in `halos`.
+fn inward_and_noise(
+    store: &TileStore,
+    wanted: ChecksWanted,
+    halos: &mut Halos,
+    monitor: &Monitor<'_>,
+) -> Result<CheckedNoise, PsiError> {
+    let fail = |reason: String| PsiError::OutOfCore {
+        path: store.dir().to_path_buf(),
+        reason,
+    };
+    // The inward check's evidence from the noise's tiles when both run (one read).
+    let evidence = Mutex::new(InwardEvidence::new(store.manifest().population));
+    let visited = AtomicBool::new(false);
+    let visit = |key: [u32; 3], tile: &TileWithHalo| {
+        let own: Vec<(u64, OrientedPoint)> = tile.own_points().map(|(i, p)| (i, *p)).collect();
+        add_tile(store, key, &own, &evidence);
+        visited.store(true, Ordering::Relaxed);
+    };
+    let (noise, consistency) = if wanted.noise {
+        let visit: Option<&TileVisit<'_>> = wanted.inward.then_some(&visit);
+        let (noise, consistency) =
+            store_noise(store, halos, visit, wanted.consistency, monitor).map_err(fail)?;
+        (Some(noise.0), consistency)
+    } else {
+        (None, None)
+    };
+    // (Fewer than 7 points have no noise round: their votes by a pass of their own.)
+    let inward = match (wanted.inward, visited.load(Ordering::Relaxed)) {
+        (false, _) => None,
+        (true, true) => Some(evidence.into_inner().expect("not poisoned").votes()),
+        (true, false) => Some(store_inward_votes(store, monitor).map_err(fail)?),
+    };
+    Ok((inward, noise, consistency))
+}
+
+/// What [`inward_and_noise`] found.
+type CheckedNoise = (
+    Option<InwardVotes>,
+    Option<NoiseEstimate>,
+    Option<NormalConsistency>,
+);
+
+/// `store` with its normals read flipped when `checks` found them inward (the flag on disk).
+fn flagged(store: TileStore, checks: &StoreChecks, path: &Path) -> Result<TileStore, PsiError> {
+    store
         .with_normals_negated(checks.inward_normals_flipped)
         .map_err(|e| PsiError::OutOfCore {
-            path: path.clone(),
+            path: path.to_path_buf(),
             reason: e.to_string(),
-        })?;
-    Ok((store, checks))
+        })
+}
+
+/// The denoised store `checks` made, found whole in `scratch` (`Some(None)` when they made
+/// none; `None` when it is missing or other than they made).
+fn denoised_found(checks: &StoreChecks, scratch: &Path) -> Option<Option<TileStore>> {
+    match &checks.denoised_store {
+        None => Some(None),
+        Some(digest) => TileStore::open(&scratch.join(DENOISED_DIR))
+            .ok()
+            .filter(|s| &s.digest() == digest)
+            .map(Some),
+    }
 }
 
 /// The checks in the file at `path`, the noise's share of D as its bits say (a JSON number
@@ -275,15 +367,21 @@ fn read_checks(path: &Path) -> Result<StoreChecks, String> {
     Ok(checks)
 }
 
-/// The MPU parameters of the run out of core whose scratch directory is `scratch`: `mpu`'s
-/// with the error threshold and rank its checks set ([`StoreChecks::mpu_params`]), as a
-/// cluster's tasks take them after the checks' task.
+/// The store the MPU of the run out of core whose scratch directory is `scratch` reads, and
+/// its parameters: `mpu`'s with the error threshold and rank its checks set
+/// ([`StoreChecks::mpu_params`]), as a cluster's tasks take them after the checks' task. The
+/// store is the denoised points' when the checks denoised them, else the final store (its
+/// normals read flipped when they pointed inward).
 ///
 /// # Errors
 ///
 /// [`PsiError::OutOfCore`] naming the store or the checks' file when the store cannot be
-/// opened, the checks are missing or were made on other points.
-pub fn out_of_core_mpu_params(scratch: &Path, mpu: &OutOfCoreMpu) -> Result<MpuParams, PsiError> {
+/// opened, the checks are missing or were made on other points, or their denoised store is
+/// missing or other than they made.
+pub fn out_of_core_store(
+    scratch: &Path,
+    mpu: &OutOfCoreMpu,
+) -> Result<(TileStore, MpuParams), PsiError> {
     let dir = scratch.join("tiles");
     let store = TileStore::open(&dir).map_err(|e| PsiError::OutOfCore {
         path: dir.clone(),
@@ -297,5 +395,9 @@ pub fn out_of_core_mpu_params(scratch: &Path, mpu: &OutOfCoreMpu) -> Result<MpuP
             path: path.clone(),
             reason: "missing, or made on other points: the checks' task runs first".into(),
         })?;
-    Ok(checks.mpu_params(mpu).0)
+    let denoised = denoised_found(&checks, scratch).ok_or_else(|| PsiError::OutOfCore {
+        path: scratch.join(DENOISED_DIR),
+        reason: "the denoised store the checks made is missing or was changed".into(),
+    })?;
+    Ok((denoised.unwrap_or(store), checks.mpu_params(mpu).0))
 }

@@ -4,9 +4,14 @@
 //! estimate of the same points in the same order. The orientation's level (`tile_normals.rs`)
 //! and the run's error threshold (`store_checks.rs`) read it.
 
+use std::sync::Mutex;
+
 use glam::DVec3;
 use psi_octree::Monitor;
-use psi_preprocess::{NoiseEstimate, NoiseRound, noise_by_rounds, part_noise_samples};
+use psi_preprocess::{
+    CONSISTENCY_QUERIES, NoiseEstimate, NoiseRound, NormalConsistency, noise_by_rounds,
+    part_noise_samples, part_normal_consistency,
+};
 use psi_tiles::{TileStore, TileWithHalo};
 
 use crate::tile_parts::{Halos, by_tile, each_tile, first_halo};
@@ -18,8 +23,10 @@ pub(crate) type TileVisit<'a> = dyn Fn([u32; 3], &TileWithHalo) + Sync + 'a;
 /// The noise estimate of `store`'s positions and the median reach of its first round's
 /// samples (world units), as [`psi_preprocess::estimate_noise`] finds them for the points in
 /// index order. Each tile's halo starts from `halos` (else [`first_halo`]) and is kept there,
-/// grown as its points needed; `visit` sees each tile once. Progress: stage `"noise"`, tiles
-/// done of tiles.
+/// grown as its points needed; `visit` sees each tile once. With `consistency`, also the
+/// consistency check of the normals ([`psi_preprocess::check_normal_consistency`] with the
+/// preprocessing's queries) in the first round's tiles. Progress: stage `"noise"`, tiles done
+/// of tiles.
 ///
 /// # Errors
 ///
@@ -28,31 +35,43 @@ pub(crate) fn store_noise(
     store: &TileStore,
     halos: &mut Halos,
     visit: Option<&TileVisit<'_>>,
+    consistency: bool,
     monitor: &Monitor<'_>,
-) -> Result<(NoiseEstimate, f64), String> {
+) -> Result<((NoiseEstimate, f64), Option<NormalConsistency>), String> {
     let n =
         usize::try_from(store.manifest().population).map_err(|_| "too many points".to_string())?;
     let keys = store.tile_keys();
     let first = |key| first_halo(store, key);
     let mut rounds = 0;
-    noise_by_rounds(n, |round: NoiseRound| {
+    let counted = Mutex::new(consistency.then(NormalConsistency::default));
+    let noise = noise_by_rounds(n, |round: NoiseRound| {
         rounds += 1;
-        let visit = visit.filter(|_| rounds == 1);
+        let first_round = rounds == 1;
+        let visit = visit.filter(|_| first_round);
         let found = each_tile(
             &keys,
             (&mut *halos, &first),
             ("noise", monitor),
             &|key, halo| {
-                let (tile, fits) = by_tile(store, key, halo, |t, ids, holds| {
+                let (tile, (fits, c)) = by_tile(store, key, halo, |t, ids, holds| {
                     let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
-                    part_noise_samples(&positions, ids, &t.own, holds, round)
+                    let fits = part_noise_samples(&positions, ids, &t.own, holds, round)?;
+                    let queries = (n, CONSISTENCY_QUERIES);
+                    let c = (consistency && first_round)
+                        .then(|| part_normal_consistency(&t.points, ids, &t.own, holds, queries))
+                        .transpose()?;
+                    Ok((fits, c))
                 })?;
+                if let (Some(c), Some(sum)) = (c, counted.lock().expect("not poisoned").as_mut()) {
+                    *sum = sum.merge(c);
+                }
                 if let Some(visit) = visit {
                     visit(key, &tile);
                 }
                 Ok(fits)
             },
         )?;
-        Ok(found.concat())
-    })
+        Ok::<_, String>(found.concat())
+    })?;
+    Ok((noise, counted.into_inner().expect("not poisoned")))
 }

@@ -1,7 +1,7 @@
 //! Normals for a run out of core whose input has none: estimated and oriented tile by tile
 //! (psi-preprocess's by-parts functions on each tile and a halo of the points around it), so
 //! that the store the MPU is decided from holds, bitwise, the points and normals the in-core
-//! preprocessing gives the same input (with `--no-denoise`: not done out of core). Stores in
+//! preprocessing gives the same input (denoising follows in `store_checks.rs`). Stores in
 //! the scratch directory, each found
 //! again by a run on the same input: the positions (`positions/`), with the outlier step the
 //! positions it keeps (`kept/`, `tile_outliers.rs`), the estimated normals by index
@@ -141,7 +141,8 @@ pub(crate) fn partition_estimating_normals(
     let mut halos = Halos::new();
     let keys = store.tile_keys();
     let first = |key| first_halo(store, key);
-    let (noise, reach) = store_noise(store, &mut halos, None, monitor).map_err(&fail)?;
+    let ((noise, reach), _) =
+        store_noise(store, &mut halos, None, false, monitor).map_err(&fail)?;
     let level = noise_level(noise.sigma, reach);
     if level > 0 {
         // The planes among the level's points (none when it holds too few: level 0 then).

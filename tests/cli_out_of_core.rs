@@ -223,9 +223,9 @@ fn torus_with_strays() -> Vec<psi::OrientedPoint> {
 /// The outlier step (its clump search too) and missing normals out of core: a torus with strays
 /// and a clump (positions alone, and with normals), a box (positions alone: many ties among its neighbours) and a dense noisy
 /// sphere (positions alone, planes among a coarser level of its points), tile by tile, give
-/// the in-core run's particles byte for byte (denoising, not done out of core, off in core;
-/// the noise's threshold, the inward check and the ceiling on spacing in both, its darts on
-/// the box's faces) and
+/// the in-core run's particles byte for byte (the noisy sphere denoised; the noise's
+/// threshold, the inward check and the ceiling on spacing in both, its darts on the box's
+/// faces) and
 /// leave out what it leaves out; a second run resumes from the final tiles, and only they and
 /// the verdicts are left in the scratch directory.
 #[test]
@@ -270,12 +270,9 @@ fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
             dir.join(format!("{name}-core.ply")),
             dir.join(format!("{name}-core.json")),
         );
-        // (Denoising is not done out of core yet; the noise's threshold and the inward check
-        // are, in both.)
         let out = common::psi(&[
             "sample",
             x,
-            "--no-denoise",
             "-q",
             "-o",
             core.to_str().unwrap(),
@@ -347,11 +344,16 @@ fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
         left.sort();
-        assert_eq!(
-            left,
-            ["checks.json", "strays.bin", "strays.source", "tiles"],
-            "{name}"
-        );
+        // (The noisy sphere is denoised: its moved points' store too.)
+        let noisy = name == "noisy-sphere";
+        let mut kept = vec!["checks.json", "strays.bin", "strays.source", "tiles"];
+        if noisy {
+            kept.insert(1, "denoised");
+            let moved = &core_report["input"]["denoised"];
+            assert!(moved["moved"].as_u64() > Some(19_000), "{moved}");
+            assert_eq!(pre["denoised"], *moved, "{name}");
+        }
+        assert_eq!(left, kept, "{name}");
         // The noise's threshold as in core (the noisy sphere's above the paper's).
         assert_eq!(
             report["mpu"]["error_threshold"],
@@ -364,8 +366,13 @@ fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
                 .unwrap(),
             "{name}"
         );
-        let noisy = name == "noisy-sphere";
-        assert_eq!(report["mpu"]["error_threshold"]["source"] == "noise", noisy);
+        // (The noisy sphere's noise left after denoising is below the paper's threshold.)
+        let after = &pre["noise_rel_after"];
+        assert_eq!(after.is_number(), noisy, "{name}: {pre}");
+        assert_eq!(
+            *after, core_report["input"]["noise_estimate"]["relative_after_denoising"],
+            "{name}"
+        );
         let (again, report) = tiled("b");
         assert_eq!(report["tiles"]["resumed"], true);
         assert_eq!(
@@ -379,11 +386,11 @@ fn out_of_core_leaves_out_strays_and_estimates_normals_bitwise_as_in_core() {
 
 /// The checks before the MPU out of core: a noisy torus whose given normals point inward, read
 /// from a PLY file, tile by tile gives the in-core run's particles byte for byte (its normals
-/// flipped outward, ε0 set from the noise, which in core would also ask for denoising: off
-/// there); again with the same scratch and `--keep-inward-normals` (the store read as written),
-/// with a given threshold, and with the defaults once more (flipped again).
+/// flipped outward, ε0 set from the noise, the points denoised); again with the same scratch
+/// and `--no-denoise`, `--keep-inward-normals` (the store read as written), a given
+/// threshold, and with the defaults once more (flipped again).
 #[test]
-fn out_of_core_flips_inward_normals_and_sets_the_noise_threshold_as_in_core() {
+fn out_of_core_flips_inward_normals_denoises_and_sets_the_noise_threshold_as_in_core() {
     use psi::shapes::AnalyticShape;
     let dir = common::scratch("out-of-core-checks");
     let mut rng = <rand_pcg::Pcg64Mcg as rand::SeedableRng>::seed_from_u64(5);
@@ -426,20 +433,27 @@ fn out_of_core_flips_inward_normals_and_sets_the_noise_threshold_as_in_core() {
         common::assert_success(&out);
         (std::fs::read(o).unwrap(), json(&j), out)
     };
-    let (core, core_report, _) = run("core", &["--no-denoise"], false);
-    assert_eq!(
-        core_report["input"]["inward_normals_flipped"], true,
-        "{core_report}"
+    let (core, core_report, _) = run("core", &[], false);
+    let input = &core_report["input"];
+    assert_eq!(input["inward_normals_flipped"], true, "{core_report}");
+    assert!(
+        input["denoised"]["moved"].as_u64().unwrap() > 19_000,
+        "{input}"
     );
-    assert_eq!(core_report["mpu"]["error_threshold"]["source"], "noise");
     let (tiled, report, out) = run("tiled", &[], true);
     assert!(tiled == core, "particles differ from in core");
     let pre = &report["tiles"]["preprocessing"];
     assert_eq!(pre["inward_normals_flipped"], true, "{pre}");
-    assert_eq!(pre["denoise_skipped"], true, "{pre}");
+    assert_eq!(pre["noise"]["sigma"], input["noise_estimate"]["sigma"]);
+    // Denoised as in core, the noise left and the normals' consistency as in core.
+    assert_eq!(pre["denoised"], input["denoised"], "{pre}");
     assert_eq!(
-        pre["noise"]["sigma"],
-        core_report["input"]["noise_estimate"]["sigma"]
+        pre["noise_rel_after"],
+        input["noise_estimate"]["relative_after_denoising"]
+    );
+    assert_eq!(
+        pre["normal_consistency"]["pairs_checked"],
+        input["normals"]["pairs_checked"]
     );
     assert!(report["tiles"]["count"].as_u64().unwrap() >= 8);
     assert_eq!(
@@ -448,7 +462,6 @@ fn out_of_core_flips_inward_normals_and_sets_the_noise_threshold_as_in_core() {
     );
     let said = String::from_utf8_lossy(&out.stderr);
     assert!(said.contains("flipped them outward"), "{said}");
-    assert!(said.contains("calls for denoising"), "{said}");
     // The store's own manifest says its normals are read flipped (a cluster's tasks open it),
     // also after the checks were made again for other flags.
     let negated = || {
@@ -456,19 +469,29 @@ fn out_of_core_flips_inward_normals_and_sets_the_noise_threshold_as_in_core() {
         m["normals_negated"].as_bool() == Some(true)
     };
     assert!(negated());
-    let (again_nd, ..) = run("tiled-nd", &["--no-denoise"], true);
+    // Without denoising, ε0 is set from the noise, as in core.
+    let (core_nd, core_nd_report, _) = run("core-nd", &["--no-denoise"], false);
+    let (tiled_nd, report_nd, _) = run("tiled-nd", &["--no-denoise"], true);
     assert!(
-        again_nd == core,
+        tiled_nd == core_nd,
         "--no-denoise out of core: particles differ"
     );
+    assert_eq!(core_nd_report["mpu"]["error_threshold"]["source"], "noise");
+    assert_eq!(
+        report_nd["mpu"]["error_rel"],
+        core_nd_report["mpu"]["error_threshold"]["relative"]
+    );
+    assert_ne!(core_nd, core, "denoising changed nothing");
+    assert!(report_nd["tiles"]["preprocessing"]["denoised"].is_null());
     assert!(
         negated(),
         "the flag on disk after the checks were made again"
     );
-    // The store read as written, and the checks made again.
-    let kept = ["--no-denoise", "--keep-inward-normals"];
+    // The store read as written, and the checks made again (the points denoised with the
+    // normals inward).
+    let kept = ["--keep-inward-normals"];
     let (core_kept, ..) = run("core-kept", &kept, false);
-    let (tiled_kept, report_kept, _) = run("tiled-kept", &["--keep-inward-normals"], true);
+    let (tiled_kept, report_kept, _) = run("tiled-kept", &kept, true);
     assert!(
         tiled_kept == core_kept,
         "--keep-inward-normals: particles differ"
@@ -479,13 +502,13 @@ fn out_of_core_flips_inward_normals_and_sets_the_noise_threshold_as_in_core() {
         report_kept["tiles"]["preprocessing"]["inward_normals_flipped"],
         false
     );
-    // A given threshold is the run's.
-    let given = ["--no-denoise", "--mpu-error", "0.003"];
+    // A given threshold is the run's (denoising still as the noise asks).
+    let given = ["--mpu-error", "0.003"];
     let (core_given, ..) = run("core-given", &given, false);
-    let (tiled_given, report_given, _) = run("tiled-given", &["--mpu-error", "0.003"], true);
+    let (tiled_given, report_given, _) = run("tiled-given", &given, true);
     assert!(tiled_given == core_given, "--mpu-error: particles differ");
     assert_eq!(report_given["mpu"]["error_threshold"]["source"], "user");
-    // The defaults again: flipped again, the first run's particles.
+    // The defaults again: flipped again, the denoised store found, the first run's particles.
     let (again, ..) = run("again", &[], true);
     assert!(again == core, "the defaults again: particles differ");
     std::fs::remove_dir_all(&dir).unwrap();

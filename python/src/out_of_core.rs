@@ -279,11 +279,6 @@ fn default_scratch(output: &std::path::Path) -> PathBuf {
     output.with_file_name(format!("{name}.psi-scratch"))
 }
 
-/// The tile store in `scratch` that [`_ooc_partition`] made.
-fn open_store(scratch: &std::path::Path) -> PyResult<psi::tiles::TileStore> {
-    psi::tiles::TileStore::open(&scratch.join("tiles")).map_err(|e| value_error(e.to_string()))
-}
-
 /// Runs a task of `psi.distributed.sample_files` on the store in `scratch`: `work` with the
 /// store, the MPU parameters (ε from `mpu_error`) and the run's tiling, on a pool of
 /// `threads` ([`on_threads`]) with the interpreter released; its error as a `ValueError`.
@@ -300,11 +295,11 @@ fn store_task<T: Send>(
     + Send,
 ) -> PyResult<T> {
     let threads = threads_arg(threads)?;
-    let store = open_store(scratch)?;
-    // ε0 as the checks' task set it (the noise's, when above the given or the paper's).
+    // The store and ε0 as the checks' task left them (the denoised points', the noise's
+    // threshold when above the given or the paper's).
     let mpu = psi::OutOfCoreMpu::given(mpu_params(mpu_error)?, mpu_error);
-    let params =
-        psi::out_of_core_mpu_params(scratch, &mpu).map_err(|e| value_error(e.to_string()))?;
+    let (store, params) =
+        psi::out_of_core_store(scratch, &mpu).map_err(|e| value_error(e.to_string()))?;
     crate::errors::detached(py, move || {
         on_threads(threads, || {
             work(&store, &params, &psi::out_of_core_tiles(&store))
@@ -482,7 +477,8 @@ pub(crate) fn _ooc_preprocessing(
 
 /// Task of `psi.distributed.sample_files` (not API), after the partition's: the checks of the
 /// final store in `scratch` before the MPU (inward normals flipped, the noise's error
-/// threshold; [`psi::check_out_of_core_store`]), kept there for the later tasks.
+/// threshold, denoising where it calls for it; [`psi::check_out_of_core_store`]), kept there
+/// for the later tasks.
 #[pyfunction]
 #[pyo3(signature = (inputs, max_memory, scratch, keep_outliers=false, threads=None))]
 pub(crate) fn _ooc_checks(
@@ -495,10 +491,11 @@ pub(crate) fn _ooc_checks(
 ) -> PyResult<()> {
     let inputs = inputs_arg(inputs)?;
     let options = partition_options(max_memory, scratch)?;
+    let mpu = mpu_params(None)?;
     partition_task(py, threads, move || {
         let preprocess = preprocess_params(keep_outliers);
         let silent = psi::octree::Monitor::silent();
-        psi::check_out_of_core_store(&inputs, None, &preprocess, &options, &silent)?;
+        psi::check_out_of_core_store(&inputs, None, &preprocess, &mpu, &options, &silent)?;
         Ok(())
     })
 }

@@ -110,7 +110,8 @@ def test_positions_alone_get_the_clis_normals_and_particles_on_the_cluster(cli, 
 
 
 def test_inward_noisy_normals_get_the_clis_checks_on_the_cluster(cli, client, tmp_path):
-    # The checks' task flips the normals and sets ε0 from the noise; the later tasks read it.
+    # The checks' task flips the normals, denoises the points and sets ε0 from the noise left;
+    # the later tasks read the denoised store and ε0.
     src = tmp_path / "inward.xyz"
     inward_noisy_model(src)
     report = psi.distributed.sample_files(src, tmp_path / "dask.ply", client=client,
@@ -118,7 +119,7 @@ def test_inward_noisy_normals_get_the_clis_checks_on_the_cluster(cli, client, tm
     run_cli(cli, "sample", src, "--max-memory", "64MiB", "-o", tmp_path / "cli.ply",
             "--scratch", tmp_path / "s2")
     assert report["tiles"]["preprocessing"]["inward_normals_flipped"] is True
-    assert report["mpu"]["error_threshold"]["source"] == "noise"
+    assert report["tiles"]["preprocessing"]["denoised"]["moved"] > 15_000
     assert (tmp_path / "dask.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
 
 

@@ -3,6 +3,8 @@ files read as one input; positions alone given normals tile by tile; the ceiling
 in core; resuming from the scratch files; bad sizes and too few points refused with the CLI's
 messages."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -89,11 +91,10 @@ def test_the_ceiling_on_spacing_covers_a_sheet_out_of_core_as_in_core(cli, tmp_p
     parts = report["particles"]
     assert parts["max_spacing"] == 0.1 and parts["added_by_ceiling"] > 300, parts
     assert report["tiles"]["sampling"]["cover"]["passes"] >= 3
-    # The CLI out of core and in core (denoising, not done out of core, off): the same bytes.
+    # The CLI out of core and in core: the same bytes.
     run_cli(cli, "sample", src, "--max-memory", "64MiB", "--max-spacing", "0.1",
             "-o", tmp_path / "ooc.ply", "--scratch", tmp_path / "s")
-    run_cli(cli, "sample", src, "--no-denoise", "--max-spacing", "0.1",
-            "-o", tmp_path / "core.ply")
+    run_cli(cli, "sample", src, "--max-spacing", "0.1", "-o", tmp_path / "core.ply")
     py = (tmp_path / "py.ply").read_bytes()
     assert py == (tmp_path / "ooc.ply").read_bytes()
     assert py == (tmp_path / "core.ply").read_bytes()
@@ -106,22 +107,24 @@ def test_the_ceiling_on_spacing_covers_a_sheet_out_of_core_as_in_core(cli, tmp_p
         psi.sample_files(src, tmp_path / "bad.ply", max_memory="64MiB", max_spacing=0.0)
 
 
-def test_inward_normals_and_the_noise_threshold_out_of_core_as_in_core(cli, tmp_path):
-    # Normals flipped outward and ε0 set from the noise, as in core (where denoising, not done
-    # out of core, is off); a given threshold is the run's.
+def test_inward_normals_the_noise_threshold_and_denoising_out_of_core_as_in_core(cli, tmp_path):
+    # Normals flipped outward, the points denoised and ε0 set from the noise left, as in core;
+    # a given threshold is the run's.
     src = tmp_path / "inward.xyz"
     inward_noisy_model(src)
     report = psi.sample_files(src, tmp_path / "py.ply", max_memory="64MiB")
     pre = report["tiles"]["preprocessing"]
-    assert pre["inward_normals_flipped"] is True and pre["denoise_skipped"] is True, pre
-    assert report["mpu"]["error_threshold"]["source"] == "noise"
-    assert report["mpu"]["error_rel"] > 0.005
-    run_cli(cli, "sample", src, "--no-denoise", "-o", tmp_path / "core.ply")
+    assert pre["inward_normals_flipped"] is True, pre
+    assert pre["denoised"]["moved"] > 15_000 and pre["noise_rel_after"] < pre["noise_rel"], pre
+    core = tmp_path / "core.json"
+    run_cli(cli, "sample", src, "-o", tmp_path / "core.ply", "--json", core)
     assert (tmp_path / "py.ply").read_bytes() == (tmp_path / "core.ply").read_bytes()
+    core_report = json.loads(core.read_text())
+    assert core_report["input"]["denoised"] == pre["denoised"]
+    assert core_report["mpu"]["error_threshold"]["relative"] == report["mpu"]["error_rel"]
     given = psi.sample_files(src, tmp_path / "given.ply", max_memory="64MiB", mpu_error=0.004)
     assert given["mpu"]["error_threshold"] == {"relative": 0.004, "source": "user"}
-    run_cli(cli, "sample", src, "--no-denoise", "--mpu-error", "0.004",
-            "-o", tmp_path / "core-given.ply")
+    run_cli(cli, "sample", src, "--mpu-error", "0.004", "-o", tmp_path / "core-given.ply")
     assert (tmp_path / "given.ply").read_bytes() == (tmp_path / "core-given.ply").read_bytes()
 
 

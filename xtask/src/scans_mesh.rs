@@ -231,7 +231,7 @@ pub(crate) fn dragon_scan(ctx: &ScanRun) -> Result<(String, Vec<Value>)> {
     let pre = &ooc.report["tiles"]["preprocessing"];
     md.push_str(&format!(
         "\nOut of core (`--max-memory 64MiB`, {} tiles, the relaxation reading {} of the points; \
-         ε0 {:.4} D from the {}; denoising skipped: {}): {} particles, mean / p99 / max {} D, \
+         ε0 {:.4} D from the {}; points denoised: {}): {} particles, mean / p99 / max {} D, \
          beyond 2e-3 D {:.2} %, beyond 1e-2 D {}, largest level CV {:.3}, coverage p99 / max {}, \
          {:.1} s; {} points left out.\n",
         ooc.report["tiles"]["count"],
@@ -240,7 +240,7 @@ pub(crate) fn dragon_scan(ctx: &ScanRun) -> Result<(String, Vec<Value>)> {
         ooc.report["mpu"]["error_threshold"]["source"]
             .as_str()
             .unwrap_or("?"),
-        pre["denoise_skipped"],
+        pre["denoised"]["moved"],
         ooc.particles.len(),
         triple(&mo.particles),
         100.0 * (1.0 - num(&mo.particles["within_2e-3"])),

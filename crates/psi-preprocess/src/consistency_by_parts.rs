@@ -37,7 +37,7 @@ pub fn part_normal_consistency(
     assert!(ids.is_sorted(), "ids ascend");
     let stride = population.div_ceil(max_queries.max(1)).max(1);
     let queried: Vec<usize> = (0..points.len())
-        .filter(|&i| own[i] && ids[i] as usize % stride == 0 && points[i].p.is_finite())
+        .filter(|&i| own[i] && (ids[i] as usize).is_multiple_of(stride) && points[i].p.is_finite())
         .collect();
     if queried.is_empty() {
         return Ok(NormalConsistency::default());

@@ -14,6 +14,8 @@
 //! whole does ([`part_denoise_samples`], [`part_denoise`]; the in-core [`denoise`] is the
 //! whole as one part).
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use glam::DVec3;
 use psi_octree::{Monitor, MortonIndex, OrientedPoint, PointIndex};
 use rayon::prelude::*;
@@ -171,7 +173,7 @@ pub fn part_denoise_samples(
     assert!(ids.is_sorted(), "ids ascend");
     let (stride, depth) = (sample_stride(population), sample_depth(population));
     let samples: Vec<usize> = (0..positions.len())
-        .filter(|&i| own[i] && ids[i] as usize % stride == 0)
+        .filter(|&i| own[i] && (ids[i] as usize).is_multiple_of(stride))
         .collect();
     if samples.is_empty() {
         return Ok(Vec::new());
@@ -223,6 +225,7 @@ pub fn part_denoise(
     // (Ball queries on a kd-tree: about twice as quick as on the Morton index here.)
     let balls = PointIndex::new(&positions);
     let (k, wide) = (scale.neighbours, scale.wide);
+    let incomplete = AtomicBool::new(false);
     // The `count` nearest points to `at` as keys (chosen in (distance, index) order; in no
     // order), and the farthest's squared distance: from the ball of `radius` about `at` when
     // it holds that many well inside (a ball query cut to the nearest is cheaper than a
@@ -272,13 +275,16 @@ pub fn part_denoise(
         let (mut near, farthest) = nearest(p.p, wide, WIDE_BALL * scale.wide_reach);
         let reach = reach_of(farthest, near.len(), wide, (points.len(), scale.population));
         if !complete(p.p, reach) {
+            incomplete.store(true, Ordering::Relaxed);
             return Err(IncompletePart {
                 id: ids[i],
                 neighbours: wide,
                 reach,
             });
         }
-        if monitor.stopped() {
+        // (Once a point is uncertain the part is tried again: the others' reaches alone are
+        // wanted now, for the halo.)
+        if monitor.stopped() || incomplete.load(Ordering::Relaxed) {
             return Ok(None);
         }
         let Some(fit) = QuadricFit::of(&same_side(&near, p.n), farthest.sqrt()) else {

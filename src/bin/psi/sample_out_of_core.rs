@@ -41,10 +41,6 @@ pub(crate) struct Request<'a> {
 
 pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
     let scratch = scratch_dir(req.scratch, req.output)?;
-    ui.notice(&format!(
-        "--max-memory: not done out of core yet: {}",
-        psi::NOT_DONE_OUT_OF_CORE.join(", ")
-    ));
     let options = OutOfCore {
         max_memory: req.max_memory,
         scratch,
@@ -78,14 +74,6 @@ pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
     let name = req.input.display();
     if run.checks.inward_normals_flipped {
         ui.notice(&psi::preprocess::inward_flip_notice(&name.to_string()));
-    }
-    if run.checks.denoise_skipped {
-        ui.notice(&format!(
-            "{name}: the noise ({:.3} % of D) calls for denoising, which a run out of core does \
-             not do yet: ε0 = {:.4} D set from the noise as it is (the in-core run with --no-denoise)",
-            100.0 * run.checks.noise_rel.unwrap_or(0.0),
-            run.error.relative
-        ));
     }
     if let Some(out) = req.output {
         psi::save_particles(out, &run.particles, &psi::io::PointAttributes::default())?;

@@ -3,9 +3,8 @@
 //! fixed seed and written as binary PCD with normals (nothing large is committed): the built-in
 //! model, or the shared Stanford dragon (`../shared/models/stanford_dragon_vrip_raw.ply`,
 //! area-weighted, Gaussian noise of σ = 2e-4 D, the triangles' normals). Each is sampled by the
-//! release `psi` in core (what the tiled run does: every preprocessing step but denoising,
-//! `--no-denoise`; skipped when
-//! psi's estimate exceeds the memory available) and with `--max-memory` (default 1GiB): wall
+//! release `psi` in core (its defaults, every preprocessing step the tiled run does too;
+//! skipped when psi's estimate exceeds the memory available) and with `--max-memory` (default 1GiB): wall
 //! time, peak memory, the tiles, whether the counts agree, and per level the spacing CV out of
 //! core over in core (issue 26: within 5 %) and the tiled surface distance; for the dragon,
 //! the tiled particles' checks of `reproduce-tables` against the mesh (distance, coverage at
@@ -269,14 +268,7 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
         } else {
             timed(
                 &psi_bin,
-                &[
-                    "sample",
-                    i,
-                    "--no-denoise",
-                    "-o",
-                    core_out.to_str().context("path")?,
-                    "-q",
-                ],
+                &["sample", i, "-o", core_out.to_str().context("path")?, "-q"],
                 &dir.join(format!("core-{model}-{n}.json")),
             )?
         };
