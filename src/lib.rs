@@ -92,7 +92,9 @@ pub use psi_particles::{
 };
 pub use psi_shapes::{AnalyticShape, builtin_model};
 pub use render::{render_particles_png, save_png};
-pub use store_checks::{ChecksWanted, OutOfCoreMpu, StoreChecks, out_of_core_store};
+pub use store_checks::{
+    CHECKS_VERSION, ChecksWanted, OutOfCoreMpu, StoreChecks, out_of_core_store,
+};
 pub use tile_outliers::{
     StrayTally, stray_join, stray_standings, stray_stats, stray_verdicts_of_batch,
 };

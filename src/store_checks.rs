@@ -4,8 +4,10 @@
 //! tile, [`InwardEvidence`]; the flip is the store's flag, [`TileStore::with_normals_negated`],
 //! the files untouched), and the noise is estimated (`tile_noise.rs`), which sets the MPU's
 //! error threshold ε0 as in core. Both bitwise the in-core steps on the same points. What they
-//! found is kept in `<scratch>/checks.json` (written whole, then renamed), so a cluster's
-//! tasks read the run's ε0 ([`out_of_core_mpu_params`]) and a resumed run does not check again.
+//! found is kept in `<scratch>/checks.json` (written whole, then renamed; with the version of
+//! its rules, [`CHECKS_VERSION`], so that checks an older psi made are made again), so a
+//! cluster's tasks read the run's ε0 and store ([`out_of_core_store`]) and a resumed run does
+//! not check again.
 //! Given normals are checked for consistency in the noise's tiles (as in core, every
 //! ⌈N/20 000⌉-th point's neighbours). Where the noise raises ε0 above the paper's, the points
 //! are denoised as in core (`tile_denoise.rs`; not for given normals found inconsistent) into
@@ -31,12 +33,17 @@ use serde::{Deserialize, Serialize};
 use crate::PsiError;
 use crate::budget::OutOfCore;
 use crate::prepare::error_rank_for;
-use crate::tile_denoise::{DENOISED_DIR, denoise_store};
-use crate::tile_noise::{TileVisit, store_noise};
+use crate::tile_denoise::{DENOISED_DIR, DENOISED_FILE, denoise_store};
+use crate::tile_noise::{TileVisit, store_consistency, store_noise};
 use crate::tile_parts::Halos;
+use crate::tile_parts::io_reason;
 
 /// The checks' file in the scratch directory.
 pub(crate) const CHECKS_FILE: &str = "checks.json";
+
+/// The version of what the checks make and record, [`StoreChecks::version`]: checks of another
+/// version (1, psi before the denoising out of core; 0, before versions) are made again.
+pub const CHECKS_VERSION: u32 = 2;
 
 /// Which checks a run asks for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -55,6 +62,9 @@ pub struct ChecksWanted {
 /// What the checks found on a store.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StoreChecks {
+    /// The version of the rules they were made by ([`CHECKS_VERSION`]; 0 when unrecorded).
+    #[serde(default)]
+    pub version: u32,
     /// The store they are of ([`TileStore::digest`]).
     pub store: String,
     /// The checks asked for.
@@ -148,6 +158,16 @@ impl StoreChecks {
     fn noise_left(&self) -> Option<f64> {
         self.noise_rel_after().or(self.noise_rel)
     }
+
+    /// The share (0..1) of neighbouring pairs whose given normals point to opposite sides, when
+    /// it exceeds [`INCONSISTENT_NORMALS`] (as
+    /// [`psi_preprocess::PreprocessReport::inconsistent_normals`]; such points are not
+    /// denoised); `None` otherwise or when the normals were not checked.
+    pub fn inconsistent_normals(&self) -> Option<f64> {
+        self.consistency
+            .map(|c| c.opposed_fraction())
+            .filter(|&f| f > INCONSISTENT_NORMALS)
+    }
 }
 
 /// The cube of tile `key` of `store` (world units, low and high corners).
@@ -239,10 +259,16 @@ pub(crate) fn check_store(
     if let Some((denoised, checks)) = found {
         let store = match denoised {
             Some(denoised) => denoised,
-            None => flagged(store, &checks, &path)?,
+            None => {
+                // (A denoised store an earlier run on other points left.)
+                remove_denoised(scratch).map_err(&fail)?;
+                flagged(store, &checks, &path)?
+            }
         };
         return Ok((store, checks));
     }
+    // Whatever an earlier run's checks left, now stale (a run stopped while denoising).
+    remove_denoised(scratch).map_err(&fail)?;
     // The votes read the normals as written (and the flag on disk says so).
     let store = store
         .with_normals_negated(false)
@@ -252,6 +278,7 @@ pub(crate) fn check_store(
     let diagonal = store.manifest().frame.diagonal;
     let noise_rel = noise.filter(|_| diagonal > 0.0).map(|n| n.sigma / diagonal);
     let mut checks = StoreChecks {
+        version: CHECKS_VERSION,
         store: digest,
         wanted,
         inward,
@@ -270,17 +297,27 @@ pub(crate) fn check_store(
     let inconsistent = consistency.is_some_and(|c| c.opposed_fraction() > INCONSISTENT_NORMALS);
     let calls = noise_rel.is_some_and(|r| error_threshold_for_noise(r) > PAPER_ERROR_REL);
     let mut denoised_store = None;
+    let fail_denoising = |reason: String| PsiError::OutOfCore {
+        path: scratch.join(DENOISED_DIR),
+        reason,
+    };
     if let Some(noise) = noise.filter(|_| wanted.denoise && calls && !inconsistent) {
         let at = (scratch.as_path(), mpu, options.max_memory);
-        if let Some((denoised, report)) =
-            denoise_store(&store, noise.sigma, at, &mut halos, monitor).map_err(&fail)?
-        {
-            let (after, _) =
-                store_noise(&denoised, &mut Halos::new(), None, false, monitor).map_err(&fail)?;
-            checks.denoised = Some(report);
-            checks.denoised_store = Some(denoised.digest());
-            checks.noise_rel_after_bits = Some((after.0.sigma / diagonal).to_bits());
-            denoised_store = Some(denoised);
+        let made = denoise_store(&store, noise.sigma, at, &mut halos, monitor);
+        match made.map_err(fail_denoising)? {
+            Some((denoised, report)) => {
+                let (after, _) = store_noise(&denoised, &mut Halos::new(), None, false, monitor)
+                    .map_err(fail_denoising)?;
+                checks.denoised = Some(report);
+                checks.denoised_store = Some(denoised.digest());
+                checks.noise_rel_after_bits = Some((after.0.sigma / diagonal).to_bits());
+                denoised_store = Some(denoised);
+            }
+            // As in core: too few points to move, the noise estimated again on the same ones.
+            None => {
+                checks.denoised = Some(DenoiseReport::default());
+                checks.noise_rel_after_bits = checks.noise_rel_bits;
+            }
         }
     }
     let text = serde_json::to_value(&checks).expect("serialisable");
@@ -314,6 +351,9 @@ fn inward_and_noise(
         let (noise, consistency) =
             store_noise(store, halos, visit, wanted.consistency, monitor).map_err(fail)?;
         (Some(noise.0), consistency)
+    } else if wanted.consistency {
+        let counted = store_consistency(store, halos, monitor).map_err(fail)?;
+        (None, Some(counted))
     } else {
         (None, None)
     };
@@ -355,11 +395,31 @@ fn denoised_found(checks: &StoreChecks, scratch: &Path) -> Option<Option<TileSto
     }
 }
 
+/// Removes from `scratch` the denoised store and the moves' file, when there.
+fn remove_denoised(scratch: &Path) -> Result<(), String> {
+    let dir = scratch.join(DENOISED_DIR);
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir).map_err(|e| io_reason(&dir, &e))?;
+    }
+    let file = scratch.join(DENOISED_FILE);
+    if file.exists() {
+        std::fs::remove_file(&file).map_err(|e| io_reason(&file, &e))?;
+    }
+    Ok(())
+}
+
 /// The checks in the file at `path`, the noise's share of D as its bits say (a JSON number
-/// need not read back to the same bits, and ε0 follows from it).
+/// need not read back to the same bits, and ε0 follows from it). Checks of another version
+/// than [`CHECKS_VERSION`] are an error (they are made again).
 fn read_checks(path: &Path) -> Result<StoreChecks, String> {
     let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
     let mut checks: StoreChecks = serde_json::from_str(&text).map_err(|e| e.to_string())?;
+    if checks.version != CHECKS_VERSION {
+        return Err(format!(
+            "made by another psi (version {} of the checks, not {CHECKS_VERSION})",
+            checks.version
+        ));
+    }
     if checks.noise_rel.is_some() != checks.noise_rel_bits.is_some() {
         return Err("the noise's share without its bits".into());
     }
@@ -393,7 +453,8 @@ pub fn out_of_core_store(
         .filter(|c| c.store == store.digest())
         .ok_or_else(|| PsiError::OutOfCore {
             path: path.clone(),
-            reason: "missing, or made on other points: the checks' task runs first".into(),
+            reason: "missing, made on other points or by another psi: the checks' task runs first"
+                .into(),
         })?;
     let denoised = denoised_found(&checks, scratch).ok_or_else(|| PsiError::OutOfCore {
         path: scratch.join(DENOISED_DIR),

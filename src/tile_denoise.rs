@@ -3,7 +3,7 @@
 //! holds the sample with a halo around it ([`psi_preprocess::part_denoise_samples`]), then
 //! every point's move among its tile's points and halo ([`psi_preprocess::part_denoise`]),
 //! written by the point's index to `<scratch>/denoised.bin` (56 bytes a point: the position,
-//! the normal, the squared move or NaN where it stayed; renamed into place once whole), then
+//! the normal, the squared move or NaN where it stayed; removed once read), then
 //! the store of the moved points in `<scratch>/denoised` (their frame from their own bounds,
 //! as in core; the tiles at the same depth). `store_checks.rs` runs it when the noise asks for
 //! it and keeps what it did in the checks' file. Progress: stages `"denoise scale"`,
@@ -99,12 +99,12 @@ pub(crate) fn denoise_store(
     let Some(scale) = DenoiseScale::of(n, sigma, &samples.concat()) else {
         return Ok(None);
     };
-    // The moves by index.
+    // The moves by index (a file an earlier run left is stale: the checks remove it first).
     let path = scratch.join(DENOISED_FILE);
-    let partial = scratch.join("denoised.bin.partial");
-    let file = File::create(&partial).map_err(|e| io_reason(&partial, &e))?;
+    let file = File::create(&path).map_err(|e| io_reason(&path, &e))?;
     file.set_len(m.population * RECORD as u64)
-        .map_err(|e| io_reason(&partial, &e))?;
+        .map_err(|e| io_reason(&path, &e))?;
+    let mut written = 0u64;
     each_tile_into(
         &keys,
         (halos, &first),
@@ -123,16 +123,23 @@ pub(crate) fn denoise_store(
                 .collect::<Vec<_>>())
         },
         &mut |records| {
+            written += records.len() as u64;
             for (i, r) in records {
-                write_at(&file, &r, i * RECORD as u64).map_err(|e| io_reason(&partial, &e))?;
+                write_at(&file, &r, i * RECORD as u64).map_err(|e| io_reason(&path, &e))?;
             }
             Ok(())
         },
     )?;
     monitor.check().map_err(|_| "interrupted".to_string())?;
-    file.sync_all().map_err(|e| io_reason(&partial, &e))?;
+    if written != m.population {
+        return Err(format!(
+            "{}: the tiles hold {written} points, the store {}",
+            store.dir().display(),
+            m.population
+        ));
+    }
+    file.sync_all().map_err(|e| io_reason(&path, &e))?;
     drop(file);
-    fs::rename(&partial, &path).map_err(|e| io_reason(&path, &e))?;
     // The moved points' bounds and the report's sums, in index order as in core; then the
     // store.
     let records = RecordFile::<RECORD>::open(&path)?;

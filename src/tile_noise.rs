@@ -73,5 +73,43 @@ pub(crate) fn store_noise(
         )?;
         Ok::<_, String>(found.concat())
     })?;
-    Ok((noise, counted.into_inner().expect("not poisoned")))
+    // (Fewer than 7 points have no noise round: their normals by a pass of their own.)
+    let counted = match counted.into_inner().expect("not poisoned") {
+        Some(_) if rounds == 0 => Some(store_consistency(store, halos, monitor)?),
+        counted => counted,
+    };
+    Ok((noise, counted))
+}
+
+/// The consistency check of `store`'s normals ([`psi_preprocess::check_normal_consistency`]
+/// with the preprocessing's queries) tile by tile, for a run that estimates no noise (the
+/// halos as [`store_noise`] takes them). Progress: stage `"normals"`, tiles done of tiles.
+///
+/// # Errors
+///
+/// Why the store could not be read (a file named), or `"interrupted"`.
+pub(crate) fn store_consistency(
+    store: &TileStore,
+    halos: &mut Halos,
+    monitor: &Monitor<'_>,
+) -> Result<NormalConsistency, String> {
+    let n =
+        usize::try_from(store.manifest().population).map_err(|_| "too many points".to_string())?;
+    let keys = store.tile_keys();
+    let first = |key| first_halo(store, key);
+    let found = each_tile(
+        &keys,
+        (halos, &first),
+        ("normals", monitor),
+        &|key, halo| {
+            let queries = (n, CONSISTENCY_QUERIES);
+            let (_, c) = by_tile(store, key, halo, |t, ids, holds| {
+                part_normal_consistency(&t.points, ids, &t.own, holds, queries)
+            })?;
+            Ok(c)
+        },
+    )?;
+    Ok(found
+        .into_iter()
+        .fold(NormalConsistency::default(), NormalConsistency::merge))
 }

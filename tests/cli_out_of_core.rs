@@ -484,6 +484,10 @@ fn out_of_core_flips_inward_normals_denoises_and_sets_the_noise_threshold_as_in_
     assert_ne!(core_nd, core, "denoising changed nothing");
     assert!(report_nd["tiles"]["preprocessing"]["denoised"].is_null());
     assert!(
+        !scratch.join("denoised").exists(),
+        "the denoised store left once the checks were made again without denoising"
+    );
+    assert!(
         negated(),
         "the flag on disk after the checks were made again"
     );
@@ -511,6 +515,101 @@ fn out_of_core_flips_inward_normals_denoises_and_sets_the_noise_threshold_as_in_
     // The defaults again: flipped again, the denoised store found, the first run's particles.
     let (again, ..) = run("again", &[], true);
     assert!(again == core, "the defaults again: particles differ");
+    // Checks an older psi made (no version, no denoising recorded) and a stopped run's moves
+    // file: made again (denoised as in core), the stale file gone.
+    let checks_path = scratch.join("checks.json");
+    let mut old = json(&checks_path);
+    assert_eq!(old["version"], psi::CHECKS_VERSION);
+    let fields = old.as_object_mut().unwrap();
+    for key in ["version", "consistency", "denoised", "denoised_store"] {
+        fields.remove(key).unwrap();
+    }
+    fields.remove("noise_rel_after_bits").unwrap();
+    std::fs::write(&checks_path, serde_json::to_vec(&old).unwrap()).unwrap();
+    std::fs::remove_dir_all(scratch.join("denoised")).unwrap();
+    std::fs::write(scratch.join("denoised.bin"), b"stale").unwrap();
+    let (older, older_report, _) = run("older", &[], true);
+    assert!(older == core, "checks of an older psi: particles differ");
+    assert_eq!(
+        older_report["tiles"]["preprocessing"]["denoised"],
+        input["denoised"]
+    );
+    assert_eq!(json(&checks_path)["version"], psi::CHECKS_VERSION);
+    assert!(
+        !scratch.join("denoised.bin").exists(),
+        "the stale moves' file"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Given normals that point every way (a noisy torus, every third normal flipped): the
+/// consistency check out of core counts the in-core pairs, warns, and leaves the points
+/// undenoised as in core (the particles byte for byte); without the noise estimate too.
+#[test]
+fn out_of_core_checks_the_consistency_of_given_normals_as_in_core() {
+    use psi::shapes::AnalyticShape;
+    let dir = common::scratch("out-of-core-consistency");
+    let mut rng = <rand_pcg::Pcg64Mcg as rand::SeedableRng>::seed_from_u64(11);
+    let points: Vec<psi::OrientedPoint> = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.4,
+    }
+    .sample(12_000, 3)
+    .iter()
+    .enumerate()
+    .map(|(i, p)| psi::OrientedPoint {
+        p: p.p + 0.008 * psi::shapes::gaussian_vector(&mut rng),
+        n: if i % 3 == 0 { -p.n } else { p.n },
+    })
+    .collect();
+    let ply = dir.join("every-way.ply");
+    psi::save_points(&ply, &points).unwrap();
+    let x = ply.to_str().unwrap();
+    let run = |tag: &str, flags: &[&str], tiled: bool| {
+        let (o, j) = (
+            dir.join(format!("{tag}.ply")),
+            dir.join(format!("{tag}.json")),
+        );
+        let scratch = dir.join(format!("scratch-{tag}"));
+        let mut args = vec!["sample", x, "-o", o.to_str().unwrap()];
+        args.extend(["--json", j.to_str().unwrap()]);
+        if tiled {
+            args.extend([
+                "--max-memory",
+                "64MiB",
+                "--scratch",
+                scratch.to_str().unwrap(),
+            ]);
+        }
+        args.extend(flags);
+        let out = common::psi(&args);
+        common::assert_success(&out);
+        let said = String::from_utf8_lossy(&out.stderr).into_owned();
+        (std::fs::read(o).unwrap(), json(&j), said)
+    };
+    for flags in [&[][..], &["--no-noise-estimate"][..]] {
+        let (core, core_report, core_said) = run("core", flags, false);
+        let (tiled, report, said) = run("tiled", flags, true);
+        let normals = &core_report["input"]["normals"];
+        let opposed = normals["opposed_fraction"].as_f64().unwrap();
+        assert!(opposed > 0.05, "{flags:?}: {normals}");
+        let warning = "of neighbouring normals point to opposite sides";
+        assert!(core_said.contains(warning), "{flags:?}: {core_said}");
+        assert!(said.contains(warning), "{flags:?}: {said}");
+        let pre = &report["tiles"]["preprocessing"];
+        assert_eq!(
+            pre["normal_consistency"]["pairs_checked"], normals["pairs_checked"],
+            "{flags:?}"
+        );
+        assert_eq!(
+            pre["normal_consistency"]["opposed_fraction"],
+            normals["opposed_fraction"]
+        );
+        assert!(core_report["input"]["denoised"].is_null(), "{flags:?}");
+        assert!(pre["denoised"].is_null(), "{flags:?}");
+        assert!(report["tiles"]["count"].as_u64().unwrap() >= 8, "{flags:?}");
+        assert!(tiled == core, "{flags:?}: particles differ from in core");
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -65,9 +65,9 @@ pub(crate) fn threads_arg(threads: Option<i128>) -> PyResult<Option<usize>> {
 /// INPUT --max-memory SIZE`: bitwise its particles. Preprocessing tile by tile: repeated
 /// points, outliers and stray clumps left out (unless `keep_outliers`), normals estimated and
 /// oriented where there are none, given normals that point inward flipped, the error threshold
-/// set from the noise (unless `mpu_error` is given); not yet denoising. The ceiling
-/// on spacing `max_spacing` (world units; default 2.5 % of the diagonal, `inf` for none) as in
-/// core. Returns the run's report (the CLI's `--json`). A rerun with the same scratch
+/// set from the noise (unless `mpu_error` is given), the points denoised where the noise calls
+/// for it. The ceiling on spacing `max_spacing` (world units; default 2.5 % of the diagonal,
+/// `inf` for none) as in core. Returns the run's report (the CLI's `--json`). A rerun with the same scratch
 /// resumes from its tile files.
 #[pyfunction]
 #[pyo3(signature = (inputs, output, *, max_memory, scratch=None, k=1, iterations=20,
@@ -253,8 +253,37 @@ fn run_sample_files<'py>(
     })?
     .map_err(value_error)?
     .map_err(|e| psi_error(py, e, Some("sampling out of core")))?;
+    warn_of_checks(py, &inputs[0].display().to_string(), &run.checks)?;
     let report = psi::out_of_core_json(&inputs, &particle_params, &options, &run);
     crate::json::to_python(py, &report)
+}
+
+/// Warns, as the in-core run does, when the checks of input `what` flipped its normals outward
+/// or found them pointing every way (then not denoised).
+fn warn_of_checks(py: Python<'_>, what: &str, checks: &psi::StoreChecks) -> PyResult<()> {
+    let mut messages = Vec::new();
+    if checks.inward_normals_flipped {
+        messages.push(format!(
+            "psi: {}",
+            psi::preprocess::inward_flip_notice(what)
+        ));
+    }
+    if let Some(opposed) = checks.inconsistent_normals() {
+        messages.push(format!(
+            "psi: {what}: {:.1} % of neighbouring normals point to opposite sides, so the points were not denoised; orient_normals=True (in core) repairs them",
+            100.0 * opposed
+        ));
+    }
+    for message in messages {
+        let message = std::ffi::CString::new(message).unwrap_or_default();
+        PyErr::warn(
+            py,
+            &py.get_type::<pyo3::exceptions::PyUserWarning>(),
+            &message,
+            1,
+        )?;
+    }
+    Ok(())
 }
 
 /// The MPU parameters of a run out of core: the paper's, with `mpu_error` as ε when given.

@@ -112,7 +112,8 @@ def test_inward_normals_the_noise_threshold_and_denoising_out_of_core_as_in_core
     # a given threshold is the run's.
     src = tmp_path / "inward.xyz"
     inward_noisy_model(src)
-    report = psi.sample_files(src, tmp_path / "py.ply", max_memory="64MiB")
+    with pytest.warns(UserWarning, match="pointed inward"):
+        report = psi.sample_files(src, tmp_path / "py.ply", max_memory="64MiB")
     pre = report["tiles"]["preprocessing"]
     assert pre["inward_normals_flipped"] is True, pre
     assert pre["denoised"]["moved"] > 15_000 and pre["noise_rel_after"] < pre["noise_rel"], pre
@@ -122,10 +123,28 @@ def test_inward_normals_the_noise_threshold_and_denoising_out_of_core_as_in_core
     core_report = json.loads(core.read_text())
     assert core_report["input"]["denoised"] == pre["denoised"]
     assert core_report["mpu"]["error_threshold"]["relative"] == report["mpu"]["error_rel"]
-    given = psi.sample_files(src, tmp_path / "given.ply", max_memory="64MiB", mpu_error=0.004)
+    with pytest.warns(UserWarning, match="pointed inward"):
+        given = psi.sample_files(src, tmp_path / "given.ply", max_memory="64MiB",
+                                 mpu_error=0.004)
     assert given["mpu"]["error_threshold"] == {"relative": 0.004, "source": "user"}
     run_cli(cli, "sample", src, "--mpu-error", "0.004", "-o", tmp_path / "core-given.ply")
     assert (tmp_path / "given.ply").read_bytes() == (tmp_path / "core-given.ply").read_bytes()
+
+
+def test_normals_that_point_every_way_warn_and_are_not_denoised_as_in_core(cli, tmp_path):
+    ps = psi.builtin_model(12_000)
+    pts, nrm = np.asarray(ps.points), np.asarray(ps.normals)
+    diagonal = np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))
+    noisy = pts + 0.003 * diagonal * np.random.default_rng(8).standard_normal(pts.shape)
+    nrm = np.where((np.arange(len(nrm)) % 3 == 0)[:, None], -nrm, nrm)
+    src = tmp_path / "every-way.xyz"
+    write_xyz(src, noisy, nrm)
+    with pytest.warns(UserWarning, match="opposite sides, so the points were not denoised"):
+        report = psi.sample_files(src, tmp_path / "py.ply", max_memory="64MiB")
+    pre = report["tiles"]["preprocessing"]
+    assert pre["denoised"] is None and pre["normal_consistency"]["opposed_fraction"] > 0.05, pre
+    run_cli(cli, "sample", src, "-o", tmp_path / "core.ply")
+    assert (tmp_path / "py.ply").read_bytes() == (tmp_path / "core.ply").read_bytes()
 
 
 def test_outliers_are_left_out_tile_by_tile_unless_kept(cli, tmp_path):

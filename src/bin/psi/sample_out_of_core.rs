@@ -75,6 +75,12 @@ pub(crate) fn run(req: &Request<'_>, ui: crate::ui::Ui) -> Result<(), Failure> {
     if run.checks.inward_normals_flipped {
         ui.notice(&psi::preprocess::inward_flip_notice(&name.to_string()));
     }
+    if let Some(opposed) = run.checks.inconsistent_normals() {
+        eprintln!(
+            "psi: warning: {name}: {:.1} % of neighbouring normals point to opposite sides, so the points were not denoised; --orient-normals (in core, without --max-memory) repairs them",
+            100.0 * opposed
+        );
+    }
     if let Some(out) = req.output {
         psi::save_particles(out, &run.particles, &psi::io::PointAttributes::default())?;
     }
