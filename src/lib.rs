@@ -67,8 +67,8 @@ pub use memory_estimate::{
     available_memory_bytes, check_fits_in_memory, estimate_in_core_bytes, estimate_points,
 };
 pub use out_of_core::{
-    OutOfCoreRun, out_of_core_json, out_of_core_tiles, parse_memory_size, sample_file_out_of_core,
-    sample_files_out_of_core,
+    OutOfCoreRun, decisions_failure, out_of_core_json, out_of_core_tiles, parse_memory_size,
+    sample_file_out_of_core, sample_files_out_of_core,
 };
 pub use partition::{
     Partition, PartitionStart, has_normals, partition_assemble, partition_files, partition_part,

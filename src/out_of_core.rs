@@ -20,8 +20,8 @@ use psi_octree::Monitor;
 use psi_particles::{ParticleParams, Particles, Quality};
 use psi_preprocess::{ErrorThreshold, PreprocessParams};
 use psi_tiles::{
-    TileParams, TileReport, TileSampleReport, TileStore, decide_store, sample_tiled_from,
-    seed_store_octant,
+    TileError, TileParams, TileReport, TileSampleReport, TileStore, decide_store,
+    sample_tiled_from, seed_store_octant,
 };
 
 use crate::PsiError;
@@ -115,9 +115,14 @@ pub fn sample_files_out_of_core(
     let fail = failure(&paths[0]);
     let t1 = Instant::now();
     let store = &store;
-    let tiles = out_of_core_tiles(store);
-    let decisions =
-        decide_store(store, mpu_params, &tiles, monitor).map_err(|e| fail(e.to_string()))?;
+    let tiles = out_of_core_tiles(store, Some(options));
+    let decisions = decide_store(store, mpu_params, &tiles, monitor).map_err(|e| {
+        fail(decisions_failure(
+            e,
+            options.max_memory,
+            mpu_params.error_rel,
+        ))
+    })?;
     let decide_seconds = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
     let relax_points = options.relax_points_for(part.points);
@@ -165,12 +170,30 @@ pub fn sample_files_out_of_core(
 }
 
 /// The tiling a run out of core uses on `store`: its depth, the default halo and shared
-/// levels (what the tasks of [`psi_tiles::decide_store`] take on a cluster).
-pub fn out_of_core_tiles(store: &TileStore) -> TileParams {
+/// levels (what the tasks of [`psi_tiles::decide_store`] take on a cluster), and, for a task
+/// that holds all the decisions, the most cells `budget` holds ([`OutOfCore::max_cells`]).
+pub fn out_of_core_tiles(store: &TileStore, budget: Option<&OutOfCore>) -> TileParams {
     TileParams {
         depth: store.manifest().depth,
+        max_cells: budget.map(OutOfCore::max_cells),
         ..TileParams::default()
     }
+}
+
+/// Why the decisions of a run out of core within `max_memory` bytes failed (`e`); for more
+/// cells than the budget holds, what sets their number (ε0, `error_rel` × D) and what to change.
+pub fn decisions_failure(e: TileError, max_memory: u64, error_rel: f64) -> String {
+    let TileError::TooManyCells { max } = e else {
+        return e.to_string();
+    };
+    format!(
+        "the MPU has more than {max} cells, more than --max-memory {} MiB holds (about {} bytes \
+         each); its error threshold ε0 = {error_rel:.2e} D sets how fine they go (below the \
+         points' noise it splits cells down to a few points each: is the noise estimate \
+         off?): give more memory or a larger --mpu-error (mpu_error=)",
+        max_memory >> 20,
+        crate::budget::BYTES_PER_CELL,
+    )
 }
 
 /// [`sample_files_out_of_core`] of one file.

@@ -574,9 +574,11 @@ fn out_of_core_checks_the_consistency_of_given_normals_as_in_core() {
         let mut args = vec!["sample", x, "-o", o.to_str().unwrap()];
         args.extend(["--json", j.to_str().unwrap()]);
         if tiled {
+            // (Without the noise estimate the noisy torus's cells need more than 64 MiB.)
+            let budget = if flags.is_empty() { "64MiB" } else { "256MiB" };
             args.extend([
                 "--max-memory",
-                "64MiB",
+                budget,
                 "--scratch",
                 scratch.to_str().unwrap(),
             ]);
@@ -704,5 +706,54 @@ fn an_input_that_would_not_fit_in_memory_is_refused_before_it_is_read() {
         psi::estimate_points(&pcd, None).unwrap(),
         (20_000, Some(true))
     );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// An MPU with more cells than the budget holds is refused by name, the output untouched: a
+/// noisy torus without its noise estimate (ε0 the paper's, far below the noise, splits cells
+/// down to a few points each); with the noise estimate the same budget suffices.
+#[test]
+fn out_of_core_refuses_more_cells_than_the_budget_holds() {
+    use psi::shapes::AnalyticShape;
+    let dir = common::scratch("out-of-core-cells");
+    let mut rng = <rand_pcg::Pcg64Mcg as rand::SeedableRng>::seed_from_u64(21);
+    let points: Vec<psi::OrientedPoint> = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.35,
+    }
+    .sample(30_000, 2)
+    .iter()
+    .map(|p| psi::OrientedPoint {
+        p: p.p + 0.02 * psi::shapes::gaussian_vector(&mut rng),
+        n: p.n,
+    })
+    .collect();
+    let ply = dir.join("noisy.ply");
+    psi::save_points(&ply, &points).unwrap();
+    let kept = dir.join("kept.ply");
+    std::fs::write(&kept, "precious").unwrap();
+    let scratch = dir.join("scratch");
+    let run = |flags: &[&str]| {
+        let mut args = vec![
+            "sample",
+            ply.to_str().unwrap(),
+            "-o",
+            kept.to_str().unwrap(),
+            "--max-memory",
+            "64MiB",
+            "--scratch",
+            scratch.to_str().unwrap(),
+        ];
+        args.extend(flags);
+        common::psi(&args)
+    };
+    let out = run(&["--no-noise-estimate"]);
+    common::assert_rejected(&out, "noisy.ply", &kept, "cells");
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(said.contains("more than --max-memory 64 MiB"), "{said}");
+    assert!(said.contains("--mpu-error"), "{said}");
+    let out = run(&[]);
+    common::assert_success(&out);
+    assert_ne!(std::fs::read(&kept).unwrap(), b"precious");
     std::fs::remove_dir_all(&dir).unwrap();
 }

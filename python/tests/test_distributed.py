@@ -123,6 +123,18 @@ def test_inward_noisy_normals_get_the_clis_checks_on_the_cluster(cli, client, tm
     assert (tmp_path / "dask.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
 
 
+def test_the_seed_tasks_refuse_more_cells_than_the_budget_holds(client, tmp_path):
+    # ε0 far below the noise: the tiles' tasks write their cells, the first task that holds
+    # them all stops with the CLI's message.
+    src = tmp_path / "noisy.xyz"
+    inward_noisy_model(src)
+    with pytest.raises(ValueError, match=r"more than --max-memory 64 MiB holds"):
+        psi.distributed.sample_files(src, tmp_path / "dask.ply", client=client,
+                                     max_memory="64MiB", mpu_error=1e-4,
+                                     scratch=tmp_path / "s")
+    assert not (tmp_path / "dask.ply").exists()
+
+
 FAULTS = """
 import resource, sys
 import psi.distributed

@@ -147,6 +147,17 @@ def test_normals_that_point_every_way_warn_and_are_not_denoised_as_in_core(cli, 
     assert (tmp_path / "py.ply").read_bytes() == (tmp_path / "core.ply").read_bytes()
 
 
+def test_an_mpu_with_more_cells_than_the_budget_holds_is_refused(tmp_path):
+    # ε0 far below the noise splits cells down to a few points each.
+    src = tmp_path / "noisy.xyz"
+    inward_noisy_model(src)
+    out = tmp_path / "out.ply"
+    with pytest.raises(ValueError, match=r"more than --max-memory 64 MiB holds") as e:
+        psi.sample_files(src, out, max_memory="64MiB", mpu_error=1e-4)
+    assert "mpu_error=" in str(e.value)
+    assert not out.exists()
+
+
 def test_outliers_are_left_out_tile_by_tile_unless_kept(cli, tmp_path):
     # The builtin model with 60 points scattered through its box (seeded) and 5 repeats.
     ps = psi.builtin_model(20_000)

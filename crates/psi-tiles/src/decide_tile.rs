@@ -129,12 +129,25 @@ pub(crate) fn decide_all(
     let done = AtomicU64::new(0);
     let total = keys.len() as u64;
     monitor.report("tiles", 0, total);
+    // The cells held so far, against the bound: a tile is not started, nor its outcome kept,
+    // once they pass it (so the build stops exactly when all the cells would pass it,
+    // whatever the order the tiles end in).
+    let held = AtomicU64::new(top.len() as u64);
+    let max = tiles.max_cells.unwrap_or(u64::MAX);
+    let too_many = TileError::TooManyCells { max };
     let outcomes: Vec<Result<TileOutcome, TileError>> = keys
         .par_iter()
         .map(|&key| {
-            let out = decide(key);
+            if held.load(Ordering::Relaxed) > max {
+                return Err(too_many.clone());
+            }
+            let out = decide(key)?;
+            let cells = out.cells.len() as u64;
+            if held.fetch_add(cells, Ordering::Relaxed) + cells > max {
+                return Err(too_many.clone());
+            }
             monitor.report("tiles", done.fetch_add(1, Ordering::Relaxed) + 1, total);
-            out
+            Ok(out)
         })
         .collect();
     let mut report = TileReport {
@@ -144,6 +157,9 @@ pub(crate) fn decide_all(
         top_cells: top.len(),
         ..Default::default()
     };
+    if held.load(Ordering::Relaxed) > max {
+        return Err(too_many);
+    }
     let mut cells = top;
     for outcome in outcomes {
         let o = outcome?;

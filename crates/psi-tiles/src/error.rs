@@ -28,4 +28,11 @@ pub enum TileError {
     /// above them, which the top pass alone decides).
     #[error("two regions disagree on the cell at depth {}, key {:?}", .0.0, .0.1)]
     Conflict(CellAddress),
+    /// The MPU has more cells than [`crate::TileParams::max_cells`] (`max`) allows (the build
+    /// stopped once those decided passed it).
+    #[error("the MPU has more than {max} cells")]
+    TooManyCells {
+        /// The bound.
+        max: u64,
+    },
 }

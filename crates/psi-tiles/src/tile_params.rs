@@ -20,15 +20,23 @@ pub struct TileParams {
     /// the coarse points out of core, where those fits thin their balls anyway) a quarter
     /// edge suffices.
     pub shared_levels: u8,
+    /// The most cells the decisions may hold at once (`None`: no bound): a build whose cells
+    /// pass it stops with [`TileError::TooManyCells`] instead of outgrowing the memory it was
+    /// given (the cells follow the surface's detail and ε0, not the points, so no bound on the
+    /// input foresees them). Not part of the decisions' files: it changes no decision.
+    #[serde(default)]
+    pub max_cells: Option<u64>,
 }
 
 impl Default for TileParams {
-    /// Depth 2 (up to 64 tiles), a halo of a quarter tile edge, 2 shared levels.
+    /// Depth 2 (up to 64 tiles), a halo of a quarter tile edge, 2 shared levels, no bound on
+    /// the cells.
     fn default() -> Self {
         TileParams {
             depth: 2,
             halo: 0.25,
             shared_levels: 2,
+            max_cells: None,
         }
     }
 }

@@ -71,6 +71,7 @@ fn a_noisy_sphere_tiled_is_the_whole_build_and_samples_the_same_particles() {
         depth: 2,
         halo: 0.0,
         shared_levels: 0,
+        max_cells: None,
     };
     let (whole, tiled, report) = run(&points, &tiles);
     assert_tiling_exercised(&report);
@@ -320,4 +321,46 @@ fn a_ranked_error_tiles_exactly() {
         .collect();
     surface.sort_unstable();
     assert_eq!(decisions.surface, surface);
+}
+
+/// The bound on the cells: decisions of exactly as many cells as it allows are made (and are
+/// the unbounded ones); one cell fewer stops the build with `TooManyCells`, on one thread and
+/// on two (whatever order the tiles end in).
+#[test]
+fn the_bound_on_the_cells_stops_the_build_exactly_past_it() {
+    let points = noisy(
+        AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.35,
+        }
+        .sample(15_000, 5),
+        3e-3,
+    );
+    let params = MpuParams::paper();
+    let free = decided_at_depth_2(&points, &params);
+    let n = free.cells.len() as u64;
+    assert!(free.report.count >= 8 && n > free.report.top_cells as u64);
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let decide = |max: u64| {
+            let tiles = TileParams {
+                max_cells: Some(max),
+                ..TileParams::at_depth(2)
+            };
+            pool.install(|| decide_tiled(&points, &params, &tiles, &Monitor::silent()))
+        };
+        let at_bound = decide(n).unwrap();
+        assert_eq!(at_bound.cells, free.cells);
+        for max in [n - 1, n / 2, 1] {
+            let e = decide(max).map(|_| ()).unwrap_err();
+            assert_eq!(
+                e,
+                psi_tiles::TileError::TooManyCells { max },
+                "{threads} threads"
+            );
+        }
+    }
 }
