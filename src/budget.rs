@@ -16,6 +16,12 @@ const BYTES_PER_INPUT_POINT: u64 = 8;
 /// with room to spare.
 const BYTES_PER_RELAX_POINT: u64 = 400;
 
+/// Bytes the process holds whatever its input: the program, the threads' stacks, and the
+/// pages the allocator keeps after freeing (measured: a run out of core on 2 000 points peaked
+/// at 19 MB resident; the noisy bunny at `--max-memory 64MiB` at 92 MB resident against a
+/// 64 MB peak of its heap; docs/notes/2026-12-04-cell-bound.md).
+pub(crate) const PROCESS_BYTES: u64 = 24 << 20;
+
 /// Bytes a cell of the MPU costs the run at its peak while it holds the decisions: its entry
 /// in the cell table (432 bytes: address, split flag, fit radius and fit; about 650 with the
 /// B-tree's nodes), again in the tile's outcome it is merged from, then in the relaxation's
@@ -26,7 +32,8 @@ pub(crate) const BYTES_PER_CELL: u64 = 1700;
 /// How a run out of core may use the machine.
 #[derive(Clone, Debug)]
 pub struct OutOfCore {
-    /// Bytes psi may allocate at once (the process's own baseline aside).
+    /// Bytes the process may hold resident at its peak (its own baseline, about 24 MiB,
+    /// included).
     pub max_memory: u64,
     /// Where the tile files go (created; a run finds its earlier files there and resumes).
     pub scratch: PathBuf,
@@ -35,10 +42,17 @@ pub struct OutOfCore {
 }
 
 impl OutOfCore {
+    /// Bytes the run's data may take: the budget less the process's baseline.
+    fn data_bytes(&self) -> u64 {
+        self.max_memory.saturating_sub(PROCESS_BYTES)
+    }
+
     /// The input points the particles' relaxation may hold (its MPU's data test) for `points`
     /// input points: what the budget leaves after the share of the whole input
     /// ([`crate::sample_files_out_of_core`] relaxes all particles at once; their number follows the
-    /// surface, not the input).
+    /// surface, not the input). Neither the process's baseline nor the cells are taken off:
+    /// a thinned relaxation holds the thinned data's footprints as well, and peaked higher
+    /// than the whole one (docs/notes/2026-12-04-cell-bound.md).
     pub fn relax_points_for(&self, points: u64) -> usize {
         let shared = points.saturating_mul(BYTES_PER_INPUT_POINT);
         (self.max_memory.saturating_sub(shared) / BYTES_PER_RELAX_POINT) as usize
@@ -48,7 +62,7 @@ impl OutOfCore {
     /// more cannot fit whatever the tiling (the cells follow the surface's detail and ε0, not
     /// the number of points).
     pub fn max_cells(&self) -> u64 {
-        self.max_memory / BYTES_PER_CELL
+        self.data_bytes() / BYTES_PER_CELL
     }
 
     /// The tile depth for `points` input points: the shallowest (at least 1, at most 8)
@@ -63,16 +77,16 @@ impl OutOfCore {
             return Ok(d);
         }
         let shared = points.saturating_mul(BYTES_PER_INPUT_POINT);
-        if 2 * shared > self.max_memory {
+        if 2 * shared > self.data_bytes() {
             return Err(format!(
-                "{} points need at least {} MiB out of core (their coarse copy and cell table), \
-                 more than --max-memory {} MiB allows",
+                "{} points need at least {} MiB out of core (their coarse copy and cell table, \
+                 and the process itself), more than --max-memory {} MiB allows",
                 points,
-                (2 * shared).div_ceil(1 << 20),
+                (2 * shared + PROCESS_BYTES).div_ceil(1 << 20),
                 self.max_memory >> 20
             ));
         }
-        let per_tile = (self.max_memory - shared) / (2 * BYTES_PER_TILE_POINT);
+        let per_tile = (self.data_bytes() - shared) / (2 * BYTES_PER_TILE_POINT);
         (1..=8u8)
             .find(|&d| points / 4u64.pow(u32::from(d)) <= per_tile)
             .ok_or_else(|| {

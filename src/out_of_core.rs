@@ -187,12 +187,13 @@ pub fn decisions_failure(e: TileError, max_memory: u64, error_rel: f64) -> Strin
         return e.to_string();
     };
     format!(
-        "the MPU has more than {max} cells, more than --max-memory {} MiB holds (about {} bytes \
-         each); its error threshold ε0 = {error_rel:.2e} D sets how fine they go (below the \
-         points' noise it splits cells down to a few points each: is the noise estimate \
-         off?): give more memory or a larger --mpu-error (mpu_error=)",
+        "the MPU needs more than {max} cells, more than --max-memory {} MiB holds (about {} \
+         bytes each, beside the process's own {} MiB): give more memory, or a larger \
+         --mpu-error (mpu_error=) for fewer cells (its error threshold is ε0 = {error_rel:.2e} D \
+         now; an ε0 below the points' noise splits cells down to a few points each)",
         max_memory >> 20,
         crate::budget::BYTES_PER_CELL,
+        crate::budget::PROCESS_BYTES >> 20,
     )
 }
 

@@ -757,3 +757,42 @@ fn out_of_core_refuses_more_cells_than_the_budget_holds() {
     assert_ne!(std::fs::read(&kept).unwrap(), b"precious");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The budget is the whole process's peak: the bunny out of core within 96 MiB peaks below it
+/// (the process's own baseline included, `VmHWM` in the report), and 64 MiB, which cannot
+/// hold its MPU's 29 000 cells beside the baseline, is refused by name, the output untouched.
+#[test]
+fn the_budget_holds_the_whole_run_or_the_run_is_refused() {
+    let Some(bunny) = common::model("bunny.ply") else {
+        return;
+    };
+    let dir = common::scratch("out-of-core-budget");
+    let kept = dir.join("kept.ply");
+    std::fs::write(&kept, "precious").unwrap();
+    let report = dir.join("r.json");
+    let run = |budget: &str, out: &Path| {
+        common::psi(&[
+            "sample",
+            bunny.to_str().unwrap(),
+            "--max-memory",
+            budget,
+            "-o",
+            out.to_str().unwrap(),
+            "--json",
+            report.to_str().unwrap(),
+            "--scratch",
+            dir.join(budget).to_str().unwrap(),
+            "-q",
+        ])
+    };
+    let out = run("64MiB", &kept);
+    common::assert_rejected(&out, "bunny.ply", &kept, "cells");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("more than --max-memory 64 MiB"));
+    let out = run("96MiB", &dir.join("b.ply"));
+    common::assert_success(&out);
+    let r = json(&report);
+    let peak = r["peak_memory_bytes"].as_u64().unwrap();
+    assert!(peak <= 96 << 20, "peak {peak} bytes above 96 MiB");
+    assert!(r["particles"]["count"].as_u64().unwrap() > 7000, "{r}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

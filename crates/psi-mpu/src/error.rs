@@ -64,6 +64,24 @@ pub enum MpuError {
     /// The caller stopped the build ([`psi_octree::Monitor`]).
     #[error("the MPU build was interrupted")]
     Interrupted(#[from] Interrupted),
+    /// A region would decide more cells than its bound ([`crate::RegionPoints::max_cells`]).
+    ///
+    /// ```
+    /// use psi_mpu::{MpuError, MpuFrame, MpuParams, Region, RegionPoints, fit_region};
+    /// use psi_octree::Monitor;
+    /// use psi_shapes::AnalyticShape;
+    /// let pts = AnalyticShape::Sphere { radius: 1.0 }.sample(2000, 1);
+    /// let params = MpuParams::paper();
+    /// let frame = MpuFrame::for_points(&pts, &params).unwrap();
+    /// let input = RegionPoints { max_cells: Some(20), ..RegionPoints::new(&pts, pts.len()) };
+    /// let out = fit_region(&input, &frame, &params, &Region::tile(0, [0; 3]), &Monitor::silent());
+    /// assert_eq!(out.unwrap_err(), MpuError::TooManyCells { max: 20 });
+    /// ```
+    #[error("more than {max} cells")]
+    TooManyCells {
+        /// The bound.
+        max: usize,
+    },
     /// The points a fit needed could not be fetched (a region decided from files whose
     /// reading failed; the message names the file and the problem).
     #[error("fetching the points of a fit: {0}")]

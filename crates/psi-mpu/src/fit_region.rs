@@ -8,6 +8,8 @@
 //! min(N_min + 1, N) points), ε0 and the frame; cell geometry depends on the frame alone.
 //! Points given in increasing global index order keep every fit's summation order.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+
 use glam::DVec3;
 use psi_octree::{Cell, Monitor, Octree, OctreeBuild, OctreeParams, OrientedPoint};
 
@@ -114,6 +116,9 @@ pub struct RegionPoints<'a> {
     /// Where the balls of cells reaching beyond the region's halo come from (`None`: such
     /// cells are fitted from `points` and the reach says the result is not exact).
     pub far: Option<FarBalls<'a>>,
+    /// The most cells the region may decide (a memory budget's share): past it the build
+    /// stops and fails with [`MpuError::TooManyCells`]. `None`: no bound.
+    pub max_cells: Option<usize>,
 }
 
 impl<'a> RegionPoints<'a> {
@@ -124,6 +129,7 @@ impl<'a> RegionPoints<'a> {
             population,
             known: None,
             far: None,
+            max_cells: None,
         }
     }
 }
@@ -159,6 +165,7 @@ pub fn fit_region(
         population,
         known,
         far,
+        max_cells,
     } = *input;
     let need = check_population(params, population)?;
     if points.len() < need && far.is_none() {
@@ -204,8 +211,7 @@ pub fn fit_region(
         indexed.positions().to_vec(),
         frame,
         params,
-        region,
-        known,
+        (region, known, max_cells),
         monitor,
         &fit,
     )
@@ -214,14 +220,14 @@ pub fn fit_region(
 /// Runs the octree over `positions` (local frame) in `frame`, fitting each cell of `region` with
 /// `fit` (given the cell and the indices of the points in its cube; returning the fit and
 /// whether the whole input has points in the cube) and splitting it as a whole build would, the
-/// cells above the region along the path to it; returns the region's decisions, reach and
-/// surface leaves.
+/// cells above the region along the path to it (those in `known` taken, not fitted); returns
+/// the region's decisions, reach and surface leaves, or [`MpuError::TooManyCells`] once it
+/// would decide more than `max_cells`.
 pub(crate) fn decide_cells(
     positions: Vec<DVec3>,
     frame: &MpuFrame,
     params: &MpuParams,
-    region: &Region,
-    known: Option<&CellTable>,
+    (region, known, max_cells): (&Region, Option<&CellTable>, Option<usize>),
     monitor: &Monitor<'_>,
     fit: &CellFitter<'_>,
 ) -> Result<RegionFit, MpuError> {
@@ -236,6 +242,9 @@ pub(crate) fn decide_cells(
         ..Default::default()
     };
     let failure = std::sync::Mutex::new(None);
+    // Cells decided so far; past the bound nothing more is fitted or split.
+    let decided = AtomicUsize::new(0);
+    let max = max_cells.unwrap_or(usize::MAX);
     let (octree, decisions) = Octree::build_with(positions, &oparams, options, |v| {
         let cell = v.cell;
         if monitor.stopped() || !region.holds(cell) {
@@ -243,6 +252,9 @@ pub(crate) fn decide_cells(
         }
         if let Some(d) = known.and_then(|t| t.get(cell.depth, cell.key)) {
             return (d.split, None);
+        }
+        if decided.fetch_add(1, Ordering::Relaxed) >= max {
+            return (false, None);
         }
         let (f, surface, fetched) = match fit(cell, v.points) {
             Ok(f) => f,
@@ -264,6 +276,9 @@ pub(crate) fn decide_cells(
         return Err(e);
     }
     monitor.check()?;
+    if decided.into_inner() > max {
+        return Err(MpuError::TooManyCells { max });
+    }
     let (rc, rh) = region.cube(frame);
     let mut out = RegionFit::default();
     for (cell, decision) in octree.cells().iter().zip(decisions) {

@@ -86,8 +86,7 @@ pub fn fit_top_region(
         data.positions.clone(),
         frame,
         params,
-        region,
-        None,
+        (region, None, None),
         monitor,
         &fit,
     )?;

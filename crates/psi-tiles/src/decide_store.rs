@@ -37,8 +37,10 @@ pub fn decide_store(
     let t0 = Instant::now();
     let top = decide_store_top(store, params, tiles, &print, monitor)?;
     let top_seconds = t0.elapsed().as_secs_f64();
-    let decide =
-        |key: [u32; 3]| decide_store_tile_with(store, params, tiles, &top, key, &print, monitor);
+    let decide = |key: [u32; 3], left: Option<u64>| {
+        let at = (&top, &print[..], left);
+        decide_store_tile_with(store, params, tiles, at, key, monitor)
+    };
     let (cells, surface, mut report) = decide_all(&top, tiles, monitor, &decide)?;
     report.top_seconds = top_seconds;
     Ok(TiledDecisions {
@@ -147,7 +149,8 @@ pub fn decide_store_tiles(
     let top = decide_store_top(store, params, tiles, &print, monitor)?;
     for &key in keys {
         monitor.check()?;
-        decide_store_tile_with(store, params, tiles, &top, key, &print, monitor)?;
+        let at = (&top, &print[..], tiles.max_cells);
+        decide_store_tile_with(store, params, tiles, at, key, monitor)?;
     }
     Ok(())
 }
@@ -324,14 +327,14 @@ fn decide_top_part(
     Ok(outcome)
 }
 
-/// One tile, under the cells `top` decided: from its decisions file, or decided and written.
+/// One tile, under the cells `top` decided (the run's fingerprint `print`; at most `max_cells`
+/// cells): from its decisions file, or decided and written.
 fn decide_store_tile_with(
     store: &TileStore,
     params: &MpuParams,
     tiles: &TileParams,
-    top: &TileOutcome,
+    (top, print, max_cells): (&TileOutcome, &str, Option<u64>),
     key: [u32; 3],
-    print: &str,
     monitor: &Monitor<'_>,
 ) -> Result<TileOutcome, TileError> {
     let path = store
@@ -346,10 +349,10 @@ fn decide_store_tile_with(
         params,
         tiles,
         key,
-        manifest.population as usize,
-        store.count(key),
+        (manifest.population as usize, store.count(key)),
         &top.cells,
         store,
+        max_cells,
         monitor,
     )?;
     write_record(&path, print, &outcome)?;

@@ -6,8 +6,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use psi_mpu::{
-    BallSource, CellAddress, CellTable, FarBalls, MpuFrame, MpuParams, Region, RegionPoints,
-    fit_region,
+    BallSource, CellAddress, CellTable, FarBalls, MpuError, MpuFrame, MpuParams, Region,
+    RegionPoints, fit_region,
 };
 use psi_octree::Monitor;
 use rayon::prelude::*;
@@ -34,16 +34,17 @@ pub(crate) struct TileOutcome {
 /// Decides the tile `key` (at `tiles.depth`) of an input of `population` points, its points
 /// from `gather` (the tile's upper levels taken from `top`), growing the halo from `tiles.halo` × the tile edge until the fits' reach lies
 /// inside it (or the halo holds every point). `points` is the count in its cube, for the report.
+/// Past `max_cells` cells the tile stops: [`TileError::TooManyCells`] with the run's bound.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn decide_tile(
     frame: &MpuFrame,
     params: &MpuParams,
     tiles: &TileParams,
     key: [u32; 3],
-    population: usize,
-    points: u64,
+    (population, points): (usize, u64),
     top: &CellTable,
     source: &dyn PointSource,
+    max_cells: Option<u64>,
     monitor: &Monitor<'_>,
 ) -> Result<TileOutcome, TileError> {
     let region = Region::tile(tiles.depth, key);
@@ -70,8 +71,15 @@ pub(crate) fn decide_tile(
             population,
             known: Some(top),
             far: Some(far),
+            max_cells: max_cells.map(|m| usize::try_from(m).unwrap_or(usize::MAX)),
         };
-        let fit = fit_region(&input, frame, params, &region, &monitor.quiet())?;
+        let fit =
+            fit_region(&input, frame, params, &region, &monitor.quiet()).map_err(|e| match e {
+                MpuError::TooManyCells { .. } => TileError::TooManyCells {
+                    max: tiles.max_cells.unwrap_or(u64::MAX),
+                },
+                e => e.into(),
+            })?;
         if fit.reach + margin <= halo || local.len() == population {
             return Ok(TileOutcome {
                 cells: fit.cells,
@@ -113,14 +121,15 @@ pub(crate) fn tile_keys(top: &CellTable, depth: u8) -> Vec<[u32; 3]> {
     keys
 }
 
-/// Runs `decide` on every tile under `top` (in parallel; progress: stage `"tiles"`) and merges
-/// their decisions with `top`'s, in tile order; returns every cell's decision and the report
-/// (`top_seconds` is the caller's).
+/// Runs `decide` on every tile under `top` (in parallel; progress: stage `"tiles"`), given the
+/// most cells it may add (what `tiles.max_cells` leaves), and merges their decisions with
+/// `top`'s, in tile order; returns every cell's decision and the report (`top_seconds` is the
+/// caller's).
 pub(crate) fn decide_all(
     top: &TileOutcome,
     tiles: &TileParams,
     monitor: &Monitor<'_>,
-    decide: &(dyn Fn([u32; 3]) -> Result<TileOutcome, TileError> + Sync),
+    decide: &(dyn Fn([u32; 3], Option<u64>) -> Result<TileOutcome, TileError> + Sync),
 ) -> Result<(CellTable, Vec<CellAddress>, TileReport), TileError> {
     let mut surface = top.surface.clone();
     let top = top.cells.clone();
@@ -129,9 +138,9 @@ pub(crate) fn decide_all(
     let done = AtomicU64::new(0);
     let total = keys.len() as u64;
     monitor.report("tiles", 0, total);
-    // The cells held so far, against the bound: a tile is not started, nor its outcome kept,
-    // once they pass it (so the build stops exactly when all the cells would pass it,
-    // whatever the order the tiles end in).
+    // The cells held so far, against the bound: a tile is not started, nor let past what the
+    // others leave, nor its outcome kept, once they pass it (so the build stops exactly when
+    // all the cells would pass it, whatever the order the tiles end in).
     let held = AtomicU64::new(top.len() as u64);
     let max = tiles.max_cells.unwrap_or(u64::MAX);
     let too_many = TileError::TooManyCells { max };
@@ -141,7 +150,10 @@ pub(crate) fn decide_all(
             if held.load(Ordering::Relaxed) > max {
                 return Err(too_many.clone());
             }
-            let out = decide(key)?;
+            let left = tiles
+                .max_cells
+                .map(|_| max.saturating_sub(held.load(Ordering::Relaxed)));
+            let out = decide(key, left)?;
             let cells = out.cells.len() as u64;
             if held.fetch_add(cells, Ordering::Relaxed) + cells > max {
                 return Err(too_many.clone());

@@ -61,10 +61,18 @@ pub fn decide_tiled(
         surface: top.surface,
     };
     let source = PointsInMemory::new(points, frame, tiles.depth);
-    let decide = |key| {
+    let decide = |key, left| {
         let count = source.count(key) as u64;
         decide_tile(
-            &frame, params, tiles, key, n, count, &top.cells, &source, monitor,
+            &frame,
+            params,
+            tiles,
+            key,
+            (n, count),
+            &top.cells,
+            &source,
+            left,
+            monitor,
         )
     };
     let (cells, surface, mut report) = decide_all(&top, tiles, monitor, &decide)?;
