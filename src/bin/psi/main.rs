@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 
+mod arena_limit;
 mod input;
 mod run_edit;
 mod run_info;

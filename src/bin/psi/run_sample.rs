@@ -58,10 +58,10 @@ pub(crate) struct SampleArgs {
     #[arg(long)]
     evaluation_floor: bool,
     /// Work out of core within this much memory (e.g. 4GiB, 512MiB): the input streamed into
-    /// tile files, the MPU and the particles made tile by tile. Preprocessing tile by tile:
-    /// repeated points and outliers left out (unless --keep-outliers), normals estimated and
-    /// oriented where there are none; not yet the stray-clump search, noise threshold or
-    /// denoising. The ceiling on spacing (--max-spacing) as in core, its passes reading the
+    /// tile files, the MPU and the particles made tile by tile. The budget is the process's
+    /// peak (about 24 MiB of it the process itself); an MPU with more cells than it holds is
+    /// refused. Preprocessing tile by tile as in core (outliers, normals, the noise threshold,
+    /// denoising). The ceiling on spacing (--max-spacing) as in core, its passes reading the
     /// tile files.
     #[arg(long, value_parser = psi::parse_memory_size,
         conflicts_with_all = ["count", "uniform", "png", "points_out", "evaluation_floor",
@@ -75,6 +75,7 @@ pub(crate) struct SampleArgs {
 
 pub(crate) fn run(args: &SampleArgs, ui: crate::ui::Ui) -> Result<(), Failure> {
     if let Some(max_memory) = args.max_memory {
+        crate::arena_limit::limit_arenas();
         return run_out_of_core(args, max_memory, ui);
     }
     if let Some(input) = &args.input.input {
