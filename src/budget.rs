@@ -17,16 +17,14 @@ const BYTES_PER_INPUT_POINT: u64 = 8;
 const BYTES_PER_RELAX_POINT: u64 = 400;
 
 /// Bytes the process holds whatever its input: the program, the threads' stacks, and the
-/// pages the allocator keeps after freeing (measured: a run out of core on 2 000 points peaked
-/// at 19 MB resident; the noisy bunny at `--max-memory 64MiB` at 92 MB resident against a
-/// 64 MB peak of its heap; docs/notes/2026-12-04-cell-bound.md).
+/// pages the allocator keeps after freeing (the measurements it is set from:
+/// docs/notes/2026-12-04-cell-bound.md).
 pub(crate) const PROCESS_BYTES: u64 = 24 << 20;
 
 /// Bytes a cell of the MPU costs the run at its peak while it holds the decisions: its entry
-/// in the cell table (432 bytes: address, split flag, fit radius and fit; about 650 with the
-/// B-tree's nodes), again in the tile's outcome it is merged from, then in the relaxation's
-/// MPU. Measured: 723 000 cells (a noisy bunny of 72 000 points without its noise estimate)
-/// peaked at 1.32 GB, of which about 90 MB the run of those points with few cells.
+/// in the cell table (address, split flag, fit radius and fit, in a B-tree's nodes), again in
+/// the tile's outcome it is merged from, then in the relaxation's MPU (the peak it is set
+/// from: docs/notes/2026-12-04-cell-bound.md).
 pub(crate) const BYTES_PER_CELL: u64 = 1700;
 
 /// How a run out of core may use the machine.

@@ -1,10 +1,10 @@
 //! glibc's malloc arenas under a memory budget. glibc gives a thread that meets contention an
 //! arena of its own (up to 8 per core) and keeps the pages freed in each resident; under
-//! `--max-memory` those kept pages were a third of the peak (the noisy bunny refused at 64 MiB:
-//! 98 MiB resident, 67 MiB with two arenas; the real scan at 256 MiB: 247–258 MiB, 204–223 MiB
-//! with two arenas, at the same speed; docs/notes/2026-12-04-cell-bound.md). The process is
-//! run again with `MALLOC_ARENA_MAX=2` (glibc's own setting, read when it starts) unless the
-//! user set it; the crate forbids `unsafe`, so no `mallopt` call.
+//! `--max-memory` those kept pages were a large share of the peak, and two arenas take most of
+//! them off at the same speed (measured: docs/results/2026-12-04-cell-bound/, second table;
+//! docs/notes/2026-12-04-cell-bound.md). The process is run again with `MALLOC_ARENA_MAX=2`
+//! (glibc's own setting, read when it starts) unless the user set it; the crate forbids
+//! `unsafe`, so no `mallopt` call.
 
 /// Replaces this process by the same command with `MALLOC_ARENA_MAX=2`, on Linux with glibc,
 /// when the variable is not set; returns (doing nothing) elsewhere, when it is set, or when the
