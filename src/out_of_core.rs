@@ -170,8 +170,8 @@ pub fn sample_files_out_of_core(
 }
 
 /// The tiling a run out of core uses on `store`: its depth, the default halo and shared
-/// levels (what the tasks of [`psi_tiles::decide_store`] take on a cluster), and, for a task
-/// that holds all the decisions, the most cells `budget` holds ([`OutOfCore::max_cells`]).
+/// levels (what the tasks of [`psi_tiles::decide_store`] take on a cluster), and the most cells
+/// `budget` holds ([`OutOfCore::max_cells`]; a task of tiles bounds each tile's by it).
 pub fn out_of_core_tiles(store: &TileStore, budget: Option<&OutOfCore>) -> TileParams {
     TileParams {
         depth: store.manifest().depth,

@@ -12,7 +12,8 @@ use crate::out_of_core::{memory_arg, mpu_params, on_threads, ooc_particle_params
 
 /// Runs a task of `psi.distributed.sample_files` on the store in `scratch`: `work` with the
 /// store, the MPU parameters (ε from `mpu_error`) and the run's tiling (its cells bounded by
-/// `max_memory` for a task that holds all the decisions), on a pool of `threads`
+/// `max_memory`: all of them in a task that holds them all, each tile's in a task of tiles),
+/// on a pool of `threads`
 /// ([`on_threads`]) with the interpreter released; its error as a `ValueError`.
 fn store_task<T: Send>(
     py: Python<'_>,
@@ -172,21 +173,24 @@ pub(crate) fn _ooc_top(
 }
 
 /// Task of `psi.distributed.sample_files` (not API): a batch of tiles decided, in order,
-/// each with its decisions file written (or found intact).
+/// each with its decisions file written (or found intact); a tile with more cells than
+/// `max_memory` holds stops, as the CLI's run does.
 #[pyfunction]
-#[pyo3(signature = (scratch, keys, mpu_error=None, threads=None))]
+#[pyo3(signature = (scratch, keys, mpu_error=None, threads=None, *, max_memory=None))]
 pub(crate) fn _ooc_tiles(
     py: Python<'_>,
     scratch: PathBuf,
     keys: Vec<(u32, u32, u32)>,
     mpu_error: Option<f64>,
     threads: Option<i128>,
+    max_memory: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<()> {
     let keys: Vec<[u32; 3]> = keys.into_iter().map(|k| [k.0, k.1, k.2]).collect();
+    let max_memory = max_memory.map(memory_arg).transpose()?;
     store_task(
         py,
         &scratch,
-        (mpu_error, None),
+        (mpu_error, max_memory),
         threads,
         |store, params, tiles| {
             psi::tiles::decide_store_tiles(

@@ -124,8 +124,8 @@ def test_inward_noisy_normals_get_the_clis_checks_on_the_cluster(cli, client, tm
 
 
 def test_the_seed_tasks_refuse_more_cells_than_the_budget_holds(client, tmp_path):
-    # ε0 far below the noise: the tiles' tasks write their cells, the first task that holds
-    # them all stops with the CLI's message.
+    # ε0 far below the noise: a tile's task, or the first task that holds all the cells,
+    # stops with the CLI's message.
     src = tmp_path / "noisy.xyz"
     inward_noisy_model(src)
     with pytest.raises(ValueError, match=r"more than --max-memory 64 MiB holds"):

@@ -189,7 +189,11 @@ def sample_files(
         keys = submit(_psi._ooc_top, scratch_dir, mpu_error, threads).result()
         batches = [keys[i : i + TILES_PER_TASK] for i in range(0, len(keys), TILES_PER_TASK)]
         client.gather(
-            [submit(_psi._ooc_tiles, scratch_dir, b, mpu_error, threads) for b in batches]
+            [
+                submit(_psi._ooc_tiles, scratch_dir, b, mpu_error, threads,
+                       max_memory=max_memory)
+                for b in batches
+            ]
         )
         # The seeds by octant of the root, the largest first as the groups came (a task for an
         # octant without regions does nothing).
