@@ -198,9 +198,10 @@ impl InwardEvidence {
         if !p.p.is_finite() {
             return;
         }
+        let table = &*DIRECTION_TABLE;
         for &i in along {
             let e = &mut self.extremes[i];
-            let x = p.p.dot(direction(i));
+            let x = p.p.dot(table[i]);
             if x > e.0 || (x == e.0 && index < e.1) {
                 *e = (x, index, p);
             }
@@ -285,9 +286,15 @@ const ALL_DIRECTIONS: [usize; DIRECTIONS] = {
     all
 };
 
+/// The [`DIRECTIONS`] directions probed, computed once: every point is tested along each,
+/// and a direction's sine, cosine and root cost far more than the test
+/// (docs/notes/2026-12-04-inward-directions.md).
+static DIRECTION_TABLE: std::sync::LazyLock<[DVec3; DIRECTIONS]> =
+    std::sync::LazyLock::new(|| std::array::from_fn(|i| fibonacci_direction(i, DIRECTIONS)));
+
 /// The `i`-th of the [`DIRECTIONS`] directions probed.
 fn direction(i: usize) -> DVec3 {
-    fibonacci_direction(i, DIRECTIONS)
+    DIRECTION_TABLE[i]
 }
 
 /// For each of 64 directions d, the point of `points` (shape N, world units, unit normals)

@@ -358,8 +358,8 @@ def sample_files(
     extension). As ``psi sample INPUT --max-memory SIZE``: bitwise its particles. Preprocessing
     tile by tile: repeated points, outliers and stray clumps left out (unless
     ``keep_outliers``), normals estimated and oriented where there are none, given normals that
-    point inward flipped, the error threshold set from the noise (unless ``mpu_error``); not yet
-    denoising. The ceiling on spacing ``max_spacing`` as in ``psi.sample`` (world
+    point inward flipped, the error threshold set from the noise (unless ``mpu_error``), the
+    points denoised where the noise calls for it. The ceiling on spacing ``max_spacing`` as in ``psi.sample`` (world
     units; default 2.5 % of the diagonal, ``inf`` for none). A rerun with the same scratch
     resumes from its files. Returns the CLI's ``--json`` report (``tiles``: count, depth,
     points per tile, halos, seconds, ...). Stages ``"read"``, ``"noise"``, ``"tiles"``,
