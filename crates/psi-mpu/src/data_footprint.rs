@@ -310,10 +310,17 @@ impl DataFootprint {
         if surrounded(y, n, cached) {
             return answer(true, new_anchor);
         }
-        let mut near = Vec::with_capacity(32);
-        data.index.within(y, around, &mut near);
-        let near = near.iter().map(|&j| data.positions[j as usize]);
-        answer(surrounded(y, n, near), new_anchor)
+        // The same monotony: the points within half the reach first (a quarter of the
+        // query's points), the whole reach only when they do not surround y.
+        let mut near = Vec::with_capacity(64);
+        for reach in [0.5 * around, around] {
+            near.clear();
+            data.index.within(y, reach, &mut near);
+            if surrounded(y, n, near.iter().map(|&j| data.positions[j as usize])) {
+                return answer(true, new_anchor);
+            }
+        }
+        answer(false, new_anchor)
     }
 
     /// The input point nearest to local `y` and its squared distance, when the cached 9 nearest

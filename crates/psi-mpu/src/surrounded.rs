@@ -14,6 +14,11 @@ use glam::DVec3;
 /// few enough that the rim of a small hole does not wrap around a position inside it.
 pub(crate) const SURROUND_REACH: f64 = 2.0;
 
+/// A direction counts for a quadrant of the plane only when it lies at least this far (the
+/// sine of its angle) inside it: then the quadrants' answer is the angles' answer whatever
+/// their rounding (a few ulps of a turn), see [`surrounded`].
+const QUADRANT_MARGIN_SQUARED: f64 = 1e-10;
+
 /// Whether the points `near` (world units, any frame shared with `y`) surround `y` in the plane
 /// normal to unit `n`: projected into it, the directions from `y` to them leave no gap of half
 /// a turn or more between consecutive ones. Points within 1e-12 of `y` in the plane have no
@@ -24,10 +29,44 @@ pub(crate) const SURROUND_REACH: f64 = 2.0;
 ///            ·  y  ·                         ·  ·  ·
 ///            ·  ·  ·                               y
 /// ```
+///
+/// The points are read until a direction lies well inside each quadrant of the plane (around
+/// `u`, `w`): then no gap reaches half a turn (two neighbouring quadrants make half a turn,
+/// and each direction lies 1e-5 rad inside its own), and the answer is the angles' own
+/// ([`surrounded_by_angles`]; a test holds the two to the same answer). Dense inputs surround
+/// most positions this way after a few of the hundreds of points a query finds; the angles
+/// (an `atan2` and a sort) decide the rest.
 pub(crate) fn surrounded(y: DVec3, n: DVec3, near: impl IntoIterator<Item = DVec3>) -> bool {
     let u = n.any_orthonormal_vector();
     let w = n.cross(u);
-    let mut angles: Vec<f64> = near
+    let mut seen = [false; 4];
+    let mut planar: Vec<(f64, f64)> = Vec::with_capacity(32);
+    for p in near {
+        let v = p - y;
+        let (a, b) = (v.dot(u), v.dot(w));
+        let r2 = a * a + b * b;
+        if r2 <= 1e-24 {
+            continue;
+        }
+        planar.push((a, b));
+        let margin = QUADRANT_MARGIN_SQUARED * r2;
+        if a * a > margin && b * b > margin {
+            seen[usize::from(a < 0.0) * 2 + usize::from(b < 0.0)] = true;
+            if seen == [true; 4] {
+                return true;
+            }
+        }
+    }
+    gap_below_half_turn(planar.iter().map(|&(a, b)| b.atan2(a)).collect())
+}
+
+/// [`surrounded`] by the angles alone: the directions' angles in the plane, sorted, and
+/// their largest gap (the wrap included) below half a turn.
+#[cfg(test)]
+fn surrounded_by_angles(y: DVec3, n: DVec3, near: impl IntoIterator<Item = DVec3>) -> bool {
+    let u = n.any_orthonormal_vector();
+    let w = n.cross(u);
+    let angles: Vec<f64> = near
         .into_iter()
         .filter_map(|p| {
             let v = p - y;
@@ -35,6 +74,12 @@ pub(crate) fn surrounded(y: DVec3, n: DVec3, near: impl IntoIterator<Item = DVec
             (a * a + b * b > 1e-24).then(|| b.atan2(a))
         })
         .collect();
+    gap_below_half_turn(angles)
+}
+
+/// Whether `angles` (radians in (−π, π], any order), at least 3 of them, leave no gap of half
+/// a turn or more between consecutive ones around the circle.
+fn gap_below_half_turn(mut angles: Vec<f64>) -> bool {
     if angles.len() < 3 {
         return false;
     }
@@ -152,5 +197,53 @@ mod tests {
         }
         // Both answers occur.
         assert!(both[0] > 100 && both[1] > 100, "{both:?}");
+    }
+
+    /// The quadrants' shortcut gives the angles' answer: dense discs and half-discs (where the
+    /// shortcut is taken or not), and directions within a hair of the quadrants' borders
+    /// (the axes) or of half a turn apart.
+    #[test]
+    fn the_quadrants_give_the_angles_answer() {
+        let mut rng = Pcg64Mcg::seed_from_u64(11);
+        let mut both = [0usize; 2];
+        for case in 0..3000 {
+            let n = DVec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            )
+            .normalize_or(DVec3::Z);
+            let u = n.any_orthonormal_vector();
+            let w = n.cross(u);
+            let count = rng.random_range(0..300);
+            let span = match case % 3 {
+                0 => std::f64::consts::TAU,
+                1 => std::f64::consts::PI,
+                _ => std::f64::consts::PI * (1.0 - 1e-9),
+            };
+            let near: Vec<DVec3> = (0..count)
+                .map(|_| {
+                    let t = match rng.random_range(0..4) {
+                        // Near an axis (a quadrant's border) by a hair either way.
+                        0 => {
+                            let k = f64::from(rng.random_range(0..4u8));
+                            let t = k * std::f64::consts::FRAC_PI_2 + rng.random_range(-1e-5..1e-5);
+                            t.clamp(0.0, span)
+                        }
+                        _ => rng.random_range(0.0..span),
+                    };
+                    let r = rng.random_range(1e-3..2.0);
+                    r * (t.cos() * u + t.sin() * w) + rng.random_range(-0.2..0.2) * n
+                })
+                .collect();
+            let fast = surrounded(DVec3::ZERO, n, near.iter().copied());
+            assert_eq!(
+                fast,
+                surrounded_by_angles(DVec3::ZERO, n, near.iter().copied()),
+                "case {case}: {near:?}"
+            );
+            both[usize::from(fast)] += 1;
+        }
+        assert!(both[0] > 500 && both[1] > 500, "{both:?}");
     }
 }
