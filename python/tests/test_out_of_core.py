@@ -4,6 +4,10 @@ in core; resuming from the scratch files; bad sizes and too few points refused w
 messages."""
 
 import json
+import os
+import platform
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -156,6 +160,45 @@ def test_an_mpu_with_more_cells_than_the_budget_holds_is_refused(tmp_path):
         psi.sample_files(src, out, max_memory="64MiB", mpu_error=1e-4)
     assert "mpu_error=" in str(e.value)
     assert not out.exists()
+
+
+ARENA_COUNT = """
+import ctypes, sys
+import numpy as np
+import psi
+rng = np.random.default_rng(5)
+n = rng.normal(size=(20000, 3))
+n /= np.linalg.norm(n, axis=1)[:, None]
+np.savetxt(sys.argv[1], np.hstack([n, n]))
+run = psi.sample_files if sys.argv[3] == "wrapped" else psi._sample_files
+run(sys.argv[1], sys.argv[2], max_memory="256MiB")
+ctypes.CDLL(None).malloc_stats()
+"""
+
+
+def test_sample_files_keeps_two_malloc_arenas_as_the_cli_does(tmp_path):
+    # The budget is the process's peak, and glibc's per-thread arenas keep freed pages
+    # resident: psi.sample_files limits them as the CLI does (psi/_allocator.py). Counted by
+    # glibc's own malloc_stats in a fresh interpreter with 4 psi threads, against the
+    # extension's function called without the limit.
+    if platform.system() != "Linux" or platform.libc_ver()[0] != "glibc":
+        pytest.skip("malloc arenas are glibc's")
+    env = {**os.environ, "RAYON_NUM_THREADS": "4"}
+    env.pop("MALLOC_ARENA_MAX", None)
+
+    def arenas(how):
+        args = [tmp_path / f"{how}.xyz", tmp_path / f"{how}.ply", how]
+        run = subprocess.run(
+            [sys.executable, "-c", ARENA_COUNT, *map(str, args)],
+            env=env,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        return run.stderr.count("Arena ")
+
+    assert arenas("native") > 2
+    assert 1 <= arenas("wrapped") <= 2
 
 
 def test_outliers_are_left_out_tile_by_tile_unless_kept(cli, tmp_path):

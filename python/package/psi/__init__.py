@@ -7,6 +7,9 @@ draw particles (``save_particles``, ``load_particles``, ``Particles``, ``render`
 the same input and options. See ``help(psi.Mpu)`` and the others.
 """
 
+from functools import wraps as _wraps
+from typing import Any as _Any
+
 from ._psi import (
     Mpu,
     Particles,
@@ -19,9 +22,10 @@ from ._psi import (
     render,
     render_mesh,
     sample,
-    sample_files,
     save_particles,
 )
+from ._psi import sample_files as _sample_files
+from ._allocator import limit_arenas as _limit_arenas
 
 __all__ = [
     "Mpu",
@@ -38,3 +42,11 @@ __all__ = [
     "sample_files",
     "save_particles",
 ]
+
+
+@_wraps(_sample_files)
+def sample_files(*args: _Any, **kwargs: _Any) -> _Any:
+    # (The budget is the process's peak: glibc's arenas limited first, as the CLI does,
+    # psi/_allocator.py.)
+    _limit_arenas()
+    return _sample_files(*args, **kwargs)

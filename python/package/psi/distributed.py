@@ -23,6 +23,8 @@ import uuid
 from os import PathLike, fspath
 from typing import Any, Dict, List, Optional, Union
 
+from ._allocator import limit_arenas
+
 # The extension's task functions are not part of the typed API (psi/__init__.pyi).
 _psi: Any = importlib.import_module("psi._psi")
 
@@ -72,8 +74,10 @@ def _tune_allocator() -> None:
 
 
 def _task(f: Any, *a: Any, **kw: Any) -> Any:
-    """Runs the extension's task function ``f`` on a worker, its allocator tuned first."""
+    """Runs the extension's task function ``f`` on a worker, its allocator tuned first (and
+    its arenas limited as ``psi.sample_files`` limits them)."""
     _tune_allocator()
+    limit_arenas()
     return f(*a, **kw)
 
 
