@@ -247,7 +247,9 @@ pub(crate) fn run(args: &[String]) -> Result<()> {
     let mut md = format!(
         "# Scale: in core and out of core (`--max-memory {budget}`)\n\n\
          Model `{model}` sampled at N points (seed 1), binary PCD with normals; release build, \
-         {} threads. In core without the noise threshold and the inward-normals check, as out of core.\n\n\
+         {} threads. Both runs with the defaults (outliers, the normals' checks, the noise \
+         threshold, denoising where it is called for): the same preprocessing in core and tile \
+         by tile.\n\n\
          | N | in core s | in core peak MiB | estimate MiB | out of core s | ratio | out of core peak MiB | tiles (depth) | counts | per level: CV out of core (in core) | tiled max \\|f\\|/\\|∇f\\| / D |\n\
          |---|---|---|---|---|---|---|---|---|---|---|\n",
         rayon::current_num_threads()
