@@ -160,11 +160,15 @@ pub fn read_points_from<R: Read + Seek + Send + Sync + 'static>(
     format: Format,
     opts: &ReadOptions,
 ) -> Result<PointCloudFile, ReadError> {
+    let mut input = input;
+    // Room for the points the header announces, held once instead of grown by doubling (each
+    // doubling copies what was read and faults in new pages), as long as the input's bytes
+    // can hold them (a byte a point at least, in every format read here): a header that
+    // announces more than that, or an input that cannot seek, gets a chunk's room and grows.
+    let room = remaining_bytes(&mut input).unwrap_or(COLLECT_CHUNK as u64);
     let stream = PointStream::open(input, format)?;
     let header = stream.header().clone();
-    let capacity = usize::try_from(header.announced_points)
-        .unwrap_or(usize::MAX)
-        .min(COLLECT_CHUNK);
+    let capacity = usize::try_from(header.announced_points.min(room)).unwrap_or(COLLECT_CHUNK);
     let mut all = PointChunk::for_header(&header, capacity);
     let end = stream.for_each_chunk(COLLECT_CHUNK, |chunk| {
         append(&mut all, chunk);
@@ -186,8 +190,17 @@ pub fn read_points_from<R: Read + Seek + Send + Sync + 'static>(
     mesh_to_points::to_point_cloud(parsed, opts)
 }
 
+/// The bytes from `input`'s position to its end (the position kept).
+fn remaining_bytes(input: &mut (impl Seek + ?Sized)) -> std::io::Result<u64> {
+    let at = input.stream_position()?;
+    let end = input.seek(SeekFrom::End(0))?;
+    input.seek(SeekFrom::Start(at))?;
+    Ok(end.saturating_sub(at))
+}
+
 fn append(all: &mut PointChunk, mut chunk: PointChunk) {
-    if all.positions.is_empty() {
+    // (The first chunk is taken whole unless `all` has room for it already.)
+    if all.positions.is_empty() && all.positions.capacity() < chunk.positions.len() {
         all.positions = std::mem::take(&mut chunk.positions);
     } else {
         all.positions.append(&mut chunk.positions);

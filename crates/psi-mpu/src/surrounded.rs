@@ -45,7 +45,8 @@ pub(crate) fn surrounded(y: DVec3, n: DVec3, near: impl IntoIterator<Item = DVec
         let v = p - y;
         let (a, b) = (v.dot(u), v.dot(w));
         let r2 = a * a + b * b;
-        if r2 <= 1e-24 {
+        // (As the angles skip them: no direction, or not a number.)
+        if r2.partial_cmp(&1e-24) != Some(std::cmp::Ordering::Greater) {
             continue;
         }
         planar.push((a, b));
@@ -200,8 +201,8 @@ mod tests {
     }
 
     /// The quadrants' shortcut gives the angles' answer: dense discs and half-discs (where the
-    /// shortcut is taken or not), and directions within a hair of the quadrants' borders
-    /// (the axes) or of half a turn apart.
+    /// shortcut is taken or not), directions within a hair of the quadrants' borders (the
+    /// axes) or of half a turn apart, and points that are not numbers.
     #[test]
     fn the_quadrants_give_the_angles_answer() {
         let mut rng = Pcg64Mcg::seed_from_u64(11);
@@ -221,7 +222,7 @@ mod tests {
                 1 => std::f64::consts::PI,
                 _ => std::f64::consts::PI * (1.0 - 1e-9),
             };
-            let near: Vec<DVec3> = (0..count)
+            let mut near: Vec<DVec3> = (0..count)
                 .map(|_| {
                     let t = match rng.random_range(0..4) {
                         // Near an axis (a quadrant's border) by a hair either way.
@@ -236,6 +237,11 @@ mod tests {
                     r * (t.cos() * u + t.sin() * w) + rng.random_range(-0.2..0.2) * n
                 })
                 .collect();
+            // Points that are not numbers, which both skip.
+            if case % 7 == 0 && !near.is_empty() {
+                let at = rng.random_range(0..near.len());
+                near.insert(at, DVec3::new(f64::NAN, 0.0, 1.0));
+            }
             let fast = surrounded(DVec3::ZERO, n, near.iter().copied());
             assert_eq!(
                 fast,
