@@ -4,8 +4,11 @@
 //! the few candidates' surroundings gathered from the store. `stray_join` (`tile_outliers.rs`)
 //! marks the clumps' points in `strays.bin` with the outliers. Progress: stage `"clumps"`.
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use glam::DVec3;
 use psi_octree::{Aabb, Monitor};
+use rayon::prelude::*;
 use psi_preprocess::{ClumpCubes, ClumpScale, clumps_of_candidates, part_clump_spacings};
 use psi_tiles::{PointSource, TileStore};
 
@@ -44,6 +47,48 @@ impl<'a> Ranks<'a> {
         let start = i / RANK_BLOCK * RANK_BLOCK;
         let within = self.verdicts[start..i].iter().filter(|&&v| v == 0).count();
         self.before[i / RANK_BLOCK] + within as u64
+    }
+}
+
+/// The kept points of a store, part by part.
+struct KeptParts<'a> {
+    store: &'a TileStore,
+    ranks: &'a Ranks<'a>,
+    monitor: &'a Monitor<'a>,
+}
+
+impl KeptParts<'_> {
+    /// Per part of the store (in parallel), `visit(state, index, position)` over its kept
+    /// points in the file's order, from `start()`; the parts' states in part order, whatever
+    /// the threads. Progress: stage `"clumps"`, parts done of parts.
+    fn fold<T: Send>(
+        &self,
+        start: &(dyn Fn() -> T + Sync),
+        visit: &(dyn Fn(&mut T, u64, DVec3) + Sync),
+    ) -> Result<Vec<T>, String> {
+        let parts = self.store.part_count();
+        let done = AtomicU64::new(0);
+        (0..parts)
+            .into_par_iter()
+            .map(|part| {
+                self.monitor
+                    .check()
+                    .map_err(|_| "interrupted".to_string())?;
+                let mut state = start();
+                let points = self
+                    .store
+                    .part_where(part, &|_| true)
+                    .map_err(|e| e.to_string())?;
+                for (i, p) in points {
+                    if self.ranks.kept(i) {
+                        visit(&mut state, i, p.p);
+                    }
+                }
+                let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+                self.monitor.report("clumps", k, parts as u64);
+                Ok(state)
+            })
+            .collect()
     }
 }
 
@@ -121,18 +166,28 @@ pub(crate) fn stray_clumps(
         return Ok((Vec::new(), 0));
     }
     let scale = ClumpScale::of_spacings(spacings, bounds.diagonal());
-    let mut cubes = ClumpCubes::new(bounds.min, &scale);
-    each_kept(&mut |_, p| cubes.add(p))?;
+    // The passes over every kept point by parts in parallel, each part's result in part order:
+    // the sequential pass's counts, and its candidates in its order.
+    let kept_parts = KeptParts {
+        store,
+        ranks: &ranks,
+        monitor,
+    };
+    let cubes = kept_parts
+        .fold(&|| ClumpCubes::new(bounds.min, &scale), &|c, _, p| c.add(p))?
+        .into_iter()
+        .fold(ClumpCubes::new(bounds.min, &scale), ClumpCubes::merge);
     let candidates = cubes.candidates(&scale);
     if candidates.is_empty() {
         return Ok((Vec::new(), 0));
     }
-    let mut chosen = Vec::new();
-    each_kept(&mut |i, p| {
-        if candidates.holds(&cubes, p) {
-            chosen.push((i, p));
-        }
-    })?;
+    let chosen: Vec<(u64, DVec3)> = kept_parts
+        .fold(&Vec::new, &|chosen, i, p| {
+            if candidates.holds(&cubes, p) {
+                chosen.push((i, p));
+            }
+        })?
+        .concat();
     // (Indices in the store of all points order the kept points as their ranks do.) The
     // cube around the box, a rounding's margin wider: the search needs every point of the box
     // and takes more.
