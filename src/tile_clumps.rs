@@ -8,9 +8,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
 use psi_octree::{Aabb, Monitor};
-use rayon::prelude::*;
 use psi_preprocess::{ClumpCubes, ClumpScale, clumps_of_candidates, part_clump_spacings};
 use psi_tiles::{PointSource, TileStore};
+use rayon::prelude::*;
 
 use crate::tile_parts::{Halos, by_tile, each_tile, first_halo};
 
