@@ -1,16 +1,13 @@
 //! The stray-clump search of a run out of core (psi-preprocess's `clumps_by_parts`), after the
 //! outlier search and among the points it keeps, bitwise the in-core search: its spacings
-//! sampled tile by tile with halos, the cubes of edge h/(2√3) counted tile file by tile file,
+//! sampled tile by tile with halos, the cubes of edge h/(2√3) counted tile file by tile file (two at a time),
 //! the few candidates' surroundings gathered from the store. `stray_join` (`tile_outliers.rs`)
 //! marks the clumps' points in `strays.bin` with the outliers. Progress: stage `"clumps"`.
-
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
 use psi_octree::{Aabb, Monitor};
 use psi_preprocess::{ClumpCubes, ClumpScale, clumps_of_candidates, part_clump_spacings};
 use psi_tiles::{PointSource, TileStore};
-use rayon::prelude::*;
 
 use crate::tile_parts::{Halos, by_tile, each_tile, first_halo};
 
@@ -58,37 +55,50 @@ struct KeptParts<'a> {
 }
 
 impl KeptParts<'_> {
-    /// Per part of the store (in parallel), `visit(state, index, position)` over its kept
-    /// points in the file's order, from `start()`; the parts' states in part order, whatever
-    /// the threads. Progress: stage `"clumps"`, parts done of parts.
+    /// Per part of the store, `visit(state, index, position)` over its kept points in the
+    /// file's order, from `start()`; the parts' states in part order, whatever the threads.
+    /// Two parts at a time (the budget's tiling allows two tiles held at once, as
+    /// `each_tile_into` takes them); the first error in part order. Progress: stage
+    /// `"clumps"`, parts done of parts.
     fn fold<T: Send>(
         &self,
         start: &(dyn Fn() -> T + Sync),
         visit: &(dyn Fn(&mut T, u64, DVec3) + Sync),
     ) -> Result<Vec<T>, String> {
         let parts = self.store.part_count();
-        let done = AtomicU64::new(0);
-        (0..parts)
-            .into_par_iter()
-            .map(|part| {
-                self.monitor
-                    .check()
-                    .map_err(|_| "interrupted".to_string())?;
-                let mut state = start();
-                let points = self
-                    .store
-                    .part_where(part, &|_| true)
-                    .map_err(|e| e.to_string())?;
-                for (i, p) in points {
-                    if self.ranks.kept(i) {
-                        visit(&mut state, i, p.p);
-                    }
+        let one = |part: usize| -> Result<T, String> {
+            let mut state = start();
+            let points = self
+                .store
+                .part_where(part, &|_| true)
+                .map_err(|e| e.to_string())?;
+            for (i, p) in points {
+                if self.ranks.kept(i) {
+                    visit(&mut state, i, p.p);
                 }
-                let k = done.fetch_add(1, Ordering::Relaxed) + 1;
-                self.monitor.report("clumps", k, parts as u64);
-                Ok(state)
-            })
-            .collect()
+            }
+            Ok(state)
+        };
+        let mut states = Vec::with_capacity(parts);
+        for first in (0..parts).step_by(2) {
+            self.monitor
+                .check()
+                .map_err(|_| "interrupted".to_string())?;
+            self.monitor.report("clumps", first as u64, parts as u64);
+            let (a, b) = match first + 1 < parts {
+                true => {
+                    let (a, b) = rayon::join(|| one(first), || one(first + 1));
+                    (a, Some(b))
+                }
+                false => (one(first), None),
+            };
+            states.push(a?);
+            if let Some(b) = b {
+                states.push(b?);
+            }
+        }
+        self.monitor.report("clumps", parts as u64, parts as u64);
+        Ok(states)
     }
 }
 
@@ -166,8 +176,8 @@ pub(crate) fn stray_clumps(
         return Ok((Vec::new(), 0));
     }
     let scale = ClumpScale::of_spacings(spacings, bounds.diagonal());
-    // The passes over every kept point by parts in parallel, each part's result in part order:
-    // the sequential pass's counts, and its candidates in its order.
+    // The passes over every kept point by parts, two at a time, each part's result in part
+    // order: the sequential pass's counts, and its candidates in its order.
     let kept_parts = KeptParts {
         store,
         ranks: &ranks,

@@ -201,6 +201,13 @@ def test_sample_files_keeps_two_malloc_arenas_as_the_cli_does(tmp_path):
     assert 1 <= arenas("wrapped") <= 2
 
 
+def test_sample_files_pickles_by_name():
+    # (A wrapper in Python: pickle, and so a process pool's submit, must find it as psi's.)
+    import pickle
+
+    assert pickle.loads(pickle.dumps(psi.sample_files)) is psi.sample_files
+
+
 def test_outliers_are_left_out_tile_by_tile_unless_kept(cli, tmp_path):
     # The builtin model with 60 points scattered through its box (seeded) and 5 repeats.
     ps = psi.builtin_model(20_000)

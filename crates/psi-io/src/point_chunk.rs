@@ -31,6 +31,23 @@ impl PointChunk {
         Self::for_header(header, max.min(FRESH_CAPACITY))
     }
 
+    /// An empty chunk with the columns of `header` and room for `capacity` points when the
+    /// allocator grants it, else room for at most `fallback` (a request it refuses costs
+    /// the speed of growing, not the process).
+    pub(crate) fn with_room(header: &StreamHeader, capacity: usize, fallback: usize) -> Self {
+        let mut chunk = Self::for_header(header, 0);
+        let a = &mut chunk.attributes;
+        let granted = chunk.positions.try_reserve_exact(capacity).is_ok()
+            && reserve_column(&mut chunk.normals, capacity)
+            && reserve_column(&mut a.colors, capacity)
+            && reserve_column(&mut a.intensity, capacity)
+            && reserve_column(&mut a.classification, capacity);
+        match granted {
+            true => chunk,
+            false => Self::for_header(header, capacity.min(fallback)),
+        }
+    }
+
     /// An empty chunk with the columns of `header`.
     pub(crate) fn for_header(header: &StreamHeader, capacity: usize) -> Self {
         Self {
@@ -96,6 +113,13 @@ pub struct StreamEnd {
     pub invalid_points: u64,
 }
 
+/// Room for `n` more entries in `column` when it is there; false when the allocator refuses.
+fn reserve_column<T>(column: &mut Option<Vec<T>>, n: usize) -> bool {
+    column
+        .as_mut()
+        .is_none_or(|c| c.try_reserve_exact(n).is_ok())
+}
+
 /// A reader's I/O error as a [`ReadError::Io`].
 pub(crate) fn io_error(e: std::io::Error) -> ReadError {
     ReadError::Io {
@@ -131,4 +155,43 @@ pub(crate) fn emit_rest<F: FnMut(PointChunk) -> std::ops::ControlFlow<()>>(
         let _ = visit(chunk);
     }
     end
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn header() -> StreamHeader {
+        StreamHeader {
+            format: Format::Ply,
+            detail: String::new(),
+            announced_points: 0,
+            scans: None,
+            normals: true,
+            attributes: AttributeKinds {
+                colors: true,
+                intensity: false,
+                classification: true,
+            },
+        }
+    }
+
+    /// Room the allocator grants is held in every column; room it refuses (more than the
+    /// address space) falls back to the smaller room instead of ending the process.
+    #[test]
+    fn room_is_reserved_or_falls_back() {
+        let h = header();
+        let chunk = PointChunk::with_room(&h, 1000, 10);
+        assert!(chunk.positions.capacity() >= 1000);
+        assert!(chunk.normals.as_ref().unwrap().capacity() >= 1000);
+        assert!(chunk.attributes.colors.as_ref().unwrap().capacity() >= 1000);
+        assert!(chunk.attributes.intensity.is_none());
+        let huge = PointChunk::with_room(&h, usize::MAX / 8, 10);
+        assert_eq!(huge.positions.capacity(), 10);
+        assert_eq!(huge.normals.as_ref().unwrap().capacity(), 10);
+        assert_eq!(
+            huge.attributes.classification.as_ref().unwrap().capacity(),
+            10
+        );
+    }
 }

@@ -17,6 +17,9 @@ use crate::{read_e57, read_las, read_pcd, stream_ply, stream_xyz};
 /// The batch size [`read_points_from`] reads with.
 pub(crate) const COLLECT_CHUNK: usize = 1 << 18;
 
+/// The shortest point record of an uncompressed format, bytes: an ASCII line `0 0 0`.
+const SHORTEST_RECORD_BYTES: u64 = 6;
+
 enum Inner<R: Read + Seek> {
     Las(read_las::LasStream),
     E57(Box<read_e57::E57Stream<R>>),
@@ -162,14 +165,16 @@ pub fn read_points_from<R: Read + Seek + Send + Sync + 'static>(
 ) -> Result<PointCloudFile, ReadError> {
     let mut input = input;
     // Room for the points the header announces, held once instead of grown by doubling (each
-    // doubling copies what was read and faults in new pages), as long as the input's bytes
-    // can hold them (a byte a point at least, in every format read here): a header that
-    // announces more than that, or an input that cannot seek, gets a chunk's room and grows.
-    let room = remaining_bytes(&mut input).unwrap_or(COLLECT_CHUNK as u64);
+    // doubling copies what was read and faults in new pages), as far as the input's bytes can
+    // hold them at the shortest record of an uncompressed format: a header that announces
+    // more gets that much room and the reading ends in its error as before; a compressed
+    // input (LAZ, E57, compressed PCD) may get less room than it needs, and grows.
+    let room = remaining_bytes(&mut input).map_err(io_error)?;
     let stream = PointStream::open(input, format)?;
     let header = stream.header().clone();
-    let capacity = usize::try_from(header.announced_points.min(room)).unwrap_or(COLLECT_CHUNK);
-    let mut all = PointChunk::for_header(&header, capacity);
+    let capacity = header.announced_points.min(room / SHORTEST_RECORD_BYTES);
+    let capacity = usize::try_from(capacity).unwrap_or(usize::MAX);
+    let mut all = PointChunk::with_room(&header, capacity, COLLECT_CHUNK);
     let end = stream.for_each_chunk(COLLECT_CHUNK, |chunk| {
         append(&mut all, chunk);
         ControlFlow::Continue(())

@@ -78,7 +78,7 @@ fn surrounded_by_angles(y: DVec3, n: DVec3, near: impl IntoIterator<Item = DVec3
     gap_below_half_turn(angles)
 }
 
-/// Whether `angles` (radians in (−π, π], any order), at least 3 of them, leave no gap of half
+/// Whether `angles` (radians in [−π, π], any order), at least 3 of them, leave no gap of half
 /// a turn or more between consecutive ones around the circle.
 fn gap_below_half_turn(mut angles: Vec<f64>) -> bool {
     if angles.len() < 3 {

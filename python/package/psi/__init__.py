@@ -50,3 +50,7 @@ def sample_files(*args: _Any, **kwargs: _Any) -> _Any:
     # psi/_allocator.py.)
     _limit_arenas()
     return _sample_files(*args, **kwargs)
+
+
+# (`wraps` copied the extension's module; pickle finds the function by this one.)
+sample_files.__module__ = __name__

@@ -20,9 +20,12 @@ _limited = False
 
 
 def limit_arenas() -> None:
-    """Once per process: at most ``ARENAS`` malloc arenas, on Linux with glibc, unless the
-    user chose with ``MALLOC_ARENA_MAX``. Threads that already have an arena keep it; new ones
-    share. Elsewhere, nothing."""
+    """Once per process, on Linux with glibc, unless the user chose with ``MALLOC_ARENA_MAX``:
+    glibc creates no arena beyond ``ARENAS`` in all from then on. Threads that already have an
+    arena keep it, and threads started later share the arenas there are (all of them, when an
+    earlier multi-threaded run made more). It changes nothing once the process has had more
+    than eight arenas (glibc fixes its limit then); the environment variable, set before the
+    process starts, always holds. Elsewhere, nothing."""
     global _limited
     if _limited:
         return
