@@ -1,15 +1,16 @@
 //! The stray-clump search of a run out of core (psi-preprocess's `clumps_by_parts`), after the
 //! outlier search and among the points it keeps, bitwise the in-core search: its spacings
-//! sampled tile by tile with halos, the cubes of edge h/(2√3) counted tile file by tile file (two at a time),
-//! the few candidates' surroundings gathered from the store. `stray_join` (`tile_outliers.rs`)
-//! marks the clumps' points in `strays.bin` with the outliers. Progress: stage `"clumps"`.
+//! sampled tile by tile with halos, the cubes of edge h/(2√3) counted tile file by tile file
+//! (two at a time), the few candidates' surroundings gathered from the store. `stray_join`
+//! (`tile_outliers.rs`) marks the clumps' points in `strays.bin` with the outliers. Progress:
+//! stage `"clumps"`.
 
 use glam::DVec3;
 use psi_octree::{Aabb, Monitor};
 use psi_preprocess::{ClumpCubes, ClumpScale, clumps_of_candidates, part_clump_spacings};
 use psi_tiles::{PointSource, TileStore};
 
-use crate::tile_parts::{Halos, by_tile, each_tile, first_halo};
+use crate::tile_parts::{Halos, by_tile, each_tile, first_halo, side_by_side};
 
 /// Points between the counts of kept points that rank a point among them.
 const RANK_BLOCK: usize = 256;
@@ -55,46 +56,55 @@ struct KeptParts<'a> {
 }
 
 impl KeptParts<'_> {
+    /// `visit(index, position)` over the kept points of part `part`, in the file's order.
+    fn each_of(&self, part: usize, visit: &mut dyn FnMut(u64, DVec3)) -> Result<(), String> {
+        let points = (self.store)
+            .part_where(part, &|_| true)
+            .map_err(|e| e.to_string())?;
+        for (i, p) in points {
+            if self.ranks.kept(i) {
+                visit(i, p.p);
+            }
+        }
+        Ok(())
+    }
+
+    /// `visit` over every kept point, part after part (progress: stage `"clumps"`).
+    fn each(&self, visit: &mut dyn FnMut(u64, DVec3)) -> Result<(), String> {
+        let parts = self.store.part_count();
+        for part in 0..parts {
+            self.monitor.report("clumps", part as u64, parts as u64);
+            self.monitor
+                .check()
+                .map_err(|_| "interrupted".to_string())?;
+            self.each_of(part, visit)?;
+        }
+        Ok(())
+    }
+
     /// Per part of the store, `visit(state, index, position)` over its kept points in the
     /// file's order, from `start()`; the parts' states in part order, whatever the threads.
-    /// Two parts at a time (the budget's tiling allows two tiles held at once, as
-    /// `each_tile_into` takes them); the first error in part order. Progress: stage
-    /// `"clumps"`, parts done of parts.
+    /// Two parts at a time ([`side_by_side`], as the tiles are taken); the first error in
+    /// part order. Progress: stage `"clumps"`, parts done of parts.
     fn fold<T: Send>(
         &self,
         start: &(dyn Fn() -> T + Sync),
         visit: &(dyn Fn(&mut T, u64, DVec3) + Sync),
     ) -> Result<Vec<T>, String> {
         let parts = self.store.part_count();
-        let one = |part: usize| -> Result<T, String> {
+        let one = |part: &mut usize| -> Result<T, String> {
             let mut state = start();
-            let points = self
-                .store
-                .part_where(part, &|_| true)
-                .map_err(|e| e.to_string())?;
-            for (i, p) in points {
-                if self.ranks.kept(i) {
-                    visit(&mut state, i, p.p);
-                }
-            }
+            self.each_of(*part, &mut |i, p| visit(&mut state, i, p))?;
             Ok(state)
         };
         let mut states = Vec::with_capacity(parts);
-        for first in (0..parts).step_by(2) {
+        for pair in (0..parts).collect::<Vec<usize>>().chunks_mut(2) {
             self.monitor
                 .check()
                 .map_err(|_| "interrupted".to_string())?;
-            self.monitor.report("clumps", first as u64, parts as u64);
-            let (a, b) = match first + 1 < parts {
-                true => {
-                    let (a, b) = rayon::join(|| one(first), || one(first + 1));
-                    (a, Some(b))
-                }
-                false => (one(first), None),
-            };
-            states.push(a?);
-            if let Some(b) = b {
-                states.push(b?);
+            self.monitor.report("clumps", pair[0] as u64, parts as u64);
+            for state in side_by_side(pair, &one) {
+                states.push(state?);
             }
         }
         self.monitor.report("clumps", parts as u64, parts as u64);
@@ -120,23 +130,16 @@ pub(crate) fn stray_clumps(
     let keep = |i: u64| Ok::<bool, String>(ranks.kept(i));
     let fail = |e: psi_tiles::TileError| e.to_string();
     let tiles = store.part_count();
-    let each_kept = |visit: &mut dyn FnMut(u64, DVec3)| -> Result<(), String> {
-        for part in 0..tiles {
-            monitor.report("clumps", part as u64, tiles as u64);
-            monitor.check().map_err(|_| "interrupted".to_string())?;
-            for (i, p) in store.part_where(part, &|_| true).map_err(fail)? {
-                if ranks.kept(i) {
-                    visit(i, p.p);
-                }
-            }
-        }
-        Ok(())
+    let kept_parts = KeptParts {
+        store,
+        ranks: &ranks,
+        monitor,
     };
     let bounds = match store.bounds_where(&keep).map_err(fail)? {
         Some(b) => Some(b),
         None => {
             let mut b: Option<Aabb> = None;
-            each_kept(&mut |_, p| {
+            kept_parts.each(&mut |_, p| {
                 b = Some(b.map_or(Aabb { min: p, max: p }, |b| Aabb {
                     min: b.min.min(p),
                     max: b.max.max(p),
@@ -178,11 +181,6 @@ pub(crate) fn stray_clumps(
     let scale = ClumpScale::of_spacings(spacings, bounds.diagonal());
     // The passes over every kept point by parts, two at a time, each part's result in part
     // order: the sequential pass's counts, and its candidates in its order.
-    let kept_parts = KeptParts {
-        store,
-        ranks: &ranks,
-        monitor,
-    };
     let cubes = kept_parts
         .fold(&|| ClumpCubes::new(bounds.min, &scale), &|c, _, p| c.add(p))?
         .into_iter()

@@ -62,29 +62,36 @@ pub(crate) fn each_tile_into<T: Send>(
     let _span = tracing::info_span!("out_of_core_stage", stage, tiles = keys.len()).entered();
     for (p, pair) in keys.chunks(2).enumerate() {
         monitor.report(stage, (2 * p) as u64, keys.len() as u64);
-        let mut h: Vec<f64> = pair
+        let mut pair: Vec<([u32; 3], f64)> = pair
             .iter()
-            .map(|k| halos.get(k).copied().unwrap_or_else(|| first(*k)))
+            .map(|&k| (k, halos.get(&k).copied().unwrap_or_else(|| first(k))))
             .collect();
-        let (a, b) = match (pair, h.as_mut_slice()) {
-            ([k], [h0]) => (work(*k, h0), None),
-            ([k0, k1], [h0, h1]) => {
-                let (a, b) = rayon::join(|| work(*k0, h0), || work(*k1, h1));
-                (a, Some(b))
-            }
-            _ => unreachable!("pairs"),
-        };
-        for (k, h) in pair.iter().zip(&h) {
-            halos.insert(*k, *h);
-        }
-        sink(a?)?;
-        if let Some(b) = b {
-            sink(b?)?;
+        let done = side_by_side(&mut pair, &|(k, h)| work(*k, h));
+        halos.extend(pair);
+        for result in done {
+            sink(result?)?;
         }
         monitor.check().map_err(|_| "interrupted".to_string())?;
     }
     monitor.report(stage, keys.len() as u64, keys.len() as u64);
     Ok(())
+}
+
+/// `work` on each of `items` (one or two: the tiles the budget allows held at once), the
+/// second on the other thread while the first's own parallel work waits (rayon's join); the
+/// results in the order of `items`.
+pub(crate) fn side_by_side<I: Send, T: Send>(
+    items: &mut [I],
+    work: &(dyn Fn(&mut I) -> T + Sync),
+) -> Vec<T> {
+    match items {
+        [a] => vec![work(a)],
+        [a, b] => {
+            let (x, y) = rayon::join(|| work(a), || work(b));
+            vec![x, y]
+        }
+        _ => unreachable!("one or two items at a time"),
+    }
 }
 
 /// [`each_tile_into`], the results collected in the order of `keys`.
