@@ -520,7 +520,11 @@ fn seed_region(
                 in_region(y) || cover.holds(y)
             })
         };
-        thinned.keep_from_region(&mut mpu, &own_leaves, rate, &complete);
+        // The particles' data floor at each depth, at its least: σ̂'s scale, set once every
+        // region is seeded, is at least 1/√k (`sample_tiled_from`).
+        let least_scale = 1.0 / (params.k.max(1) as f64).sqrt();
+        let floor_at = |depth: u8| params.data_floor * least_scale * field.target_sigma(depth);
+        thinned.keep_from_region(&mut mpu, &own_leaves, rate, &floor_at, &complete);
     }
     Ok(OctantSeeds {
         leaves,

@@ -15,6 +15,9 @@ use crate::{
     seed_octant,
 };
 
+/// What the seeds files hold, in their fingerprint: a file of another layout is made again.
+const SEEDS_FORMAT: &str = "thinned data with each point's need";
+
 /// The seeds of the octant `octant` (key at depth 1) of the MPU `decisions` describe (decided
 /// from `store` with `mpu_params` and `tiles`), with `params` and the relaxation's budget of
 /// `relax_points` input points: from the octant's seeds file
@@ -34,7 +37,9 @@ pub fn seed_store_octant(
 ) -> Result<OctantSeeds, TileError> {
     let mut h = Sha256::new();
     h.update(fingerprint(store, mpu_params, tiles));
-    h.update(format!("{params:?} {SEED_MARGIN} {relax_points}"));
+    h.update(format!(
+        "{params:?} {SEED_MARGIN} {relax_points} {SEEDS_FORMAT}"
+    ));
     let print: String = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
     let path = store.dir().join(format!(
         "seeds-{}-{}-{}.bin",

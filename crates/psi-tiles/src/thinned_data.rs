@@ -7,7 +7,10 @@
 //! Each region of the seeding holds the points of its leaves with a margin, so it measures the
 //! footprint of its own points on the whole input there. It keeps every point within two hops
 //! of the data's edge (where the test reads the input at its own resolution) and the others
-//! whose position hash lies below the rate. A region of a random sampling, whose seeming edge
+//! whose position hash lies below the rate, or below the rate its place needs: where the
+//! particles' data floor is only a few input spacings (the finest levels of a dense input), a
+//! subset thinned at the budget's rate has gaps the whole input lacks, and its test refuses
+//! moves the whole test accepts ([`needed_rate`]). A region of a random sampling, whose seeming edge
 //! points are too many for a band, is not measured: its kept points take the whole test on the
 //! subset's own points when the subset holds [`OWN_TEST_POINTS_PER_PARTICLE`] points a particle
 //! or more, else the lenient test (docs/notes/2026-11-28-unmeasured-own-test.md). The
@@ -29,6 +32,36 @@ pub struct ThinnedData {
     pub points: Vec<OrientedPoint>,
     /// What the whole input says of each (shape: N).
     pub footprints: Vec<PointFootprint>,
+    /// The rate each point's place needs ([`needed_rate`], in [0, 1]; shape: N): kept before
+    /// the others when the budget is short ([`ThinnedData::at_most`]).
+    pub need: Vec<f64>,
+}
+
+/// The subset's spacing is at most this share of the particles' data floor where it can be
+/// (`needed_rate`).
+const SUBSET_SPACING_PER_FLOOR: f64 = 1.0 / 3.0;
+
+/// The rate at which a subset of an input of spacing `spacing` (world units, `d₈·√(π/8)`: the
+/// radius of the disc that holds one point) has its spacing at most a third of `floor`, the
+/// data floor of the particles there (world units: `ParticleParams::data_floor` × σ̂ of the
+/// leaf's depth): `min(1, (3·spacing/floor)²)`, 0 for a floor of 0 or less.
+///
+/// The footprint test refuses a position whose nearest input point lies beyond the floor. In a
+/// random sampling of spacing s, the nearest point to a position on the surface lies beyond x
+/// with probability e^(−x²/s²) (the nearest-neighbour distance of a Poisson process of density
+/// 1/(πs²)): at a floor of three subset spacings the subset refuses e^−9 ≈ 1e-4 of the
+/// positions for its own gaps, where a subset of half that density refused a twentieth of the
+/// finest particles' moves on a 10 M-point input the whole input accepted
+/// (docs/notes/2026-12-04-thinned-finest-level.md). The points a place needs are about
+/// 9A/(π·floor²) for its area A: some tens a particle, whatever the input's size.
+pub(crate) fn needed_rate(spacing: f64, floor: f64) -> f64 {
+    if floor > 0.0 && spacing.is_finite() {
+        (spacing / (SUBSET_SPACING_PER_FLOOR * floor))
+            .powi(2)
+            .min(1.0)
+    } else {
+        0.0
+    }
 }
 
 impl ThinnedData {
@@ -44,9 +77,11 @@ impl ThinnedData {
 
     /// Appends the points of `leaves` of `mpu` (an MPU over the points around them, its leaf
     /// indices the whole octree's; one region of the seeding) that lie in a band along the
-    /// data's edge or whose position hash is below `rate` (in [0, 1]), with their footprint
-    /// on `mpu`'s points. The band is the points within two hops of the edge, or one, the
-    /// widest that fits the region's share of the budget (`rate` × its points), else none
+    /// data's edge or whose position hash is below `rate` (in [0, 1]) or below the rate their
+    /// place needs ([`needed_rate`] for the particles' data floor `floor_at(depth)` at their
+    /// leaf's depth, world units), with their footprint on `mpu`'s points. The band is the
+    /// points within two hops of the edge, or one, the widest that fits the region's share of
+    /// the budget (`rate` × its points), else none
     /// (an irregular sampling whose every tenth point looks like an edge point, or a tiny
     /// share: its points carry the median spacing of a sample of them): a bound on what the
     /// seeding carries. Each footprint records the hops tested exactly
@@ -58,14 +93,19 @@ impl ThinnedData {
         mpu: &mut Mpu,
         leaves: &[u32],
         rate: f64,
+        floor_at: &dyn Fn(u8) -> f64,
         complete: &dyn Fn(DVec3, f64) -> bool,
     ) {
         let input = mpu.points();
         let tree = mpu.octree();
-        let qs: Vec<u32> = leaves
+        // Each point with its leaf's data floor (leaf by leaf, in the leaves' order).
+        let (qs, floors): (Vec<u32>, Vec<f64>) = leaves
             .iter()
-            .flat_map(|&l| tree.points_in(l).iter().copied())
-            .collect();
+            .flat_map(|&l| {
+                let floor = floor_at(tree.cell(l).depth);
+                tree.points_in(l).iter().map(move |&q| (q, floor))
+            })
+            .unzip();
         let share = rate * qs.len() as f64;
         // Measuring every point costs a 9-nearest query each; where the sample says that even
         // the one-hop band would not fit (an irregular sampling's many seeming edge points),
@@ -86,11 +126,13 @@ impl ThinnedData {
             let mut spacings: Vec<f64> = sample.iter().map(|&q| mpu.input_spacing(q)).collect();
             spacings.sort_by(f64::total_cmp);
             let spacing = spacings.get(spacings.len() / 2).copied().unwrap_or(0.0);
-            for &q in &qs {
+            for (&q, &floor) in qs.iter().zip(&floors) {
                 let p = input[q as usize];
-                if position_hash(p.p) < rate {
+                let need = needed_rate(spacing, floor);
+                if position_hash(p.p) < rate.max(need) {
                     self.points.push(p);
                     self.footprints.push(PointFootprint::unmeasured(spacing));
+                    self.need.push(need);
                 }
             }
             return;
@@ -104,11 +146,13 @@ impl ThinnedData {
             .find(|&k| within(k) <= share)
             .unwrap_or(0);
         let exact = band.saturating_sub(1);
-        for (&q, f) in qs.iter().zip(footprints) {
+        for ((&q, f), &floor) in qs.iter().zip(footprints).zip(&floors) {
             let p = input[q as usize];
-            if f.hops() < band || position_hash(p.p) < rate {
+            let need = needed_rate(f.spacing(), floor);
+            if f.hops() < band || position_hash(p.p) < rate.max(need) {
                 self.points.push(p);
                 self.footprints.push(f.thinned_to(rate, exact));
+                self.need.push(need);
             }
         }
     }
@@ -117,18 +161,20 @@ impl ThinnedData {
     pub(crate) fn extend(&mut self, other: ThinnedData) {
         self.points.extend(other.points);
         self.footprints.extend(other.footprints);
+        self.need.extend(other.need);
     }
 
-    /// The points in the order given, about `at_most` of them (a hash threshold keeps the expected number): every point of the bands along
-    /// the data's edge, and the others of the lowest position hash (kept at `rate`, so that
-    /// their hashes lie below it). The bands are the regions', narrowed alike everywhere (two
-    /// hops wide, one, or none) until they take at most half the budget: a survey's edges are
-    /// a small share of its points, a small scan's or an irregular sampling's may not be.
-    /// Each footprint records the rate of the points outside the bands and the hops tested
-    /// exactly ([`PointFootprint::thinned_to`]).
+    /// The points in the order given, at most `at_most` of them: every point of the bands
+    /// along the data's edge, then the points their place needs ([`ThinnedData::need`]), then
+    /// the others of the lowest position hash (the regions kept those below `rate`). The bands
+    /// are the regions', narrowed alike everywhere (two hops wide, one, or none) until they
+    /// take at most half the budget: a survey's edges are a small share of its points, a small
+    /// scan's or an irregular sampling's may not be. Each footprint records the rate at which
+    /// its place was kept and the hops tested exactly ([`PointFootprint::thinned_to`]).
     /// Unmeasured points take the whole test on the subset's own points when the subset holds
     /// at least [`OWN_TEST_POINTS_PER_PARTICLE`] points for each of the `particles`
-    /// ([`PointFootprint::with_own_test`]).
+    /// ([`PointFootprint::with_own_test`]). Which points are kept depends on the points and
+    /// their needs, not on their order.
     pub(crate) fn at_most(self, at_most: usize, rate: f64, particles: usize) -> ThinnedData {
         let widest = [DEEP - 1, 1, 0];
         // A footprint with its band narrowed to at most `cap` hops tested exactly.
@@ -146,34 +192,80 @@ impl ThinnedData {
         let footprints: Vec<PointFootprint> =
             self.footprints.iter().map(|f| narrowed(f, cap)).collect();
         let hashes: Vec<f64> = self.points.iter().map(|p| position_hash(p.p)).collect();
+        let need = |i: usize| self.need.get(i).copied().unwrap_or(0.0);
         let band = footprints.iter().filter(|f| in_band(f)).count();
-        // The others: those kept at `rate`, and a narrowed band's outer points (kept whatever
-        // their hash), which the same threshold thins alike.
-        let eligible = (0..self.len())
-            .filter(|&i| !in_band(&footprints[i]) && hashes[i] < rate)
-            .count();
-        let left = at_most.saturating_sub(band);
-        let deep_rate = if eligible <= left {
-            rate
-        } else {
-            rate * left as f64 / eligible as f64
-        };
-        let order: Vec<usize> = (0..self.len())
-            .filter(|&i| in_band(&footprints[i]) || hashes[i] < deep_rate)
+        // The others, those the regions kept (a narrowed band's outer points, kept whatever
+        // their hash, are thinned alike): first those their place needs, then by hash.
+        let others: Vec<usize> = (0..self.len())
+            .filter(|&i| !in_band(&footprints[i]) && hashes[i] < rate.max(need(i)))
             .collect();
-        // A rate of 0 (no deep point kept) would make the lenient test's reach infinite.
-        let deep_rate = deep_rate.clamp(1e-6, 1.0);
+        let keep = KeepRates::within(
+            others.iter().map(|&i| (hashes[i], need(i))),
+            rate,
+            at_most.saturating_sub(band),
+        );
+        let kept_at = |i: usize| keep.rate_for(need(i));
+        let order: Vec<usize> = (0..self.len())
+            .filter(|&i| in_band(&footprints[i]) || hashes[i] < kept_at(i))
+            .collect();
         let own_test = order.len() >= OWN_TEST_POINTS_PER_PARTICLE * particles;
         ThinnedData {
             points: order.iter().map(|&i| self.points[i]).collect(),
             footprints: order
                 .iter()
                 .map(|&i| {
-                    let f = footprints[i].thinned_to(deep_rate, footprints[i].exact_hops());
+                    // A rate of 0 (no deep point kept) would make the lenient test's reach
+                    // infinite.
+                    let r = kept_at(i).clamp(1e-6, 1.0);
+                    let f = footprints[i].thinned_to(r, footprints[i].exact_hops());
                     if own_test { f.with_own_test() } else { f }
                 })
                 .collect(),
+            need: order.iter().map(|&i| need(i)).collect(),
         }
+    }
+}
+
+/// The hash thresholds of [`ThinnedData::at_most`]: a point outside the bands is kept when its
+/// position hash lies below `max(uniform, scale × need)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct KeepRates {
+    uniform: f64,
+    scale: f64,
+}
+
+impl KeepRates {
+    /// The thresholds that keep at most `room` of `points` (each its position hash and the
+    /// rate its place needs; those the regions kept, below `max(rate, need)`): every point
+    /// below its need and the lowest hashes of the others up to `rate` when they fit; else,
+    /// when the needs alone do not fit, the needs scaled down alike (the lowest hash/need).
+    fn within(points: impl Iterator<Item = (f64, f64)>, rate: f64, room: usize) -> KeepRates {
+        let (needed, mut rest): (Vec<(f64, f64)>, Vec<(f64, f64)>) =
+            points.partition(|&(h, need)| h < need);
+        if needed.len() > room {
+            let mut keys: Vec<f64> = needed.iter().map(|&(h, need)| h / need).collect();
+            keys.sort_by(f64::total_cmp);
+            return KeepRates {
+                uniform: 0.0,
+                scale: keys[room],
+            };
+        }
+        let left = room - needed.len();
+        let uniform = if rest.len() <= left {
+            rate
+        } else {
+            rest.sort_by(|a, b| a.0.total_cmp(&b.0));
+            rest[left].0
+        };
+        KeepRates {
+            uniform,
+            scale: 1.0,
+        }
+    }
+
+    /// The hash threshold of a point whose place needs the rate `need`.
+    fn rate_for(&self, need: f64) -> f64 {
+        self.uniform.max(self.scale * need)
     }
 }
 
@@ -213,6 +305,7 @@ mod tests {
                 })
                 .collect(),
             footprints: vec![PointFootprint::unmeasured(1e-3).thinned_to(1.0, 0); n],
+            need: vec![0.0; n],
         };
         // Every point fits (rate 1): all kept, whatever the particles.
         let own_tests = |particles: usize| {
@@ -228,5 +321,69 @@ mod tests {
         assert_eq!(own_tests(1), n);
         assert_eq!(own_tests(most), n);
         assert_eq!(own_tests(most + 1), 0);
+    }
+
+    /// Brute force: the points kept at the thresholds, counted one by one.
+    fn kept(points: &[(f64, f64)], k: KeepRates) -> usize {
+        points.iter().filter(|&&(h, n)| h < k.rate_for(n)).count()
+    }
+
+    /// The thresholds keep the needed points first and then the lowest hashes, exactly as
+    /// many as there is room for (against a count of the kept points), whatever the order of
+    /// the points; when the needs alone overflow, the needed points of lowest hash/need.
+    #[test]
+    fn keep_rates_fill_the_room_with_the_needed_points_first() {
+        use rand::seq::SliceRandom;
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
+        let rate = 0.25;
+        // 20 000 points: a tenth need every point of their place, a tenth need 0.5, the rest
+        // nothing; those the regions kept (below max(rate, need)).
+        let mut points: Vec<(f64, f64)> = (0..20_000)
+            .map(|i| {
+                let need = [1.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0][i % 10];
+                (rng.random::<f64>(), need)
+            })
+            .filter(|&(h, n)| h < f64::max(rate, n))
+            .collect();
+        let needed = points.iter().filter(|&&(h, n)| h < n).count();
+        for room in [
+            points.len() + 10,
+            points.len(),
+            needed + 1_000,
+            needed,
+            needed / 3,
+        ] {
+            let k = KeepRates::within(points.iter().copied(), rate, room);
+            let n = kept(&points, k);
+            assert_eq!(n, room.min(points.len()), "room {room}");
+            if room >= needed {
+                // Every needed point, and the others by hash.
+                assert_eq!(k.scale, 1.0);
+                assert!(points.iter().all(|&(h, n)| h >= n || h < k.rate_for(n)));
+            } else {
+                // Needed points only, the lowest hash/need.
+                assert_eq!(k.uniform, 0.0);
+                assert!(
+                    points
+                        .iter()
+                        .all(|&(h, n)| h >= n || h < k.rate_for(n) || h / n >= k.scale)
+                );
+            }
+            points.shuffle(&mut rng);
+            assert_eq!(KeepRates::within(points.iter().copied(), rate, room), k);
+        }
+    }
+
+    /// The needed rate: the subset's spacing (spacing/√rate) a third of the floor, at most 1.
+    #[test]
+    fn the_needed_rate_puts_three_subset_spacings_in_the_floor() {
+        for (spacing, floor) in [(1e-4, 1.2e-3), (3e-5, 4e-4), (2.0, 50.0)] {
+            let r = needed_rate(spacing, floor);
+            psi_shapes::assert_near!(spacing / r.sqrt(), floor / 3.0, 1e-12 * floor);
+        }
+        assert_eq!(needed_rate(1e-4, 2e-4), 1.0);
+        assert_eq!(needed_rate(1e-4, 0.0), 0.0);
+        assert_eq!(needed_rate(f64::NAN, 1.0), 0.0);
     }
 }
