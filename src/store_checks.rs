@@ -274,7 +274,8 @@ pub(crate) fn check_store(
         .with_normals_negated(false)
         .map_err(|e| fail(e.to_string()))?;
     let mut halos = Halos::new();
-    let (inward, noise, consistency) = inward_and_noise(&store, wanted, &mut halos, monitor)?;
+    let (inward, noise, consistency) =
+        inward_and_noise(&store, (wanted, options.max_memory), &mut halos, monitor)?;
     let diagonal = store.manifest().frame.diagonal;
     let noise_rel = noise.filter(|_| diagonal > 0.0).map(|n| n.sigma / diagonal);
     let mut checks = StoreChecks {
@@ -306,8 +307,9 @@ pub(crate) fn check_store(
         let made = denoise_store(&store, noise.sigma, at, &mut halos, monitor);
         match made.map_err(fail_denoising)? {
             Some((denoised, report)) => {
-                let (after, _) = store_noise(&denoised, &mut Halos::new(), None, false, monitor)
-                    .map_err(fail_denoising)?;
+                let (after, _) =
+                    store_noise(&denoised, &mut Halos::new(), None, (false, 0), monitor)
+                        .map_err(fail_denoising)?;
                 checks.denoised = Some(report);
                 checks.denoised_store = Some(denoised.digest());
                 checks.noise_rel_after_bits = Some((after.0.sigma / diagonal).to_bits());
@@ -327,10 +329,10 @@ pub(crate) fn check_store(
 
 /// The inward check's votes (when `wanted`), the noise estimate and the consistency of given
 /// normals (when `wanted`, in the noise's tiles) of `store`'s points, its tiles' halos kept
-/// in `halos`.
+/// in `halos`; the noise reads ahead within `max_memory` bytes ([`store_noise`]).
 fn inward_and_noise(
     store: &TileStore,
-    wanted: ChecksWanted,
+    (wanted, max_memory): (ChecksWanted, u64),
     halos: &mut Halos,
     monitor: &Monitor<'_>,
 ) -> Result<CheckedNoise, PsiError> {
@@ -348,8 +350,14 @@ fn inward_and_noise(
     };
     let (noise, consistency) = if wanted.noise {
         let visit: Option<&TileVisit<'_>> = wanted.inward.then_some(&visit);
-        let (noise, consistency) =
-            store_noise(store, halos, visit, wanted.consistency, monitor).map_err(fail)?;
+        let (noise, consistency) = store_noise(
+            store,
+            halos,
+            visit,
+            (wanted.consistency, max_memory),
+            monitor,
+        )
+        .map_err(fail)?;
         (Some(noise.0), consistency)
     } else if wanted.consistency {
         let counted = store_consistency(store, halos, monitor).map_err(fail)?;

@@ -4,13 +4,15 @@
 //! estimate of the same points in the same order. The orientation's level (`tile_normals.rs`)
 //! and the run's error threshold (`store_checks.rs`) read it.
 
+use std::collections::HashMap;
 use std::sync::Mutex;
 
 use glam::DVec3;
 use psi_octree::Monitor;
 use psi_preprocess::{
-    CONSISTENCY_QUERIES, NoiseEstimate, NoiseRound, NormalConsistency, noise_by_rounds,
-    part_noise_samples, part_normal_consistency,
+    CONSISTENCY_QUERIES, NoiseEstimate, NoiseRound, NormalConsistency, WideNeighbourhood,
+    noise_by_rounds, part_noise_reading_wide, part_normal_consistency, wide_residuals,
+    widest_round,
 };
 use psi_tiles::{TileStore, TileWithHalo};
 
@@ -20,13 +22,26 @@ use crate::tile_parts::{Halos, by_tile, each_tile, first_halo};
 /// are its own), made while the noise's first round holds them.
 pub(crate) type TileVisit<'a> = dyn Fn([u32; 3], &TileWithHalo) + Sync + 'a;
 
+/// The second round's neighbourhoods are read in the first when they take at most this share
+/// of the memory budget (2 048 samples of up to 256 neighbours, 32 bytes each: 16.8 MB).
+const READ_AHEAD_SHARE: u64 = 32;
+
+/// The bytes the second round's neighbourhoods take when read ahead, for `n` points.
+fn read_ahead_bytes(n: usize) -> u64 {
+    let wide = widest_round(n);
+    (n.div_ceil(wide.stride) * wide.k * std::mem::size_of::<(DVec3, f64)>()) as u64
+}
+
 /// The noise estimate of `store`'s positions and the median reach of its first round's
 /// samples (world units), as [`psi_preprocess::estimate_noise`] finds them for the points in
 /// index order. Each tile's halo starts from `halos` (else [`first_halo`]) and is kept there,
 /// grown as its points needed; `visit` sees each tile once. With `consistency`, also the
 /// consistency check of the normals ([`psi_preprocess::check_normal_consistency`] with the
-/// preprocessing's queries) in the first round's tiles. Progress: stage `"noise"`, tiles done
-/// of tiles.
+/// preprocessing's queries) in the first round's tiles. Where the second round's
+/// neighbourhoods fit a 32nd of `max_memory` (bytes; 0: never), the first round reads them
+/// too, as far as each tile's halo holds them, and the second reads again only the tiles whose
+/// halo held fewer than it asks for (the same fits: `docs/notes/2026-12-04-noise-read-ahead.md`). Progress: stage `"noise"`, tiles done of
+/// tiles.
 ///
 /// # Errors
 ///
@@ -35,7 +50,7 @@ pub(crate) fn store_noise(
     store: &TileStore,
     halos: &mut Halos,
     visit: Option<&TileVisit<'_>>,
-    consistency: bool,
+    (consistency, max_memory): (bool, u64),
     monitor: &Monitor<'_>,
 ) -> Result<((NoiseEstimate, f64), Option<NormalConsistency>), String> {
     let n =
@@ -44,26 +59,52 @@ pub(crate) fn store_noise(
     let first = |key| first_halo(store, key);
     let mut rounds = 0;
     let counted = Mutex::new(consistency.then(NormalConsistency::default));
+    let read_ahead = (n >= 7 && read_ahead_bytes(n).saturating_mul(READ_AHEAD_SHARE) <= max_memory)
+        .then(|| widest_round(n));
+    // The second round's neighbourhoods of each tile's samples, as far as its halo held them.
+    let read: Mutex<HashMap<[u32; 3], Vec<WideNeighbourhood>>> = Mutex::new(HashMap::new());
     let noise = noise_by_rounds(n, |round: NoiseRound| {
         rounds += 1;
         let first_round = rounds == 1;
         let visit = visit.filter(|_| first_round);
-        let found = each_tile(
+        let wide = read_ahead.filter(|_| first_round);
+        // The second round: from the neighbourhoods read, the other tiles read again.
+        let mut found = Vec::new();
+        let mut read = read.lock().expect("not poisoned");
+        let keys: Vec<[u32; 3]> = match first_round {
+            true => keys.clone(),
+            false => {
+                let reads = |key: &[u32; 3]| {
+                    read.get(key)
+                        .is_some_and(|near| near.iter().all(|w| w.reads(round.k)))
+                };
+                for key in keys.iter().filter(|k| reads(k)) {
+                    found.extend(wide_residuals(&read[key], round.k));
+                }
+                keys.iter().copied().filter(|k| !reads(k)).collect()
+            }
+        };
+        let reading = Mutex::new(HashMap::new());
+        let fits = each_tile(
             &keys,
             (&mut *halos, &first),
             ("noise", monitor),
             &|key, halo| {
-                let (tile, (fits, c)) = by_tile(store, key, halo, |t, ids, holds| {
+                let (tile, (fits, c, near)) = by_tile(store, key, halo, |t, ids, holds| {
                     let positions: Vec<DVec3> = t.points.iter().map(|p| p.p).collect();
-                    let fits = part_noise_samples(&positions, ids, &t.own, holds, round)?;
+                    let (fits, near) =
+                        part_noise_reading_wide(&positions, ids, &t.own, holds, round, wide)?;
                     let queries = (n, CONSISTENCY_QUERIES);
                     let c = (consistency && first_round)
                         .then(|| part_normal_consistency(&t.points, ids, &t.own, holds, queries))
                         .transpose()?;
-                    Ok((fits, c))
+                    Ok((fits, c, near))
                 })?;
                 if let (Some(c), Some(sum)) = (c, counted.lock().expect("not poisoned").as_mut()) {
                     *sum = sum.merge(c);
+                }
+                if wide.is_some() {
+                    reading.lock().expect("not poisoned").insert(key, near);
                 }
                 if let Some(visit) = visit {
                     visit(key, &tile);
@@ -71,7 +112,9 @@ pub(crate) fn store_noise(
                 Ok(fits)
             },
         )?;
-        Ok::<_, String>(found.concat())
+        read.extend(reading.into_inner().expect("not poisoned"));
+        found.extend(fits.concat());
+        Ok::<_, String>(found)
     })?;
     // (Fewer than 7 points have no noise round: their normals by a pass of their own.)
     let counted = match counted.into_inner().expect("not poisoned") {

@@ -121,9 +121,10 @@ pub fn noise_by_rounds<E>(
     // REACH_PER_SIGMA noise deviations across.
     let wanted = (NEIGHBOURS as f64 * (REACH_PER_SIGMA * sigma / reach).powi(2)).ceil() as usize;
     let (sigma, samples) = if wanted > NEIGHBOURS {
+        let widest = widest_round(n);
         let wide = NoiseRound {
-            stride: first.stride * samples.div_ceil(MAX_WIDE_SAMPLES).max(1),
-            k: wanted.min(MAX_NEIGHBOURS).min(n),
+            stride: widest.stride,
+            k: wanted.min(widest.k),
         };
         let sigma = medians(residuals(wide)?, wide.k).map_or(sigma, |(s, _)| s);
         (sigma, n.div_ceil(wide.stride))
@@ -131,6 +132,53 @@ pub fn noise_by_rounds<E>(
         (sigma, samples)
     };
     Ok((NoiseEstimate { sigma, samples }, reach))
+}
+
+/// The samples the second round of [`noise_by_rounds`] over `n` points (at least 7) reads when
+/// it runs, and the most neighbours it may read them with: a caller that holds the points in
+/// the first round can read these neighbourhoods then ([`crate::part_noise_samples`]) and
+/// take the second round's fits from them ([`wide_residuals`]).
+pub fn widest_round(n: usize) -> NoiseRound {
+    let first_stride = n.div_ceil(MAX_SAMPLES).max(1);
+    let samples = n.div_ceil(first_stride);
+    NoiseRound {
+        stride: first_stride * samples.div_ceil(MAX_WIDE_SAMPLES).max(1),
+        k: MAX_NEIGHBOURS.min(n),
+    }
+}
+
+/// A sample's nearest points read ahead for a later round ([`crate::part_noise_reading_wide`]):
+/// positions (world units) and squared distances in increasing (distance, input index) order,
+/// as `MortonIndex::nearest` gives them, as many as the part held whole.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct WideNeighbourhood {
+    /// The nearest points.
+    pub near: Vec<(DVec3, f64)>,
+    /// Whether they are every input point (fewer than asked for, the part holding all).
+    pub all: bool,
+}
+
+impl WideNeighbourhood {
+    /// Whether the sample's `k` nearest are among these.
+    pub fn reads(&self, k: usize) -> bool {
+        self.all || self.near.len() >= k
+    }
+}
+
+/// The fits of a round of `k` neighbours from neighbourhoods read ahead, each of which
+/// [`WideNeighbourhood::reads`] `k`: bitwise the fits of those samples read with their `k`
+/// nearest.
+pub fn wide_residuals(neighbourhoods: &[WideNeighbourhood], k: usize) -> Vec<(f64, f64)> {
+    neighbourhoods
+        .iter()
+        .filter_map(|w| {
+            debug_assert!(w.reads(k));
+            let near = &w.near[..k.min(w.near.len())];
+            let pts: Vec<DVec3> = near.iter().map(|&(p, _)| p).collect();
+            let reach = near.last().map_or(0.0, |n| n.1.sqrt());
+            Some((QuadricFit::of(&pts, reach)?.sigma(), reach))
+        })
+        .collect()
 }
 
 /// Neighbourhoods at least this many estimated noise deviations across (radius).

@@ -76,7 +76,10 @@ pub use denoise::{
 };
 pub use densify_mesh::{MeshCoarseness, densify_mesh, densify_mesh_with_sources, mesh_coarseness};
 pub use drop_strays::OutlierReport;
-pub use estimate_noise::{NoiseEstimate, NoiseRound, estimate_noise, noise_by_rounds};
+pub use estimate_noise::{
+    NoiseEstimate, NoiseRound, WideNeighbourhood, estimate_noise, noise_by_rounds, wide_residuals,
+    widest_round,
+};
 pub use estimate_normals::{
     LEVEL_POINTS, estimate_normals, estimate_normals_with, in_level, noise_level,
 };
@@ -85,7 +88,7 @@ pub use find_outliers::{Outliers, find_outliers, find_outliers_with};
 pub use inward_normals::{InwardEvidence, InwardVotes, inward_flip_notice, inward_votes};
 pub use level_by_parts::LevelIndex;
 pub use median::median_of_passes;
-pub use noise_by_parts::part_noise_samples;
+pub use noise_by_parts::{part_noise_reading_wide, part_noise_samples};
 pub use normals_by_parts::part_normals;
 pub use orient_by_parts::{
     IncompletePart, OrientEdge, OrientationJoin, PartEdges, merge_across, orient_by_parts,
