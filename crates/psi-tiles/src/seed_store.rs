@@ -15,7 +15,8 @@ use crate::{
     seed_octant,
 };
 
-/// What the seeds files hold, in their fingerprint: a file of another layout is made again.
+/// What the seeds files hold, in their fingerprint with the thinning's constants: a file of
+/// another layout or thinning is made again.
 const SEEDS_FORMAT: &str = "thinned data with each point's need";
 
 /// The seeds of the octant `octant` (key at depth 1) of the MPU `decisions` describe (decided
@@ -38,7 +39,9 @@ pub fn seed_store_octant(
     let mut h = Sha256::new();
     h.update(fingerprint(store, mpu_params, tiles));
     h.update(format!(
-        "{params:?} {SEED_MARGIN} {relax_points} {SEEDS_FORMAT}"
+        "{params:?} {SEED_MARGIN} {relax_points} {SEEDS_FORMAT} {} {}",
+        crate::thinned_data::SUBSET_SPACING_PER_FLOOR,
+        crate::sample_tiles::AREA_PER_LEAF_FACE
     ));
     let print: String = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
     let path = store.dir().join(format!(

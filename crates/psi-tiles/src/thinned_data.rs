@@ -7,10 +7,11 @@
 //! Each region of the seeding holds the points of its leaves with a margin, so it measures the
 //! footprint of its own points on the whole input there. It keeps every point within two hops
 //! of the data's edge (where the test reads the input at its own resolution) and the others
-//! whose position hash lies below the rate, or below the rate its place needs: where the
-//! particles' data floor is only a few input spacings (the finest levels of a dense input), a
-//! subset thinned at the budget's rate has gaps the whole input lacks, and its test refuses
-//! moves the whole test accepts ([`needed_rate`]). A region of a random sampling, whose seeming edge
+//! whose position hash lies below the rate their place needs, or below the uniform share of
+//! the budget the needs leave (`sample_tiles.rs` `Thinning`): where the particles' data floor
+//! is only a few input spacings (the finest levels of a dense input), a subset thinned alike
+//! everywhere has gaps the whole input lacks, and its test refuses moves the whole test
+//! accepts ([`needed_rate`]). A region of a random sampling, whose seeming edge
 //! points are too many for a band, is not measured: its kept points take the whole test on the
 //! subset's own points when the subset holds [`OWN_TEST_POINTS_PER_PARTICLE`] points a particle
 //! or more, else the lenient test (docs/notes/2026-11-28-unmeasured-own-test.md). The
@@ -22,6 +23,7 @@ use psi_octree::OrientedPoint;
 use serde::{Deserialize, Serialize};
 
 use crate::point_source::position_hash;
+use crate::sample_tiles::Thinning;
 
 /// A thinned subset of the input with the whole input's footprint at each point, in the order
 /// of the seeding (octant, region, leaf, then input order: a function of the input and the
@@ -39,21 +41,23 @@ pub struct ThinnedData {
 
 /// The subset's spacing is at most this share of the particles' data floor where it can be
 /// (`needed_rate`).
-const SUBSET_SPACING_PER_FLOOR: f64 = 1.0 / 3.0;
+pub(crate) const SUBSET_SPACING_PER_FLOOR: f64 = 1.0 / 3.0;
 
 /// The rate at which a subset of an input of spacing `spacing` (world units, `d₈·√(π/8)`: the
 /// radius of the disc that holds one point) has its spacing at most a third of `floor`, the
-/// data floor of the particles there (world units: `ParticleParams::data_floor` × σ̂ of the
-/// leaf's depth): `min(1, (3·spacing/floor)²)`, 0 for a floor of 0 or less.
+/// distance within which the particles there take the input as present (world units:
+/// `data_reach` × `data_floor` × σ at the leaf's depth): `min(1, (3·spacing/floor)²)`; 0 for
+/// a floor of 0 or less or a spacing that is not finite.
 ///
-/// The footprint test refuses a position whose nearest input point lies beyond the floor. In a
-/// random sampling of spacing s, the nearest point to a position on the surface lies beyond x
-/// with probability e^(−x²/s²) (the nearest-neighbour distance of a Poisson process of density
-/// 1/(πs²)): at a floor of three subset spacings the subset refuses e^−9 ≈ 1e-4 of the
-/// positions for its own gaps, where a subset of half that density refused a twentieth of the
-/// finest particles' moves on a 10 M-point input the whole input accepted
-/// (docs/notes/2026-12-04-thinned-finest-level.md). The points a place needs are about
-/// 9A/(π·floor²) for its area A: some tens a particle, whatever the input's size.
+/// The footprint test refuses a position whose nearest input point lies beyond
+/// `data_reach` × max(spacing, floor). In a random sampling of spacing s, the nearest point to
+/// a position on the surface lies beyond x with probability e^(−x²/s²) (the nearest-neighbour
+/// distance of a Poisson process of density 1/(πs²)): at a floor of three subset spacings the
+/// subset refuses e^−9 ≈ 1e-4 of the positions for its own gaps. A subset whose spacing was
+/// about the floor refused 6 % of the finest particles' moves on a 10 M-point input, where
+/// the whole input refused 1.2 % (docs/notes/2026-12-04-thinned-finest-level.md). The points a
+/// place needs are about 9A/(π·floor²) for its area A: some tens a particle, whatever the
+/// input's size.
 pub(crate) fn needed_rate(spacing: f64, floor: f64) -> f64 {
     if floor > 0.0 && spacing.is_finite() {
         (spacing / (SUBSET_SPACING_PER_FLOOR * floor))
@@ -77,11 +81,11 @@ impl ThinnedData {
 
     /// Appends the points of `leaves` of `mpu` (an MPU over the points around them, its leaf
     /// indices the whole octree's; one region of the seeding) that lie in a band along the
-    /// data's edge or whose position hash is below `rate` (in [0, 1]) or below the rate their
-    /// place needs ([`needed_rate`] for the particles' data floor `floor_at(depth)` at their
-    /// leaf's depth, world units), with their footprint on `mpu`'s points. The band is the
-    /// points within two hops of the edge, or one, the widest that fits the region's share of
-    /// the budget (`rate` × its points), else none
+    /// data's edge or whose position hash is below `thin.uniform` or below their need (the
+    /// rate their place needs, [`needed_rate`] for the particles' floor at their leaf's depth,
+    /// times `thin.need_scale`), with their footprint on `mpu`'s points and their need. The
+    /// band is the points within two hops of the edge, or one, the widest that fits the
+    /// region's share of the budget (`thin.rate` × its points), else none
     /// (an irregular sampling whose every tenth point looks like an edge point, or a tiny
     /// share: its points carry the median spacing of a sample of them): a bound on what the
     /// seeding carries. Each footprint records the hops tested exactly
@@ -92,8 +96,7 @@ impl ThinnedData {
         &mut self,
         mpu: &mut Mpu,
         leaves: &[u32],
-        rate: f64,
-        floor_at: &dyn Fn(u8) -> f64,
+        thin: &Thinning,
         complete: &dyn Fn(DVec3, f64) -> bool,
     ) {
         let input = mpu.points();
@@ -102,11 +105,12 @@ impl ThinnedData {
         let (qs, floors): (Vec<u32>, Vec<f64>) = leaves
             .iter()
             .flat_map(|&l| {
-                let floor = floor_at(tree.cell(l).depth);
+                let floor = thin.floors.at(tree.cell(l).depth);
                 tree.points_in(l).iter().map(move |&q| (q, floor))
             })
             .unzip();
-        let share = rate * qs.len() as f64;
+        let share = thin.rate * qs.len() as f64;
+        let need = |spacing: f64, floor: f64| thin.need_scale * needed_rate(spacing, floor);
         // Measuring every point costs a 9-nearest query each; where the sample says that even
         // the one-hop band would not fit (an irregular sampling's many seeming edge points),
         // nothing is measured and every kept point takes the lenient test, or the whole test
@@ -128,8 +132,8 @@ impl ThinnedData {
             let spacing = spacings.get(spacings.len() / 2).copied().unwrap_or(0.0);
             for (&q, &floor) in qs.iter().zip(&floors) {
                 let p = input[q as usize];
-                let need = needed_rate(spacing, floor);
-                if position_hash(p.p) < rate.max(need) {
+                let need = need(spacing, floor);
+                if position_hash(p.p) < thin.uniform.max(need) {
                     self.points.push(p);
                     self.footprints.push(PointFootprint::unmeasured(spacing));
                     self.need.push(need);
@@ -148,10 +152,10 @@ impl ThinnedData {
         let exact = band.saturating_sub(1);
         for ((&q, f), &floor) in qs.iter().zip(footprints).zip(&floors) {
             let p = input[q as usize];
-            let need = needed_rate(f.spacing(), floor);
-            if f.hops() < band || position_hash(p.p) < rate.max(need) {
+            let need = need(f.spacing(), floor);
+            if f.hops() < band || position_hash(p.p) < thin.uniform.max(need) {
                 self.points.push(p);
-                self.footprints.push(f.thinned_to(rate, exact));
+                self.footprints.push(f.thinned_to(thin.rate, exact));
                 self.need.push(need);
             }
         }
@@ -166,16 +170,17 @@ impl ThinnedData {
 
     /// The points in the order given, at most `at_most` of them: every point of the bands
     /// along the data's edge, then the points their place needs ([`ThinnedData::need`]), then
-    /// the others of the lowest position hash (the regions kept those below `rate`). The bands
-    /// are the regions', narrowed alike everywhere (two hops wide, one, or none) until they
-    /// take at most half the budget: a survey's edges are a small share of its points, a small
-    /// scan's or an irregular sampling's may not be. Each footprint records the rate at which
-    /// its place was kept and the hops tested exactly ([`PointFootprint::thinned_to`]).
+    /// the others of the lowest position hash (the regions kept those below `uniform`). The
+    /// bands are the regions', narrowed alike everywhere (two hops wide, one, or none) until
+    /// they take at most half the budget: a survey's edges are a small share of its points, a
+    /// small scan's or an irregular sampling's may not be. Each footprint records the rate at
+    /// which its place was kept and the hops tested exactly ([`PointFootprint::thinned_to`]).
     /// Unmeasured points take the whole test on the subset's own points when the subset holds
     /// at least [`OWN_TEST_POINTS_PER_PARTICLE`] points for each of the `particles`
     /// ([`PointFootprint::with_own_test`]). Which points are kept depends on the points and
     /// their needs, not on their order.
-    pub(crate) fn at_most(self, at_most: usize, rate: f64, particles: usize) -> ThinnedData {
+    pub(crate) fn at_most(self, at_most: usize, uniform: f64, particles: usize) -> ThinnedData {
+        debug_assert!(self.need.len() == self.len() && self.footprints.len() == self.len());
         let widest = [DEEP - 1, 1, 0];
         // A footprint with its band narrowed to at most `cap` hops tested exactly.
         let narrowed = |f: &PointFootprint, cap: u8| f.thinned_to(1.0, f.exact_hops().min(cap));
@@ -197,16 +202,16 @@ impl ThinnedData {
         // The others, those the regions kept (a narrowed band's outer points, kept whatever
         // their hash, are thinned alike): first those their place needs, then by hash.
         let others: Vec<usize> = (0..self.len())
-            .filter(|&i| !in_band(&footprints[i]) && hashes[i] < rate.max(need(i)))
+            .filter(|&i| !in_band(&footprints[i]) && hashes[i] < uniform.max(need(i)))
             .collect();
         let keep = KeepRates::within(
             others.iter().map(|&i| (hashes[i], need(i))),
-            rate,
+            uniform,
             at_most.saturating_sub(band),
         );
         let kept_at = |i: usize| keep.rate_for(need(i));
         let order: Vec<usize> = (0..self.len())
-            .filter(|&i| in_band(&footprints[i]) || hashes[i] < kept_at(i))
+            .filter(|&i| in_band(&footprints[i]) || keep.keeps(hashes[i], need(i)))
             .collect();
         let own_test = order.len() >= OWN_TEST_POINTS_PER_PARTICLE * particles;
         ThinnedData {
@@ -226,8 +231,9 @@ impl ThinnedData {
     }
 }
 
-/// The hash thresholds of [`ThinnedData::at_most`]: a point outside the bands is kept when its
-/// position hash lies below `max(uniform, scale × need)`.
+/// The thresholds of [`ThinnedData::at_most`]: a point outside the bands, of position hash h
+/// and need r, is kept when h < `uniform`, or when h < r and h/r < `scale` (the needed
+/// points, by the one key they are ranked by).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct KeepRates {
     uniform: f64,
@@ -236,36 +242,43 @@ struct KeepRates {
 
 impl KeepRates {
     /// The thresholds that keep at most `room` of `points` (each its position hash and the
-    /// rate its place needs; those the regions kept, below `max(rate, need)`): every point
-    /// below its need and the lowest hashes of the others up to `rate` when they fit; else,
-    /// when the needs alone do not fit, the needs scaled down alike (the lowest hash/need).
-    fn within(points: impl Iterator<Item = (f64, f64)>, rate: f64, room: usize) -> KeepRates {
-        let (needed, mut rest): (Vec<(f64, f64)>, Vec<(f64, f64)>) =
+    /// rate its place needs; those the regions kept, below `max(uniform, need)`): every needed
+    /// point (h < need) and the lowest hashes of the others up to `uniform` when they fit;
+    /// else, when the needed points alone do not fit, those of the lowest h/need. Exactly
+    /// `room` when there are more, unless hashes repeat (repeated positions).
+    fn within(points: impl Iterator<Item = (f64, f64)>, uniform: f64, room: usize) -> KeepRates {
+        let (needed, rest): (Vec<(f64, f64)>, Vec<(f64, f64)>) =
             points.partition(|&(h, need)| h < need);
         if needed.len() > room {
             let mut keys: Vec<f64> = needed.iter().map(|&(h, need)| h / need).collect();
-            keys.sort_by(f64::total_cmp);
+            let (_, &mut scale, _) = keys.select_nth_unstable_by(room, f64::total_cmp);
             return KeepRates {
                 uniform: 0.0,
-                scale: keys[room],
+                scale,
             };
         }
         let left = room - needed.len();
-        let uniform = if rest.len() <= left {
-            rate
+        let mut hashes: Vec<f64> = rest.iter().map(|&(h, _)| h).collect();
+        let uniform = if hashes.len() <= left {
+            uniform
         } else {
-            rest.sort_by(|a, b| a.0.total_cmp(&b.0));
-            rest[left].0
+            *hashes.select_nth_unstable_by(left, f64::total_cmp).1
         };
         KeepRates {
             uniform,
-            scale: 1.0,
+            scale: f64::INFINITY,
         }
     }
 
-    /// The hash threshold of a point whose place needs the rate `need`.
+    /// Whether a point of position hash `h` whose place needs the rate `need` is kept.
+    fn keeps(&self, h: f64, need: f64) -> bool {
+        h < self.uniform || (h < need && h / need < self.scale)
+    }
+
+    /// The rate at which a point whose place needs the rate `need` was kept (the share of
+    /// the input points around it that the subset holds).
     fn rate_for(&self, need: f64) -> f64 {
-        self.uniform.max(self.scale * need)
+        self.uniform.max(need * self.scale.min(1.0))
     }
 }
 
@@ -325,53 +338,66 @@ mod tests {
 
     /// Brute force: the points kept at the thresholds, counted one by one.
     fn kept(points: &[(f64, f64)], k: KeepRates) -> usize {
-        points.iter().filter(|&&(h, n)| h < k.rate_for(n)).count()
+        points.iter().filter(|&&(h, n)| k.keeps(h, n)).count()
     }
 
     /// The thresholds keep the needed points first and then the lowest hashes, exactly as
     /// many as there is room for (against a count of the kept points), whatever the order of
-    /// the points; when the needs alone overflow, the needed points of lowest hash/need.
+    /// the points; when the needed points alone overflow, those of lowest hash/need. Needs
+    /// drawn at random in (0, 1] for a fifth of the points (and 1 for a tenth), none for the
+    /// rest: the ranking by h/need and the keep test must agree to the last rounding.
     #[test]
     fn keep_rates_fill_the_room_with_the_needed_points_first() {
         use rand::seq::SliceRandom;
         use rand::{RngExt, SeedableRng};
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
-        let rate = 0.25;
-        // 20 000 points: a tenth need every point of their place, a tenth need 0.5, the rest
-        // nothing; those the regions kept (below max(rate, need)).
-        let mut points: Vec<(f64, f64)> = (0..20_000)
+        let uniform = 0.25;
+        // Those the regions kept (below max(uniform, need)).
+        let mut points: Vec<(f64, f64)> = (0..40_000)
             .map(|i| {
-                let need = [1.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0][i % 10];
+                let need = match i % 10 {
+                    0 => 1.0,
+                    1 | 2 => 1.0 - rng.random::<f64>(),
+                    _ => 0.0,
+                };
                 (rng.random::<f64>(), need)
             })
-            .filter(|&(h, n)| h < f64::max(rate, n))
+            .filter(|&(h, n)| h < f64::max(uniform, n))
             .collect();
         let needed = points.iter().filter(|&&(h, n)| h < n).count();
+        let key = |&(h, n): &(f64, f64)| if h < n { (0, h / n) } else { (1, h) };
         for room in [
             points.len() + 10,
             points.len(),
             needed + 1_000,
             needed,
             needed / 3,
+            1,
         ] {
-            let k = KeepRates::within(points.iter().copied(), rate, room);
-            let n = kept(&points, k);
-            assert_eq!(n, room.min(points.len()), "room {room}");
-            if room >= needed {
-                // Every needed point, and the others by hash.
-                assert_eq!(k.scale, 1.0);
-                assert!(points.iter().all(|&(h, n)| h >= n || h < k.rate_for(n)));
-            } else {
-                // Needed points only, the lowest hash/need.
-                assert_eq!(k.uniform, 0.0);
+            let k = KeepRates::within(points.iter().copied(), uniform, room);
+            assert_eq!(kept(&points, k), room.min(points.len()), "room {room}");
+            // The kept points rank before the others: needed before the rest, then by key.
+            let (mut kept_keys, mut dropped): (Vec<(u8, f64)>, Vec<(u8, f64)>) = (vec![], vec![]);
+            for p in &points {
+                match k.keeps(p.0, p.1) {
+                    true => kept_keys.push(key(p)),
+                    false => dropped.push(key(p)),
+                }
+            }
+            let last = kept_keys
+                .iter()
+                .max_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+            let first = dropped
+                .iter()
+                .min_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+            if let (Some(l), Some(f)) = (last, first) {
                 assert!(
-                    points
-                        .iter()
-                        .all(|&(h, n)| h >= n || h < k.rate_for(n) || h / n >= k.scale)
+                    l.0 < f.0 || (l.0 == f.0 && l.1 < f.1),
+                    "room {room}: {l:?} {f:?}"
                 );
             }
             points.shuffle(&mut rng);
-            assert_eq!(KeepRates::within(points.iter().copied(), rate, room), k);
+            assert_eq!(KeepRates::within(points.iter().copied(), uniform, room), k);
         }
     }
 
