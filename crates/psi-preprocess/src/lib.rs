@@ -88,7 +88,7 @@ pub use find_outliers::{Outliers, find_outliers, find_outliers_with};
 pub use inward_normals::{InwardEvidence, InwardVotes, inward_flip_notice, inward_votes};
 pub use level_by_parts::LevelIndex;
 pub use median::median_of_passes;
-pub use noise_by_parts::{part_noise_reading_wide, part_noise_samples};
+pub use noise_by_parts::{PartNoise, part_noise_reading_wide, part_noise_samples};
 pub use normals_by_parts::part_normals;
 pub use orient_by_parts::{
     IncompletePart, OrientEdge, OrientationJoin, PartEdges, merge_across, orient_by_parts,

@@ -33,6 +33,10 @@ pub fn part_noise_samples(
     part_noise_reading_wide(positions, ids, own, complete, round, None).map(|(fits, _)| fits)
 }
 
+/// A part's fits of a round (each a residual deviation and a reach, world units) and its
+/// samples' neighbourhoods read ahead ([`part_noise_reading_wide`]).
+pub type PartNoise = (Vec<(f64, f64)>, Vec<WideNeighbourhood>);
+
 /// [`part_noise_samples`], and with `wide` (the second round's samples and most neighbours,
 /// [`crate::widest_round`]) the neighbourhoods of its samples among the part's own points, in
 /// input order, read while the part is indexed: each sample's nearest up to `wide.k`, as many
@@ -49,7 +53,7 @@ pub fn part_noise_reading_wide(
     complete: &(dyn Fn(DVec3, f64) -> bool + Sync),
     round: NoiseRound,
     wide: Option<NoiseRound>,
-) -> Result<(Vec<(f64, f64)>, Vec<WideNeighbourhood>), IncompletePart> {
+) -> Result<PartNoise, IncompletePart> {
     assert!(positions.len() == ids.len() && ids.len() == own.len());
     assert!(ids.is_sorted(), "ids ascend");
     // Ties among neighbours go to the lower local index, which is the lower input index.

@@ -44,6 +44,7 @@ mod seed_store;
 mod store_plan;
 mod sub_cells;
 mod thinned_data;
+mod thinning;
 mod tile_buckets;
 mod tile_halo;
 mod tile_params;

@@ -27,7 +27,8 @@ use crate::arena_order::arena_indices;
 use crate::cover_parts::PartsCover;
 use crate::decide_tile::tile_keys;
 use crate::leaf_cover::LeafCover;
-use crate::thinned_data::{ThinnedData, needed_rate};
+use crate::thinned_data::ThinnedData;
+use crate::thinning::{Thinning, thinning};
 use crate::{PointSource, TileError, TiledDecisions};
 
 /// The unit directions of a ball's 6 axis extremes and 8 diagonal ones (±1/√3 on each axis).
@@ -154,7 +155,7 @@ pub fn seed_octants(decisions: &TiledDecisions) -> Vec<[u32; 3]> {
 
 /// The density field of the seeds: the depth range of the surface leaves
 /// ([`psi_particles::depth_range`], as in core), σ not yet scaled.
-fn base_field(decisions: &TiledDecisions) -> DensityField {
+pub(crate) fn base_field(decisions: &TiledDecisions) -> DensityField {
     let (d_min, d_max) = psi_particles::depth_range(decisions.surface.iter().map(|a| a.0));
     DensityField {
         d_min,
@@ -222,100 +223,6 @@ pub fn seed_octant(
         all.thinned.extend(out.thinned);
     }
     Ok(all)
-}
-
-/// How the seeding thins the relaxation's data (`ThinnedData`) when the points do not all fit
-/// its budget of `relax_points`: `None` when every one of `population` points fits. A point
-/// outside the bands along the data's edge is kept when its position hash lies below
-/// `max(uniform, need_scale × need)`, its need the rate its place needs for the particles'
-/// data floor there ([`Thinning::floor_at`], `thinned_data::needed_rate`). The needs come
-/// first: how many points they take is estimated from the surface leaves before any point is
-/// read ([`estimated_need`]), scaled down alike when they would not fit, and the uniform share
-/// is what is left, so that the regions keep about the budget and not more
-/// (docs/notes/2026-12-04-thinned-finest-level.md). A function of the decisions, the
-/// parameters and the budget: every octant's task finds the same.
-fn thinning(
-    decisions: &TiledDecisions,
-    params: &ParticleParams,
-    population: usize,
-    relax_points: usize,
-) -> Option<Thinning> {
-    if population <= relax_points {
-        return None;
-    }
-    let field = base_field(decisions);
-    let floors = Floors::new(&field, params);
-    let need = estimated_need(decisions, &floors, population);
-    let room = relax_points as f64;
-    let need_scale = if need > room { room / need } else { 1.0 };
-    Some(Thinning {
-        rate: room / population as f64,
-        uniform: (room - need).max(0.0) / population as f64,
-        need_scale,
-        floors,
-    })
-}
-
-/// The particles' data floor at each depth, at its least before the relaxation (world units).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Floors {
-    field: DensityField,
-    /// `data_reach` × `data_floor` × 1/√k.
-    factor: f64,
-}
-
-impl Floors {
-    fn new(field: &DensityField, params: &ParticleParams) -> Floors {
-        // The test refuses beyond `data_reach` × the floor; σ̂'s scale, set once every region
-        // is seeded, is at least 1/√k (`sample_tiled_from`). (The relaxation's own scale c
-        // adapts about 1 within its clamp; it is not known before.)
-        Floors {
-            field: *field,
-            factor: params.data_reach * params.data_floor / (params.k.max(1) as f64).sqrt(),
-        }
-    }
-
-    /// The floor at depth `depth`.
-    pub(crate) fn at(&self, depth: u8) -> f64 {
-        self.factor * self.field.target_sigma(depth)
-    }
-}
-
-/// The points the needs of the places take ([`Thinning`]), estimated from the surface leaves
-/// alone: the input's points shared among the leaves by their faces' area (e², e a leaf's
-/// edge), the input's spacing s from that area, taken as [`AREA_PER_LEAF_FACE`] × Σ e² (an
-/// over-estimate, so that the needs leave room), and each leaf's points times the rate its
-/// depth's floor needs at spacing s.
-fn estimated_need(decisions: &TiledDecisions, floors: &Floors, population: usize) -> f64 {
-    let edge = |d: u8| 2.0 * decisions.frame.root_half / f64::from(1u32 << d);
-    let faces: f64 = decisions.surface.iter().map(|a| edge(a.0).powi(2)).sum();
-    if faces <= 0.0 || population == 0 {
-        return 0.0;
-    }
-    let n = population as f64;
-    let spacing = (AREA_PER_LEAF_FACE * faces / (std::f64::consts::PI * n)).sqrt();
-    decisions
-        .surface
-        .iter()
-        .map(|a| n * edge(a.0).powi(2) / faces * needed_rate(spacing, floors.at(a.0)))
-        .sum()
-}
-
-/// The surface's area in a leaf over its face's (e²): a plane through a cube cuts at most
-/// √2·e², a random one about two thirds of e²; 2 allows for curved and folded leaves.
-pub(crate) const AREA_PER_LEAF_FACE: f64 = 2.0;
-
-/// How the seeding thins ([`thinning`]).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Thinning {
-    /// The budget over the population: the share of the points the relaxation holds.
-    pub(crate) rate: f64,
-    /// The hash below which any point is kept.
-    pub(crate) uniform: f64,
-    /// The needs' scale (1 unless they would not fit).
-    pub(crate) need_scale: f64,
-    /// The particles' data floor by depth.
-    pub(crate) floors: Floors,
 }
 
 /// What every region of a seeding reads.

@@ -41,7 +41,7 @@ pub fn seed_store_octant(
     h.update(format!(
         "{params:?} {SEED_MARGIN} {relax_points} {SEEDS_FORMAT} {} {}",
         crate::thinned_data::SUBSET_SPACING_PER_FLOOR,
-        crate::sample_tiles::AREA_PER_LEAF_FACE
+        crate::thinning::AREA_PER_LEAF_FACE
     ));
     let print: String = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
     let path = store.dir().join(format!(

@@ -8,7 +8,7 @@
 //! footprint of its own points on the whole input there. It keeps every point within two hops
 //! of the data's edge (where the test reads the input at its own resolution) and the others
 //! whose position hash lies below the rate their place needs, or below the uniform share of
-//! the budget the needs leave (`sample_tiles.rs` `Thinning`): where the particles' data floor
+//! the budget the needs leave (`thinning.rs`): where the particles' data floor
 //! is only a few input spacings (the finest levels of a dense input), a subset thinned alike
 //! everywhere has gaps the whole input lacks, and its test refuses moves the whole test
 //! accepts ([`needed_rate`]). A region of a random sampling, whose seeming edge
@@ -23,7 +23,7 @@ use psi_octree::OrientedPoint;
 use serde::{Deserialize, Serialize};
 
 use crate::point_source::position_hash;
-use crate::sample_tiles::Thinning;
+use crate::thinning::Thinning;
 
 /// A thinned subset of the input with the whole input's footprint at each point, in the order
 /// of the seeding (octant, region, leaf, then input order: a function of the input and the
@@ -247,8 +247,7 @@ impl KeepRates {
     /// else, when the needed points alone do not fit, those of the lowest h/need. Exactly
     /// `room` when there are more, unless hashes repeat (repeated positions).
     fn within(points: impl Iterator<Item = (f64, f64)>, uniform: f64, room: usize) -> KeepRates {
-        let (needed, rest): (Vec<(f64, f64)>, Vec<(f64, f64)>) =
-            points.partition(|&(h, need)| h < need);
+        let (needed, rest): (Vec<_>, Vec<_>) = points.partition(|&(h, need)| h < need);
         if needed.len() > room {
             let mut keys: Vec<f64> = needed.iter().map(|&(h, need)| h / need).collect();
             let (_, &mut scale, _) = keys.select_nth_unstable_by(room, f64::total_cmp);
@@ -377,7 +376,7 @@ mod tests {
             let k = KeepRates::within(points.iter().copied(), uniform, room);
             assert_eq!(kept(&points, k), room.min(points.len()), "room {room}");
             // The kept points rank before the others: needed before the rest, then by key.
-            let (mut kept_keys, mut dropped): (Vec<(u8, f64)>, Vec<(u8, f64)>) = (vec![], vec![]);
+            let (mut kept_keys, mut dropped) = (Vec::new(), Vec::new());
             for p in &points {
                 match k.keeps(p.0, p.1) {
                     true => kept_keys.push(key(p)),
