@@ -215,6 +215,8 @@ pub fn seed_octant(
         regions: regions.len(),
         ..OctantSeeds::default()
     };
+    let thinned = outs.iter().flatten().map(|o| o.thinned.len()).sum();
+    all.thinned.reserve_exact(thinned);
     for out in outs {
         let out = out?;
         all.leaves.extend(out.leaves);
@@ -317,12 +319,12 @@ pub fn sample_tiled_from(
     let mut all: Vec<(u32, usize, usize)> = Vec::new();
     let mut parts = Vec::with_capacity(outs.len());
     let (mut points_read, mut regions) = (0, 0);
-    let mut thinned = ThinnedData::default();
+    let mut thinned = Vec::with_capacity(outs.len());
     for (r, out) in outs.into_iter().enumerate() {
         let mut out = out?;
         points_read += out.read;
         regions += out.regions;
-        thinned.extend(std::mem::take(&mut out.thinned));
+        thinned.push(std::mem::take(&mut out.thinned));
         all.extend(out.leaves.iter().enumerate().map(|(i, &l)| (l, r, i)));
         parts.push(out);
     }
@@ -347,7 +349,7 @@ pub fn sample_tiled_from(
     {
         None => (source.relaxation_points(relax_points)?, None),
         Some(thin) => {
-            let data = thinned.at_most(relax_points, thin.uniform, seeds.len());
+            let data = ThinnedData::at_most(thinned, relax_points, thin.uniform, seeds.len());
             (data.points, Some(data.footprints))
         }
     };

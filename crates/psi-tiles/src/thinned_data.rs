@@ -161,6 +161,13 @@ impl ThinnedData {
         }
     }
 
+    /// Room for `more` points.
+    pub(crate) fn reserve_exact(&mut self, more: usize) {
+        self.points.reserve_exact(more);
+        self.footprints.reserve_exact(more);
+        self.need.reserve_exact(more);
+    }
+
     /// Appends `other`'s points.
     pub(crate) fn extend(&mut self, other: ThinnedData) {
         self.points.extend(other.points);
@@ -168,25 +175,37 @@ impl ThinnedData {
         self.need.extend(other.need);
     }
 
-    /// The points in the order given, at most `at_most` of them: every point of the bands
-    /// along the data's edge, then the points their place needs ([`ThinnedData::need`]), then
-    /// the others of the lowest position hash (the regions kept those below `uniform`). The
-    /// bands are the regions', narrowed alike everywhere (two hops wide, one, or none) until
-    /// they take at most half the budget: a survey's edges are a small share of its points, a
-    /// small scan's or an irregular sampling's may not be. Each footprint records the rate at
-    /// which its place was kept and the hops tested exactly ([`PointFootprint::thinned_to`]).
-    /// Unmeasured points take the whole test on the subset's own points when the subset holds
-    /// at least [`OWN_TEST_POINTS_PER_PARTICLE`] points for each of the `particles`
-    /// ([`PointFootprint::with_own_test`]). Which points are kept depends on the points and
-    /// their needs, not on their order.
-    pub(crate) fn at_most(self, at_most: usize, uniform: f64, particles: usize) -> ThinnedData {
-        debug_assert!(self.need.len() == self.len() && self.footprints.len() == self.len());
+    /// The points of `parts` in their order, at most `at_most` of them: every point of the
+    /// bands along the data's edge, then the points their place needs ([`ThinnedData::need`]),
+    /// then the others of the lowest position hash (the regions kept those below `uniform`).
+    /// The bands are the regions', narrowed alike everywhere (two hops wide, one, or none)
+    /// until they take at most half the budget: a survey's edges are a small share of its
+    /// points, a small scan's or an irregular sampling's may not be. Each footprint records the
+    /// rate at which its place was kept and the hops tested exactly
+    /// ([`PointFootprint::thinned_to`]). Unmeasured points take the whole test on the subset's
+    /// own points when the subset holds at least [`OWN_TEST_POINTS_PER_PARTICLE`] points for
+    /// each of the `particles` ([`PointFootprint::with_own_test`]). Which points are kept
+    /// depends on the points and their needs, not on their order. The parts are taken one by
+    /// one into the result, never joined first (the seeding's points are the run's largest
+    /// array at that moment).
+    pub(crate) fn at_most(
+        parts: Vec<ThinnedData>,
+        at_most: usize,
+        uniform: f64,
+        particles: usize,
+    ) -> ThinnedData {
+        debug_assert!(
+            parts
+                .iter()
+                .all(|p| { p.need.len() == p.len() && p.footprints.len() == p.len() })
+        );
         let widest = [DEEP - 1, 1, 0];
         // A footprint with its band narrowed to at most `cap` hops tested exactly.
         let narrowed = |f: &PointFootprint, cap: u8| f.thinned_to(1.0, f.exact_hops().min(cap));
         let band_at = |cap: u8| {
-            self.footprints
+            parts
                 .iter()
+                .flat_map(|p| &p.footprints)
                 .filter(|f| in_band(&narrowed(f, cap)))
                 .count()
         };
@@ -194,40 +213,45 @@ impl ThinnedData {
             .into_iter()
             .find(|&c| band_at(c) <= at_most / 2)
             .unwrap_or(0);
-        let footprints: Vec<PointFootprint> =
-            self.footprints.iter().map(|f| narrowed(f, cap)).collect();
-        let hashes: Vec<f64> = self.points.iter().map(|p| position_hash(p.p)).collect();
-        let need = |i: usize| self.need.get(i).copied().unwrap_or(0.0);
-        let band = footprints.iter().filter(|f| in_band(f)).count();
+        let band = band_at(cap);
+        // Each point's hash, need and whether it is in a band.
+        let each = || {
+            parts.iter().flat_map(|p| {
+                let at = p.points.iter().zip(&p.footprints).zip(&p.need);
+                at.map(|((q, f), &need)| (position_hash(q.p), need, in_band(&narrowed(f, cap))))
+            })
+        };
         // The others, those the regions kept (a narrowed band's outer points, kept whatever
         // their hash, are thinned alike): first those their place needs, then by hash.
-        let others: Vec<usize> = (0..self.len())
-            .filter(|&i| !in_band(&footprints[i]) && hashes[i] < uniform.max(need(i)))
-            .collect();
-        let keep = KeepRates::within(
-            others.iter().map(|&i| (hashes[i], need(i))),
-            uniform,
-            at_most.saturating_sub(band),
-        );
-        let kept_at = |i: usize| keep.rate_for(need(i));
-        let order: Vec<usize> = (0..self.len())
-            .filter(|&i| in_band(&footprints[i]) || keep.keeps(hashes[i], need(i)))
-            .collect();
-        let own_test = order.len() >= OWN_TEST_POINTS_PER_PARTICLE * particles;
-        ThinnedData {
-            points: order.iter().map(|&i| self.points[i]).collect(),
-            footprints: order
-                .iter()
-                .map(|&i| {
-                    // A rate of 0 (no deep point kept) would make the lenient test's reach
-                    // infinite.
-                    let r = kept_at(i).clamp(1e-6, 1.0);
-                    let f = footprints[i].thinned_to(r, footprints[i].exact_hops());
-                    if own_test { f.with_own_test() } else { f }
-                })
-                .collect(),
-            need: order.iter().map(|&i| need(i)).collect(),
+        let others = each()
+            .filter(|&(h, need, banded)| !banded && h < uniform.max(need))
+            .map(|(h, need, _)| (h, need));
+        let keep = KeepRates::within(others, uniform, at_most.saturating_sub(band));
+        let kept = |(h, need, banded): (f64, f64, bool)| banded || keep.keeps(h, need);
+        let count = each().filter(|&e| kept(e)).count();
+        let own_test = count >= OWN_TEST_POINTS_PER_PARTICLE * particles;
+        let mut out = ThinnedData {
+            points: Vec::with_capacity(count),
+            footprints: Vec::with_capacity(count),
+            need: Vec::with_capacity(count),
+        };
+        for part in parts {
+            let at = part.points.into_iter().zip(part.footprints).zip(part.need);
+            for ((q, f), need) in at {
+                let f = narrowed(&f, cap);
+                if !kept((position_hash(q.p), need, in_band(&f))) {
+                    continue;
+                }
+                // A rate of 0 (no deep point kept) would make the lenient test's reach
+                // infinite.
+                let f = f.thinned_to(keep.rate_for(need).clamp(1e-6, 1.0), f.exact_hops());
+                out.points.push(q);
+                out.footprints
+                    .push(if own_test { f.with_own_test() } else { f });
+                out.need.push(need);
+            }
         }
+        out
     }
 }
 
@@ -321,7 +345,7 @@ mod tests {
         };
         // Every point fits (rate 1): all kept, whatever the particles.
         let own_tests = |particles: usize| {
-            let thinned = data.clone().at_most(n, 1.0, particles);
+            let thinned = ThinnedData::at_most(vec![data.clone()], n, 1.0, particles);
             assert_eq!(thinned.len(), n);
             thinned
                 .footprints
