@@ -307,9 +307,9 @@ pub(crate) fn check_store(
         let made = denoise_store(&store, noise.sigma, at, &mut halos, monitor);
         match made.map_err(fail_denoising)? {
             Some((denoised, report)) => {
-                let (after, _) =
-                    store_noise(&denoised, &mut Halos::new(), None, (false, 0), monitor)
-                        .map_err(fail_denoising)?;
+                let budget = (false, options.max_memory);
+                let (after, _) = store_noise(&denoised, &mut Halos::new(), None, budget, monitor)
+                    .map_err(fail_denoising)?;
                 checks.denoised = Some(report);
                 checks.denoised_store = Some(denoised.digest());
                 checks.noise_rel_after_bits = Some((after.0.sigma / diagonal).to_bits());

@@ -1,6 +1,6 @@
 //! The noise estimate of a store's points, tile by tile: psi-preprocess's rounds
 //! ([`psi_preprocess::noise_by_rounds`]), each round's samples fitted among a tile's own points
-//! and a halo around them ([`psi_preprocess::part_noise_samples`]), bitwise the in-core
+//! and a halo around them ([`psi_preprocess::part_noise_reading_wide`]), bitwise the in-core
 //! estimate of the same points in the same order. The orientation's level (`tile_normals.rs`)
 //! and the run's error threshold (`store_checks.rs`) read it.
 
@@ -155,4 +155,58 @@ pub(crate) fn store_consistency(
     Ok(found
         .into_iter()
         .fold(NormalConsistency::default(), NormalConsistency::merge))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use psi_mpu::{MpuFrame, MpuParams};
+    use psi_octree::Aabb;
+    use psi_tiles::TileWriter;
+
+    /// A noisy torus in a store of 64 tiles (noise of a spacing, which asks for the second
+    /// round): the estimate tile by tile is the in-core one, bit for bit, with the second
+    /// round's neighbourhoods read ahead (a budget that holds them) and without (none).
+    #[test]
+    fn the_noise_of_a_store_is_the_whole_estimate_with_and_without_reading_ahead() {
+        use rand::SeedableRng;
+        let torus = psi_shapes::AnalyticShape::Torus {
+            major: 1.0,
+            minor: 0.35,
+        };
+        let n = 20_000;
+        let spacing = (torus.area() / n as f64).sqrt();
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        let mut points = torus.sample(n, 2);
+        for p in &mut points {
+            p.p += spacing * psi_shapes::gaussian_vector(&mut rng);
+        }
+        let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
+        let whole = psi_preprocess::estimate_noise(&positions);
+        // (The second round ran: its 2 048 samples, not the first round's 6 667.)
+        assert!(whole.samples <= 2048, "{whole:?}");
+        let dir = std::env::temp_dir().join(format!("psi-tile-noise-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let bounds = Aabb::from_points(positions.iter().copied()).unwrap();
+        let frame = MpuFrame::for_bounds(&bounds, n, &MpuParams::paper()).unwrap();
+        let mut writer = TileWriter::create(&dir, frame, 2, 1000, "test").unwrap();
+        writer.push(&points).unwrap();
+        let store = writer.finish().unwrap();
+        assert!(store.tile_keys().len() >= 8);
+        for budget in [0, u64::MAX] {
+            let found = store_noise(
+                &store,
+                &mut Halos::new(),
+                None,
+                (false, budget),
+                &Monitor::silent(),
+            );
+            let ((estimate, _), _) = found.unwrap();
+            assert!(
+                estimate == whole,
+                "budget {budget}: {estimate:?} against {whole:?}"
+            );
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

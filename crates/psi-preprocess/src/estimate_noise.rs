@@ -136,7 +136,7 @@ pub fn noise_by_rounds<E>(
 
 /// The samples the second round of [`noise_by_rounds`] over `n` points (at least 7) reads when
 /// it runs, and the most neighbours it may read them with: a caller that holds the points in
-/// the first round can read these neighbourhoods then ([`crate::part_noise_samples`]) and
+/// the first round can read these neighbourhoods then ([`crate::part_noise_reading_wide`]) and
 /// take the second round's fits from them ([`wide_residuals`]).
 pub fn widest_round(n: usize) -> NoiseRound {
     let first_stride = n.div_ceil(MAX_SAMPLES).max(1);
@@ -154,7 +154,8 @@ pub fn widest_round(n: usize) -> NoiseRound {
 pub struct WideNeighbourhood {
     /// The nearest points.
     pub near: Vec<(DVec3, f64)>,
-    /// Whether they are every input point (fewer than asked for, the part holding all).
+    /// Whether they are every input point (fewer than asked for, the part holding all: an
+    /// input of fewer points than the round asks for).
     pub all: bool,
 }
 

@@ -15,9 +15,10 @@ use crate::{
     seed_octant,
 };
 
-/// What the seeds files hold, in their fingerprint with the thinning's constants: a file of
-/// another layout or thinning is made again.
-const SEEDS_FORMAT: &str = "thinned data with each point's need";
+/// What the seeds files hold, in their fingerprint: a file of another layout or thinning is
+/// made again. Changed with anything that changes which points the seeding keeps
+/// (`thinning.rs`, `ThinnedData::keep_from_region`), besides the two constants named with it.
+const SEEDS_FORMAT: &str = "thinned data with each point's need, the needs first (2)";
 
 /// The seeds of the octant `octant` (key at depth 1) of the MPU `decisions` describe (decided
 /// from `store` with `mpu_params` and `tiles`), with `params` and the relaxation's budget of

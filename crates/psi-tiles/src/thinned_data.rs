@@ -194,10 +194,11 @@ impl ThinnedData {
         uniform: f64,
         particles: usize,
     ) -> ThinnedData {
-        debug_assert!(
+        assert!(
             parts
                 .iter()
-                .all(|p| { p.need.len() == p.len() && p.footprints.len() == p.len() })
+                .all(|p| p.need.len() == p.len() && p.footprints.len() == p.len()),
+            "a thinned part's points, footprints and needs are as many"
         );
         let widest = [DEEP - 1, 1, 0];
         // A footprint with its band narrowed to at most `cap` hops tested exactly.
@@ -269,7 +270,7 @@ impl KeepRates {
     /// rate its place needs; those the regions kept, below `max(uniform, need)`): every needed
     /// point (h < need) and the lowest hashes of the others up to `uniform` when they fit;
     /// else, when the needed points alone do not fit, those of the lowest h/need. Exactly
-    /// `room` when there are more, unless hashes repeat (repeated positions).
+    /// `room` when there are more, unless hashes repeat (repeated positions) or h/need keys tie.
     fn within(points: impl Iterator<Item = (f64, f64)>, uniform: f64, room: usize) -> KeepRates {
         let (needed, rest): (Vec<_>, Vec<_>) = points.partition(|&(h, need)| h < need);
         if needed.len() > room {
@@ -421,6 +422,44 @@ mod tests {
             }
             points.shuffle(&mut rng);
             assert_eq!(KeepRates::within(points.iter().copied(), uniform, room), k);
+        }
+    }
+
+    /// The trim of the octants' parts keeps what the trim of their points joined keeps, in
+    /// the same order, for any split into parts: random points, a third with random needs,
+    /// cut at random places, at budgets above, at and below the needed points.
+    #[test]
+    fn the_trim_of_parts_is_the_trim_of_the_joined_points() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(5);
+        let n = 30_000;
+        let uniform = 0.3;
+        let mut joined = ThinnedData::default();
+        for i in 0..n {
+            let p = DVec3::new(rng.random(), rng.random(), rng.random());
+            let need = if i % 3 == 0 { rng.random::<f64>() } else { 0.0 };
+            if position_hash(p) < f64::max(uniform, need) {
+                joined.points.push(OrientedPoint { p, n: DVec3::Z });
+                joined.footprints.push(PointFootprint::unmeasured(1e-3));
+                joined.need.push(need);
+            }
+        }
+        let len = joined.len();
+        for room in [len + 1, len * 2 / 3, len / 5, 3] {
+            let whole = ThinnedData::at_most(vec![joined.clone()], room, uniform, 10);
+            assert_eq!(whole.len(), room.min(len));
+            let mut cuts: Vec<usize> = (0..6).map(|_| rng.random_range(0..=len)).collect();
+            cuts.extend([0, len]);
+            cuts.sort_unstable();
+            let parts: Vec<ThinnedData> = cuts
+                .windows(2)
+                .map(|w| ThinnedData {
+                    points: joined.points[w[0]..w[1]].to_vec(),
+                    footprints: joined.footprints[w[0]..w[1]].to_vec(),
+                    need: joined.need[w[0]..w[1]].to_vec(),
+                })
+                .collect();
+            assert_eq!(ThinnedData::at_most(parts, room, uniform, 10), whole);
         }
     }
 

@@ -13,12 +13,13 @@ use crate::thinned_data::needed_rate;
 /// its budget of `relax_points`: `None` when every one of `population` points fits. A point
 /// outside the bands along the data's edge is kept when its position hash lies below
 /// `max(uniform, need_scale × need)`, its need the rate its place needs for the particles'
-/// data floor there ([`Thinning::floor_at`], `thinned_data::needed_rate`). The needs come
-/// first: how many points they take is estimated from the surface leaves before any point is
-/// read ([`estimated_need`]), scaled down alike when they would not fit, and the uniform share
-/// is what is left, so that the regions keep about the budget and not more
-/// (docs/notes/2026-12-04-thinned-finest-level.md). A function of the decisions, the
-/// parameters and the budget: every octant's task finds the same.
+/// data floor there ([`Floors::at`], `thinned_data::needed_rate`). The needs come first: how
+/// many points they take is estimated from the surface leaves before any point is read
+/// ([`estimated_need`]), scaled down alike when they would not fit, and the uniform share is
+/// what is left of [`KEEP_HEADROOM`] × the budget, so that the regions keep about that and not
+/// more, and the trim to the budget (`ThinnedData::at_most`, needs first) has the estimate's
+/// error to take from (docs/notes/2026-12-04-thinned-finest-level.md). A function of the
+/// decisions, the parameters and the budget: every octant's task finds the same.
 pub(crate) fn thinning(
     decisions: &TiledDecisions,
     params: &ParticleParams,
@@ -32,14 +33,22 @@ pub(crate) fn thinning(
     let floors = Floors::new(&field, params);
     let need = estimated_need(decisions, &floors, population);
     let room = relax_points as f64;
-    let need_scale = if need > room { room / need } else { 1.0 };
+    let kept = KEEP_HEADROOM * room;
+    let need_scale = if need > kept { kept / need } else { 1.0 };
     Some(Thinning {
         rate: room / population as f64,
-        uniform: (room - need).max(0.0) / population as f64,
+        uniform: (kept - need).max(0.0) / population as f64,
         need_scale,
         floors,
     })
 }
+
+/// The regions keep about this many times the relaxation's budget of points, which the trim
+/// then takes to the budget: the needs' estimate errs by a fraction either way (an area of
+/// [`AREA_PER_LEAF_FACE`] per leaf face; the bands are not counted), and what the regions did
+/// not keep the trim cannot take. The seeding's share of the budget is far below the
+/// relaxation's (docs/notes/2026-12-04-thinned-finest-level.md).
+const KEEP_HEADROOM: f64 = 1.25;
 
 /// The particles' data floor at each depth, at its least before the relaxation (world units).
 #[derive(Clone, Copy, Debug)]
