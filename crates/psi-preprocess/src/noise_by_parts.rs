@@ -119,16 +119,20 @@ mod tests {
     use crate::grid_parts::grid_parts;
     use psi_shapes::AnalyticShape;
 
-    /// Noisy tori (one with noise that asks for the wide round, one without) on 27 parts:
-    /// the estimate from the parts' fits is the whole estimate, bit for bit.
-    #[test]
-    fn parts_estimate_the_noise_bitwise_as_the_whole() {
+    /// 20 000 points of a torus sampled with `seed`, and their spacing (world units).
+    fn torus(seed: u64) -> (Vec<psi_octree::OrientedPoint>, f64) {
         let torus = AnalyticShape::Torus {
             major: 1.0,
             minor: 0.35,
         };
-        let clean = torus.sample(20_000, 3);
-        let spacing = (torus.area() / 20_000.0).sqrt();
+        (torus.sample(20_000, seed), (torus.area() / 20_000.0).sqrt())
+    }
+
+    /// Noisy tori (one with noise that asks for the wide round, one without) on 27 parts:
+    /// the estimate from the parts' fits is the whole estimate, bit for bit.
+    #[test]
+    fn parts_estimate_the_noise_bitwise_as_the_whole() {
+        let (clean, spacing) = torus(3);
         let mut rng = <rand_pcg::Pcg64Mcg as rand::SeedableRng>::seed_from_u64(8);
         let mut wide_rounds = 0;
         for relative in [0.05, 1.0] {
@@ -172,12 +176,7 @@ mod tests {
     #[test]
     fn the_wide_rounds_neighbourhoods_read_ahead_give_the_whole_estimate() {
         use crate::estimate_noise::{wide_residuals, widest_round};
-        let torus = AnalyticShape::Torus {
-            major: 1.0,
-            minor: 0.35,
-        };
-        let clean = torus.sample(20_000, 5);
-        let spacing = (torus.area() / 20_000.0).sqrt();
+        let (clean, spacing) = torus(5);
         let mut rng = <rand_pcg::Pcg64Mcg as rand::SeedableRng>::seed_from_u64(9);
         let positions: Vec<DVec3> = clean
             .iter()
