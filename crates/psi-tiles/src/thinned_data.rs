@@ -34,8 +34,8 @@ pub struct ThinnedData {
     pub points: Vec<OrientedPoint>,
     /// What the whole input says of each (shape: N).
     pub footprints: Vec<PointFootprint>,
-    /// The rate each point's place needs ([`needed_rate`], in [0, 1]; shape: N): kept before
-    /// the others when the budget is short ([`ThinnedData::at_most`]).
+    /// The rate each point's place needs (`needed_rate`, scaled, in [0, 1]; shape: N): kept before
+    /// the others when the budget is short (`ThinnedData::at_most`).
     pub need: Vec<f64>,
 }
 
