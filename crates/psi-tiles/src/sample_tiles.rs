@@ -155,7 +155,7 @@ pub fn seed_octants(decisions: &TiledDecisions) -> Vec<[u32; 3]> {
 
 /// The density field of the seeds: the depth range of the surface leaves
 /// ([`psi_particles::depth_range`], as in core), σ not yet scaled.
-pub(crate) fn base_field(decisions: &TiledDecisions) -> DensityField {
+fn base_field(decisions: &TiledDecisions) -> DensityField {
     let (d_min, d_max) = psi_particles::depth_range(decisions.surface.iter().map(|a| a.0));
     DensityField {
         d_min,
@@ -185,7 +185,7 @@ pub fn seed_octant(
     monitor: &Monitor<'_>,
 ) -> Result<OctantSeeds, TileError> {
     let field = base_field(decisions);
-    let thin = thinning(decisions, params, source.population(), relax_points);
+    let thin = thinning(decisions, &field, params, source.population(), relax_points);
     // (The leaves of this octant alone: a map of the whole table per octant would be large.
     // Only a region that builds the cells near it names its leaves by the map: one seed a
     // leaf, `seed_region`.)
@@ -345,14 +345,15 @@ pub fn sample_tiled_from(
     let seed_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     // Every input point when they fit, else the octants' thinned data.
-    let (points, footprints) = match thinning(decisions, params, source.population(), relax_points)
-    {
-        None => (source.relaxation_points(relax_points)?, None),
-        Some(thin) => {
-            let data = ThinnedData::at_most(thinned, relax_points, thin.uniform, seeds.len());
-            (data.points, Some(data.footprints))
-        }
-    };
+    let base = base_field(decisions);
+    let (points, footprints) =
+        match thinning(decisions, &base, params, source.population(), relax_points) {
+            None => (source.relaxation_points(relax_points)?, None),
+            Some(thin) => {
+                let data = ThinnedData::at_most(thinned, relax_points, thin.uniform, seeds.len());
+                (data.points, Some(data.footprints))
+            }
+        };
     let held = points.len();
     let mut particles = seeds.clone();
     let mut cover = TileCover::default();

@@ -41,7 +41,7 @@ pub fn seed_store_octant(
     h.update(fingerprint(store, mpu_params, tiles));
     h.update(format!(
         "{params:?} {SEED_MARGIN} {relax_points} {SEEDS_FORMAT} {} {}",
-        crate::thinned_data::SUBSET_SPACING_PER_FLOOR,
+        crate::thinning::SUBSET_SPACING_PER_FLOOR,
         crate::thinning::AREA_PER_LEAF_FACE
     ));
     let print: String = h.finalize().iter().map(|b| format!("{b:02x}")).collect();

@@ -23,7 +23,7 @@ use psi_octree::OrientedPoint;
 use serde::{Deserialize, Serialize};
 
 use crate::point_source::position_hash;
-use crate::thinning::Thinning;
+use crate::thinning::{Thinning, needed_rate};
 
 /// A thinned subset of the input with the whole input's footprint at each point, in the order
 /// of the seeding (octant, region, leaf, then input order: a function of the input and the
@@ -37,35 +37,6 @@ pub struct ThinnedData {
     /// The rate each point's place needs (`needed_rate`, scaled, in [0, 1]; shape: N): kept before
     /// the others when the budget is short (`ThinnedData::at_most`).
     pub need: Vec<f64>,
-}
-
-/// The subset's spacing is at most this share of the particles' data floor where it can be
-/// (`needed_rate`).
-pub(crate) const SUBSET_SPACING_PER_FLOOR: f64 = 1.0 / 3.0;
-
-/// The rate at which a subset of an input of spacing `spacing` (world units, `d₈·√(π/8)`: the
-/// radius of the disc that holds one point) has its spacing at most a third of `floor`, the
-/// distance within which the particles there take the input as present (world units:
-/// `data_reach` × `data_floor` × σ at the leaf's depth): `min(1, (3·spacing/floor)²)`; 0 for
-/// a floor of 0 or less or a spacing that is not finite.
-///
-/// The footprint test refuses a position whose nearest input point lies beyond
-/// `data_reach` × max(spacing, floor). In a random sampling of spacing s, the nearest point to
-/// a position on the surface lies beyond x with probability e^(−x²/s²) (the nearest-neighbour
-/// distance of a Poisson process of density 1/(πs²)): at a floor of three subset spacings the
-/// subset refuses e^−9 ≈ 1e-4 of the positions for its own gaps. A subset whose spacing was
-/// about the floor refused 6 % of the finest particles' moves on a 10 M-point input, where
-/// the whole input refused 1.2 % (docs/notes/2026-12-04-thinned-finest-level.md). The points a
-/// place needs are about 9A/(π·floor²) for its area A: some tens a particle, whatever the
-/// input's size.
-pub(crate) fn needed_rate(spacing: f64, floor: f64) -> f64 {
-    if floor > 0.0 && spacing.is_finite() {
-        (spacing / (SUBSET_SPACING_PER_FLOOR * floor))
-            .powi(2)
-            .min(1.0)
-    } else {
-        0.0
-    }
 }
 
 impl ThinnedData {
@@ -461,17 +432,5 @@ mod tests {
                 .collect();
             assert_eq!(ThinnedData::at_most(parts, room, uniform, 10), whole);
         }
-    }
-
-    /// The needed rate: the subset's spacing (spacing/√rate) a third of the floor, at most 1.
-    #[test]
-    fn the_needed_rate_puts_three_subset_spacings_in_the_floor() {
-        for (spacing, floor) in [(1e-4, 1.2e-3), (3e-5, 4e-4), (2.0, 50.0)] {
-            let r = needed_rate(spacing, floor);
-            psi_shapes::assert_near!(spacing / r.sqrt(), floor / 3.0, 1e-12 * floor);
-        }
-        assert_eq!(needed_rate(1e-4, 2e-4), 1.0);
-        assert_eq!(needed_rate(1e-4, 0.0), 0.0);
-        assert_eq!(needed_rate(f64::NAN, 1.0), 0.0);
     }
 }

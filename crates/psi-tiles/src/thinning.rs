@@ -6,8 +6,6 @@
 use psi_particles::{DensityField, ParticleParams};
 
 use crate::TiledDecisions;
-use crate::sample_tiles::base_field;
-use crate::thinned_data::needed_rate;
 
 /// How the seeding thins the relaxation's data (`ThinnedData`) when the points do not all fit
 /// its budget of `relax_points`: `None` when every one of `population` points fits. A point
@@ -19,9 +17,11 @@ use crate::thinned_data::needed_rate;
 /// what is left of [`KEEP_HEADROOM`] × the budget, so that the regions keep about that and not
 /// more, and the trim to the budget (`ThinnedData::at_most`, needs first) has the estimate's
 /// error to take from (docs/notes/2026-12-04-thinned-finest-level.md). A function of the
-/// decisions, the parameters and the budget: every octant's task finds the same.
+/// decisions, the seeds' density field `field` (σ̂ not yet scaled), the parameters and the
+/// budget: every octant's task finds the same.
 pub(crate) fn thinning(
     decisions: &TiledDecisions,
+    field: &DensityField,
     params: &ParticleParams,
     population: usize,
     relax_points: usize,
@@ -29,8 +29,7 @@ pub(crate) fn thinning(
     if population <= relax_points {
         return None;
     }
-    let field = base_field(decisions);
-    let floors = Floors::new(&field, params);
+    let floors = Floors::new(field, params);
     let need = estimated_need(decisions, &floors, population);
     let room = relax_points as f64;
     let kept = KEEP_HEADROOM * room;
@@ -110,4 +109,50 @@ pub(crate) struct Thinning {
     pub(crate) need_scale: f64,
     /// The particles' data floor by depth.
     pub(crate) floors: Floors,
+}
+
+/// The subset's spacing is at most this share of the particles' data floor where it can be
+/// (`needed_rate`).
+pub(crate) const SUBSET_SPACING_PER_FLOOR: f64 = 1.0 / 3.0;
+
+/// The rate at which a subset of an input of spacing `spacing` (world units, `d₈·√(π/8)`: the
+/// radius of the disc that holds one point) has its spacing at most a third of `floor`, the
+/// distance within which the particles there take the input as present (world units:
+/// `data_reach` × `data_floor` × σ at the leaf's depth): `min(1, (3·spacing/floor)²)`; 0 for
+/// a floor of 0 or less or a spacing that is not finite.
+///
+/// The footprint test refuses a position whose nearest input point lies beyond
+/// `data_reach` × max(spacing, floor). In a random sampling of spacing s, the nearest point to
+/// a position on the surface lies beyond x with probability e^(−x²/s²) (the nearest-neighbour
+/// distance of a Poisson process of density 1/(πs²)): at a floor of three subset spacings the
+/// subset refuses e^−9 ≈ 1e-4 of the positions for its own gaps. A subset whose spacing was
+/// about the floor refused 6 % of the finest particles' moves on a 10 M-point input, where
+/// the whole input refused 1.2 % (docs/notes/2026-12-04-thinned-finest-level.md). The points a
+/// place needs are about 9A/(π·floor²) for its area A: some tens a particle, whatever the
+/// input's size.
+pub(crate) fn needed_rate(spacing: f64, floor: f64) -> f64 {
+    if floor > 0.0 && spacing.is_finite() {
+        (spacing / (SUBSET_SPACING_PER_FLOOR * floor))
+            .powi(2)
+            .min(1.0)
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The needed rate: the subset's spacing (spacing/√rate) a third of the floor, at most 1.
+    #[test]
+    fn the_needed_rate_puts_three_subset_spacings_in_the_floor() {
+        for (spacing, floor) in [(1e-4, 1.2e-3), (3e-5, 4e-4), (2.0, 50.0)] {
+            let r = needed_rate(spacing, floor);
+            psi_shapes::assert_near!(spacing / r.sqrt(), floor / 3.0, 1e-12 * floor);
+        }
+        assert_eq!(needed_rate(1e-4, 2e-4), 1.0);
+        assert_eq!(needed_rate(1e-4, 0.0), 0.0);
+        assert_eq!(needed_rate(f64::NAN, 1.0), 0.0);
+    }
 }
