@@ -62,7 +62,7 @@ pub(crate) fn store_noise(
     let read_ahead = (n >= 7 && read_ahead_bytes(n).saturating_mul(READ_AHEAD_SHARE) <= max_memory)
         .then(|| widest_round(n));
     // The second round's neighbourhoods of each tile's samples, as far as its halo held them.
-    let read: Mutex<HashMap<[u32; 3], Vec<WideNeighbourhood>>> = Mutex::new(HashMap::new());
+    let mut read: HashMap<[u32; 3], Vec<WideNeighbourhood>> = HashMap::new();
     let noise = noise_by_rounds(n, |round: NoiseRound| {
         rounds += 1;
         let first_round = rounds == 1;
@@ -70,7 +70,6 @@ pub(crate) fn store_noise(
         let wide = read_ahead.filter(|_| first_round);
         // The second round: from the neighbourhoods read, the other tiles read again.
         let mut found = Vec::new();
-        let mut read = read.lock().expect("not poisoned");
         let keys: Vec<[u32; 3]> = match first_round {
             true => keys.clone(),
             false => {
@@ -166,7 +165,8 @@ mod tests {
 
     /// A noisy torus in a store of 64 tiles (noise of a spacing, which asks for the second
     /// round): the estimate tile by tile is the in-core one, bit for bit, with the second
-    /// round's neighbourhoods read ahead (a budget that holds them) and without (none).
+    /// round's neighbourhoods read ahead (a budget that holds them: the second round reads
+    /// fewer than every tile again) and without (none: every tile).
     #[test]
     fn the_noise_of_a_store_is_the_whole_estimate_with_and_without_reading_ahead() {
         use rand::SeedableRng;
@@ -193,20 +193,29 @@ mod tests {
         writer.push(&points).unwrap();
         let store = writer.finish().unwrap();
         assert!(store.tile_keys().len() >= 8);
+        let tiles = store.tile_keys().len() as u64;
+        let mut passes = Vec::new();
         for budget in [0, u64::MAX] {
-            let found = store_noise(
-                &store,
-                &mut Halos::new(),
-                None,
-                (false, budget),
-                &Monitor::silent(),
-            );
+            // The passes over every tile, counted from the progress reports' totals.
+            let whole_passes = std::sync::atomic::AtomicUsize::new(0);
+            let observe = |stage: &str, done: u64, total: u64| {
+                if stage == "noise" && done == 0 && total == tiles {
+                    whole_passes.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                }
+            };
+            let monitor = Monitor::new(Some(&observe), None);
+            let found = store_noise(&store, &mut Halos::new(), None, (false, budget), &monitor);
+            passes.push(whole_passes.into_inner());
             let ((estimate, _), _) = found.unwrap();
             assert!(
                 estimate == whole,
                 "budget {budget}: {estimate:?} against {whole:?}"
             );
         }
+        // Without a budget the second round reads every tile again; with one, the first
+        // round's reading serves some tiles at least.
+        assert_eq!(passes[0], 2, "{passes:?}");
+        assert_eq!(passes[1], 1, "{passes:?}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

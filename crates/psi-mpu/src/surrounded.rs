@@ -163,23 +163,28 @@ mod tests {
         assert!(!surrounded(DVec3::ZERO, n, [DVec3::X, DVec3::Y]));
     }
 
+    /// A random unit normal and two unit directions completing it to an orthonormal frame.
+    fn random_frame(rng: &mut Pcg64Mcg) -> (DVec3, DVec3, DVec3) {
+        let n = DVec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        )
+        .normalize_or(DVec3::Z);
+        let u = n.any_orthonormal_vector();
+        (n, u, n.cross(u))
+    }
+
     #[test]
     fn agrees_with_the_half_plane_test_on_random_sets() {
         let mut rng = Pcg64Mcg::seed_from_u64(7);
         let mut both = [0usize; 2];
         for _ in 0..2000 {
-            let n = DVec3::new(
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-            )
-            .normalize_or(DVec3::Z);
+            let (n, u, w) = random_frame(&mut rng);
             let y = DVec3::new(rng.random_range(-1.0..1.0), 0.0, 0.0);
             let count = rng.random_range(0..12);
             // Points in a random half-disc or the whole disc around the origin.
             let half = rng.random_bool(0.5);
-            let u = n.any_orthonormal_vector();
-            let w = n.cross(u);
             let near: Vec<DVec3> = (0..count)
                 .map(|_| {
                     let t = rng.random_range(0.0..std::f64::consts::TAU);
@@ -208,14 +213,7 @@ mod tests {
         let mut rng = Pcg64Mcg::seed_from_u64(11);
         let mut both = [0usize; 2];
         for case in 0..3000 {
-            let n = DVec3::new(
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-            )
-            .normalize_or(DVec3::Z);
-            let u = n.any_orthonormal_vector();
-            let w = n.cross(u);
+            let (n, u, w) = random_frame(&mut rng);
             let count = rng.random_range(0..300);
             let span = match case % 3 {
                 0 => std::f64::consts::TAU,

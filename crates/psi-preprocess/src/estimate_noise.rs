@@ -154,15 +154,12 @@ pub fn widest_round(n: usize) -> NoiseRound {
 pub struct WideNeighbourhood {
     /// The nearest points.
     pub near: Vec<(DVec3, f64)>,
-    /// Whether they are every input point (fewer than asked for, the part holding all: an
-    /// input of fewer points than the round asks for).
-    pub all: bool,
 }
 
 impl WideNeighbourhood {
     /// Whether the sample's `k` nearest are among these.
     pub fn reads(&self, k: usize) -> bool {
-        self.all || self.near.len() >= k
+        self.near.len() >= k
     }
 }
 
@@ -173,8 +170,7 @@ pub fn wide_residuals(neighbourhoods: &[WideNeighbourhood], k: usize) -> Vec<(f6
     neighbourhoods
         .iter()
         .filter_map(|w| {
-            debug_assert!(w.reads(k));
-            let near = &w.near[..k.min(w.near.len())];
+            let near = &w.near[..k];
             let pts: Vec<DVec3> = near.iter().map(|&(p, _)| p).collect();
             let reach = near.last().map_or(0.0, |n| n.1.sqrt());
             Some((QuadricFit::of(&pts, reach)?.sigma(), reach))

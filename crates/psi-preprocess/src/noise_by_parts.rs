@@ -95,16 +95,14 @@ pub fn part_noise_reading_wide(
             .map(|&i| {
                 let x = positions[i];
                 let mut near = index.nearest(x, wide.k);
-                // (Whether a ball is held is monotone in its radius.)
-                let all = near.len() < wide.k && complete(x, f64::INFINITY);
-                let held = near.partition_point(|&(_, d2)| complete(x, d2.sqrt()));
-                near.truncate(if all { near.len() } else { held });
+                // (Whether a ball is held is monotone in its radius. A part that holds every
+                // input point holds the widest round's min(256, N) of them.)
+                near.truncate(near.partition_point(|&(_, d2)| complete(x, d2.sqrt())));
                 WideNeighbourhood {
                     near: near
                         .iter()
                         .map(|&(j, d2)| (index.points()[j as usize], d2))
                         .collect(),
-                    all,
                 }
             })
             .collect()

@@ -125,11 +125,10 @@ pub(crate) const SUBSET_SPACING_PER_FLOOR: f64 = 1.0 / 3.0;
 /// `data_reach` × max(spacing, floor). In a random sampling of spacing s, the nearest point to
 /// a position on the surface lies beyond x with probability e^(−x²/s²) (the nearest-neighbour
 /// distance of a Poisson process of density 1/(πs²)): at a floor of three subset spacings the
-/// subset refuses e^−9 ≈ 1e-4 of the positions for its own gaps. A subset whose spacing was
-/// about the floor refused 6 % of the finest particles' moves on a 10 M-point input, where
-/// the whole input refused 1.2 % (docs/notes/2026-12-04-thinned-finest-level.md). The points a
-/// place needs are about 9A/(π·floor²) for its area A: some tens a particle, whatever the
-/// input's size.
+/// subset refuses e^−9 ≈ 1e-4 of the positions for its own gaps, where a subset whose spacing
+/// is about the floor refuses far more moves than the whole input
+/// (docs/notes/2026-12-04-thinned-finest-level.md). The points a place needs are about
+/// 9A/(π·floor²) for its area A: some tens a particle, whatever the input's size.
 pub(crate) fn needed_rate(spacing: f64, floor: f64) -> f64 {
     if floor > 0.0 && spacing.is_finite() {
         (spacing / (SUBSET_SPACING_PER_FLOOR * floor))
