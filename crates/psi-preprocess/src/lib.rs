@@ -66,6 +66,7 @@ mod outliers_by_parts;
 mod point_spread;
 mod preprocess;
 mod spanning_forest;
+mod symmetric_eigen3;
 
 pub use clumps_by_parts::{
     Candidates, ClumpCubes, ClumpScale, clumps_of_candidates, part_clump_spacings,

@@ -4,6 +4,8 @@
 use glam::DVec3;
 use nalgebra::{Matrix3, SMatrix, SVector};
 
+use crate::symmetric_eigen3::Eigen3;
+
 /// A set is flat enough to have a plane when its middle covariance eigenvalue exceeds this
 /// share of the total variance: a spread across the main direction of at least about 3 % of
 /// the spread along it. Coincident points, a scan line, or any neighbourhood thinner than that
@@ -90,38 +92,14 @@ impl Moments {
     }
 
     /// The surface variation λ0/(λ0+λ1+λ2) of the points added, from the covariance's
-    /// eigenvalues in closed form (Smith 1961, "Eigenvalues of a symmetric 3 × 3 matrix",
-    /// CACM 4(4)), without eigenvectors: what choosing among neighbourhoods needs. `None`
-    /// where [`Moments::plane`] has no plane (fewer than 3 points, no spread in two directions,
-    /// non-finite).
+    /// eigenvalues in closed form ([`Eigen3`]), without eigenvectors: what choosing among
+    /// neighbourhoods needs. `None` where [`Moments::plane`] has no plane (fewer than 3 points,
+    /// no spread in two directions, non-finite).
     pub(crate) fn variation(&self) -> Option<f64> {
         if self.count < 3 {
             return None;
         }
-        // Scaled to a largest entry of 1: no underflow or overflow in the squares and the
-        // determinant (the variation is a ratio, unchanged by the scale).
-        let c = self.covariance();
-        let largest = c.amax();
-        if !(largest > 0.0 && largest.is_finite()) {
-            return None;
-        }
-        let c = c / largest;
-        let off = c[(0, 1)].powi(2) + c[(0, 2)].powi(2) + c[(1, 2)].powi(2);
-        let q = c.trace() / 3.0;
-        let diag = (c[(0, 0)] - q).powi(2) + (c[(1, 1)] - q).powi(2) + (c[(2, 2)] - q).powi(2);
-        let p = ((diag + 2.0 * off) / 6.0).sqrt();
-        let mut e = if p > 0.0 {
-            let b = (c - Matrix3::from_diagonal_element(q)) / p;
-            let r = (b.determinant() / 2.0).clamp(-1.0, 1.0);
-            let phi = r.acos() / 3.0;
-            let largest = q + 2.0 * p * phi.cos();
-            let smallest = q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos();
-            [smallest, 3.0 * q - largest - smallest, largest]
-        } else {
-            [q; 3]
-        };
-        e.sort_by(f64::total_cmp);
-        let e = e.map(|v| v.max(0.0));
+        let e = Eigen3::of(&self.covariance())?.shape();
         let total: f64 = e.iter().sum();
         let spread = e[1] > FLAT_SPREAD * total;
         (spread && e.iter().all(|v| v.is_finite())).then(|| e[0] / total)
@@ -139,13 +117,7 @@ impl Moments {
         if self.count < 3 {
             return None;
         }
-        let cov = self.covariance();
-        let eig = cov.symmetric_eigen();
-        let mut order = [0usize, 1, 2];
-        order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
-        let v = eig.eigenvectors.column(order[0]);
-        let normal = DVec3::new(v[0], v[1], v[2]).normalize_or_zero();
-        let eigenvalues = order.map(|k| eig.eigenvalues[k].max(0.0));
+        let (eigenvalues, normal) = Eigen3::of(&self.covariance())?.decomposed();
         let spread = eigenvalues[1] > FLAT_SPREAD * eigenvalues.iter().sum::<f64>();
         let finite = eigenvalues.iter().all(|e| e.is_finite());
         (normal != DVec3::ZERO && spread && finite).then_some(PlaneFit {
@@ -375,10 +347,10 @@ mod tests {
     use super::*;
     use psi_shapes::assert_near;
 
-    /// The closed-form variation against the eigen-decomposition's, on flat, curved,
-    /// isotropic and degenerate sets.
+    /// The closed-form variation and plane against nalgebra's iterative eigen-decomposition
+    /// (the brute-force twin), on flat, curved, isotropic and degenerate sets.
     #[test]
-    fn closed_form_variation_equals_the_eigen_decompositions() {
+    fn closed_form_variation_and_plane_equal_the_iterative_decompositions() {
         use rand::{RngExt, SeedableRng};
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
         let mut rnd = move || rng.random::<f64>() - 0.5;
@@ -388,14 +360,31 @@ mod tests {
             (DVec3::ONE, 30),
             (DVec3::new(1.0, 1e-9, 1e-9), 20),
             (DVec3::new(2.0, 1.0, 0.0), 3),
+            (DVec3::new(1e-4, 2e-4, 1e-8), 16),
         ] {
             let mut m = Moments::around(DVec3::new(10.0, -4.0, 2.0));
             for _ in 0..count {
                 m.add(DVec3::new(10.0, -4.0, 2.0) + scale * DVec3::new(rnd(), rnd(), rnd()));
             }
+            let eig = m.covariance().symmetric_eigen();
+            let mut order = [0usize, 1, 2];
+            order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+            let e = order.map(|k| eig.eigenvalues[k].max(0.0));
+            let total: f64 = e.iter().sum();
+            let has_plane = e[1] > FLAT_SPREAD * total;
             match (m.variation(), m.plane()) {
-                (Some(v), Some(fit)) => assert_near!(v, fit.variation(), 1e-12),
-                (None, None) => {}
+                (Some(v), Some(fit)) if has_plane => {
+                    assert_near!(v, e[0] / total, 1e-12);
+                    for k in 0..3 {
+                        assert_near!(fit.eigenvalues[k], e[k], 1e-12 * total);
+                    }
+                    let least = eig.eigenvectors.column(order[0]);
+                    let n = DVec3::new(least[0], least[1], least[2]);
+                    if e[1] - e[0] > 1e-3 * total {
+                        assert_near!(fit.normal.dot(n).abs(), 1.0, 1e-10);
+                    }
+                }
+                (None, None) => assert!(!has_plane, "{scale}"),
                 other => panic!("{scale}: {other:?}"),
             }
         }
