@@ -55,9 +55,14 @@ pub(crate) fn ranked_error(
     for p in inside() {
         let d = distance(p);
         above += usize::from(d > eps0);
-        largest.push(Reverse(Distance(d)));
-        if largest.len() > rank {
-            largest.pop();
+        // The heap full, a distance replaces its least only when larger (pushing it and popping
+        // the least would leave the same values).
+        if largest.len() < rank {
+            largest.push(Reverse(Distance(d)));
+        } else if let Some(mut least) = largest.peek_mut()
+            && d.total_cmp(&least.0.0).is_gt()
+        {
+            *least = Reverse(Distance(d));
         }
         if above >= rank {
             break;
