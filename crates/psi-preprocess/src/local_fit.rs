@@ -186,22 +186,29 @@ impl QuadricFit {
         // The normal equations of the height field: the upper triangle summed, the lower one
         // mirrored (a product is the same either way round, so the matrix is the full loop's
         // to the bit).
-        let mut ata = SMatrix::<f64, 6, 6>::zeros();
-        let mut atb = SVector::<f64, 6>::zeros();
+        // (Summed in plain arrays, each entry over the points in their order: the loops unroll.)
+        let mut upper = [0.0f64; 21];
+        let mut rhs = [0.0f64; 6];
         for p in points {
             let (row, h) = fit.row(*p);
+            let mut k = 0;
             for i in 0..6 {
-                atb[i] += row[i] * h;
+                rhs[i] += row[i] * h;
                 for j in i..6 {
-                    ata[(i, j)] += row[i] * row[j];
+                    upper[k] += row[i] * row[j];
+                    k += 1;
                 }
             }
         }
+        let mut ata = SMatrix::<f64, 6, 6>::zeros();
+        let mut k = 0;
         for i in 0..6 {
-            for j in 0..i {
-                ata[(i, j)] = ata[(j, i)];
+            for j in i..6 {
+                (ata[(i, j)], ata[(j, i)]) = (upper[k], upper[k]);
+                k += 1;
             }
         }
+        let atb = SVector::<f64, 6>::from(rhs);
         let coef = ata.cholesky()?.solve(&atb);
         fit.coef = [coef[0], coef[1], coef[2], coef[3], coef[4], coef[5]];
         Some(fit)
