@@ -95,11 +95,21 @@ impl PointCloudFile {
     /// The componentwise minimum and maximum of the points' positions; `None` when there
     /// are none.
     pub fn bounds(&self) -> Option<(DVec3, DVec3)> {
+        use rayon::prelude::*;
         let first = self.points.first()?.p;
+        // In fixed chunks, in parallel, folded in order: the same result for any thread count.
+        let chunks: Vec<(DVec3, DVec3)> = self
+            .points
+            .par_chunks(1 << 16)
+            .map(|c| {
+                c.iter()
+                    .fold((first, first), |(lo, hi), q| (lo.min(q.p), hi.max(q.p)))
+            })
+            .collect();
         Some(
-            self.points
-                .iter()
-                .fold((first, first), |(lo, hi), q| (lo.min(q.p), hi.max(q.p))),
+            chunks
+                .into_iter()
+                .fold((first, first), |(lo, hi), (l, h)| (lo.min(l), hi.max(h))),
         )
     }
 
@@ -133,4 +143,39 @@ pub(crate) struct Parsed {
     pub(crate) attributes: PointAttributes,
     /// What the file was (the format is set by the caller of the reader).
     pub(crate) source: SourceInfo,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The bounds of a file of several chunks, found in parallel, are the serial fold's.
+    #[test]
+    fn bounds_in_chunks_are_the_serial_folds() {
+        let n = 3 * (1 << 16) + 5;
+        let at = |i: usize, k: usize| ((i * (2 * k + 1)) as f64 * 0.618_033_988_7).fract() - 0.5;
+        let points: Vec<OrientedPoint> = (0..n)
+            .map(|i| OrientedPoint {
+                p: DVec3::new(at(i, 1), at(i, 2), at(i, 3)) * (1.0 + i as f64),
+                n: DVec3::Z,
+            })
+            .collect();
+        let first = points[0].p;
+        let serial = points
+            .iter()
+            .fold((first, first), |(lo, hi), q| (lo.min(q.p), hi.max(q.p)));
+        let file = PointCloudFile {
+            points,
+            normals: NormalSource::File,
+            vertices: n,
+            faces: 0,
+            degenerate_faces: 0,
+            dropped_points: 0,
+            mesh: None,
+            attributes: PointAttributes::default(),
+            source: SourceInfo::default(),
+        };
+        assert_eq!(file.bounds(), Some(serial));
+        assert_eq!(file.summary().bounds, Some(serial));
+    }
 }

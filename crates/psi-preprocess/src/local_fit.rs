@@ -73,6 +73,16 @@ impl Moments {
         self.outer[5] += y.z * y.z;
     }
 
+    /// Adds the points `other` added (summed around the same origin).
+    pub(crate) fn merge(&mut self, other: &Moments) {
+        debug_assert_eq!(self.origin, other.origin);
+        self.count += other.count;
+        self.sum += other.sum;
+        for (a, b) in self.outer.iter_mut().zip(other.outer) {
+            *a += b;
+        }
+    }
+
     /// The covariance of the points added (at least one).
     pub(crate) fn covariance(&self) -> Matrix3<f64> {
         let n = self.count as f64;

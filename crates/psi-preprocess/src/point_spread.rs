@@ -2,6 +2,7 @@
 //! can make no surface, and saying so beats the "too few points" a later step would report.
 
 use glam::DVec3;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::local_fit::Moments;
@@ -41,15 +42,41 @@ const COLLINEAR: f64 = 1e-12;
 /// assert_eq!(point_spread(&far), Spread::Unbounded);
 /// ```
 pub fn point_spread(positions: &[DVec3]) -> Spread {
-    let finite = || positions.iter().copied().filter(|p| p.is_finite());
-    let Some(first) = finite().next() else {
+    spread_of(positions.len(), &|i| positions[i])
+}
+
+/// Points summed one chunk of this many at a time ([`spread_of`]).
+const CHUNK: usize = 1 << 16;
+
+/// [`point_spread`] of the `n` positions `at(0..n)` (no copy of them): in parallel, the
+/// moments summed in fixed chunks of [`CHUNK`] points and the chunks' sums added in order, so
+/// that the result does not depend on the thread count (one chunk: the serial sums).
+pub(crate) fn spread_of(n: usize, at: &(dyn Fn(usize) -> DVec3 + Sync)) -> Spread {
+    let Some(first) = (0..n).map(at).find(|p| p.is_finite()) else {
         return Spread::Coincident;
     };
-    if finite().all(|p| p == first) {
+    if !(0..n)
+        .into_par_iter()
+        .map(at)
+        .any(|p| p.is_finite() && p != first)
+    {
         return Spread::Coincident;
     }
+    let chunks: Vec<Moments> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut m = Moments::around(first);
+            (c * CHUNK..n.min((c + 1) * CHUNK))
+                .map(at)
+                .filter(|p| p.is_finite())
+                .for_each(|p| m.add(p));
+            m
+        })
+        .collect();
     let mut moments = Moments::around(first);
-    finite().for_each(|p| moments.add(p));
+    for c in &chunks {
+        moments.merge(c);
+    }
     let cov = moments.covariance();
     if !cov.iter().all(|v| v.is_finite()) {
         return Spread::Unbounded;
@@ -64,5 +91,87 @@ pub fn point_spread(positions: &[DVec3]) -> Spread {
         Spread::Collinear
     } else {
         Spread::Surface
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The spread by the serial definition: the bounding box, then the eigenvalues of the
+    /// covariance summed point after point (the brute-force twin of the chunked sums).
+    fn serial_spread(positions: &[DVec3]) -> Spread {
+        let finite: Vec<DVec3> = positions.iter().copied().filter(|p| p.is_finite()).collect();
+        let Some(&first) = finite.first() else {
+            return Spread::Coincident;
+        };
+        if finite.iter().all(|&p| p == first) {
+            return Spread::Coincident;
+        }
+        let n = finite.len() as f64;
+        let mean = finite.iter().map(|&p| p - first).sum::<DVec3>() / n;
+        let mut cov = nalgebra::Matrix3::zeros();
+        for &p in &finite {
+            let d = p - first - mean;
+            let v = nalgebra::Vector3::new(d.x, d.y, d.z);
+            cov += v * v.transpose() / n;
+        }
+        if !cov.iter().all(|v| v.is_finite()) {
+            return Spread::Unbounded;
+        }
+        let mut e: Vec<f64> = cov.symmetric_eigenvalues().iter().map(|v| v.max(0.0)).collect();
+        e.sort_by(f64::total_cmp);
+        if e[1] <= COLLINEAR * e[2] {
+            Spread::Collinear
+        } else {
+            Spread::Surface
+        }
+    }
+
+    /// Inputs of several chunks (a plane, a line with rounding noise, coincident points with
+    /// one apart, a thin strip, points with NaNs among them) spread as the serial definition
+    /// says, and the same whatever the thread count.
+    #[test]
+    fn chunked_sums_classify_as_the_serial_definition() {
+        let n = 3 * CHUNK + 17;
+        let along = |i: usize| (i as f64 * 0.618_033_988_7).fract() * 10.0;
+        let cases: Vec<(Vec<DVec3>, Spread)> = vec![
+            (
+                (0..n).map(|i| DVec3::new(along(i), along(i * 7 + 3), 0.5)).collect(),
+                Spread::Surface,
+            ),
+            (
+                (0..n).map(|i| DVec3::new(1.0, 2.0, 3.0) * along(i)).collect(),
+                Spread::Collinear,
+            ),
+            (
+                (0..n)
+                    .map(|i| if i == n - 1 { DVec3::X } else { DVec3::ONE })
+                    .collect(),
+                Spread::Collinear,
+            ),
+            (vec![DVec3::splat(4.0); n], Spread::Coincident),
+            (
+                (0..n)
+                    .map(|i| DVec3::new(along(i), 1e-3 * (i % 2) as f64, 0.0))
+                    .collect(),
+                Spread::Surface,
+            ),
+            (
+                (0..n)
+                    .map(|i| match i % 1000 {
+                        0 => DVec3::NAN,
+                        _ => DVec3::new(along(i), along(i * 3 + 1), along(i * 5 + 2)),
+                    })
+                    .collect(),
+                Spread::Surface,
+            ),
+        ];
+        for (positions, expected) in cases {
+            assert_eq!(serial_spread(&positions), expected);
+            assert_eq!(point_spread(&positions), expected);
+            let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+            assert_eq!(one.install(|| point_spread(&positions)), expected);
+        }
     }
 }

@@ -15,10 +15,11 @@ use crate::estimate_normals::{estimate_normals_in, noise_level};
 use crate::neighbour_graph::morton_index_of;
 use crate::orient_from_level::orient_from_level;
 use crate::orient_normals::{check_normal_consistency_in, orient_normals_in};
+use crate::point_spread::spread_of;
 use crate::{
     DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, Spread, denoise_with,
     densify_mesh_with_sources, estimate_noise, inward_flip_notice, inward_votes, mesh_coarseness,
-    orient_toward, point_spread,
+    orient_toward,
 };
 
 /// Ohtake's error threshold ε0 relative to the bounding-box diagonal D (algorithms.md §1.1):
@@ -397,17 +398,15 @@ pub fn preprocess_with(
     if !normals_given && !params.estimate_normals {
         return Err(PreprocessError::NoNormals);
     }
-    let positions: Vec<DVec3> = points.iter().map(|p| p.p).collect();
-    match point_spread(&positions) {
+    match spread_of(points.len(), &|i| points[i].p) {
         Spread::Surface => {}
         degenerate => return Err(PreprocessError::NoSurface(degenerate)),
     }
-    drop(positions);
     let _span = tracing::info_span!("preprocess", points = points.len()).entered();
     let points_in = points.len();
     let mut seconds = StepSeconds::default();
     // The input point each point came from (its triangle's, for a densified point).
-    let mut source: Vec<u32> = (0..points_in as u32).collect();
+    let mut source: Vec<u32> = (0..points_in as u32).into_par_iter().collect();
 
     let mut mesh_report = None;
     if let PointOrigin::MeshCentroids(m) = origin

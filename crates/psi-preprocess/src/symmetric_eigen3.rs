@@ -4,7 +4,7 @@
 //! cross product of two rows of A − λ0·I (the rows span the space orthogonal to it; e.g.
 //! Kopp 2008, "Efficient numerical diagonalization of hermitian 3 × 3 matrices", §2.2).
 //! No iteration: a few hundred flops where an iterative solver takes several times that, and
-//! the plane fits of the preprocessing take one per point (notes: 2026-12-05-closed-form-plane).
+//! the plane fits of the preprocessing take one per point (notes: 2026-12-04-exact-speedups).
 
 use glam::{DMat3, DVec3};
 use nalgebra::Matrix3;
