@@ -232,12 +232,14 @@ pub(crate) fn to_point_cloud(
         }
     } else if parsed.normals.is_none() {
         // Positions only: normals are estimated later (psi-preprocess).
+        let points = parsed
+            .vertices
+            .par_iter()
+            .map(|&p| OrientedPoint { p, n: DVec3::ZERO })
+            .collect();
+        free_aside(parsed.vertices);
         PointCloudFile {
-            points: parsed
-                .vertices
-                .par_iter()
-                .map(|&p| OrientedPoint { p, n: DVec3::ZERO })
-                .collect(),
+            points,
             normals: NormalSource::Missing,
             vertices,
             faces,
@@ -255,6 +257,8 @@ pub(crate) fn to_point_cloud(
             .zip(&normals)
             .map(|(&p, &n)| OrientedPoint { p, n })
             .collect();
+        free_aside(parsed.vertices);
+        free_aside(normals);
         file_of_points(points, parsed.attributes, faces, source)?
     };
     if result.points.is_empty() {
@@ -266,6 +270,19 @@ pub(crate) fn to_point_cloud(
         });
     }
     Ok(result)
+}
+
+/// Arrays from this size on are freed on a thread of their own ([`free_aside`]).
+const FREE_ASIDE_BYTES: usize = 64 << 20;
+
+/// Drops `v`, a large array on a thread of its own (returning its pages to the system is
+/// one core's work, a tenth of a second for a 30 M-point file's columns, which the next
+/// stage need not wait for); a small one here.
+pub(crate) fn free_aside<T: Send + 'static>(v: Vec<T>) {
+    if v.capacity() * std::mem::size_of::<T>() >= FREE_ASIDE_BYTES {
+        // (Without a thread, `v` is dropped here as the spawn fails.)
+        let _ = std::thread::Builder::new().spawn(move || drop(v));
+    }
 }
 
 /// The triangle mesh of parsed data; [`ReadError::NoFaces`] when there are no faces.
