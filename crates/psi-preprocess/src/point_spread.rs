@@ -101,7 +101,11 @@ mod tests {
     /// The spread by the serial definition: the bounding box, then the eigenvalues of the
     /// covariance summed point after point (the brute-force twin of the chunked sums).
     fn serial_spread(positions: &[DVec3]) -> Spread {
-        let finite: Vec<DVec3> = positions.iter().copied().filter(|p| p.is_finite()).collect();
+        let finite: Vec<DVec3> = positions
+            .iter()
+            .copied()
+            .filter(|p| p.is_finite())
+            .collect();
         let Some(&first) = finite.first() else {
             return Spread::Coincident;
         };
@@ -119,7 +123,11 @@ mod tests {
         if !cov.iter().all(|v| v.is_finite()) {
             return Spread::Unbounded;
         }
-        let mut e: Vec<f64> = cov.symmetric_eigenvalues().iter().map(|v| v.max(0.0)).collect();
+        let mut e: Vec<f64> = cov
+            .symmetric_eigenvalues()
+            .iter()
+            .map(|v| v.max(0.0))
+            .collect();
         e.sort_by(f64::total_cmp);
         if e[1] <= COLLINEAR * e[2] {
             Spread::Collinear
@@ -137,11 +145,15 @@ mod tests {
         let along = |i: usize| (i as f64 * 0.618_033_988_7).fract() * 10.0;
         let cases: Vec<(Vec<DVec3>, Spread)> = vec![
             (
-                (0..n).map(|i| DVec3::new(along(i), along(i * 7 + 3), 0.5)).collect(),
+                (0..n)
+                    .map(|i| DVec3::new(along(i), along(i * 7 + 3), 0.5))
+                    .collect(),
                 Spread::Surface,
             ),
             (
-                (0..n).map(|i| DVec3::new(1.0, 2.0, 3.0) * along(i)).collect(),
+                (0..n)
+                    .map(|i| DVec3::new(1.0, 2.0, 3.0) * along(i))
+                    .collect(),
                 Spread::Collinear,
             ),
             (
@@ -170,7 +182,10 @@ mod tests {
         for (positions, expected) in cases {
             assert_eq!(serial_spread(&positions), expected);
             assert_eq!(point_spread(&positions), expected);
-            let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+            let one = rayon::ThreadPoolBuilder::new()
+                .num_threads(1)
+                .build()
+                .unwrap();
             assert_eq!(one.install(|| point_spread(&positions)), expected);
         }
     }
