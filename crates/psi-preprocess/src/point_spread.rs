@@ -2,6 +2,7 @@
 //! can make no surface, and saying so beats the "too few points" a later step would report.
 
 use glam::DVec3;
+use psi_octree::Aabb;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -94,6 +95,20 @@ pub(crate) fn spread_of(n: usize, at: &(dyn Fn(usize) -> DVec3 + Sync)) -> Sprea
     }
 }
 
+/// The bounding box of the `n` positions `at(0..n)` (`None` for none), as [`Aabb::from_points`]
+/// folds them, in parallel: fixed chunks of [`CHUNK`] folded in order (no copy of the
+/// positions).
+pub(crate) fn bounds_of(n: usize, at: &(dyn Fn(usize) -> DVec3 + Sync)) -> Option<Aabb> {
+    let chunks: Vec<Option<Aabb>> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| Aabb::from_points((c * CHUNK..n.min((c + 1) * CHUNK)).map(at)))
+        .collect();
+    chunks.into_iter().flatten().reduce(|a, b| Aabb {
+        min: a.min.min(b.min),
+        max: a.max.max(b.max),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -180,6 +195,15 @@ mod tests {
             ),
         ];
         for (positions, expected) in cases {
+            let finite: Vec<DVec3> = positions
+                .iter()
+                .copied()
+                .filter(|p| p.is_finite())
+                .collect();
+            if finite.len() == positions.len() {
+                let at = |i: usize| positions[i];
+                assert_eq!(bounds_of(positions.len(), &at), Aabb::from_points(finite));
+            }
             assert_eq!(serial_spread(&positions), expected);
             assert_eq!(point_spread(&positions), expected);
             let one = rayon::ThreadPoolBuilder::new()
