@@ -18,6 +18,7 @@ use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
 use std::ops::ControlFlow;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::attributes::{AttributeKinds, intensity_value};
 use crate::error::ReadError;
@@ -131,24 +132,7 @@ impl<R: Read> PcdStream<R> {
 
     /// The values of one binary record.
     fn record(&self, rec: &[u8]) -> Values {
-        let h = &self.header;
-        let at = |s: Slot| number(&rec[s.offset..s.offset + s.size], s.kind);
-        let [x, y, z] = h.position.map(at);
-        let n = h.normal.map_or(DVec3::ZERO, |n| {
-            let [a, b, c] = n.map(at);
-            DVec3::new(a, b, c)
-        });
-        let rgb = h.rgb.map_or(0, |s| {
-            let mut b = [0u8; 4];
-            b.copy_from_slice(&rec[s.offset..s.offset + 4]);
-            u32::from_le_bytes(b)
-        });
-        Values {
-            p: DVec3::new(x, y, z),
-            n,
-            rgb,
-            intensity: h.intensity.map_or(0.0, at),
-        }
+        record_values(&self.header, rec)
     }
 
     fn ascii<F: FnMut(PointChunk) -> ControlFlow<()>>(
@@ -289,9 +273,13 @@ impl<R: Read> PcdStream<R> {
                     io_error(e)
                 }
             })?;
+            // (Decoded in parallel, in order; pushed in order.)
+            let values: Vec<Values> = buffer
+                .par_chunks_exact(record)
+                .map(|rec| record_values(&self.header, rec))
+                .collect();
             let mut chunk = PointChunk::for_header(header, n);
-            for rec in buffer.chunks_exact(record) {
-                let v = self.record(rec);
+            for v in values {
                 self.push(v, &mut chunk, &mut end);
             }
             point += n as u64;
@@ -392,6 +380,27 @@ impl<R: Read> PcdStream<R> {
 }
 
 /// A little-endian value of `bytes.len()` bytes (1, 2, 4 or 8) and type `kind`, as f64.
+/// The values of one binary record `rec` of a file with header `h`.
+fn record_values(h: &PcdHeader, rec: &[u8]) -> Values {
+    let at = |s: Slot| number(&rec[s.offset..s.offset + s.size], s.kind);
+    let [x, y, z] = h.position.map(at);
+    let n = h.normal.map_or(DVec3::ZERO, |n| {
+        let [a, b, c] = n.map(at);
+        DVec3::new(a, b, c)
+    });
+    let rgb = h.rgb.map_or(0, |s| {
+        let mut b = [0u8; 4];
+        b.copy_from_slice(&rec[s.offset..s.offset + 4]);
+        u32::from_le_bytes(b)
+    });
+    Values {
+        p: DVec3::new(x, y, z),
+        n,
+        rgb,
+        intensity: h.intensity.map_or(0.0, at),
+    }
+}
+
 fn number(bytes: &[u8], kind: Kind) -> f64 {
     let mut b = [0u8; 8];
     b[..bytes.len()].copy_from_slice(bytes);
