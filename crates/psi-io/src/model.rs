@@ -154,27 +154,15 @@ mod tests {
     fn bounds_in_chunks_are_the_serial_folds() {
         let n = 3 * (1 << 16) + 5;
         let at = |i: usize, k: usize| ((i * (2 * k + 1)) as f64 * 0.618_033_988_7).fract() - 0.5;
-        let points: Vec<OrientedPoint> = (0..n)
-            .map(|i| OrientedPoint {
-                p: DVec3::new(at(i, 1), at(i, 2), at(i, 3)) * (1.0 + i as f64),
-                n: DVec3::Z,
-            })
+        let positions: Vec<DVec3> = (0..n)
+            .map(|i| DVec3::new(at(i, 1), at(i, 2), at(i, 3)) * (1.0 + i as f64))
             .collect();
-        let first = points[0].p;
-        let serial = points
+        let first = positions[0];
+        let serial = positions
             .iter()
-            .fold((first, first), |(lo, hi), q| (lo.min(q.p), hi.max(q.p)));
-        let file = PointCloudFile {
-            points,
-            normals: NormalSource::File,
-            vertices: n,
-            faces: 0,
-            degenerate_faces: 0,
-            dropped_points: 0,
-            mesh: None,
-            attributes: PointAttributes::default(),
-            source: SourceInfo::default(),
-        };
+            .fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+        let file = crate::points_from_columns(positions, None, PointAttributes::default())
+            .expect("finite positions");
         assert_eq!(file.bounds(), Some(serial));
         assert_eq!(file.summary().bounds, Some(serial));
     }

@@ -78,7 +78,12 @@ pub(crate) fn spread_of(n: usize, at: &(dyn Fn(usize) -> DVec3 + Sync)) -> Sprea
     for c in &chunks {
         moments.merge(c);
     }
-    let cov = moments.covariance();
+    spread_of_covariance(&moments.covariance())
+}
+
+/// How points of covariance `cov` (of points not all at one place) spread: unbounded when it
+/// is not finite, collinear when its middle eigenvalue vanishes against the largest.
+fn spread_of_covariance(cov: &nalgebra::Matrix3<f64>) -> Spread {
     if !cov.iter().all(|v| v.is_finite()) {
         return Spread::Unbounded;
     }
@@ -113,41 +118,24 @@ pub(crate) fn bounds_of(n: usize, at: &(dyn Fn(usize) -> DVec3 + Sync)) -> Optio
 mod tests {
     use super::*;
 
-    /// The spread by the serial definition: the bounding box, then the eigenvalues of the
-    /// covariance summed point after point (the brute-force twin of the chunked sums).
+    /// The spread by the serial definition: the bounding box, then the covariance summed point
+    /// after point (the brute-force twin of the chunked sums).
     fn serial_spread(positions: &[DVec3]) -> Spread {
-        let finite: Vec<DVec3> = positions
-            .iter()
-            .copied()
-            .filter(|p| p.is_finite())
-            .collect();
-        let Some(&first) = finite.first() else {
-            return Spread::Coincident;
-        };
-        if finite.iter().all(|&p| p == first) {
-            return Spread::Coincident;
-        }
-        let n = finite.len() as f64;
-        let mean = finite.iter().map(|&p| p - first).sum::<DVec3>() / n;
-        let mut cov = nalgebra::Matrix3::zeros();
-        for &p in &finite {
-            let d = p - first - mean;
-            let v = nalgebra::Vector3::new(d.x, d.y, d.z);
-            cov += v * v.transpose() / n;
-        }
-        if !cov.iter().all(|v| v.is_finite()) {
-            return Spread::Unbounded;
-        }
-        let mut e: Vec<f64> = cov
-            .symmetric_eigenvalues()
-            .iter()
-            .map(|v| v.max(0.0))
-            .collect();
-        e.sort_by(f64::total_cmp);
-        if e[1] <= COLLINEAR * e[2] {
-            Spread::Collinear
-        } else {
-            Spread::Surface
+        let finite = || positions.iter().filter(|p| p.is_finite());
+        match finite().next() {
+            None => Spread::Coincident,
+            Some(first) if finite().all(|p| p == first) => Spread::Coincident,
+            Some(&first) => {
+                let n = finite().count() as f64;
+                let mean = finite().map(|&p| p - first).sum::<DVec3>() / n;
+                let mut cov = nalgebra::Matrix3::zeros();
+                for &p in finite() {
+                    let d = p - first - mean;
+                    let v = nalgebra::Vector3::new(d.x, d.y, d.z);
+                    cov += v * v.transpose() / n;
+                }
+                spread_of_covariance(&cov)
+            }
         }
     }
 
