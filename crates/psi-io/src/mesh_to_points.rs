@@ -276,8 +276,8 @@ pub(crate) fn to_point_cloud(
 const FREE_ASIDE_BYTES: usize = 64 << 20;
 
 /// Drops `v`, a large array on a thread of its own (returning its pages to the system is
-/// one core's work, a tenth of a second for a 30 M-point file's columns, which the next
-/// stage need not wait for); a small one here.
+/// one core's work, which the next stage need not wait for; notes:
+/// 2026-12-04-exact-speedups); a small one here.
 pub(crate) fn free_aside<T: Send + 'static>(v: Vec<T>) {
     if v.capacity() * std::mem::size_of::<T>() >= FREE_ASIDE_BYTES {
         // (Without a thread, `v` is dropped here as the spawn fails.)

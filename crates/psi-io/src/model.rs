@@ -102,8 +102,10 @@ impl PointCloudFile {
             .points
             .par_chunks(1 << 16)
             .map(|c| {
+                // (Each chunk from its own first point: in order, the serial fold's ties.)
+                let start = c[0].p;
                 c.iter()
-                    .fold((first, first), |(lo, hi), q| (lo.min(q.p), hi.max(q.p)))
+                    .fold((start, start), |(lo, hi), q| (lo.min(q.p), hi.max(q.p)))
             })
             .collect();
         Some(
@@ -157,6 +159,10 @@ mod tests {
         let positions: Vec<DVec3> = (0..n)
             .map(|i| DVec3::new(at(i, 1), at(i, 2), at(i, 3)) * (1.0 + i as f64))
             .collect();
+        // Signed zeros whose ties the serial fold settles by order.
+        let mut positions = positions;
+        positions[0] = DVec3::ZERO;
+        positions[7] = DVec3::splat(-0.0);
         let first = positions[0];
         let serial = positions
             .iter()

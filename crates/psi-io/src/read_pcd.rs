@@ -379,7 +379,6 @@ impl<R: Read> PcdStream<R> {
     }
 }
 
-/// A little-endian value of `bytes.len()` bytes (1, 2, 4 or 8) and type `kind`, as f64.
 /// The values of one binary record `rec` of a file with header `h`.
 fn record_values(h: &PcdHeader, rec: &[u8]) -> Values {
     let at = |s: Slot| number(&rec[s.offset..s.offset + s.size], s.kind);
@@ -401,6 +400,7 @@ fn record_values(h: &PcdHeader, rec: &[u8]) -> Values {
     }
 }
 
+/// A little-endian value of `bytes.len()` bytes (1, 2, 4 or 8) and type `kind`, as f64.
 fn number(bytes: &[u8], kind: Kind) -> f64 {
     let mut b = [0u8; 8];
     b[..bytes.len()].copy_from_slice(bytes);

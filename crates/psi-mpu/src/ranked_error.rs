@@ -50,7 +50,7 @@ pub(crate) fn ranked_error(
         return 0.0;
     }
     // The `rank` largest distances so far (a min-heap of them) and how many exceed ε0.
-    let mut largest: BinaryHeap<Reverse<Distance>> = BinaryHeap::with_capacity(rank + 1);
+    let mut largest: BinaryHeap<Reverse<Distance>> = BinaryHeap::with_capacity(rank);
     let mut above = 0;
     for p in inside() {
         let d = distance(p);

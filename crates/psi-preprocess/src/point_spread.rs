@@ -100,9 +100,9 @@ fn spread_of_covariance(cov: &nalgebra::Matrix3<f64>) -> Spread {
     }
 }
 
-/// The bounding box of the `n` positions `at(0..n)` (`None` for none), as [`Aabb::from_points`]
-/// folds them, in parallel: fixed chunks of [`CHUNK`] folded in order (no copy of the
-/// positions).
+/// The bounding box of the `n` positions `at(0..n)` (`None` for none), for finite positions
+/// the box [`Aabb::from_points`] folds, in parallel: fixed chunks of [`CHUNK`] folded in order
+/// (no copy of the positions).
 pub(crate) fn bounds_of(n: usize, at: &(dyn Fn(usize) -> DVec3 + Sync)) -> Option<Aabb> {
     let chunks: Vec<Option<Aabb>> = (0..n.div_ceil(CHUNK))
         .into_par_iter()

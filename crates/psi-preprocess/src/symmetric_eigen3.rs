@@ -22,9 +22,8 @@ pub(crate) struct Eigen3 {
 }
 
 impl Eigen3 {
-    /// The spectrum of the symmetric `a` (only its upper triangle is read by the eigenvector;
-    /// the cubic reads all of it, so `a` must be symmetric). `None` when `a` is zero or has a
-    /// non-finite entry.
+    /// The spectrum of `a`, which must be symmetric (every entry is read). `None` when `a` is
+    /// zero or has a non-finite entry.
     pub(crate) fn of(a: &Matrix3<f64>) -> Option<Self> {
         let largest = a.amax();
         if !(largest > 0.0 && a.iter().all(|v| v.is_finite())) {
@@ -62,27 +61,62 @@ impl Eigen3 {
     }
 
     /// A's eigenvalues (ascending, clamped at 0; A's units) and a unit eigenvector of the least
-    /// (sign arbitrary). The cubic's least root λ gives the vector (the null direction of
-    /// A / s − λ·I, [`null_direction`]); its Rayleigh quotient λ' = nᵀ(A / s)n, accurate to
-    /// about ε even where λ was only to √ε, gives it again; the other two eigenvalues are
-    /// those of A / s restricted to the plane across n (a 2 × 2 symmetric matrix). Where λ0 is
-    /// (numerically) repeated the vector is one of its eigenspace's.
+    /// (sign arbitrary), to about ε · ‖A‖ in A·n − λ0·n. The eigenvector of an eigenvalue the
+    /// other two are far from is found first, from the cubic's root (the null direction of
+    /// A / s − λ·I, [`null_direction`]) refined by its Rayleigh quotient nᵀ(A / s)n (accurate
+    /// to about ε where the root was only to √ε); the other two eigenvalues, and the least's
+    /// vector when it was not the first, are those of A / s restricted to the plane across it
+    /// (a 2 × 2 symmetric matrix, [`restricted`]). The first is the least's unless λ1 lies
+    /// within [`NEAR_DOUBLE`] of λ0 and farther from λ2 (a near-double least eigenvalue,
+    /// whose cubic root and null direction would be only to √ε: then the largest's). Where
+    /// λ0 is (numerically) repeated the vector is one of its eigenspace's.
     pub(crate) fn decomposed(&self) -> ([f64; 3], DVec3) {
         // (Symmetric: its columns are its rows.)
         let c = DMat3::from_cols_slice(self.scaled.as_slice());
         let quotient = |n: DVec3| n.dot(c * n);
-        let first = null_direction(&c, self.values[0]);
-        let n = null_direction(&c, quotient(first));
-        // The restriction to the plane across n, in an orthonormal basis u, w of it.
-        let u = n.any_orthonormal_vector();
-        let w = n.cross(u);
-        let (uu, ww, uw) = (quotient(u), quotient(w), u.dot(c * w));
-        let mid = (uu + ww) / 2.0;
-        let radius = ((uu - ww) / 2.0).hypot(uw);
-        let mut values = [quotient(n), mid - radius, mid + radius];
+        let [l0, l1, l2] = self.values;
+        let near_double = l1 - l0 < NEAR_DOUBLE && l2 - l1 > l1 - l0;
+        let first = null_direction(&c, if near_double { l2 } else { l0 });
+        let first = null_direction(&c, quotient(first));
+        let (low, high, low_vector) = restricted(&c, first);
+        let (mut values, n) = if near_double {
+            ([low, high, quotient(first)], low_vector)
+        } else {
+            ([quotient(first), low, high], first)
+        };
         values.sort_by(f64::total_cmp);
         (values.map(|v| v.max(0.0) * self.scale), n)
     }
+}
+
+/// λ1 − λ0 (of A / s, whose largest entry is 1) below which [`Eigen3::decomposed`] takes a
+/// near-double least eigenvalue from the plane across the largest's vector.
+const NEAR_DOUBLE: f64 = 1e-4;
+
+/// The symmetric `c` restricted to the plane across the unit `n` (an eigenvector): its two
+/// eigenvalues there, ascending, and a unit eigenvector (in space) of the lower.
+fn restricted(c: &DMat3, n: DVec3) -> (f64, f64, DVec3) {
+    // In an orthonormal basis u, w of the plane: [[uu, uw], [uw, ww]].
+    let u = n.any_orthonormal_vector();
+    let w = n.cross(u);
+    let (uu, ww, uw) = (u.dot(*c * u), w.dot(*c * w), u.dot(*c * w));
+    let mid = (uu + ww) / 2.0;
+    let radius = ((uu - ww) / 2.0).hypot(uw);
+    let low = mid - radius;
+    // The lower's vector (x, y) in the basis: the longer of the two rows' null directions.
+    let (a, b) = ((uw, low - uu), (low - ww, uw));
+    let (x, y) = if a.0.hypot(a.1) >= b.0.hypot(b.1) {
+        a
+    } else {
+        b
+    };
+    let length = x.hypot(y);
+    let vector = if length > 0.0 {
+        (x * u + y * w) / length
+    } else {
+        u
+    };
+    (low, mid + radius, vector)
 }
 
 /// A unit vector n with (c − λ·I)·n ≈ 0 for the symmetric `c` (an eigenvector of λ, sign
@@ -142,7 +176,7 @@ mod tests {
     #[test]
     fn spectra_and_least_vectors_match_known_and_iterative_ones() {
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
-        let spectra: [[f64; 3]; 9] = [
+        let spectra: [[f64; 3]; 15] = [
             [1e-3, 0.6, 1.0],
             [1e-9, 0.3, 1.0],
             [0.0, 0.5, 1.0],
@@ -152,8 +186,14 @@ mod tests {
             [1.0, 1.0, 1.0],
             [0.999, 1.0, 1.0],
             [1e-12, 1e-3, 1.0],
+            [0.3, 0.3 + 1e-9, 1.0],
+            [0.3, 0.3 + 1e-8, 1.0],
+            [0.3, 0.3 + 1e-7, 1.0],
+            [0.3, 0.3 + 2e-4, 1.0],
+            [1e-6, 1.01e-6, 1.0],
+            [1e-3, 0.5, 0.5 + 1e-8],
         ];
-        for trial in 0..200 {
+        for trial in 0..300 {
             let lambda = spectra[trial % spectra.len()];
             let scale = 10f64.powf(rng.random::<f64>() * 12.0 - 6.0);
             let q = rotation(&mut rng);
@@ -171,7 +211,8 @@ mod tests {
             }
             assert_near!(n.length(), 1.0, 1e-14);
             let v = nalgebra::Vector3::new(n.x, n.y, n.z);
-            // An eigenvector of λ0 whatever the gap: A·n = λ0·n to rounding …
+            // An eigenvector of λ0 whatever the gaps (near-double ones included): A·n = λ0·n
+            // to rounding …
             let residual = (a * v - v * lambda[0] * scale).norm();
             assert!(residual <= 1e-13 * scale, "{trial}: {residual:e}");
             // … and, where λ0 is simple, the known one up to sign.
