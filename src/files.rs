@@ -111,11 +111,7 @@ pub fn load_points_as(
         Some(format) => {
             let bytes = read_bytes(path)?;
             let file = psi_io::read_points(&bytes, format, opts).map_err(read_error(path));
-            // (A large file's bytes freed on a thread of their own: the next stage need not
-            // wait for their pages to go back.)
-            if bytes.len() >= 64 << 20 {
-                let _ = std::thread::Builder::new().spawn(move || drop(bytes));
-            }
+            psi_io::free_aside(bytes);
             file
         }
         None => {

@@ -22,6 +22,7 @@
 //!   [`PointCloudFile::source`] ([`SourceInfo`]: format, E57 scans, invalid records).
 //! * Streaming: [`PointStream`] reads LAS/LAZ, E57 and PCD in bounded chunks
 //!   ([`PointChunk`]), for files larger than memory; [`read_points_from`] collects them.
+//! * [`free_aside`] drops a large buffer on a thread of its own (a read's bytes, say).
 //! * [`read_point_scalars`] gives named scalar columns of a PLY `vertex` element (a particle
 //!   file's `depth` and `sigma`, say), aligned record by record, nothing dropped.
 //! * [`write_points_ply`] writes points, normals and named scalar channels (f64);
@@ -65,6 +66,7 @@ mod attributes;
 mod chunk_points;
 mod error;
 mod format;
+mod free_aside;
 mod las_checks;
 mod lzf;
 mod mesh_to_points;
@@ -91,6 +93,7 @@ pub use attributes::{AttributeKinds, PointAttributes};
 pub use chunk_points::chunk_oriented_points;
 pub use error::{ReadError, WriteError};
 pub use format::Format;
+pub use free_aside::free_aside;
 pub use model::{FileSummary, NormalSource, PointCloudFile, SourceInfo, TriangleMesh};
 pub use options::{MeshSampling, ReadOptions};
 pub use point_chunk::{PointChunk, StreamEnd, StreamHeader};

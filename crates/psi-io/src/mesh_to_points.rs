@@ -5,6 +5,8 @@ use glam::DVec3;
 use psi_octree::OrientedPoint;
 use rayon::prelude::*;
 
+use crate::free_aside::free_aside;
+
 use crate::attributes::{self, PointAttributes};
 use crate::error::ReadError;
 use crate::model::{NormalSource, Parsed, PointCloudFile, SourceInfo, TriangleMesh};
@@ -270,19 +272,6 @@ pub(crate) fn to_point_cloud(
         });
     }
     Ok(result)
-}
-
-/// Arrays from this size on are freed on a thread of their own ([`free_aside`]).
-const FREE_ASIDE_BYTES: usize = 64 << 20;
-
-/// Drops `v`, a large array on a thread of its own (returning its pages to the system is
-/// one core's work, which the next stage need not wait for; notes:
-/// 2026-12-04-exact-speedups); a small one here.
-pub(crate) fn free_aside<T: Send + 'static>(v: Vec<T>) {
-    if v.capacity() * std::mem::size_of::<T>() >= FREE_ASIDE_BYTES {
-        // (Without a thread, `v` is dropped here as the spawn fails.)
-        let _ = std::thread::Builder::new().spawn(move || drop(v));
-    }
 }
 
 /// The triangle mesh of parsed data; [`ReadError::NoFaces`] when there are no faces.

@@ -130,11 +130,6 @@ impl<R: Read> PcdStream<R> {
         }
     }
 
-    /// The values of one binary record.
-    fn record(&self, rec: &[u8]) -> Values {
-        record_values(&self.header, rec)
-    }
-
     fn ascii<F: FnMut(PointChunk) -> ControlFlow<()>>(
         &mut self,
         header: &StreamHeader,
@@ -366,7 +361,7 @@ impl<R: Read> PcdStream<R> {
             }
             let mut chunk = PointChunk::for_header(header, n);
             for rec in rows.chunks_exact(record) {
-                let v = self.record(rec);
+                let v = record_values(&self.header, rec);
                 self.push(v, &mut chunk, &mut end);
             }
             point += n;

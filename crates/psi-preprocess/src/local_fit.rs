@@ -130,7 +130,8 @@ impl Moments {
         let (eigenvalues, normal) = Eigen3::of(&self.covariance())?.decomposed();
         let spread = eigenvalues[1] > FLAT_SPREAD * eigenvalues.iter().sum::<f64>();
         let finite = eigenvalues.iter().all(|e| e.is_finite());
-        (normal != DVec3::ZERO && spread && finite).then_some(PlaneFit {
+        // (The normal is a unit vector: `Eigen3` has refused a non-finite matrix.)
+        (spread && finite).then_some(PlaneFit {
             centroid: self.origin + self.sum / self.count as f64,
             normal,
             eigenvalues,

@@ -66,7 +66,7 @@ impl Eigen3 {
     /// A / s − λ·I, [`null_direction`]) refined by its Rayleigh quotient nᵀ(A / s)n (accurate
     /// to about ε where the root was only to √ε); the other two eigenvalues, and the least's
     /// vector when it was not the first, are those of A / s restricted to the plane across it
-    /// (a 2 × 2 symmetric matrix, [`restricted`]). The first is the least's unless λ1 lies
+    /// (a 2 × 2 symmetric matrix, [`Restricted`]). The first is the least's unless λ1 lies
     /// within [`NEAR_DOUBLE`] of λ0 and farther from λ2 (a near-double least eigenvalue,
     /// whose cubic root and null direction would be only to √ε: then the largest's). Where
     /// λ0 is (numerically) repeated the vector is one of its eigenspace's.
@@ -78,9 +78,10 @@ impl Eigen3 {
         let near_double = l1 - l0 < NEAR_DOUBLE && l2 - l1 > l1 - l0;
         let first = null_direction(&c, if near_double { l2 } else { l0 });
         let first = null_direction(&c, quotient(first));
-        let (low, high, low_vector) = restricted(&c, first);
+        let across = Restricted::across(&c, first);
+        let (low, high) = across.values();
         let (mut values, n) = if near_double {
-            ([low, high, quotient(first)], low_vector)
+            ([low, high, quotient(first)], across.low_vector(low))
         } else {
             ([quotient(first), low, high], first)
         };
@@ -93,30 +94,54 @@ impl Eigen3 {
 /// near-double least eigenvalue from the plane across the largest's vector.
 const NEAR_DOUBLE: f64 = 1e-4;
 
-/// The symmetric `c` restricted to the plane across the unit `n` (an eigenvector): its two
-/// eigenvalues there, ascending, and a unit eigenvector (in space) of the lower.
-fn restricted(c: &DMat3, n: DVec3) -> (f64, f64, DVec3) {
-    // In an orthonormal basis u, w of the plane: [[uu, uw], [uw, ww]].
-    let u = n.any_orthonormal_vector();
-    let w = n.cross(u);
-    let (uu, ww, uw) = (u.dot(*c * u), w.dot(*c * w), u.dot(*c * w));
-    let mid = (uu + ww) / 2.0;
-    let radius = ((uu - ww) / 2.0).hypot(uw);
-    let low = mid - radius;
-    // The lower's vector (x, y) in the basis: the longer of the two rows' null directions.
-    let (a, b) = ((uw, low - uu), (low - ww, uw));
-    let (x, y) = if a.0.hypot(a.1) >= b.0.hypot(b.1) {
-        a
-    } else {
-        b
-    };
-    let length = x.hypot(y);
-    let vector = if length > 0.0 {
-        (x * u + y * w) / length
-    } else {
-        u
-    };
-    (low, mid + radius, vector)
+/// A symmetric matrix restricted to the plane across a unit eigenvector n: in an orthonormal
+/// basis u, w of the plane, [[uu, uw], [uw, ww]].
+struct Restricted {
+    u: DVec3,
+    w: DVec3,
+    uu: f64,
+    ww: f64,
+    uw: f64,
+}
+
+impl Restricted {
+    /// The symmetric `c` across the unit `n` (an eigenvector of it).
+    fn across(c: &DMat3, n: DVec3) -> Self {
+        let u = n.any_orthonormal_vector();
+        let w = n.cross(u);
+        Restricted {
+            u,
+            w,
+            uu: u.dot(*c * u),
+            ww: w.dot(*c * w),
+            uw: u.dot(*c * w),
+        }
+    }
+
+    /// Its two eigenvalues, ascending.
+    fn values(&self) -> (f64, f64) {
+        let mid = (self.uu + self.ww) / 2.0;
+        let radius = ((self.uu - self.ww) / 2.0).hypot(self.uw);
+        (mid - radius, mid + radius)
+    }
+
+    /// A unit eigenvector (in space) of its lower eigenvalue `low`: the longer of the two
+    /// rows' null directions in the basis (u where both vanish: every vector of the plane is
+    /// then one).
+    fn low_vector(&self, low: f64) -> DVec3 {
+        let (a, b) = ((self.uw, low - self.uu), (low - self.ww, self.uw));
+        let (x, y) = if a.0.hypot(a.1) >= b.0.hypot(b.1) {
+            a
+        } else {
+            b
+        };
+        let length = x.hypot(y);
+        if length > 0.0 {
+            (x * self.u + y * self.w) / length
+        } else {
+            self.u
+        }
+    }
 }
 
 /// A unit vector n with (c − λ·I)·n ≈ 0 for the symmetric `c` (an eigenvector of λ, sign
