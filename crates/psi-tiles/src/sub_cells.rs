@@ -15,9 +15,9 @@ pub(crate) const SUB_LEVELS: u8 = 3;
 pub(crate) const SUB: u32 = 1 << SUB_LEVELS;
 
 /// The sub-cell (per axis, `0..SUB`) of world position `p` in the tile `key` at `depth`:
-/// its key [`SUB_LEVELS`] deeper, relative to the tile, clamped into it (a point on a face,
-/// or one the coarser key rounded the other way, lands in the nearest sub-cell; readers take
-/// one sub-cell of slack, as they take one tile of slack).
+/// its key [`SUB_LEVELS`] deeper, relative to the tile, clamped into it (the tile's key is
+/// that key shifted, so the clamp only guards; readers bound the keys of what they gather the
+/// same way, `TileStore::keys_around`).
 pub(crate) fn sub_cell_of(frame: &MpuFrame, depth: u8, key: [u32; 3], p: DVec3) -> [u32; 3] {
     let fine = tile_key(frame, depth + SUB_LEVELS, p);
     std::array::from_fn(|a| fine[a].saturating_sub(key[a] * SUB).min(SUB - 1))

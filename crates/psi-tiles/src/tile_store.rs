@@ -348,14 +348,18 @@ impl TileStore {
     }
 
     /// The tile keys and the sub-cell keys ([`SUB_LEVELS`] deeper) of the cube of half-edge
-    /// `reach` around world position `world`, grown by one cell at each depth (a point on a
-    /// face may be keyed to either side).
+    /// `reach` around world position `world`, grown by far more than the rounding of the
+    /// gathers' tests against these keys' arithmetic. Exact bounds: [`tile_key`] is monotone
+    /// in each coordinate (correctly rounded operations and `floor` are), and a point's key
+    /// at the tile depth is its sub-cell key shifted by [`SUB_LEVELS`] (the edges differ by a
+    /// power of two, so the quotients do, exactly); a stored point's sub-cell, its sub-cell
+    /// key clamped into its tile, then lies within these keys clamped the same way.
     #[allow(clippy::type_complexity)]
     fn keys_around(&self, world: DVec3, reach: f64) -> ([u32; 3], [u32; 3], ([u32; 3], [u32; 3])) {
         let frame = self.manifest.frame;
+        let scale = frame.origin.abs().max_element() + world.abs().max_element();
+        let grown = DVec3::splat(reach + 1e-9 * frame.root_half + 1e-12 * scale);
         let keys = |depth: u8| {
-            let slack = 2.0 * frame.root_half / f64::from(1u32 << depth);
-            let grown = DVec3::splat(reach + slack);
             (
                 tile_key(&frame, depth, world - grown),
                 tile_key(&frame, depth, world + grown),
