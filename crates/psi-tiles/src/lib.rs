@@ -33,6 +33,7 @@ mod decide_store;
 mod decide_tile;
 mod decide_tiles;
 mod error;
+mod input_order;
 mod kept_bounds;
 mod kth_distance;
 mod leaf_cover;

@@ -21,6 +21,7 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::TileError;
+use crate::input_order::in_input_order;
 use crate::run_digests::{check_runs, trailer_len, trailer_sum};
 use crate::sub_cells::{SUB, SUB_LEVELS, box_distance, sub_cell_box, sub_cell_ranges};
 use crate::tile_records::{RECORD, record_position, tile_key};
@@ -275,8 +276,8 @@ impl TileStore {
         ball: Option<(DVec3, f64)>,
         keep: &dyn Fn(DVec3) -> bool,
     ) -> Result<Vec<(u64, OrientedPoint)>, TileError> {
-        let mut found: Vec<(u64, OrientedPoint)> = Vec::new();
         let cells = (SUB * SUB * SUB) as usize;
+        let mut reads = Vec::new();
         for (&key, &i) in self.by_key.range(lo..=hi) {
             if (0..3).any(|a| key[a] < lo[a] || key[a] > hi[a]) {
                 continue;
@@ -296,6 +297,18 @@ impl TileStore {
             };
             let ranges = (!whole && entry.runs.len() == cells + 1)
                 .then(|| sub_cell_ranges(&entry.runs, sub_lo, sub_hi, &touches));
+            reads.push((key, entry, ranges));
+        }
+        // At most every record read is kept: room for them at once, not grown by copies.
+        let most: u64 = reads
+            .iter()
+            .map(|(_, entry, ranges)| match ranges {
+                Some(r) => r.iter().map(|(a, b)| b - a).sum(),
+                None => entry.points,
+            })
+            .sum();
+        let mut found: Vec<(u64, OrientedPoint)> = Vec::with_capacity(most as usize);
+        for (key, entry, ranges) in reads {
             let path = tile_path(&self.dir, key);
             let bytes = self.read_ranges(&path, entry, ranges.as_deref())?;
             decode_into(&bytes, keep, self.sign(), &mut found);
@@ -414,77 +427,5 @@ fn decode_into(
                 },
             ));
         }
-    }
-}
-
-/// `found` in increasing input index, ties in the order given (a stable sort): its keys and
-/// places sorted (16 bytes an entry, not the records' 56), then the records moved into that
-/// order in place, cycle by cycle (4 bytes an entry beside them).
-fn in_input_order(mut found: Vec<(u64, OrientedPoint)>) -> Vec<(u64, OrientedPoint)> {
-    if found.is_sorted_by_key(|(i, _)| *i) {
-        return found;
-    }
-    let mut order: Vec<(u64, u32)> = found
-        .iter()
-        .enumerate()
-        .map(|(k, (i, _))| (*i, k as u32))
-        .collect();
-    order.sort_unstable();
-    // Slot j takes the record now at from[j]; a slot done is marked u32::MAX.
-    let mut from: Vec<u32> = order.iter().map(|&(_, k)| k).collect();
-    drop(order);
-    for start in 0..found.len() {
-        if from[start] == u32::MAX {
-            continue;
-        }
-        let first = found[start];
-        let mut j = start;
-        loop {
-            let k = from[j] as usize;
-            from[j] = u32::MAX;
-            if k == start {
-                found[j] = first;
-                break;
-            }
-            found[j] = found[k];
-            j = k;
-        }
-    }
-    found
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    use rand::{RngExt, SeedableRng};
-    use rand_pcg::Pcg64Mcg;
-
-    #[test]
-    fn records_come_out_in_input_order_as_a_stable_sort_gives_them() {
-        // Oracle: the standard library's stable sort by index. Runs of ascending ids, as the
-        // tiles' sub-cells give them, interleaved.
-        let mut rng = Pcg64Mcg::seed_from_u64(3);
-        let mut ids: Vec<u64> = (0..5000).map(|i| i * 3 + 7).collect();
-        for i in (1..ids.len()).rev() {
-            ids.swap(i, rng.random_range(0..=i));
-        }
-        let mut found: Vec<(u64, OrientedPoint)> = Vec::new();
-        for run in ids.chunks(97) {
-            let mut run = run.to_vec();
-            run.sort_unstable();
-            found.extend(run.iter().map(|&i| {
-                let p = OrientedPoint {
-                    p: DVec3::splat(i as f64),
-                    n: DVec3::Z,
-                };
-                (i, p)
-            }));
-        }
-        let mut expected = found.clone();
-        expected.sort_by_key(|(i, _)| *i);
-        assert_ne!(found, expected);
-        assert_eq!(in_input_order(found), expected);
-        assert_eq!(in_input_order(expected.clone()), expected);
     }
 }
