@@ -2,7 +2,7 @@
 //! points as the whole input orders them): the indices' order by a least-significant-digit
 //! radix sort of their offsets from the least (8 bytes an entry and as many again for the
 //! passes, against 16 for a comparison sort of index and place), then the records moved into
-//! that order in place, cycle by cycle (4 bytes an entry beside them).
+//! that order in place, cycle by cycle (the places, in the sort's own room, beside them).
 
 use psi_octree::OrientedPoint;
 

@@ -277,6 +277,10 @@ impl TileStore {
         keep: &dyn Fn(DVec3) -> bool,
     ) -> Result<Vec<(u64, OrientedPoint)>, TileError> {
         let cells = (SUB * SUB * SUB) as usize;
+        if (0..3).any(|a| lo[a] > hi[a]) {
+            // (A box of negative reach holds nothing.)
+            return Ok(Vec::new());
+        }
         let mut reads = Vec::new();
         for (&key, &i) in self.by_key.range(lo..=hi) {
             if (0..3).any(|a| key[a] < lo[a] || key[a] > hi[a]) {
@@ -299,7 +303,9 @@ impl TileStore {
                 .then(|| sub_cell_ranges(&entry.runs, sub_lo, sub_hi, &touches));
             reads.push((key, entry, ranges));
         }
-        // At most every record read is kept: room for them at once, not grown by copies.
+        // At most every record read is kept: room for them at once, not grown by copies
+        // (asked for, not demanded: the manifest's counts are checked against the files as
+        // they are read); what a sparse test left unused is given back.
         let most: u64 = reads
             .iter()
             .map(|(_, entry, ranges)| match ranges {
@@ -307,11 +313,15 @@ impl TileStore {
                 None => entry.points,
             })
             .sum();
-        let mut found: Vec<(u64, OrientedPoint)> = Vec::with_capacity(most as usize);
+        let mut found: Vec<(u64, OrientedPoint)> = Vec::new();
+        let _ = usize::try_from(most).map(|m| found.try_reserve_exact(m));
         for (key, entry, ranges) in reads {
             let path = tile_path(&self.dir, key);
             let bytes = self.read_ranges(&path, entry, ranges.as_deref())?;
             decode_into(&bytes, keep, self.sign(), &mut found);
+        }
+        if found.capacity() > 2 * found.len() {
+            found.shrink_to_fit();
         }
         Ok(in_input_order(found))
     }
@@ -362,7 +372,8 @@ impl TileStore {
 
     /// The tile keys and the sub-cell keys ([`SUB_LEVELS`] deeper) of the cube of half-edge
     /// `reach` around world position `world`, grown by far more than the rounding of the
-    /// gathers' tests against these keys' arithmetic. Exact bounds: [`tile_key`] is monotone
+    /// gathers' tests against these keys' arithmetic (a negative reach may give `lo` above
+    /// `hi`: nothing). Exact bounds: [`tile_key`] is monotone
     /// in each coordinate (correctly rounded operations and `floor` are), and a point's key
     /// at the tile depth is its sub-cell key shifted by [`SUB_LEVELS`] (the edges differ by a
     /// power of two, so the quotients do, exactly); a stored point's sub-cell, its sub-cell

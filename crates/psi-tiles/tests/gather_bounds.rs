@@ -28,7 +28,7 @@ fn frame_of(points: &[OrientedPoint]) -> MpuFrame {
 
 /// A torus moved by `offset`, with a third of its points moved onto the nearest sub-cell
 /// face below them along every axis (those that leave the bounds as they are, so the frame is
-/// unchanged); the frame.
+/// unchanged; far from the origin, within a rounding of the face); the frame.
 fn points_on_faces(offset: DVec3) -> (Vec<OrientedPoint>, MpuFrame) {
     let mut points = AnalyticShape::Torus {
         major: 1.0,
@@ -42,12 +42,15 @@ fn points_on_faces(offset: DVec3) -> (Vec<OrientedPoint>, MpuFrame) {
     let bounds = Aabb::from_points(points.iter().map(|p| p.p)).unwrap();
     let low = frame.origin + frame.root_center - DVec3::splat(frame.root_half);
     let edge = 2.0 * frame.root_half / f64::from(1u32 << (DEPTH + 3));
+    let mut snapped_count = 0;
     for p in points.iter_mut().step_by(3) {
         let snapped = low + ((p.p - low) / edge).floor() * edge;
         if (0..3).all(|a| snapped[a] >= bounds.min[a] && p.p[a] < bounds.max[a]) {
             p.p = snapped;
+            snapped_count += 1;
         }
     }
+    assert!(snapped_count > 1500, "{snapped_count} points snapped");
     assert_eq!(
         frame_of(&points),
         frame,
