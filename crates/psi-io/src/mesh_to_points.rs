@@ -5,10 +5,9 @@ use glam::DVec3;
 use psi_octree::OrientedPoint;
 use rayon::prelude::*;
 
-use crate::free_aside::free_aside;
-
 use crate::attributes::{self, PointAttributes};
 use crate::error::ReadError;
+use crate::free_aside::free_aside;
 use crate::model::{NormalSource, Parsed, PointCloudFile, SourceInfo, TriangleMesh};
 use crate::options::{MeshSampling, ReadOptions};
 

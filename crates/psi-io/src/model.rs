@@ -1,7 +1,7 @@
 //! What the readers return: a triangle mesh, and oriented points with the counts behind them.
 
 use glam::DVec3;
-use psi_octree::OrientedPoint;
+use psi_octree::{Aabb, OrientedPoint};
 
 use crate::attributes::{AttributeKinds, PointAttributes};
 use crate::format::Format;
@@ -95,24 +95,8 @@ impl PointCloudFile {
     /// The componentwise minimum and maximum of the points' positions; `None` when there
     /// are none.
     pub fn bounds(&self) -> Option<(DVec3, DVec3)> {
-        use rayon::prelude::*;
-        let first = self.points.first()?.p;
-        // In fixed chunks, in parallel, folded in order: the same result for any thread count.
-        let chunks: Vec<(DVec3, DVec3)> = self
-            .points
-            .par_chunks(1 << 16)
-            .map(|c| {
-                // (Each chunk from its own first point: in order, the serial fold's ties.)
-                let start = c[0].p;
-                c.iter()
-                    .fold((start, start), |(lo, hi), q| (lo.min(q.p), hi.max(q.p)))
-            })
-            .collect();
-        Some(
-            chunks
-                .into_iter()
-                .fold((first, first), |(lo, hi), (l, h)| (lo.min(l), hi.max(h))),
-        )
+        // (In parallel, the same box for any thread count.)
+        Aabb::from_positions_at(self.points.len(), &|i| self.points[i].p).map(|b| (b.min, b.max))
     }
 
     /// The format, scans, counts, attributes and coordinate ranges of this file.

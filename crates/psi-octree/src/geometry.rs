@@ -43,6 +43,35 @@ impl Aabb {
         Some(Self { min, max })
     }
 
+    /// [`Aabb::from_points`] of the `n` positions `at(0..n)` (shape: N, world units; no copy
+    /// of them), in parallel: fixed chunks of 65 536 positions each folded from its own first,
+    /// the chunks' boxes folded in order from the first position, so the box (the ties of
+    /// signed zeros included) is the serial fold's for any thread count. `None` for `n = 0`.
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// let p = [DVec3::new(1.0, -2.0, 0.5), DVec3::new(-1.0, 3.0, 0.0)];
+    /// let b = psi_octree::Aabb::from_positions_at(p.len(), &|i| p[i]).unwrap();
+    /// assert_eq!((b.min, b.max), (DVec3::new(-1.0, -2.0, 0.0), DVec3::new(1.0, 3.0, 0.5)));
+    /// ```
+    pub fn from_positions_at(n: usize, at: &(dyn Fn(usize) -> DVec3 + Sync)) -> Option<Self> {
+        use rayon::prelude::*;
+        const CHUNK: usize = 1 << 16;
+        let fold = |(lo, hi): (DVec3, DVec3), (l, h): (DVec3, DVec3)| (lo.min(l), hi.max(h));
+        let first = (n > 0).then(|| at(0))?;
+        let chunks: Vec<(DVec3, DVec3)> = (0..n.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                let start = at(c * CHUNK);
+                (c * CHUNK..n.min((c + 1) * CHUNK))
+                    .map(at)
+                    .fold((start, start), |b, p| fold(b, (p, p)))
+            })
+            .collect();
+        let (min, max) = chunks.into_iter().fold((first, first), fold);
+        Some(Self { min, max })
+    }
+
     /// Centre of the box.
     pub fn center(&self) -> DVec3 {
         0.5 * (self.min + self.max)

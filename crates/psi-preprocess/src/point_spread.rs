@@ -2,7 +2,6 @@
 //! can make no surface, and saying so beats the "too few points" a later step would report.
 
 use glam::DVec3;
-use psi_octree::Aabb;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -100,23 +99,11 @@ fn spread_of_covariance(cov: &nalgebra::Matrix3<f64>) -> Spread {
     }
 }
 
-/// The bounding box of the `n` positions `at(0..n)` (`None` for none), for finite positions
-/// the box [`Aabb::from_points`] folds, in parallel: fixed chunks of [`CHUNK`] folded in order
-/// (no copy of the positions).
-pub(crate) fn bounds_of(n: usize, at: &(dyn Fn(usize) -> DVec3 + Sync)) -> Option<Aabb> {
-    let chunks: Vec<Option<Aabb>> = (0..n.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| Aabb::from_points((c * CHUNK..n.min((c + 1) * CHUNK)).map(at)))
-        .collect();
-    chunks.into_iter().flatten().reduce(|a, b| Aabb {
-        min: a.min.min(b.min),
-        max: a.max.max(b.max),
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use psi_octree::Aabb;
 
     /// The spread by the serial definition: the bounding box, then the covariance summed point
     /// after point (the brute-force twin of the chunked sums).
@@ -190,7 +177,10 @@ mod tests {
                 .collect();
             if finite.len() == positions.len() {
                 let at = |i: usize| positions[i];
-                assert_eq!(bounds_of(positions.len(), &at), Aabb::from_points(finite));
+                assert_eq!(
+                    Aabb::from_positions_at(positions.len(), &at),
+                    Aabb::from_points(finite)
+                );
             }
             assert_eq!(serial_spread(&positions), expected);
             assert_eq!(point_spread(&positions), expected);

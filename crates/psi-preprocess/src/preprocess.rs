@@ -4,7 +4,7 @@
 use std::time::Instant;
 
 use glam::DVec3;
-use psi_octree::{Interrupted, Monitor, MortonIndex, OrientedPoint};
+use psi_octree::{Aabb, Interrupted, Monitor, MortonIndex, OrientedPoint};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -15,7 +15,7 @@ use crate::estimate_normals::{estimate_normals_in, noise_level};
 use crate::neighbour_graph::morton_index_of;
 use crate::orient_from_level::orient_from_level;
 use crate::orient_normals::{check_normal_consistency_in, orient_normals_in};
-use crate::point_spread::{bounds_of, spread_of};
+use crate::point_spread::spread_of;
 use crate::{
     DenoiseReport, MeshCoarseness, NoiseEstimate, NormalConsistency, Spread, denoise_with,
     densify_mesh_with_sources, estimate_noise, inward_flip_notice, inward_votes, mesh_coarseness,
@@ -535,7 +535,8 @@ pub fn preprocess_with(
                 estimate_noise_in(&positions, at)
             }
         };
-        let diagonal = bounds_of(points.len(), &|i| points[i].p).map_or(0.0, |b| b.diagonal());
+        let diagonal =
+            Aabb::from_positions_at(points.len(), &|i| points[i].p).map_or(0.0, |b| b.diagonal());
         if diagonal > 0.0 {
             let rel = estimate.sigma / diagonal;
             noise_rel = Some(rel);

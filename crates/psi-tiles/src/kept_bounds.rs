@@ -6,9 +6,9 @@
 //! For each side of each axis the non-empty sub-cells are taken in the order of their box's
 //! face on that side, outermost first, and read until the next one's box (grown by one
 //! sub-cell edge, far more than the rounding of a key: `TileStore::keys_around` bounds keys
-//! exactly) lies wholly inside the extreme found so far. The answer is the minimum and maximum over every kept point, as
-//! a pass over all of them in input order finds it (to the sign of a zero: a tie goes to the
-//! later point).
+//! exactly) lies wholly inside the extreme found so far. The answer is the minimum and
+//! maximum over every kept point, as a pass over all of them in input order finds it (to the
+//! sign of a zero: a tie goes to the later point).
 
 use std::collections::HashMap;
 

@@ -276,11 +276,11 @@ impl TileStore {
         ball: Option<(DVec3, f64)>,
         keep: &dyn Fn(DVec3) -> bool,
     ) -> Result<Vec<(u64, OrientedPoint)>, TileError> {
-        let cells = (SUB * SUB * SUB) as usize;
         if (0..3).any(|a| lo[a] > hi[a]) {
             // (A box of negative reach holds nothing.)
             return Ok(Vec::new());
         }
+        let cells = (SUB * SUB * SUB) as usize;
         let mut reads = Vec::new();
         for (&key, &i) in self.by_key.range(lo..=hi) {
             if (0..3).any(|a| key[a] < lo[a] || key[a] > hi[a]) {
@@ -373,11 +373,11 @@ impl TileStore {
     /// The tile keys and the sub-cell keys ([`SUB_LEVELS`] deeper) of the cube of half-edge
     /// `reach` around world position `world`, grown by far more than the rounding of the
     /// gathers' tests against these keys' arithmetic (a negative reach may give `lo` above
-    /// `hi`: nothing). Exact bounds: [`tile_key`] is monotone
-    /// in each coordinate (correctly rounded operations and `floor` are), and a point's key
-    /// at the tile depth is its sub-cell key shifted by [`SUB_LEVELS`] (the edges differ by a
-    /// power of two, so the quotients do, exactly); a stored point's sub-cell, its sub-cell
-    /// key clamped into its tile, then lies within these keys clamped the same way.
+    /// `hi`: nothing). Exact bounds: [`tile_key`] is monotone in each coordinate (correctly
+    /// rounded operations and `floor` are), and a point's key at the tile depth is its
+    /// sub-cell key shifted by [`SUB_LEVELS`] (the edges differ by a power of two, so the
+    /// quotients do, exactly); a stored point's sub-cell, its sub-cell key clamped into its
+    /// tile, then lies within these keys clamped the same way.
     #[allow(clippy::type_complexity)]
     fn keys_around(&self, world: DVec3, reach: f64) -> ([u32; 3], [u32; 3], ([u32; 3], [u32; 3])) {
         let frame = self.manifest.frame;
