@@ -12,9 +12,14 @@ const BYTES_PER_TILE_POINT: u64 = 1500;
 const BYTES_PER_INPUT_POINT: u64 = 8;
 
 /// Memory of one point held by the relaxation's MPU (an MPU assembled from the decisions: the
-/// point, its local position, the kd-tree, the octree's order and the data footprint's cache),
-/// with room to spare.
-const BYTES_PER_RELAX_POINT: u64 = 400;
+/// point, its local position, the kd-tree, the octree's order and the data footprint's cache;
+/// a thinned subset's footprints and the seeding's share of it before the trim), with room to
+/// spare: 160–210 bytes measured (docs/notes/2026-12-05-relaxation-budget.md).
+const BYTES_PER_RELAX_POINT: u64 = 350;
+
+/// The least share of what the budget leaves beside the input's (1/4) that the cells leave to
+/// the relaxation's points, unless every point fits in less.
+const RELAX_SHARE: u64 = 4;
 
 /// Bytes the process holds whatever its input: the program, the threads' stacks, and the
 /// pages the allocator keeps after freeing (the measurements it is set from:
@@ -26,6 +31,14 @@ pub(crate) const PROCESS_BYTES: u64 = 24 << 20;
 /// the tile's outcome it is merged from, then in the relaxation's MPU (the peak it is set
 /// from: docs/notes/2026-12-04-cell-bound.md).
 pub(crate) const BYTES_PER_CELL: u64 = 1700;
+
+/// The points a store's writer buffers before appending them to their tile files, within a
+/// budget of `max_memory` bytes: an eighth of it in records of 56 bytes (a tile's buffer grows
+/// by doubling, up to twice its records; the kept points' store of a 600 000-point input at
+/// 96 MiB peaked above the budget with a quarter), at least 65 536.
+pub(crate) fn write_buffer_points(max_memory: u64) -> usize {
+    (max_memory / 8 / 56).max(1 << 16) as usize
+}
 
 /// How a run out of core may use the machine.
 #[derive(Clone, Debug)]
@@ -45,22 +58,33 @@ impl OutOfCore {
         self.max_memory.saturating_sub(PROCESS_BYTES)
     }
 
-    /// The input points the particles' relaxation may hold (its MPU's data test) for `points`
-    /// input points: what the budget leaves after the share of the whole input
-    /// ([`crate::sample_files_out_of_core`] relaxes all particles at once; their number follows the
-    /// surface, not the input). Neither the process's baseline nor the cells are taken off:
-    /// a thinned relaxation holds the thinned data's footprints as well, and peaked higher
-    /// than the whole one (docs/notes/2026-12-04-cell-bound.md).
-    pub fn relax_points_for(&self, points: u64) -> usize {
-        let shared = points.saturating_mul(BYTES_PER_INPUT_POINT);
-        (self.max_memory.saturating_sub(shared) / BYTES_PER_RELAX_POINT) as usize
+    /// Bytes the input's `points` cost wherever they are (their coarse copy, their share of
+    /// the cell table).
+    fn shared_bytes(points: u64) -> u64 {
+        points.saturating_mul(BYTES_PER_INPUT_POINT)
     }
 
-    /// The most cells the decisions may hold within the budget (about 1.7 kB each at the peak):
-    /// more cannot fit whatever the tiling (the cells follow the surface's detail and ε0, not
-    /// the number of points).
-    pub fn max_cells(&self) -> u64 {
-        self.data_bytes() / BYTES_PER_CELL
+    /// The input points the particles' relaxation may hold (its MPU's data test) for `points`
+    /// input points decided into `cells` cells: what the budget leaves after the process's
+    /// baseline, the whole input's share and the cells (held by the decisions and by the
+    /// relaxation's MPU while it runs; [`crate::sample_files_out_of_core`] relaxes all particles
+    /// at once, and their number follows the surface, not the input).
+    pub fn relax_points_for(&self, points: u64, cells: u64) -> usize {
+        let held = Self::shared_bytes(points).saturating_add(cells.saturating_mul(BYTES_PER_CELL));
+        (self.data_bytes().saturating_sub(held) / BYTES_PER_RELAX_POINT) as usize
+    }
+
+    /// The most cells the decisions of `points` input points may hold within the budget
+    /// (about 1.7 kB each at the peak): what the process's baseline and the input's share
+    /// leave, less the relaxation's room for every point or, when that is more, a quarter of
+    /// it (the least a thinned relaxation keeps). More cannot fit whatever the tiling (the
+    /// cells follow the surface's detail and ε0, not the number of points).
+    pub fn max_cells_for(&self, points: u64) -> u64 {
+        let room = self.data_bytes().saturating_sub(Self::shared_bytes(points));
+        let relax = points
+            .saturating_mul(BYTES_PER_RELAX_POINT)
+            .min(room / RELAX_SHARE);
+        (room - relax) / BYTES_PER_CELL
     }
 
     /// The tile depth for `points` input points: the shallowest (at least 1, at most 8)
@@ -74,7 +98,7 @@ impl OutOfCore {
             }
             return Ok(d);
         }
-        let shared = points.saturating_mul(BYTES_PER_INPUT_POINT);
+        let shared = Self::shared_bytes(points);
         if 2 * shared > self.data_bytes() {
             return Err(format!(
                 "{} points need at least {} MiB out of core (their coarse copy and cell table, \
@@ -94,5 +118,50 @@ impl OutOfCore {
                     self.max_memory >> 20
                 )
             })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Whatever the input and the cells the bound lets through, the process's baseline, the
+    /// input's share, the cells and the relaxation's points add up to the budget at most, and
+    /// the relaxation keeps at least what the cells' share leaves.
+    #[test]
+    fn the_cells_and_the_relaxation_share_the_budget() {
+        for mib in [64u64, 96, 256, 1024, 4096] {
+            let budget = OutOfCore {
+                max_memory: mib << 20,
+                scratch: PathBuf::new(),
+                tile_depth: None,
+            };
+            for points in [0u64, 20_000, 3_000_000, 100_000_000] {
+                let shared = points * BYTES_PER_INPUT_POINT;
+                if 2 * shared > budget.data_bytes() {
+                    assert!(budget.tile_depth_for(points).is_err());
+                    continue;
+                }
+                let max = budget.max_cells_for(points);
+                for cells in [0, max / 2, max] {
+                    let relax = budget.relax_points_for(points, cells) as u64;
+                    let total = PROCESS_BYTES
+                        + shared
+                        + cells * BYTES_PER_CELL
+                        + relax * BYTES_PER_RELAX_POINT;
+                    assert!(total <= budget.max_memory, "{mib} MiB, {points}, {cells}");
+                    let room = budget.data_bytes() - shared;
+                    let least = (room / RELAX_SHARE / BYTES_PER_RELAX_POINT).min(points);
+                    assert!(relax >= least, "{mib} MiB, {points}: {relax}");
+                }
+                // One more cell than the bound would leave the relaxation less than its share.
+                let room = budget.data_bytes() - shared;
+                let after = room.saturating_sub((max + 1) * BYTES_PER_CELL);
+                let least = (room / RELAX_SHARE / BYTES_PER_RELAX_POINT).min(points);
+                if least > 0 {
+                    assert!(after / BYTES_PER_RELAX_POINT < least, "{mib} MiB, {points}");
+                }
+            }
+        }
     }
 }

@@ -125,7 +125,7 @@ pub fn sample_files_out_of_core(
     })?;
     let decide_seconds = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
-    let relax_points = options.relax_points_for(part.points);
+    let relax_points = options.relax_points_for(part.points, decisions.cells.len() as u64);
     // Each octant's seeds from its file (a cluster's task wrote it), or seeded and written.
     let seeds_of = |octant| {
         seed_store_octant(
@@ -171,11 +171,12 @@ pub fn sample_files_out_of_core(
 
 /// The tiling a run out of core uses on `store`: its depth, the default halo and shared
 /// levels (what the tasks of [`psi_tiles::decide_store`] take on a cluster), and the most cells
-/// `budget` holds ([`OutOfCore::max_cells`]; a task of tiles bounds each tile's by it).
+/// `budget` holds for the store's points ([`OutOfCore::max_cells_for`]; a task of tiles bounds
+/// each tile's by it).
 pub fn out_of_core_tiles(store: &TileStore, budget: Option<&OutOfCore>) -> TileParams {
     TileParams {
         depth: store.manifest().depth,
-        max_cells: budget.map(OutOfCore::max_cells),
+        max_cells: budget.map(|b| b.max_cells_for(store.manifest().population)),
         ..TileParams::default()
     }
 }
@@ -188,7 +189,8 @@ pub fn decisions_failure(e: TileError, max_memory: u64, error_rel: f64) -> Strin
     };
     format!(
         "the MPU needs more than {max} cells, more than --max-memory {} MiB holds (about {} \
-         bytes each, beside the process's own {} MiB): give more memory, or a larger \
+         bytes each, beside the process's own {} MiB, the input's share and the relaxation's \
+         points): give more memory, or a larger \
          --mpu-error (mpu_error=) for fewer cells (its error threshold is ε0 = {error_rel:.2e} D \
          now; an ε0 below the points' noise splits cells down to a few points each)",
         max_memory >> 20,

@@ -267,7 +267,7 @@ fn part_in(
         return Err(changed());
     }
     monitor.report("read", 1, 2);
-    let buffer = (options.max_memory / 4 / 56).max(1 << 16) as usize;
+    let buffer = crate::budget::write_buffer_points(options.max_memory);
     let mut writer =
         TileWriter::create_part(dir, &plan, part, buffer).map_err(|e| fail(e.to_string()))?;
     // Decoding the input (on a thread of its own when the pool has two and the budget has

@@ -158,7 +158,7 @@ pub(crate) fn denoise_store(
     let frame = MpuFrame::for_bounds(&Aabb { min, max }, n, mpu).map_err(|e| e.to_string())?;
     monitor.report("denoised", 0, 1);
     let dir = scratch.join(DENOISED_DIR);
-    let buffer = (max_memory / 4 / RECORD as u64).max(1 << 16) as usize;
+    let buffer = crate::budget::write_buffer_points(max_memory);
     let mut writer = TileWriter::create(&dir, frame, m.depth, buffer, &denoised_source(store))
         .map_err(|e| e.to_string())?;
     let mut chunk = Vec::with_capacity(CHUNK as usize);

@@ -74,8 +74,9 @@ pub(crate) fn _ooc_seed(
     let limits = (mpu_error, Some(budget.max_memory));
     store_task(py, &scratch, limits, threads, |store, params, tiles| {
         let silent = psi::octree::Monitor::silent();
-        let relax_points = budget.relax_points_for(store.manifest().population);
         let decisions = psi::tiles::decide_store(store, params, tiles, &silent)?;
+        let cells = decisions.cells.len() as u64;
+        let relax_points = budget.relax_points_for(store.manifest().population, cells);
         let octant = [octant.0, octant.1, octant.2];
         if !psi::tiles::seed_octants(&decisions).contains(&octant) {
             return Ok(());

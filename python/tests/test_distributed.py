@@ -56,9 +56,10 @@ def test_a_worker_killed_during_tile_tasks_costs_a_retry_not_the_result(client, 
         for p, n in zip(ps.points, ps.normals):
             f.write("%r %r %r %r %r %r\n" % (*map(float, p), *map(float, n)))
     ref = tmp_path / "ref.ply"
-    # 64 MiB holds about half the points in the relaxation: its thinned data comes from the
-    # seed tasks (with the whole input's footprint), as on a large input.
-    ref_report = psi.sample_files(src, ref, max_memory="64MiB", scratch=tmp_path / "s-ref")
+    # 96 MiB holds about a third of the points in the relaxation beside the MPU's 21 000 cells
+    # (64 MiB holds too few cells): its thinned data comes from the seed tasks (with the whole
+    # input's footprint), as on a large input.
+    ref_report = psi.sample_files(src, ref, max_memory="96MiB", scratch=tmp_path / "s-ref")
     assert 0 < ref_report["tiles"]["sampling"]["relax_points"] < 300_000
     pids = list(client.run(os.getpid).values())
     out = tmp_path / "dask.ply"
@@ -80,7 +81,7 @@ def test_a_worker_killed_during_tile_tasks_costs_a_retry_not_the_result(client, 
 
     killer = threading.Thread(target=kill_during_tile_tasks, daemon=True)
     killer.start()
-    psi.distributed.sample_files(src, out, client, max_memory="64MiB",
+    psi.distributed.sample_files(src, out, client, max_memory="96MiB",
                                  scratch=tmp_path / "s-dask")
     killer.join(timeout=60)
     # The kill came while tile tasks were left to run, before the output was written.

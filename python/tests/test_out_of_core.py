@@ -129,9 +129,9 @@ def test_inward_normals_the_noise_threshold_and_denoising_out_of_core_as_in_core
     assert core_report["mpu"]["error_threshold"]["relative"] == report["mpu"]["error_rel"]
     with pytest.warns(UserWarning, match="pointed inward"):
         given = psi.sample_files(src, tmp_path / "given.ply", max_memory="64MiB",
-                                 mpu_error=0.004)
-    assert given["mpu"]["error_threshold"] == {"relative": 0.004, "source": "user"}
-    run_cli(cli, "sample", src, "--mpu-error", "0.004", "-o", tmp_path / "core-given.ply")
+                                 mpu_error=0.006)
+    assert given["mpu"]["error_threshold"] == {"relative": 0.006, "source": "user"}
+    run_cli(cli, "sample", src, "--mpu-error", "0.006", "-o", tmp_path / "core-given.ply")
     assert (tmp_path / "given.ply").read_bytes() == (tmp_path / "core-given.ply").read_bytes()
 
 
@@ -219,8 +219,9 @@ def test_outliers_are_left_out_tile_by_tile_unless_kept(cli, tmp_path):
     nrm = np.vstack([nrm, np.tile([0.0, 0.0, 1.0], (60, 1)), nrm[:5]])
     src = tmp_path / "strays.xyz"
     write_xyz(src, pts, nrm)
-    left = psi.sample_files(src, tmp_path / "left.ply", max_memory="64MiB")
-    kept = psi.sample_files(src, tmp_path / "kept.ply", max_memory="64MiB", keep_outliers=True)
+    # (Its MPU needs more than 20 000 cells, more than 64 MiB holds beside the relaxation.)
+    left = psi.sample_files(src, tmp_path / "left.ply", max_memory="96MiB")
+    kept = psi.sample_files(src, tmp_path / "kept.ply", max_memory="96MiB", keep_outliers=True)
     out = left["tiles"]["preprocessing"]["outliers"]
     assert out["repeated"] == 5 and out["removed"] >= 5 + 50, out
     assert left["input"]["points"] == len(pts) - out["removed"]
@@ -229,7 +230,7 @@ def test_outliers_are_left_out_tile_by_tile_unless_kept(cli, tmp_path):
     # The CLI's run with and without --keep-outliers: the same bytes.
     for name, flags in (("left", []), ("kept", ["--keep-outliers"])):
         cli_out = tmp_path / f"cli-{name}.ply"
-        run_cli(cli, "sample", src, "--max-memory", "64MiB", "-o", cli_out,
+        run_cli(cli, "sample", src, "--max-memory", "96MiB", "-o", cli_out,
                 "--scratch", tmp_path / f"s-{name}", *flags)
         assert cli_out.read_bytes() == (tmp_path / f"{name}.ply").read_bytes(), name
 
