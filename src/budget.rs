@@ -1,5 +1,6 @@
-//! The memory budget of a run out of core: what a tile, a point of the input and a point held
-//! by the relaxation cost, and the tile depth and relaxation points a budget allows.
+//! The memory budget of a run out of core: what the process, a tile, a point of the input, a
+//! cell and a point held by the relaxation cost, and the tile depth, the most cells, the
+//! relaxation's points and the stores' write buffers a budget allows.
 
 use std::path::PathBuf;
 
@@ -17,9 +18,12 @@ const BYTES_PER_INPUT_POINT: u64 = 8;
 /// spare: 160–210 bytes measured (docs/notes/2026-12-05-relaxation-budget.md).
 const BYTES_PER_RELAX_POINT: u64 = 350;
 
-/// The least share of what the budget leaves beside the input's (1/4) that the cells leave to
-/// the relaxation's points, unless every point fits in less.
+/// The cells leave the relaxation's points at least 1/`RELAX_SHARE` of what the process's
+/// baseline and the input's share leave of the budget, unless every point fits in less.
 const RELAX_SHARE: u64 = 4;
+
+/// Bytes of a point's record in a store (its index, position and normal).
+const STORE_RECORD_BYTES: u64 = 56;
 
 /// Bytes the process holds whatever its input: the program, the threads' stacks, and the
 /// pages the allocator keeps after freeing (the measurements it is set from:
@@ -37,7 +41,7 @@ pub(crate) const BYTES_PER_CELL: u64 = 1700;
 /// by doubling, up to twice its records; the kept points' store of a 600 000-point input at
 /// 96 MiB peaked above the budget with a quarter), at least 65 536.
 pub(crate) fn write_buffer_points(max_memory: u64) -> usize {
-    (max_memory / 8 / 56).max(1 << 16) as usize
+    (max_memory / 8 / STORE_RECORD_BYTES).max(1 << 16) as usize
 }
 
 /// How a run out of core may use the machine.
@@ -77,7 +81,7 @@ impl OutOfCore {
     /// The most cells the decisions of `points` input points may hold within the budget
     /// (about 1.7 kB each at the peak): what the process's baseline and the input's share
     /// leave, less the relaxation's room for every point or, when that is more, a quarter of
-    /// it (the least a thinned relaxation keeps). More cannot fit whatever the tiling (the
+    /// that room (the least a thinned relaxation keeps). More cannot fit whatever the tiling (the
     /// cells follow the surface's detail and ε0, not the number of points).
     pub fn max_cells_for(&self, points: u64) -> u64 {
         let room = self.data_bytes().saturating_sub(Self::shared_bytes(points));
@@ -130,13 +134,13 @@ mod tests {
     /// the relaxation keeps at least what the cells' share leaves.
     #[test]
     fn the_cells_and_the_relaxation_share_the_budget() {
-        for mib in [64u64, 96, 256, 1024, 4096] {
+        for mib in [64u64, 69, 96, 256, 1024, 4096] {
             let budget = OutOfCore {
                 max_memory: mib << 20,
                 scratch: PathBuf::new(),
                 tile_depth: None,
             };
-            for points in [0u64, 20_000, 3_000_000, 100_000_000] {
+            for points in [0u64, 20_000, 1_000_000, 3_000_000, 100_000_000] {
                 let shared = points * BYTES_PER_INPUT_POINT;
                 if 2 * shared > budget.data_bytes() {
                     assert!(budget.tile_depth_for(points).is_err());
@@ -154,13 +158,11 @@ mod tests {
                     let least = (room / RELAX_SHARE / BYTES_PER_RELAX_POINT).min(points);
                     assert!(relax >= least, "{mib} MiB, {points}: {relax}");
                 }
-                // One more cell than the bound would leave the relaxation less than its share.
+                // One more cell than the bound would leave the relaxation less than its room.
                 let room = budget.data_bytes() - shared;
+                let relax_room = (points * BYTES_PER_RELAX_POINT).min(room / RELAX_SHARE);
                 let after = room.saturating_sub((max + 1) * BYTES_PER_CELL);
-                let least = (room / RELAX_SHARE / BYTES_PER_RELAX_POINT).min(points);
-                if least > 0 {
-                    assert!(after / BYTES_PER_RELAX_POINT < least, "{mib} MiB, {points}");
-                }
+                assert!(after < relax_room || points == 0, "{mib} MiB, {points}");
             }
         }
     }

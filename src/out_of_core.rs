@@ -125,7 +125,8 @@ pub fn sample_files_out_of_core(
     })?;
     let decide_seconds = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
-    let relax_points = options.relax_points_for(part.points, decisions.cells.len() as u64);
+    let population = store.manifest().population;
+    let relax_points = options.relax_points_for(population, decisions.cells.len() as u64);
     // Each octant's seeds from its file (a cluster's task wrote it), or seeded and written.
     let seeds_of = |octant| {
         seed_store_octant(

@@ -64,7 +64,7 @@ fn of_record(r: &[u8; RECORD]) -> (OrientedPoint, f64) {
 
 /// Denoises `store`'s points (noise deviation `sigma`, world units; the halos from `halos`,
 /// grown as the points need) into the store `<scratch>/denoised` (its frame from `mpu`'s
-/// parameters and the moved points' bounds; its writer buffers a quarter of `max_memory`
+/// parameters and the moved points' bounds; its writer buffers an eighth of `max_memory`
 /// bytes, as the partition's does); returns it with what the step did, as
 /// [`psi_preprocess::denoise`] reports it. `None` when there is nothing to denoise (as in
 /// core: fewer than 24 points, σ not positive).
