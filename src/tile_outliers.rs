@@ -250,12 +250,15 @@ pub fn stray_stats(scratch: &Path, batches: u32) -> Result<OutlierStats, String>
     let files = (0..batches)
         .map(|b| Standings::open(scratch, b))
         .collect::<Result<Vec<_>, String>>()?;
-    let mut points = 0u64;
-    for f in &files {
-        f.each_reach(&mut |_| points += 1)?;
-    }
+    // The points searched, counted in the first pass.
+    let (mut points, mut first) = (0u64, true);
     let typical = median_of_passes(|visit: &mut dyn FnMut(f64)| {
-        files.iter().try_for_each(|f| f.each_reach(visit))
+        let counting = std::mem::take(&mut first);
+        let mut each = |r| {
+            points += u64::from(counting);
+            visit(r);
+        };
+        files.iter().try_for_each(|f| f.each_reach(&mut each))
     })?
     .ok_or_else(|| format!("{}: the distances changed while read", scratch.display()))?;
     Ok(OutlierStats { typical, points })
