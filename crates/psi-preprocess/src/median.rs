@@ -33,7 +33,7 @@ pub(crate) fn median(v: &mut [f64]) -> f64 {
 /// count, as the held median takes it; 0 for none): `pass(visit)` calls `visit` with every
 /// value, in any order, each time it is called (at most four times: the 64 bits of the value's
 /// key, which orders as `f64::total_cmp`, are found 16 at a time, each pass counting the values
-/// that agree with the bits found so far in 65 536 bins; once at most [`HELD`] values agree, one
+/// that agree with the bits found so far in 65 536 bins; once at most 65 536 values agree, one
 /// last pass holds them and selects among them). Memory: the bins, or as many values; bitwise
 /// the held median of the values, or `None` when the passes did not see the same values (their
 /// count or their bits changed between them).
