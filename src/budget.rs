@@ -15,7 +15,7 @@ const BYTES_PER_INPUT_POINT: u64 = 8;
 /// Memory of one point held by the relaxation's MPU (an MPU assembled from the decisions: the
 /// point, its local position, the kd-tree, the octree's order and the data footprint's cache;
 /// a thinned subset's footprints and the seeding's share of it before the trim), with room to
-/// spare: 160–210 bytes measured (docs/notes/2026-12-05-relaxation-budget.md).
+/// spare (the peaks it is set from: docs/notes/2026-12-05-relaxation-budget.md).
 const BYTES_PER_RELAX_POINT: u64 = 350;
 
 /// The cells leave the relaxation's points at least 1/`RELAX_SHARE` of what the process's
@@ -37,9 +37,9 @@ pub(crate) const PROCESS_BYTES: u64 = 24 << 20;
 pub(crate) const BYTES_PER_CELL: u64 = 1700;
 
 /// The points a store's writer buffers before appending them to their tile files, within a
-/// budget of `max_memory` bytes: an eighth of it in records of 56 bytes (a tile's buffer grows
-/// by doubling, up to twice its records; the kept points' store of a 600 000-point input at
-/// 96 MiB peaked above the budget with a quarter), at least 65 536.
+/// budget of `max_memory` bytes: an eighth of it in records (a tile's buffer grows by doubling,
+/// up to twice its records: a quarter overran small budgets,
+/// docs/notes/2026-12-05-relaxation-budget.md), at least 65 536.
 pub(crate) fn write_buffer_points(max_memory: u64) -> usize {
     (max_memory / 8 / STORE_RECORD_BYTES).max(1 << 16) as usize
 }
