@@ -1,23 +1,49 @@
 //! A point file's checksums by run, so that a reader checks exactly the bytes it reads: the
-//! file is its records followed by a trailer of one SHA-256 per run of records (the sub-cell
+//! file is its records followed by a trailer of one CRC-32 per run of records (the sub-cell
 //! runs of a tile file, `sub_cells.rs`; one run for the coarse points' file), and the
 //! manifest holds the SHA-256 of that trailer. A task that reads a few sub-cells of a
 //! neighbouring tile (a halo) checks the trailer and those runs, not the whole file: a tile
 //! task on a cluster used to read and hash its 26 neighbours whole.
+//!
+//! The runs' checksums detect damage (a flipped bit, a torn write, a truncation), not
+//! tampering: CRC-32 (IEEE 802.3, `crc32fast`, with the CPU's carry-less multiply where it
+//! has one), far cheaper than the SHA-256 the runs had before
+//! (`docs/notes/2026-12-05-run-checksums.md`).
 
 use sha2::{Digest, Sha256};
 
 use crate::tile_records::RECORD;
 
-/// Bytes of one run's digest in the trailer.
-pub(crate) const DIGEST: usize = 32;
+/// Bytes of one run's digest in the trailer (its CRC-32, little-endian).
+pub(crate) const DIGEST: usize = 4;
+
+/// The digest of one run's bytes.
+fn run_digest(bytes: &[u8]) -> [u8; DIGEST] {
+    crc32fast::hash(bytes).to_le_bytes()
+}
+
+/// One run's digest from its bytes given piece by piece (a file streamed).
+#[derive(Default)]
+pub(crate) struct RunDigest(crc32fast::Hasher);
+
+impl RunDigest {
+    /// Takes the run's next bytes.
+    pub(crate) fn update(&mut self, bytes: &[u8]) {
+        self.0.update(bytes);
+    }
+
+    /// The digest of the bytes taken ([`run_digest`] of them all at once).
+    pub(crate) fn finish(self) -> [u8; DIGEST] {
+        self.0.finalize().to_le_bytes()
+    }
+}
 
 /// The trailer of a file whose records are `records` (whole records) split by `runs`
-/// (`runs[s]..runs[s + 1]` records form run `s`; shape runs + 1): the SHA-256 of each run's
+/// (`runs[s]..runs[s + 1]` records form run `s`; shape runs + 1): the CRC-32 of each run's
 /// bytes, in run order (shape (runs.len() − 1) × [`DIGEST`] bytes).
 pub(crate) fn run_digests(records: &[u8], runs: &[u64]) -> Vec<u8> {
     runs.windows(2)
-        .flat_map(|w| Sha256::digest(&records[w[0] as usize * RECORD..w[1] as usize * RECORD]))
+        .flat_map(|w| run_digest(&records[w[0] as usize * RECORD..w[1] as usize * RECORD]))
         .collect()
 }
 
@@ -70,8 +96,8 @@ pub(crate) fn check_runs(
                     let digests = loaded.as_deref().expect("loaded above");
                     let from = at + (a - first) as usize * RECORD;
                     let chunk = &bytes[from..from + (b - a) as usize * RECORD];
-                    if Sha256::digest(chunk).as_slice() != &digests[s * DIGEST..(s + 1) * DIGEST] {
-                        return Err(format!("records {a}..{b} do not match their SHA-256"));
+                    if run_digest(chunk) != digests[s * DIGEST..(s + 1) * DIGEST] {
+                        return Err(format!("records {a}..{b} do not match their CRC-32"));
                     }
                     checked[s] = true;
                 }
@@ -155,6 +181,18 @@ mod tests {
         last[0] ^= 1;
         assert!(check_runs(&last, &[(7, 10)], &runs, &mut checked, &mut read).is_err());
         assert_eq!(reads.get(), 2);
+    }
+
+    #[test]
+    fn a_run_streamed_in_pieces_has_the_digest_of_its_bytes_at_once() {
+        // Oracle: the CRC-32 of the check value (IEEE 802.3: "123456789" -> 0xCBF43926).
+        assert_eq!(run_digest(b"123456789"), 0xCBF4_3926u32.to_le_bytes());
+        let bytes = records(7);
+        for piece in [1, 5, RECORD, 3 * RECORD + 1] {
+            let mut d = RunDigest::default();
+            bytes.chunks(piece).for_each(|c| d.update(c));
+            assert_eq!(d.finish(), run_digest(&bytes), "pieces of {piece}");
+        }
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! file per non-empty tile cube at the tile depth, each point with its index in the whole
 //! input, grouped by sub-cell and in increasing index order within each (`sub_cells.rs`, so a
 //! small box reads only part of a file); the coarse points in a file of their own, in index
-//! order. Each file ends with a SHA-256 per run of records (`run_digests.rs`), so a reader
+//! order. Each file ends with a CRC-32 per run of records (`run_digests.rs`), so a reader
 //! checks what it reads and no more. A manifest with the frame, the counts, the sub-cell runs
 //! and every file's checksum is written last (temporary file, then rename), so a store without
 //! a manifest is unfinished and one whose file fails its checksum is refused by name. Records:
@@ -27,7 +27,7 @@ use crate::sub_cells::{SUB, SUB_LEVELS, box_distance, sub_cell_box, sub_cell_ran
 use crate::tile_records::{RECORD, record_position, tile_key};
 
 /// The manifest format this code writes and reads.
-pub(crate) const VERSION: u32 = 3;
+pub(crate) const VERSION: u32 = 4;
 /// The manifest's file name in a store directory.
 pub(crate) const MANIFEST: &str = "manifest.json";
 
@@ -38,7 +38,7 @@ pub struct StoredTile {
     pub key: [u32; 3],
     /// Points in the file.
     pub points: u64,
-    /// SHA-256 of the file's trailer (the SHA-256 of each run, `run_digests.rs`),
+    /// SHA-256 of the file's trailer (the CRC-32 of each run, `run_digests.rs`),
     /// hexadecimal.
     pub sha256: String,
     /// The file's runs: `runs[s]` records come before run `s`. A tile file's runs are its

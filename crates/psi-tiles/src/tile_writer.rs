@@ -12,10 +12,9 @@ use std::path::{Path, PathBuf};
 use psi_mpu::{MpuFrame, is_coarse_point};
 use psi_octree::OrientedPoint;
 use rayon::prelude::*;
-use sha2::{Digest, Sha256};
 
 use crate::TileError;
-use crate::run_digests::{run_digests, trailer_sum};
+use crate::run_digests::{RunDigest, run_digests, trailer_sum};
 use crate::store_plan::{StorePart, StorePlan, WrittenPart, key_in_name, remove_store_files};
 use crate::sub_cells::order_by_sub_cell;
 use crate::tile_records::{RECORD, tile_key};
@@ -199,7 +198,7 @@ impl TileWriter {
     }
 }
 
-/// Appends to the file at `path` (whole records, one run) its SHA-256, as its trailer
+/// Appends to the file at `path` (whole records, one run) its run's digest, as its trailer
 /// (`run_digests.rs`); returns the manifest's checksum of it.
 fn append_digest(path: &Path) -> Result<String, TileError> {
     let mut f = fs::OpenOptions::new()
@@ -207,7 +206,7 @@ fn append_digest(path: &Path) -> Result<String, TileError> {
         .append(true)
         .open(path)
         .map_err(|e| io_error(path, e))?;
-    let mut h = Sha256::new();
+    let mut h = RunDigest::default();
     let mut buf = vec![0u8; 1 << 20];
     loop {
         let n = f.read(&mut buf).map_err(|e| io_error(path, e))?;
@@ -216,7 +215,7 @@ fn append_digest(path: &Path) -> Result<String, TileError> {
         }
         h.update(&buf[..n]);
     }
-    let trailer = h.finalize();
+    let trailer = h.finish();
     f.write_all(&trailer).map_err(|e| io_error(path, e))?;
     f.sync_all().map_err(|e| io_error(path, e))?;
     Ok(trailer_sum(&trailer))
