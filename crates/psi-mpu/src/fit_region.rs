@@ -96,11 +96,12 @@ pub struct RegionFit {
     pub surface: Vec<CellAddress>,
 }
 
-/// How [`decide_cells`] fits a cell: from the cell and the indices of the points in its cube,
-/// the fit, whether the whole input has points in the cube, and whether the fit read its ball
-/// from elsewhere (then it does not count in the region's reach).
+/// How [`decide_cells`] fits a cell: from the cell, the indices of the points in its cube and
+/// the positions they index (those given to [`decide_cells`]), the fit, whether the whole input
+/// has points in the cube, and whether the fit read its ball from elsewhere (then it does not
+/// count in the region's reach).
 pub(crate) type CellFitter<'a> =
-    dyn Fn(&Cell, &[u32]) -> Result<(CellFit, bool, bool), MpuError> + Sync + 'a;
+    dyn Fn(&Cell, &[u32], &[DVec3]) -> Result<(CellFit, bool, bool), MpuError> + Sync + 'a;
 
 /// What [`fit_region`] decides a region from.
 #[derive(Clone, Copy)]
@@ -181,7 +182,7 @@ pub fn fit_region(
     let (rc, rh) = region.cube(frame);
     let margin = 1e-9 * frame.root_half;
     let cache = BallCache::default();
-    let fit = |cell: &Cell, inside: &[u32]| {
+    let fit = |cell: &Cell, inside: &[u32], in_cube: &[DVec3]| {
         let local = (points.len() >= need).then(|| fit_octree_cell(&input, cell, eps0));
         match (local, far) {
             (Some(f), Some(far))
@@ -194,8 +195,7 @@ pub fn fit_region(
                 Ok((f, surface, true))
             }
             (Some(f), _) => {
-                let positions = indexed.positions();
-                let points = inside.iter().map(|&i| positions[i as usize]);
+                let points = inside.iter().map(|&i| in_cube[i as usize]);
                 let surface = leaf_holds_surface(params, cell, &f, eps0, points);
                 Ok((f, surface, false))
             }
@@ -207,8 +207,14 @@ pub fn fit_region(
             (None, None) => unreachable!("returned above"),
         }
     };
+    // Only the points in the region's cube (and a rounding's margin around it) fall in its
+    // cells: the octree partitions those alone, and the fits read the halo through the index.
+    let in_cube: Vec<DVec3> = (indexed.positions().iter())
+        .filter(|&&p| (p - rc).abs().max_element() - rh <= margin)
+        .copied()
+        .collect();
     decide_cells(
-        indexed.positions().to_vec(),
+        in_cube,
         frame,
         params,
         (region, known, max_cells),
@@ -218,8 +224,8 @@ pub fn fit_region(
 }
 
 /// Runs the octree over `positions` (local frame) in `frame`, fitting each cell of `region` with
-/// `fit` (given the cell and the indices of the points in its cube; returning the fit and
-/// whether the whole input has points in the cube) and splitting it as a whole build would, the
+/// `fit` (given the cell, the indices of the points in its cube and `positions`; returning the
+/// fit and whether the whole input has points in the cube) and splitting it as a whole build would, the
 /// cells above the region along the path to it (those in `known` taken, not fitted); returns
 /// the region's decisions, reach and surface leaves, or [`MpuError::TooManyCells`] once it
 /// would decide more than `max_cells`.
@@ -256,7 +262,7 @@ pub(crate) fn decide_cells(
         if decided.fetch_add(1, Ordering::Relaxed) >= max {
             return (false, None);
         }
-        let (f, surface, fetched) = match fit(cell, v.points) {
+        let (f, surface, fetched) = match fit(cell, v.points, v.positions) {
             Ok(f) => f,
             Err(e) => {
                 failure.lock().expect("not poisoned").get_or_insert(e);

@@ -77,11 +77,12 @@ pub fn fit_top_region(
     // A fit that completes from the coarse points alone splits (its error exceeds ε0), so
     // whether its cube holds points does not matter; a leaf's is told by its fetched ball.
     let cache = BallCache::default();
-    let fit = |cell: &Cell, inside: &[u32]| match try_fit_octree_cell(&input, cell, eps0) {
-        Some(f) => Ok((f, !inside.is_empty(), false)),
-        None => fit_fetched(cell, frame, params, population, eps0, source, &cache)
-            .map(|(f, s)| (f, s, true)),
-    };
+    let fit =
+        |cell: &Cell, inside: &[u32], _: &[DVec3]| match try_fit_octree_cell(&input, cell, eps0) {
+            Some(f) => Ok((f, !inside.is_empty(), false)),
+            None => fit_fetched(cell, frame, params, population, eps0, source, &cache)
+                .map(|(f, s)| (f, s, true)),
+        };
     let mut out = decide_cells(
         data.positions.clone(),
         frame,
