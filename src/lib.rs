@@ -45,6 +45,7 @@ mod tile_noise;
 mod tile_normals;
 mod tile_outliers;
 mod tile_parts;
+mod two_at_a_time;
 
 pub use psi_io as io;
 pub use psi_mpu as mpu;

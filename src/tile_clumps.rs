@@ -10,7 +10,8 @@ use psi_octree::{Aabb, Monitor};
 use psi_preprocess::{ClumpCubes, ClumpScale, clumps_of_candidates, part_clump_spacings};
 use psi_tiles::{PointSource, TileStore};
 
-use crate::tile_parts::{Halos, by_tile, each_tile, first_halo, side_by_side};
+use crate::tile_parts::{Halos, by_tile, each_tile, first_halo};
+use crate::two_at_a_time::two_at_a_time;
 
 /// Points between the counts of kept points that rank a point among them.
 const RANK_BLOCK: usize = 256;
@@ -84,7 +85,7 @@ impl KeptParts<'_> {
 
     /// Per part of the store, `visit(state, index, position)` over its kept points in the
     /// file's order, from `start()`; the parts' states in part order, whatever the threads.
-    /// Two parts at a time ([`side_by_side`], as the tiles are taken); the first error in
+    /// Two parts at a time ([`two_at_a_time`], as the tiles are taken); the first error in
     /// part order. Progress: stage `"clumps"`, parts done of parts.
     fn fold<T: Send>(
         &self,
@@ -92,22 +93,26 @@ impl KeptParts<'_> {
         visit: &(dyn Fn(&mut T, u64, DVec3) + Sync),
     ) -> Result<Vec<T>, String> {
         let parts = self.store.part_count();
-        let one = |part: &mut usize| -> Result<T, String> {
+        let one = |part: usize| -> Result<T, String> {
             let mut state = start();
-            self.each_of(*part, &mut |i, p| visit(&mut state, i, p))?;
+            self.each_of(part, &mut |i, p| visit(&mut state, i, p))?;
             Ok(state)
         };
         let mut states = Vec::with_capacity(parts);
-        for pair in (0..parts).collect::<Vec<usize>>().chunks_mut(2) {
-            self.monitor
-                .check()
-                .map_err(|_| "interrupted".to_string())?;
-            self.monitor.report("clumps", pair[0] as u64, parts as u64);
-            for state in side_by_side(pair, &one) {
-                states.push(state?);
-            }
-        }
-        self.monitor.report("clumps", parts as u64, parts as u64);
+        self.monitor.report("clumps", 0, parts as u64);
+        two_at_a_time(
+            parts,
+            &one,
+            &|| self.monitor.stopped(),
+            &mut |part, state| {
+                self.monitor.report("clumps", part as u64 + 1, parts as u64);
+                states.push(state);
+                Ok(())
+            },
+        )?;
+        self.monitor
+            .check()
+            .map_err(|_| "interrupted".to_string())?;
         Ok(states)
     }
 }

@@ -14,6 +14,8 @@ use psi_octree::Monitor;
 use psi_preprocess::IncompletePart;
 use psi_tiles::{TileStore, TileWithHalo};
 
+use crate::two_at_a_time::two_at_a_time;
+
 /// Records read from a record file in windows of this many (a pass reads them in input
 /// order).
 const WINDOW: u64 = 1 << 16;
@@ -48,50 +50,34 @@ pub(crate) type TileWork<'a, T> = dyn Fn([u32; 3], &mut f64) -> Result<T, String
 
 /// `work` on each tile of `keys` with its halo (from `halos`, else `first(key)`; grown as the
 /// work needs, and kept in `halos`), two tiles at a time (the budget's tiling allows two built
-/// at once; rayon's join runs the second on the other thread while the first's own parallel
-/// work waits), each result given to `sink` in the order of `keys` as its pair is done (so no
-/// more than a pair's results are held). Reports stage `stage` to `monitor` (tiles done of
-/// tiles) and stops between pairs once its flag is set.
+/// at once: [`two_at_a_time`]), each result given to `sink` in the order of `keys`. Reports
+/// stage `stage` to `monitor` (tiles done of tiles) and stops taking tiles once its flag is
+/// set.
 pub(crate) fn each_tile_into<T: Send>(
     keys: &[[u32; 3]],
     (halos, first): (&mut Halos, &FirstHalo<'_>),
     (stage, monitor): (&str, &Monitor<'_>),
     work: &TileWork<'_, T>,
-    sink: &mut dyn FnMut(T) -> Result<(), String>,
+    sink: &mut (dyn FnMut(T) -> Result<(), String> + Send),
 ) -> Result<(), String> {
     let _span = tracing::info_span!("out_of_core_stage", stage, tiles = keys.len()).entered();
-    for (p, pair) in keys.chunks(2).enumerate() {
-        monitor.report(stage, (2 * p) as u64, keys.len() as u64);
-        let mut pair: Vec<([u32; 3], f64)> = pair
-            .iter()
-            .map(|&k| (k, halos.get(&k).copied().unwrap_or_else(|| first(k))))
-            .collect();
-        let done = side_by_side(&mut pair, &|(k, h)| work(*k, h));
-        halos.extend(pair);
-        for result in done {
-            sink(result?)?;
-        }
-        monitor.check().map_err(|_| "interrupted".to_string())?;
-    }
-    monitor.report(stage, keys.len() as u64, keys.len() as u64);
-    Ok(())
-}
-
-/// `work` on each of `items` (one or two: the tiles the budget allows held at once), the
-/// second on the other thread while the first's own parallel work waits (rayon's join); the
-/// results in the order of `items`.
-pub(crate) fn side_by_side<I: Send, T: Send>(
-    items: &mut [I],
-    work: &(dyn Fn(&mut I) -> T + Sync),
-) -> Vec<T> {
-    match items {
-        [a] => vec![work(a)],
-        [a, b] => {
-            let (x, y) = rayon::join(|| work(a), || work(b));
-            vec![x, y]
-        }
-        _ => unreachable!("one or two items at a time"),
-    }
+    let total = keys.len() as u64;
+    monitor.report(stage, 0, total);
+    let start: Vec<f64> = keys
+        .iter()
+        .map(|k| halos.get(k).copied().unwrap_or_else(|| first(*k)))
+        .collect();
+    let one = |i: usize| {
+        let mut halo = start[i];
+        work(keys[i], &mut halo).map(|out| (halo, out))
+    };
+    let mut deliver = |i: usize, (halo, out): (f64, T)| {
+        halos.insert(keys[i], halo);
+        monitor.report(stage, i as u64 + 1, total);
+        sink(out)
+    };
+    two_at_a_time(keys.len(), &one, &|| monitor.stopped(), &mut deliver)?;
+    monitor.check().map_err(|_| "interrupted".to_string())
 }
 
 /// [`each_tile_into`], the results collected in the order of `keys`.
