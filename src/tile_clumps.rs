@@ -1,51 +1,33 @@
 //! The stray-clump search of a run out of core (psi-preprocess's `clumps_by_parts`), after the
-//! outlier search and among the points it keeps, bitwise the in-core search: its spacings
-//! sampled tile by tile with halos, the cubes of edge h/(2√3) counted tile file by tile file
-//! (two at a time), the few candidates' surroundings gathered from the store. `stray_join`
+//! outlier search and among the points it keeps, bitwise the in-core search: its sampled
+//! points found in the tile files and each one's spacing measured in a cube around it read from
+//! the store, the cubes of edge h/(2√3) counted tile file by tile file (two at a time), the few
+//! candidates' surroundings gathered from the store. `stray_join`
 //! (`tile_outliers.rs`) marks the clumps' points in `strays.bin` with the outliers. Progress:
 //! stage `"clumps"`.
 
 use glam::DVec3;
 use psi_octree::{Aabb, Monitor};
-use psi_preprocess::{ClumpCubes, ClumpScale, clumps_of_candidates, part_clump_spacings};
+use psi_preprocess::{ClumpCubes, ClumpScale, clump_spacing_in_cube, clumps_of_candidates};
 use psi_tiles::{PointSource, TileStore};
+use rayon::prelude::*;
 
-use crate::tile_parts::{Halos, by_tile, each_tile, first_halo};
+use crate::tile_parts::first_halo;
 use crate::two_at_a_time::two_at_a_time;
 
-/// Points between the counts of kept points that rank a point among them.
-const RANK_BLOCK: usize = 256;
-
-/// The ranks of the points `verdicts` keeps (verdict 0) among them, by their index in the
-/// store of all points.
+/// The points `verdicts` keeps (verdict 0), by their index in the store of all points.
 struct Ranks<'a> {
     verdicts: &'a [u8],
-    /// Kept points before each block of [`RANK_BLOCK`].
-    before: Vec<u64>,
 }
 
 impl<'a> Ranks<'a> {
     fn new(verdicts: &'a [u8]) -> Self {
-        let mut before = Vec::with_capacity(verdicts.len() / RANK_BLOCK + 1);
-        let mut kept = 0u64;
-        for block in verdicts.chunks(RANK_BLOCK) {
-            before.push(kept);
-            kept += block.iter().filter(|&&v| v == 0).count() as u64;
-        }
-        Ranks { verdicts, before }
+        Ranks { verdicts }
     }
 
     /// Whether point `i` is kept.
     fn kept(&self, i: u64) -> bool {
         self.verdicts.get(i as usize) == Some(&0)
-    }
-
-    /// The rank of kept point `i` among the kept points.
-    fn rank(&self, i: u64) -> u64 {
-        let i = i as usize;
-        let start = i / RANK_BLOCK * RANK_BLOCK;
-        let within = self.verdicts[start..i].iter().filter(|&&v| v == 0).count();
-        self.before[i / RANK_BLOCK] + within as u64
     }
 }
 
@@ -117,6 +99,50 @@ impl KeptParts<'_> {
     }
 }
 
+/// The marks (a bit a point of the store, by index; shape ⌈N / 64⌉) of the points `verdicts`
+/// keeps whose rank among them is a multiple of `stride`.
+fn sample_marks(verdicts: &[u8], stride: u64) -> Vec<u64> {
+    let mut marks = vec![0u64; verdicts.len().div_ceil(64)];
+    let mut rank = 0u64;
+    for (i, _) in verdicts.iter().enumerate().filter(|(_, v)| **v == 0) {
+        if rank.is_multiple_of(stride) {
+            marks[i / 64] |= 1 << (i % 64);
+        }
+        rank += 1;
+    }
+    marks
+}
+
+/// The sampled spacing of the kept point at `x` (world units) among the kept points of
+/// `store` (by `ranks`), read from the cube of half-edge `reach` around it, doubled until it
+/// certainly holds the point's 16 nearest, or every kept point (a half-edge past their bounding
+/// box's `diagonal`).
+fn spacing_at(
+    store: &TileStore,
+    ranks: &Ranks<'_>,
+    x: DVec3,
+    mut reach: f64,
+    diagonal: f64,
+) -> Result<f64, String> {
+    let frame = store.manifest().frame;
+    loop {
+        let found = store
+            .gather_box_indexed(x - frame.origin, reach, 0.0, &|_| true)
+            .map_err(|e| e.to_string())?;
+        let cube: Vec<DVec3> = (found.into_iter())
+            .filter(|(i, _)| ranks.kept(*i))
+            .map(|(_, p)| p.p)
+            .collect();
+        // (The store tests the cube in its local frame: a rounding's margin inside is certain.)
+        let size = frame.origin.abs().max_element() + x.abs().max_element() + reach;
+        let certain = reach - (1e-9 * frame.root_half + 16.0 * f64::EPSILON * size);
+        if let Some(s) = clump_spacing_in_cube(x, &cube, certain, certain > diagonal) {
+            return Ok(s);
+        }
+        reach *= 2.0;
+    }
+}
+
 /// The stray clumps among the points of `store` (all points) that `verdicts` keeps (shape: the
 /// store's population; 0: kept): their indices in the store, ascending, and the clump points
 /// withheld by the 1 % rule. Bitwise [`psi_preprocess::find_clumps`] of the kept points in
@@ -160,26 +186,29 @@ pub(crate) fn stray_clumps(
     if n < 2 || n >= u64::from(u32::MAX) {
         return Ok((Vec::new(), 0));
     }
-    // The spacings sampled every stride-th kept point, tile by tile with halos.
-    let stride = ClumpScale::spacing_stride(n);
-    let keys = store.tile_keys();
-    let first = |key| first_halo(store, key);
-    let spacings = each_tile(
-        &keys,
-        (&mut Halos::new(), &first),
-        ("clumps", monitor),
-        &|key, halo| {
-            let (_, found) = by_tile(store, key, halo, |t, _, holds| {
-                let kept: Vec<usize> = (0..t.ids.len()).filter(|&k| ranks.kept(t.ids[k])).collect();
-                let positions: Vec<DVec3> = kept.iter().map(|&k| t.points[k].p).collect();
-                let ids: Vec<u64> = kept.iter().map(|&k| ranks.rank(t.ids[k])).collect();
-                let own: Vec<bool> = kept.iter().map(|&k| t.own[k]).collect();
-                part_clump_spacings(&positions, &ids, &own, holds, stride)
-            })?;
-            Ok(found)
-        },
-    )?
-    .concat();
+    // The spacings sampled every stride-th kept point by rank, as in core: the samples found
+    // in the tile files, then each measured among the kept points of a cube around it.
+    let marks = sample_marks(verdicts, ClumpScale::spacing_stride(n));
+    let by_part = kept_parts.fold(&Vec::new, &|found: &mut Vec<DVec3>, i, p| {
+        if marks[(i / 64) as usize] >> (i % 64) & 1 == 1 {
+            found.push(p);
+        }
+    })?;
+    let tiles_of = &store.manifest().tiles;
+    let samples: Vec<(DVec3, f64)> = by_part
+        .iter()
+        .zip(tiles_of)
+        .flat_map(|(found, tile)| {
+            // (Half a first halo, three spacings of the tile's: its 16 nearest lie within
+            // about 2.3 on a surface.)
+            let reach = 0.5 * first_halo(store, tile.key);
+            found.iter().map(move |&x| (x, reach))
+        })
+        .collect();
+    let spacings = samples
+        .par_iter()
+        .map(|&(x, reach)| spacing_at(store, &ranks, x, reach, bounds.diagonal()))
+        .collect::<Result<Vec<f64>, String>>()?;
     if spacings.is_empty() {
         return Ok((Vec::new(), 0));
     }
@@ -231,22 +260,22 @@ pub(crate) fn stray_clumps(
 mod tests {
     use super::*;
 
-    /// A kept point's rank from the marks is the count of kept points before it, by brute force.
+    /// The samples' marks are the kept points whose rank among the kept ones is a multiple of
+    /// the stride, by brute force (the in-core search samples every stride-th point it searches).
     #[test]
-    fn ranks_count_the_kept_points_before() {
+    fn the_marks_are_every_stride_th_kept_point() {
         let verdicts: Vec<u8> = (0..3000u64)
             .map(|i| [0, 0, 0, 2, 0, 3, 0, 4][((i * 2_654_435_761) >> 9) as usize % 8])
             .collect();
-        let ranks = Ranks::new(&verdicts);
-        let mut before = 0;
-        for (i, &v) in verdicts.iter().enumerate() {
-            assert_eq!(ranks.kept(i as u64), v == 0);
-            if v == 0 {
-                assert_eq!(ranks.rank(i as u64), before, "point {i}");
-                before += 1;
-            }
+        let kept: Vec<usize> = (0..verdicts.len()).filter(|&i| verdicts[i] == 0).collect();
+        assert!(kept.len() > 1000 && kept.len() < 3000);
+        for stride in [1, 7, 64, 5000] {
+            let marks = sample_marks(&verdicts, stride);
+            let marked: Vec<usize> = (0..verdicts.len())
+                .filter(|&i| marks[i / 64] >> (i % 64) & 1 == 1)
+                .collect();
+            let expected: Vec<usize> = kept.iter().copied().step_by(stride as usize).collect();
+            assert_eq!(marked, expected, "stride {stride}");
         }
-        assert!(before > 1000 && before < 3000);
-        assert!(!ranks.kept(3000));
     }
 }

@@ -1,7 +1,7 @@
 //! The stray-clump search by parts ([`crate::find_clumps`] over points read part by part, as
 //! tiles of a store give them), bitwise the search over all points: its two statistics from
-//! sampled spacings fitted among a part and its halo ([`part_clump_spacings`],
-//! [`ClumpScale::of_spacings`]); the cubes of edge h/(2√3) counted and boxed part by part
+//! sampled spacings, each measured among the points of a cube around its sample
+//! ([`clump_spacing_in_cube`], [`ClumpScale::of_spacings`]); the cubes of edge h/(2√3) counted and boxed part by part
 //! ([`ClumpCubes`]), whose adjacent cubes' points are always linked, so that a set of occupied
 //! cubes connected by adjacency of more than 100 points or wider than 2h holds no clump; only
 //! the points of the other sets (a scan's clumps and its sparsest fragments) are then read
@@ -12,7 +12,6 @@ use std::collections::BTreeMap;
 
 use glam::DVec3;
 use psi_octree::MortonIndex;
-use rayon::prelude::*;
 
 use crate::disjoint_sets::Sets;
 use crate::find_clumps::{
@@ -21,7 +20,6 @@ use crate::find_clumps::{
     spacing_of,
 };
 use crate::local_fit::fit_plane;
-use crate::orient_by_parts::{IncompletePart, certified};
 
 /// The two statistics of the whole input the search reads: the link distance h and the points
 /// a well-sampled surface holds within h/2 (world units; [`crate::find_clumps`]).
@@ -46,49 +44,17 @@ impl ClumpScale {
     }
 }
 
-/// The sampled spacings among a part's own points: `positions` (shape: M, world units) its own
-/// points and its halo, `ids` (shape: M) their indices, `own` (shape: M) which are its own,
-/// `complete(x, r)` whether every point within `r` of `x` is among `positions`; each own point
-/// whose index is a multiple of `stride` gives its spacing (as [`crate::find_clumps`] measures
-/// it), in no particular order; or the uncertain point whose neighbours reach farthest.
-///
-/// # Panics
-///
-/// When the lengths differ.
-pub fn part_clump_spacings(
-    positions: &[DVec3],
-    ids: &[u64],
-    own: &[bool],
-    complete: &(dyn Fn(DVec3, f64) -> bool + Sync),
-    stride: u64,
-) -> Result<Vec<f64>, IncompletePart> {
-    assert!(positions.len() == ids.len() && ids.len() == own.len());
-    let index = MortonIndex::new(positions);
+/// The sampled spacing of the point at `x` (world units; shape of `cube`: M) as
+/// [`crate::find_clumps`] measures it among all the points it searches, from `cube`, those
+/// of them within the cube of half-edge `reach` around `x` (`x` among them): `None` when its
+/// 16th nearest other point may lie beyond `reach`, unless `holds_all` (the cube holds every
+/// point searched; then fewer than 16 others are measured as in core). A pass out of core
+/// finds each sample's cube in the tile files.
+pub fn clump_spacing_in_cube(x: DVec3, cube: &[DVec3], reach: f64, holds_all: bool) -> Option<f64> {
     let k = SPACING_NEIGHBOURS + 1;
-    let samples: Vec<usize> = (0..positions.len())
-        .filter(|&i| own[i] && ids[i].is_multiple_of(stride))
-        .collect();
-    let found: Vec<Result<f64, IncompletePart>> = samples
-        .par_iter()
-        .map(|&i| {
-            let near = index.nearest(positions[i], k);
-            let reach = if near.len() < k {
-                f64::INFINITY
-            } else {
-                near.last().map_or(0.0, |n| n.1.sqrt())
-            };
-            if complete(positions[i], reach) {
-                Ok(spacing_of(reach))
-            } else {
-                Err(IncompletePart {
-                    id: u32::try_from(ids[i]).unwrap_or(u32::MAX),
-                    neighbours: k,
-                    reach,
-                })
-            }
-        })
-        .collect();
-    certified(found)
+    let near = MortonIndex::new(cube).nearest(x, k);
+    let distance = near.last().map_or(0.0, |&(_, d2)| d2.sqrt());
+    (holds_all || (near.len() == k && distance < reach)).then(|| spacing_of(distance))
 }
 
 /// The occupied cubes of edge h/(2√3) from the bounding box's low corner: per cube key, its

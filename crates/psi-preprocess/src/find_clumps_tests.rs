@@ -423,16 +423,17 @@ fn clumps_do_not_depend_on_the_thread_count() {
     assert_eq!(stopped.points, 0);
 }
 
-/// The search by parts ([`crate::clumps_by_parts`]): spacings from 27 parts with halos grown as
-/// they ask, cubes counted part by part in a shuffled order, the candidates' balls gathered by
-/// brute force, gives [`find_clumps`]'s clumps bit for bit (and its 1 % rule) on random scenes.
+/// The search by parts ([`crate::clumps_by_parts`]): spacings each from the points in a cube
+/// around its sample (brute force, the cube doubled until the spacing is certain), cubes
+/// counted part by part in a shuffled order, the candidates' balls gathered by brute force,
+/// gives [`find_clumps`]'s clumps bit for bit (and its 1 % rule) on random scenes.
 #[test]
 fn the_search_by_parts_is_the_whole_search() {
     use crate::clumps_by_parts::{
-        ClumpCubes, ClumpScale, clumps_of_candidates, part_clump_spacings,
+        ClumpCubes, ClumpScale, clump_spacing_in_cube, clumps_of_candidates,
     };
-    use crate::grid_parts::grid_parts;
     let mut found_some = 0;
+    let mut widened = 0;
     for seed in 0..24 {
         let points = scene(seed);
         let whole = find_clumps(&points);
@@ -440,24 +441,26 @@ fn the_search_by_parts_is_the_whole_search() {
         let Some(bounds) = Aabb::from_points(points.iter().copied()) else {
             continue;
         };
-        let stride = ClumpScale::spacing_stride(n);
-        let mut halo = 0.05 * bounds.diagonal();
-        let spacings = loop {
-            let parts = grid_parts(&points, 3, halo);
-            let found: Result<Vec<Vec<f64>>, _> = parts
-                .iter()
-                .map(|part| {
-                    let held: Vec<DVec3> = part.ids.iter().map(|&i| points[i as usize]).collect();
-                    let ids: Vec<u64> = part.ids.iter().map(|&i| u64::from(i)).collect();
-                    let holds = |x: DVec3, r: f64| part.holds_ball(x, r);
-                    part_clump_spacings(&held, &ids, &part.own, &holds, stride)
-                })
-                .collect();
-            match found {
-                Ok(f) => break f.concat(),
-                Err(_) => halo *= 2.0,
-            }
-        };
+        let stride = ClumpScale::spacing_stride(n) as usize;
+        let spacings: Vec<f64> = (0..points.len())
+            .step_by(stride)
+            .map(|i| {
+                let x = points[i];
+                let mut reach = 1e-3 * bounds.diagonal();
+                loop {
+                    let cube: Vec<DVec3> = (points.iter())
+                        .filter(|p| (**p - x).abs().max_element() <= reach)
+                        .copied()
+                        .collect();
+                    let all = reach >= bounds.diagonal();
+                    if let Some(s) = clump_spacing_in_cube(x, &cube, reach, all) {
+                        break s;
+                    }
+                    reach *= 2.0;
+                    widened += 1;
+                }
+            })
+            .collect();
         let scale = ClumpScale::of_spacings(spacings, bounds.diagonal());
         assert_eq!(scale.link(), whole.link, "seed {seed}");
         let mut cubes: Vec<ClumpCubes> = (0..5)
@@ -499,4 +502,5 @@ fn the_search_by_parts_is_the_whole_search() {
         assert!(candidates.is_empty() == (gathers == 0));
     }
     assert!(found_some >= 8, "{found_some}");
+    assert!(widened > 0, "every first cube held its sample's neighbours");
 }

@@ -69,7 +69,7 @@ mod spanning_forest;
 mod symmetric_eigen3;
 
 pub use clumps_by_parts::{
-    Candidates, ClumpCubes, ClumpScale, clumps_of_candidates, part_clump_spacings,
+    Candidates, ClumpCubes, ClumpScale, clump_spacing_in_cube, clumps_of_candidates,
 };
 pub use consistency_by_parts::{CONSISTENCY_QUERIES, part_normal_consistency};
 pub use denoise::{
