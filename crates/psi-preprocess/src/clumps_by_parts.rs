@@ -1,12 +1,13 @@
 //! The stray-clump search by parts ([`crate::find_clumps`] over points read part by part, as
 //! tiles of a store give them), bitwise the search over all points: its two statistics from
 //! sampled spacings, each measured among the points of a cube around its sample
-//! ([`clump_spacing_in_cube`], [`ClumpScale::of_spacings`]); the cubes of edge h/(2√3) counted and boxed part by part
-//! ([`ClumpCubes`]), whose adjacent cubes' points are always linked, so that a set of occupied
-//! cubes connected by adjacency of more than 100 points or wider than 2h holds no clump; only
-//! the points of the other sets (a scan's clumps and its sparsest fragments) are then read
-//! again with the points around them ([`clumps_of_candidates`]). Indices are the points'
-//! ranks among those searched (the in-core search's indices).
+//! ([`clump_spacing_in_cube`], [`ClumpScale::of_spacings`]); the cubes of edge h/(2√3)
+//! counted and boxed part by part ([`ClumpCubes`]), whose adjacent cubes' points are always
+//! linked, so that a set of occupied cubes connected by adjacency of more than 100 points or
+//! wider than 2h holds no clump; only the points of the other sets (a scan's clumps and its
+//! sparsest fragments) are then read again with the points around them
+//! ([`clumps_of_candidates`]). Indices are the points' ranks among those searched (the
+//! in-core search's indices).
 
 use std::collections::BTreeMap;
 
@@ -33,7 +34,8 @@ impl ClumpScale {
     }
 
     /// The scale of points of bounding-box diagonal `diagonal` (world units) whose sampled
-    /// spacings ([`part_clump_spacings`], all parts') are `spacings` (any order; not empty).
+    /// spacings ([`clump_spacing_in_cube`], every sample's) are `spacings` (any order; not
+    /// empty).
     pub fn of_spacings(spacings: Vec<f64>, diagonal: f64) -> ClumpScale {
         ClumpScale(Scale::from_spacings(spacings, diagonal))
     }
