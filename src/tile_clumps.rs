@@ -103,12 +103,11 @@ impl KeptParts<'_> {
 /// keeps whose rank among them is a multiple of `stride`.
 fn sample_marks(verdicts: &[u8], stride: u64) -> Vec<u64> {
     let mut marks = vec![0u64; verdicts.len().div_ceil(64)];
-    let mut rank = 0u64;
-    for (i, _) in verdicts.iter().enumerate().filter(|(_, v)| **v == 0) {
-        if rank.is_multiple_of(stride) {
+    let kept = verdicts.iter().enumerate().filter(|(_, v)| **v == 0);
+    for (rank, (i, _)) in kept.enumerate() {
+        if (rank as u64).is_multiple_of(stride) {
             marks[i / 64] |= 1 << (i % 64);
         }
-        rank += 1;
     }
     marks
 }
