@@ -24,9 +24,11 @@ const AHEAD: usize = 8;
 /// over (or `stopped()`). The results, and what `sink` sees, do not depend on the threads.
 ///
 /// The workers are tasks of the current pool. A thread that waits inside a task's parallel
-/// work runs other waiting tasks, so one worker may start on top of the other's unfinished
-/// item on the same thread: such a worker never waits for that item (it could not finish
-/// before the worker returns); it returns instead, and the worker beneath carries on.
+/// work runs other waiting tasks, so a worker may start on top of an unfinished item on the
+/// same thread: the other worker's, or another run's when several share the pool (a Dask
+/// worker of several threads). Such a worker never waits: the item beneath it could not finish
+/// before the worker returns, and the worker it waits for might itself sit on top of an item
+/// of this run on the other thread. It returns instead, and the work beneath carries on.
 pub(crate) fn two_at_a_time<T: Send>(
     count: usize,
     work: &(dyn Fn(usize) -> Result<T, String> + Sync),
@@ -43,9 +45,21 @@ pub(crate) fn two_at_a_time<T: Send>(
         failed: Option<String>,
     }
     thread_local! {
-        /// The items whose work is on this thread's stack: (the run's address, the item).
-        static UNDER_WAY: std::cell::RefCell<Vec<(usize, usize)>> =
-            const { std::cell::RefCell::new(Vec::new()) };
+        /// Items of any run whose work is on this thread's stack.
+        static UNDER_WAY: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+    }
+    /// One item under way on this thread, until dropped (also when its work panics).
+    struct UnderWay;
+    impl UnderWay {
+        fn begin() -> Self {
+            UNDER_WAY.set(UNDER_WAY.get() + 1);
+            UnderWay
+        }
+    }
+    impl Drop for UnderWay {
+        fn drop(&mut self) {
+            UNDER_WAY.set(UNDER_WAY.get() - 1);
+        }
     }
     let turn = Mutex::new(Turn {
         taken: 0,
@@ -54,15 +68,13 @@ pub(crate) fn two_at_a_time<T: Send>(
         sink,
         failed: None,
     });
-    let run = std::ptr::from_ref(&turn) as usize;
     let handed = Condvar::new();
     let worker = || {
         loop {
             let i = {
                 let mut t = turn.lock().expect("not poisoned");
                 while t.failed.is_none() && t.taken < count && t.taken >= t.next + AHEAD {
-                    let next = t.next;
-                    if UNDER_WAY.with(|u| u.borrow().contains(&(run, next))) {
+                    if UNDER_WAY.get() > 0 {
                         return;
                     }
                     // (The other worker has the item `next`: it hands it over, and wakes this.)
@@ -74,9 +86,10 @@ pub(crate) fn two_at_a_time<T: Send>(
                 t.taken += 1;
                 t.taken - 1
             };
-            UNDER_WAY.with(|u| u.borrow_mut().push((run, i)));
-            let result = work(i);
-            UNDER_WAY.with(|u| u.borrow_mut().pop());
+            let result = {
+                let _under_way = UnderWay::begin();
+                work(i)
+            };
             let mut t = turn.lock().expect("not poisoned");
             t.ahead.insert(i, result);
             while t.failed.is_none() {
@@ -196,6 +209,38 @@ mod tests {
             let work = |i: usize| Ok(uneven(i));
             let out = in_pool(threads, || two_at_a_time(100, &work, &|| false, &mut sink));
             assert_eq!(out, Err("sink 7".to_string()));
+        }
+    }
+
+    /// Two runs sharing a pool of two threads (as the tasks of a Dask worker of two threads
+    /// do), each worker's items doing parallel work of their own: both runs end, with their
+    /// results in order. Whether a worker starts on top of an unfinished item depends on the
+    /// scheduler's timing, which a test does not set; a deadline fails a run that hangs.
+    #[test]
+    fn runs_sharing_a_pool_end() {
+        let count = 120;
+        let expected: Vec<u64> = (0..count).map(uneven).collect();
+        for round in 0..20 {
+            let (tx, rx) = std::sync::mpsc::channel();
+            std::thread::spawn(move || {
+                let one = || {
+                    let mut seen = Vec::new();
+                    let work = |i: usize| Ok(uneven((i + round) % count));
+                    let mut sink = |_: usize, v: u64| {
+                        seen.push(v);
+                        Ok(())
+                    };
+                    two_at_a_time(count, &work, &|| false, &mut sink).map(|()| seen)
+                };
+                let both = in_pool(2, || rayon::join(one, one));
+                let _ = tx.send(both);
+            });
+            let (a, b) = rx
+                .recv_timeout(std::time::Duration::from_secs(120))
+                .expect("two runs sharing a pool ended");
+            let rotated: Vec<u64> = (0..count).map(|i| expected[(i + round) % count]).collect();
+            assert_eq!(a, Ok(rotated.clone()), "round {round}");
+            assert_eq!(b, Ok(rotated), "round {round}");
         }
     }
 
