@@ -4,7 +4,7 @@
 //! (`docs/notes/2026-12-05-tiles-two-at-a-time.md`).
 
 use std::collections::BTreeMap;
-use std::sync::{Condvar, Mutex};
+use std::sync::{Mutex, MutexGuard, PoisonError};
 
 /// Items a worker of [`two_at_a_time`] may run ahead of the first whose result is not yet
 /// handed over, so at most this many results wait. A tile pass's result is at most a few tens
@@ -23,74 +23,104 @@ const AHEAD: usize = 8;
 /// failed; the first error in item order is returned, and `Ok` means every item was handed
 /// over (or `stopped()`). The results, and what `sink` sees, do not depend on the threads.
 ///
-/// The workers are tasks of the current pool. A thread that waits inside a task's parallel
-/// work runs other waiting tasks, so a worker may start on top of an unfinished item on the
-/// same thread: the other worker's, or another run's when several share the pool (a Dask
-/// worker of several threads). Such a worker never waits: the item beneath it could not finish
-/// before the worker returns, and the worker it waits for might itself sit on top of an item
-/// of this run on the other thread. It returns instead, and the work beneath carries on.
+/// No worker ever waits for another: one that finds the items it may take used up returns,
+/// and the worker that hands over the result holding them back starts another in its place.
+/// (The workers are tasks of the current pool, and a thread that waits inside a task's
+/// parallel work runs other tasks on top of it: a worker that waited there for an item beneath
+/// it, or for one whose work waits on such a thread, would wait for ever.) A panic in `work` or
+/// `sink` ends the run and reaches the caller.
 pub(crate) fn two_at_a_time<T: Send>(
     count: usize,
     work: &(dyn Fn(usize) -> Result<T, String> + Sync),
     stopped: &(dyn Fn() -> bool + Sync),
     sink: &mut (dyn FnMut(usize, T) -> Result<(), String> + Send),
 ) -> Result<(), String> {
-    struct Turn<'s, T> {
-        /// Items taken by a worker so far.
-        taken: usize,
-        /// The first item whose result is not handed over.
-        next: usize,
-        ahead: BTreeMap<usize, Result<T, String>>,
-        sink: &'s mut (dyn FnMut(usize, T) -> Result<(), String> + Send),
-        failed: Option<String>,
-    }
-    thread_local! {
-        /// Items of any run whose work is on this thread's stack.
-        static UNDER_WAY: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
-    }
-    /// One item under way on this thread, until dropped (also when its work panics).
-    struct UnderWay;
-    impl UnderWay {
-        fn begin() -> Self {
-            UNDER_WAY.set(UNDER_WAY.get() + 1);
-            UnderWay
-        }
-    }
-    impl Drop for UnderWay {
-        fn drop(&mut self) {
-            UNDER_WAY.set(UNDER_WAY.get() - 1);
-        }
-    }
-    let turn = Mutex::new(Turn {
-        taken: 0,
-        next: 0,
-        ahead: BTreeMap::new(),
-        sink,
-        failed: None,
+    let run = Run {
+        count,
+        work,
+        stopped,
+        turn: Mutex::new(Turn {
+            taken: 0,
+            next: 0,
+            workers: 2,
+            ahead: BTreeMap::new(),
+            sink,
+            failed: None,
+        }),
+    };
+    rayon::scope(|s| {
+        s.spawn(|s| run.worker(s));
+        s.spawn(|s| run.worker(s));
     });
-    let handed = Condvar::new();
-    let worker = || {
+    let t = run
+        .turn
+        .into_inner()
+        .unwrap_or_else(PoisonError::into_inner);
+    match t.failed {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+/// Where the workers of a [`two_at_a_time`] run stand.
+struct Turn<'s, T> {
+    /// Items taken by a worker so far.
+    taken: usize,
+    /// The first item whose result is not handed over.
+    next: usize,
+    /// Workers started and not yet returned.
+    workers: usize,
+    ahead: BTreeMap<usize, Result<T, String>>,
+    sink: &'s mut (dyn FnMut(usize, T) -> Result<(), String> + Send),
+    failed: Option<String>,
+}
+
+impl<T> Turn<'_, T> {
+    /// Whether a worker may take the item `taken` now.
+    fn may_take(&self, count: usize) -> bool {
+        self.failed.is_none() && self.taken < count && self.taken < self.next + AHEAD
+    }
+}
+
+/// A [`two_at_a_time`] run.
+struct Run<'r, 's, T> {
+    count: usize,
+    work: &'r (dyn Fn(usize) -> Result<T, String> + Sync),
+    stopped: &'r (dyn Fn() -> bool + Sync),
+    turn: Mutex<Turn<'s, T>>,
+}
+
+impl<'r, 's, T: Send> Run<'r, 's, T> {
+    fn lock(&self) -> MutexGuard<'_, Turn<'s, T>> {
+        self.turn.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// One worker: items taken and their results handed over in order until none may be
+    /// taken; then, if fewer than two workers remain and an item may be taken again (this
+    /// worker's hand-over freed room), another is started.
+    fn worker<'scope>(&'scope self, s: &rayon::Scope<'scope>)
+    where
+        'r: 'scope,
+        's: 'scope,
+    {
+        // (A panic in `work` or `sink` marks the run failed, so that no worker takes more.)
+        let _on_panic = OnUnwind(|| {
+            let mut t = self.lock();
+            t.failed
+                .get_or_insert_with(|| "a worker panicked".to_string());
+        });
         loop {
             let i = {
-                let mut t = turn.lock().expect("not poisoned");
-                while t.failed.is_none() && t.taken < count && t.taken >= t.next + AHEAD {
-                    if UNDER_WAY.get() > 0 {
-                        return;
-                    }
-                    // (The other worker has the item `next`: it hands it over, and wakes this.)
-                    t = handed.wait(t).expect("not poisoned");
-                }
-                if t.failed.is_some() || t.taken >= count || stopped() {
+                let mut t = self.lock();
+                if !t.may_take(self.count) || (self.stopped)() {
+                    t.workers -= 1;
                     return;
                 }
                 t.taken += 1;
                 t.taken - 1
             };
-            let result = {
-                let _under_way = UnderWay::begin();
-                work(i)
-            };
-            let mut t = turn.lock().expect("not poisoned");
+            let result = (self.work)(i);
+            let mut t = self.lock();
             t.ahead.insert(i, result);
             while t.failed.is_none() {
                 let next = t.next;
@@ -100,21 +130,25 @@ pub(crate) fn two_at_a_time<T: Send>(
                 t.next += 1;
                 if let Err(e) = result.and_then(|out| (t.sink)(next, out)) {
                     t.failed = Some(e);
-                    break;
                 }
             }
-            drop(t);
-            handed.notify_all();
+            // (This worker takes the next item itself: another only when one more remains.)
+            if t.workers < 2 && t.may_take(self.count) && self.count - t.taken >= 2 {
+                t.workers += 1;
+                s.spawn(|s| self.worker(s));
+            }
         }
-    };
-    rayon::scope(|s| {
-        s.spawn(|_| worker());
-        s.spawn(|_| worker());
-    });
-    let t = turn.into_inner().expect("not poisoned");
-    match t.failed {
-        Some(e) => Err(e),
-        None => Ok(()),
+    }
+}
+
+/// Calls its function when dropped while the thread unwinds from a panic.
+struct OnUnwind<F: Fn()>(F);
+
+impl<F: Fn()> Drop for OnUnwind<F> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            (self.0)();
+        }
     }
 }
 
@@ -241,6 +275,30 @@ mod tests {
             let rotated: Vec<u64> = (0..count).map(|i| expected[(i + round) % count]).collect();
             assert_eq!(a, Ok(rotated.clone()), "round {round}");
             assert_eq!(b, Ok(rotated), "round {round}");
+        }
+    }
+
+    /// A panic in an item's work reaches the caller, with one thread or two: the run does not
+    /// hang.
+    #[test]
+    fn a_panic_in_the_work_reaches_the_caller() {
+        for threads in [1, 2] {
+            let (tx, rx) = std::sync::mpsc::channel();
+            std::thread::spawn(move || {
+                let work = |i: usize| {
+                    assert!(i != 37, "item 37 fails");
+                    Ok(uneven(i))
+                };
+                let mut sink = |_: usize, _: u64| Ok(());
+                let run = std::panic::AssertUnwindSafe(|| {
+                    in_pool(threads, || two_at_a_time(100, &work, &|| false, &mut sink))
+                });
+                let _ = tx.send(std::panic::catch_unwind(run).is_err());
+            });
+            let panicked = rx
+                .recv_timeout(std::time::Duration::from_secs(120))
+                .expect("the run ended");
+            assert!(panicked, "{threads} threads");
         }
     }
 
