@@ -16,17 +16,17 @@ use crate::tile_parts::first_halo;
 use crate::two_at_a_time::two_at_a_time;
 
 /// The points `verdicts` keeps (verdict 0), by their index in the store of all points.
-struct Ranks<'a> {
+struct Kept<'a> {
     verdicts: &'a [u8],
 }
 
-impl<'a> Ranks<'a> {
+impl<'a> Kept<'a> {
     fn new(verdicts: &'a [u8]) -> Self {
-        Ranks { verdicts }
+        Kept { verdicts }
     }
 
     /// Whether point `i` is kept.
-    fn kept(&self, i: u64) -> bool {
+    fn holds(&self, i: u64) -> bool {
         self.verdicts.get(i as usize) == Some(&0)
     }
 }
@@ -34,7 +34,7 @@ impl<'a> Ranks<'a> {
 /// The kept points of a store, part by part.
 struct KeptParts<'a> {
     store: &'a TileStore,
-    ranks: &'a Ranks<'a>,
+    kept: &'a Kept<'a>,
     monitor: &'a Monitor<'a>,
 }
 
@@ -45,7 +45,7 @@ impl KeptParts<'_> {
             .part_where(part, &|_| true)
             .map_err(|e| e.to_string())?;
         for (i, p) in points {
-            if self.ranks.kept(i) {
+            if self.kept.holds(i) {
                 visit(i, p.p);
             }
         }
@@ -113,12 +113,12 @@ fn sample_marks(verdicts: &[u8], stride: u64) -> Vec<u64> {
 }
 
 /// The sampled spacing of the kept point at `x` (world units) among the kept points of
-/// `store` (by `ranks`), read from the cube of half-edge `reach` around it, doubled until it
+/// `store` (by `kept`), read from the cube of half-edge `reach` around it, doubled until it
 /// certainly holds the point's 16 nearest, or every kept point (a half-edge past their bounding
 /// box's `diagonal`).
 fn spacing_at(
     store: &TileStore,
-    ranks: &Ranks<'_>,
+    kept: &Kept<'_>,
     x: DVec3,
     mut reach: f64,
     diagonal: f64,
@@ -129,7 +129,7 @@ fn spacing_at(
             .gather_box_indexed(x - frame.origin, reach, 0.0, &|_| true)
             .map_err(|e| e.to_string())?;
         let cube: Vec<DVec3> = (found.into_iter())
-            .filter(|(i, _)| ranks.kept(*i))
+            .filter(|(i, _)| kept.holds(*i))
             .map(|(_, p)| p.p)
             .collect();
         // (The store tests the cube in its local frame: a rounding's margin inside is certain.)
@@ -155,14 +155,14 @@ pub(crate) fn stray_clumps(
     verdicts: &[u8],
     monitor: &Monitor<'_>,
 ) -> Result<(Vec<u64>, u64), String> {
-    let ranks = Ranks::new(verdicts);
+    let kept = Kept::new(verdicts);
     let n = verdicts.iter().filter(|&&v| v == 0).count() as u64;
-    let keep = |i: u64| Ok::<bool, String>(ranks.kept(i));
+    let keep = |i: u64| Ok::<bool, String>(kept.holds(i));
     let fail = |e: psi_tiles::TileError| e.to_string();
     let tiles = store.part_count();
     let kept_parts = KeptParts {
         store,
-        ranks: &ranks,
+        kept: &kept,
         monitor,
     };
     let bounds = match store.bounds_where(&keep).map_err(fail)? {
@@ -206,7 +206,7 @@ pub(crate) fn stray_clumps(
         .collect();
     let spacings = samples
         .par_iter()
-        .map(|&(x, reach)| spacing_at(store, &ranks, x, reach, bounds.diagonal()))
+        .map(|&(x, reach)| spacing_at(store, &kept, x, reach, bounds.diagonal()))
         .collect::<Result<Vec<f64>, String>>()?;
     if spacings.is_empty() {
         return Ok((Vec::new(), 0));
@@ -229,7 +229,7 @@ pub(crate) fn stray_clumps(
             }
         })?
         .concat();
-    // (Indices in the store of all points order the kept points as their ranks do.) The
+    // (Indices in the store of all points order the kept points as their kept do.) The
     // cube around the box, a rounding's margin wider: the search needs every point of the box
     // and takes more.
     let frame = store.manifest().frame;
@@ -244,7 +244,7 @@ pub(crate) fn stray_clumps(
             .map_err(fail)?;
         Ok(found
             .into_iter()
-            .filter(|(i, _)| ranks.kept(*i))
+            .filter(|(i, _)| kept.holds(*i))
             .map(|(i, p)| (i, p.p))
             .collect())
     };

@@ -152,8 +152,8 @@ pub struct FarBalls<'a> {
 /// split along the path to it; other cells outside it are not fitted.
 ///
 /// Errors: a bad parameter, fewer than N_min + 1 points in the whole input, a non-finite point
-/// or zero normal ([`MpuError::BadPoint`], index into `points`), a point outside the frame's
-/// root cube, or an interruption by `monitor`.
+/// or zero normal ([`MpuError::BadPoint`], index into `points`), or an interruption by
+/// `monitor`.
 pub fn fit_region(
     input: &RegionPoints<'_>,
     frame: &MpuFrame,
